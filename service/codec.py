@@ -1,0 +1,175 @@
+"""Bytes in, arrays out, and back: request bodies (JSON or ``.npz``) and answers (JSON or ``.npz``).
+
+Arrays are never walked in Python: JSON lists go to ``np.asarray`` in one call, ``.npz`` members are read with
+``allow_pickle=False`` after their uncompressed sizes were checked (a tiny compressed archive can claim
+gigabytes). The body is read in chunks and refused with 413 as soon as it passes the limit, so a 64 MiB body
+costs at most the limit in memory.
+"""
+
+from __future__ import annotations
+
+import io
+import json
+import zipfile
+from typing import Any, Mapping
+
+import numpy as np
+from starlette.requests import Request
+from starlette.responses import Response
+
+from .errors import ApiError, bad_input
+
+JSON = "application/json"
+NPZ = "application/x-npz"
+XML_TYPES = ("application/xml", "text/xml")
+
+
+def media_type(header: str | None) -> str:
+    return (header or "").split(";", 1)[0].strip().lower()
+
+
+async def read_body(request: Request, limit: int) -> bytes:
+    """The request body, refused with 413 as soon as it is known to exceed ``limit`` bytes."""
+    declared = request.headers.get("content-length")
+    if declared is not None:
+        try:
+            n = int(declared)
+        except ValueError:
+            raise ApiError(400, "Content-Length: not a number", code="bad_request", field="Content-Length")
+        if n > limit:
+            raise _too_large(limit)
+    chunks: list[bytes] = []
+    total = 0
+    async for chunk in request.stream():
+        total += len(chunk)
+        if total > limit:
+            raise _too_large(limit)
+        chunks.append(chunk)
+    return b"".join(chunks)
+
+
+def _too_large(limit: int) -> ApiError:
+    return ApiError(413, f"body: larger than the limit of {limit} bytes (DYNAMICS_MAX_BODY_BYTES)",
+                    code="too_large", field="body", headers={"Connection": "close"})
+
+
+def decode(body: bytes, content_type: str | None, *, max_unpacked: int) -> dict[str, Any]:
+    """A JSON object or an ``.npz`` archive -> dict of plain values and arrays."""
+    kind = media_type(content_type) or JSON
+    if kind == NPZ:
+        return decode_npz(body, max_unpacked=max_unpacked)
+    if kind != JSON and not kind.endswith("+json"):
+        raise ApiError(415, f"Content-Type: {kind!r} is not accepted here; send {JSON} or {NPZ}",
+                       code="unsupported_media_type", field="Content-Type")
+    if not body:
+        raise bad_input("body: empty; expected a JSON object", "body")
+    try:
+        # NaN/Infinity literals are let through here so that the finiteness check can name the field.
+        payload = json.loads(body)
+    except (UnicodeDecodeError, json.JSONDecodeError) as e:
+        raise bad_input(f"body: not valid JSON ({e})", "body") from None
+    except RecursionError:
+        raise bad_input("body: JSON nested too deeply", "body") from None
+    if not isinstance(payload, dict):
+        raise bad_input(f"body: expected a JSON object, got {type(payload).__name__}", "body")
+    return payload
+
+
+def decode_npz(body: bytes, *, max_unpacked: int) -> dict[str, Any]:
+    buf = io.BytesIO(body)
+    try:
+        with zipfile.ZipFile(buf) as zf:
+            infos = zf.infolist()
+            total = sum(i.file_size for i in infos)
+            if total > max_unpacked:
+                raise ApiError(413, f"body: the .npz archive unpacks to {total} bytes, over the limit of "
+                                    f"{max_unpacked}", code="too_large", field="body")
+            names = [i.filename for i in infos]
+    except zipfile.BadZipFile:
+        raise bad_input("body: not a valid .npz archive", "body") from None
+    out: dict[str, Any] = {}
+    try:
+        with np.load(buf, allow_pickle=False) as npz:
+            for name in npz.files:
+                arr = npz[name]
+                if arr.ndim == 0 and arr.dtype.kind == "U":
+                    out[name] = str(arr)  # strings (integrator, a JSON-encoded torque spec) as 0-d arrays
+                elif arr.ndim == 0 and arr.dtype.kind in "fiub":
+                    out[name] = arr.item()
+                else:
+                    out[name] = arr
+    except ValueError as e:  # object arrays (pickles) and malformed members
+        raise bad_input(f"body: .npz member refused ({e}); only numeric arrays are accepted", "body") from None
+    except (OSError, EOFError, zipfile.BadZipFile) as e:
+        raise bad_input(f"body: unreadable .npz archive ({e})", "body") from None
+    del names
+    return out
+
+
+def to_array(value: Any, name: str, *, max_ndim: int = 2) -> np.ndarray:
+    """A JSON number / list / list of lists (or an array from .npz) -> float64 array, or a 422 naming ``name``."""
+    if isinstance(value, np.ndarray):
+        arr = value
+    else:
+        if isinstance(value, (str, bytes, dict, bool)) or value is None:
+            raise bad_input(f"{name}: expected a number, a list of numbers or a list of lists, "
+                            f"got {_json_type(value)}", name)
+        try:
+            arr = np.asarray(value)
+        except ValueError:
+            raise bad_input(f"{name}: rows of different lengths; expected a list of equal-length lists", name) \
+                from None
+    if arr.dtype.kind not in "fiu":
+        what = "rows of different lengths" if arr.dtype.kind == "O" else f"elements of type {arr.dtype}"
+        raise bad_input(f"{name}: expected numbers, got {what}", name)
+    if arr.ndim > max_ndim:
+        raise bad_input(f"{name}: expected at most {max_ndim} dimensions, got shape {arr.shape}", name)
+    arr = np.ascontiguousarray(arr, dtype=np.float64)
+    if not np.isfinite(arr).all():
+        raise bad_input(f"{name}: contains non-finite values", name)
+    return arr
+
+
+def _json_type(value: Any) -> str:
+    return {str: "a string", bytes: "bytes", dict: "an object", bool: "a boolean"}.get(type(value), "null")
+
+
+def wants_npz(accept: str | None) -> bool:
+    return NPZ in (accept or "").lower()
+
+
+def encode(result: Mapping[str, Any], accept: str | None, status: int = 200) -> Response:
+    """Arrays and plain values -> a JSON or .npz answer, as the Accept header asks.
+
+    In .npz, non-array values (e.g. a simulation report, a future ``scene``) travel as 0-d string arrays
+    holding JSON, readable with ``allow_pickle=False``.
+    """
+    if wants_npz(accept):
+        buf = io.BytesIO()
+        members = {}
+        for k, v in result.items():
+            if isinstance(v, np.ndarray):
+                members[k] = v
+            else:
+                members[k] = np.array(json.dumps(v, default=_jsonable))
+        np.savez(buf, **members)
+        return Response(buf.getvalue(), status_code=status, media_type=NPZ)
+    body = json.dumps({k: (v.tolist() if isinstance(v, np.ndarray) else v) for k, v in result.items()},
+                      default=_jsonable, allow_nan=False, separators=(",", ":"))
+    return Response(body.encode(), status_code=status, media_type=JSON)
+
+
+def _jsonable(obj: Any) -> Any:
+    if isinstance(obj, np.ndarray):
+        return obj.tolist()
+    if isinstance(obj, (np.floating, np.integer, np.bool_)):
+        return obj.item()
+    if isinstance(obj, (set, tuple)):
+        return list(obj)
+    raise TypeError(f"not JSON serialisable: {type(obj).__name__}")
+
+
+def finite_or_none(x: float) -> float | None:
+    """JSON has no infinity: absent limits (inf) become null."""
+    x = float(x)
+    return x if np.isfinite(x) else None

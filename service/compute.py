@@ -1,0 +1,160 @@
+"""Where the service calls the library: off the event loop, within a wall-time budget.
+
+Two kinds of work, two mechanisms:
+
+* Dynamics calls (inverse/forward dynamics, mass matrix, ...) have a cost known in advance (states x bodies),
+  so they run in a small thread pool, and a batch is cut into chunks of bounded work with the deadline
+  checked between chunks: a request past its budget stops within one chunk (a few milliseconds) and frees
+  its thread. Threads keep the single-state path cheap (no pickling, no process hop).
+* A simulation is one opaque library call whose cost the caller controls (duration, tolerances, a stiff
+  system), so it runs in a worker process (:mod:`service.simpool`) that is killed when the budget runs out:
+  the only way to really stop a computation that never checks a clock.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import time
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass
+from typing import Any, Callable
+
+import numpy as np
+
+from .errors import ApiError, bad_input, field_of
+from .settings import Settings
+from .store import ModelCache, RobotRecord, RobotStore
+
+# Work of one chunk, in body-states: about 1-5 ms of RNEA/ABA; the budget is checked between chunks.
+CHUNK_WORK = 40_000
+
+
+class BudgetExceeded(ApiError):
+    def __init__(self, what: str, budget: float, hint: str):
+        super().__init__(504, f"time budget: {what} was stopped after {budget:g} s (DYNAMICS_TIME_BUDGET); {hint}",
+                         code="time_budget_exceeded", field=None)
+
+
+@dataclass(frozen=True)
+class Operation:
+    """One dynamics endpoint: the library function, its state arguments, its keyword arguments, its answer."""
+    name: str                  # for messages: "inverse dynamics"
+    func: Callable[..., np.ndarray]
+    states: tuple[str, ...]    # positional state arguments, batched along axis 0
+    keywords: tuple[str, ...]  # optional keyword arguments (gravity, f_ext)
+    answer: str                # key of the answer: "tau", "a", "mass_matrix"
+    cost: Callable[[Any], int]  # work per state, in body-states, for chunking
+
+
+def load_model(record: RobotRecord):
+    import dynamics
+
+    # Always bytes: the library reads a str that does not start with '<' as a file path, and no path named
+    # by a caller may ever be opened.
+    return dynamics.load_urdf(record.urdf.encode("utf-8"), floating_base=record.floating_base)
+
+
+class Compute:
+    """The model cache, the thread pool and the deadline logic, shared by all requests of one process."""
+
+    def __init__(self, settings: Settings, store: RobotStore):
+        self.settings = settings
+        self.store = store
+        self.cache = ModelCache(settings.cache_size)
+        self.executor = ThreadPoolExecutor(max_workers=settings.compute_threads, thread_name_prefix="dynamics")
+
+    def close(self) -> None:
+        self.executor.shutdown(wait=False, cancel_futures=True)
+
+    async def run(self, fn: Callable[..., Any], *args: Any) -> Any:
+        return await asyncio.get_running_loop().run_in_executor(self.executor, fn, *args)
+
+    # -- models ----------------------------------------------------------------------------------------------
+    def record(self, rid: str) -> RobotRecord:
+        rec = self.store.get(rid)
+        if rec is None:
+            raise ApiError(404, f"robot: no robot with id {rid!r}", code="not_found", field="robot")
+        return rec
+
+    def model(self, rid: str, locked: tuple = ()):
+        """The compiled model of robot ``rid`` (404 if unknown). Runs in a worker thread: it may parse a URDF."""
+        # A robot deleted through another server process must not keep answering from this one's cache.
+        if not self.store.exists(rid):
+            self.cache.discard(rid)
+            raise ApiError(404, f"robot: no robot with id {rid!r}", code="not_found", field="robot")
+        return self.cache.get_or_load((rid, locked), lambda: load_model(self.record(rid)))
+
+    # -- dynamics --------------------------------------------------------------------------------------------
+    def dynamics(self, op: Operation, rid: str, args: dict[str, Any], deadline: float) -> dict[str, Any]:
+        """Run ``op`` on one state or a batch, chunked, checking ``deadline`` (time.monotonic) between chunks."""
+        model = self.model(rid)
+        states = [args[name] for name in op.states]
+        kwargs = {k: args[k] for k in op.keywords if args.get(k) is not None}
+        batch = self._batch_size(op, states, kwargs)
+        try:
+            if batch is None:
+                out = op.func(model, *states, **kwargs)
+            else:
+                out = self._chunked(op, model, states, kwargs, batch, deadline)
+        except ValueError as e:  # the library's InputError / DynamicsError: message names the argument
+            raise bad_input(str(e), field_of(str(e))) from None
+        out = np.asarray(out)
+        if not np.isfinite(out).all():
+            raise bad_input(f"{op.answer}: the result is not finite (is a movable joint carrying no mass, "
+                            f"or are the inputs extreme?)", op.answer)
+        return {op.answer: out}
+
+    def _batch_size(self, op: Operation, states: list[np.ndarray], kwargs: dict[str, Any]) -> int | None:
+        first = states[0]
+        if first.ndim < 2:
+            return None
+        batch = first.shape[0]
+        if batch > self.settings.max_batch:
+            raise bad_input(f"{op.states[0]}: a batch of {batch} states is over the limit of "
+                            f"{self.settings.max_batch} (DYNAMICS_MAX_BATCH); split it", op.states[0])
+        for name, arr in zip(op.states[1:], states[1:]):
+            if arr.ndim == 2 and arr.shape[0] != batch:
+                raise bad_input(f"{name}: expected a batch of {batch} states like {op.states[0]}, "
+                                f"got shape {arr.shape}", name)
+        f_ext = kwargs.get("f_ext")
+        if f_ext is not None and f_ext.ndim == 3 and f_ext.shape[0] != batch:
+            raise bad_input(f"f_ext: expected shape ({batch}, nbodies, 6) like {op.states[0]}, got {f_ext.shape}",
+                            "f_ext")
+        return batch
+
+    def _chunked(self, op, model, states, kwargs, batch, deadline):
+        chunk = max(1, CHUNK_WORK // max(1, op.cost(model)))
+        if batch <= chunk:
+            return op.func(model, *states, **kwargs)
+        parts = []
+        for start in range(0, batch, chunk):
+            if time.monotonic() > deadline:
+                raise BudgetExceeded(f"{op.name} of {batch} states", self.settings.time_budget,
+                                     f"{start} states were done; send smaller batches")
+            sl = slice(start, start + chunk)
+            part_states = [s[sl] if s.ndim == 2 else s for s in states]
+            part_kwargs = {k: (v[sl] if k == "f_ext" and v.ndim == 3 else v) for k, v in kwargs.items()}
+            parts.append(op.func(model, *part_states, **part_kwargs))
+        return np.concatenate(parts, axis=0)
+
+
+def operations() -> dict[str, Operation]:
+    """The dynamics endpoints, by URL segment. Imported lazily so that the app module imports fast."""
+    import dynamics
+
+    def per_body(model) -> int:
+        return model.nbodies
+
+    def mass_cost(model) -> int:
+        return model.nbodies + model.nv * model.nv // 4  # CRBA's backward pass fills nv^2 entries
+
+    return {
+        "inverse-dynamics": Operation("inverse dynamics", dynamics.inverse_dynamics, ("q", "v", "a"),
+                                      ("gravity", "f_ext"), "tau", per_body),
+        "forward-dynamics": Operation("forward dynamics", dynamics.forward_dynamics, ("q", "v", "tau"),
+                                      ("gravity", "f_ext"), "a", mass_cost),
+        "mass-matrix": Operation("mass matrix", dynamics.mass_matrix, ("q",), (), "mass_matrix", mass_cost),
+        "gravity-torques": Operation("gravity torques", dynamics.gravity_torques, ("q",), ("gravity",), "tau",
+                                     per_body),
+        "bias-forces": Operation("bias forces", dynamics.bias_forces, ("q", "v"), ("gravity",), "tau", per_body),
+    }

@@ -1,0 +1,92 @@
+"""Every knob of the service in one place.
+
+Settings come from environment variables (so that ``uvicorn --workers N`` children, which start from scratch,
+see the same values) and ``python -m service`` writes its command-line options into those variables before it
+starts uvicorn. Defaults are safe for a public deployment on a small machine.
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass, field, fields
+from pathlib import Path
+
+ENV_PREFIX = "DYNAMICS_"
+
+
+def _env(name: str, default: str) -> str:
+    return os.environ.get(ENV_PREFIX + name, default)
+
+
+def bundled_robots_dir() -> Path | None:
+    """Where the read-only robots shipped with the project live.
+
+    ``$DYNAMICS_ROBOTS_DIR`` wins (the Docker image sets it); then ``robots/`` data installed next to the
+    packages (a wheel built with the robots as package data); then the repository checkout.
+    """
+    explicit = os.environ.get(ENV_PREFIX + "ROBOTS_DIR")
+    if explicit:
+        return Path(explicit)
+    here = Path(__file__).resolve().parent
+    for candidate in (here / "robots", here.parent / "dynamics" / "robots", here.parent / "robots"):
+        if candidate.is_dir() and any(candidate.glob("*.urdf")):
+            return candidate
+    return None
+
+
+@dataclass(frozen=True)
+class Settings:
+    """Limits and locations; one instance per process, built by :meth:`from_env`."""
+
+    # Where uploaded robots are kept (one JSON file per robot, written atomically).
+    store_dir: Path = Path("store")
+    # The read-only robots served under their file stem ('planar_2r.urdf' -> 'planar-2r'); None = none.
+    robots_dir: Path | None = None
+    # Largest request body in bytes; enforced while reading, before anything is buffered past it.
+    max_body_bytes: int = 8 * 1024 * 1024
+    # Largest URDF document and deepest XML nesting accepted on upload.
+    max_urdf_bytes: int = 4 * 1024 * 1024
+    max_xml_depth: int = 64
+    # Largest model (velocity coordinates) and largest batch (states per request).
+    max_dof: int = 128
+    max_batch: int = 200_000
+    # Simulation limits: integrator steps (duration / dt for fixed-step integrators) and stored samples.
+    max_sim_steps: int = 1_000_000
+    max_samples: int = 100_000
+    # Wall-time budget of one request's numeric work, seconds. Past it the work stops and the answer is 504.
+    time_budget: float = 10.0
+    # Compiled models kept in memory per process (least recently used are dropped first).
+    cache_size: int = 64
+    # Threads running batched dynamics calls, and worker processes running simulations.
+    compute_threads: int = field(default_factory=lambda: max(1, min(4, os.cpu_count() or 1)))
+    sim_workers: int = field(default_factory=lambda: max(1, min(2, os.cpu_count() or 1)))
+    # API keys; empty = no authentication.
+    api_keys: tuple[str, ...] = ()
+
+    @classmethod
+    def from_env(cls) -> "Settings":
+        defaults = cls()
+        keys = tuple(k.strip() for k in _env("API_KEYS", "").split(",") if k.strip())
+        robots = bundled_robots_dir()
+        return cls(
+            store_dir=Path(_env("STORE", str(defaults.store_dir))),
+            robots_dir=robots,
+            max_body_bytes=int(_env("MAX_BODY_BYTES", str(defaults.max_body_bytes))),
+            max_urdf_bytes=int(_env("MAX_URDF_BYTES", str(defaults.max_urdf_bytes))),
+            max_xml_depth=int(_env("MAX_XML_DEPTH", str(defaults.max_xml_depth))),
+            max_dof=int(_env("MAX_DOF", str(defaults.max_dof))),
+            max_batch=int(_env("MAX_BATCH", str(defaults.max_batch))),
+            max_sim_steps=int(_env("MAX_SIM_STEPS", str(defaults.max_sim_steps))),
+            max_samples=int(_env("MAX_SAMPLES", str(defaults.max_samples))),
+            time_budget=float(_env("TIME_BUDGET", str(defaults.time_budget))),
+            cache_size=int(_env("CACHE_SIZE", str(defaults.cache_size))),
+            compute_threads=int(_env("COMPUTE_THREADS", str(defaults.compute_threads))),
+            sim_workers=int(_env("SIM_WORKERS", str(defaults.sim_workers))),
+            api_keys=keys,
+        )
+
+    @staticmethod
+    def env_names() -> dict[str, str]:
+        """Field name -> environment variable, for the docs and ``--help``."""
+        special = {"store_dir": "STORE", "robots_dir": "ROBOTS_DIR"}
+        return {f.name: ENV_PREFIX + special.get(f.name, f.name.upper()) for f in fields(Settings)}

@@ -1,0 +1,123 @@
+"""A small pool of simulation worker processes that can be killed when a request runs out of time.
+
+``concurrent.futures.ProcessPoolExecutor`` cannot stop one running task, so each worker here is a plain child
+process (``python -m service.simworker``) talking over a socket pair with :mod:`multiprocessing.connection`.
+A request takes an idle worker, sends its job and waits at most until its deadline; past it the worker is
+killed (SIGKILL: the simulation holds no resource worth a clean exit) and a fresh one is started in its place,
+so a runaway simulation never keeps a core busy after its answer (504) has left.
+
+Plain ``subprocess`` rather than ``multiprocessing.Process``: no re-import of ``__main__``, no fork of a process
+that runs an event loop and threads, and it works inside uvicorn's own worker processes.
+"""
+
+from __future__ import annotations
+
+import logging
+import queue
+import socket
+import subprocess
+import sys
+import threading
+import time
+from multiprocessing.connection import Connection
+from typing import Any
+
+log = logging.getLogger("service")
+
+
+class WorkerCrashed(RuntimeError):
+    pass
+
+
+class PoolTimeout(TimeoutError):
+    pass
+
+
+class _Worker:
+    def __init__(self) -> None:
+        parent, child = socket.socketpair()
+        try:
+            self.proc = subprocess.Popen(
+                [sys.executable, "-m", "service.simworker", str(child.fileno())],
+                pass_fds=(child.fileno(),), stdin=subprocess.DEVNULL, close_fds=True,
+            )
+        finally:
+            child.close()
+        self.conn = Connection(parent.detach())
+        self.jobs = 0
+
+    def kill(self) -> None:
+        try:
+            self.conn.close()
+        except OSError:
+            pass
+        if self.proc.poll() is None:
+            self.proc.kill()
+        # Reap in the background so that no zombie stays and the caller does not wait.
+        threading.Thread(target=self.proc.wait, daemon=True).start()
+
+
+class SimPool:
+    """``run(job, deadline)`` blocks the calling (worker) thread until the answer or the deadline."""
+
+    def __init__(self, size: int) -> None:
+        self.size = max(1, size)
+        self._idle: queue.Queue[_Worker] = queue.Queue()
+        self._all: set[_Worker] = set()
+        self._lock = threading.Lock()
+        self._closed = False
+        self.killed = 0
+        for _ in range(self.size):
+            self._idle.put(self._spawn())
+
+    def _spawn(self) -> _Worker:
+        w = _Worker()
+        with self._lock:
+            self._all.add(w)
+        return w
+
+    def _replace(self, w: _Worker) -> None:
+        w.kill()
+        with self._lock:
+            self._all.discard(w)
+        if not self._closed:
+            self._idle.put(self._spawn())
+
+    def pids(self) -> list[int]:
+        with self._lock:
+            return [w.proc.pid for w in self._all]
+
+    def run(self, job: Any, deadline: float) -> Any:
+        try:
+            w = self._idle.get(timeout=max(0.0, deadline - time.monotonic()))
+        except queue.Empty:
+            raise PoolTimeout("every simulation worker stayed busy until the deadline") from None
+        if w.proc.poll() is not None:  # died while idle (killed from outside, out of memory)
+            self._replace(w)
+            w = self._idle.get(timeout=max(0.0, deadline - time.monotonic()))
+        try:
+            w.conn.send(job)
+            if not w.conn.poll(max(0.0, deadline - time.monotonic())):
+                self.killed += 1
+                self._replace(w)
+                raise PoolTimeout("the simulation ran past the deadline; its worker was stopped")
+            answer = w.conn.recv()
+        except (EOFError, OSError) as e:
+            code = w.proc.poll()
+            self._replace(w)
+            raise WorkerCrashed(f"simulation worker exited (code {code}): {e}") from None
+        except BaseException:
+            self._replace(w)
+            raise
+        w.jobs += 1
+        self._idle.put(w)
+        return answer
+
+    def close(self) -> None:
+        self._closed = True
+        with self._lock:
+            workers = list(self._all)
+            self._all.clear()
+        for w in workers:
+            w.kill()
+

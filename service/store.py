@@ -1,0 +1,201 @@
+"""The robot store (durable, on disk) and the compiled-model cache (bounded, in memory).
+
+Store layout: one JSON file per uploaded robot, ``<store>/<id>.json``, holding the URDF text, the options it was
+loaded with, a hash of the uploader's key and a summary of the model. A file is written to a temporary name,
+flushed and fsync'ed, renamed over its final name and the directory fsync'ed, so that after a crash the robot is
+either wholly there or not at all, and a 201 is only sent once the robot would survive a power cut.
+
+Ids derive from the content: ``sha256(owner, floating_base, name, urdf)``, so the same upload twice gives the same
+id, and two callers with different keys uploading the same file get two robots (neither can delete the other's).
+Bundled robots (``robots/*.urdf``) are read-only and named by their file stem with '_' -> '-'.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import re
+import tempfile
+import threading
+import time
+from collections import OrderedDict
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Callable, Hashable
+
+ID_PATTERN = re.compile(r"^[a-z0-9][a-z0-9._-]{0,63}$")
+_RECORD_VERSION = 1
+
+
+@dataclass(frozen=True)
+class RobotRecord:
+    id: str
+    name: str
+    urdf: str
+    floating_base: bool
+    bundled: bool
+    owner: str | None = None  # sha256 prefix of the uploader's API key; None when uploaded without keys
+    created: float = 0.0
+    summary: dict[str, Any] = field(default_factory=dict)  # nq, nv, joint_names, bodies, warnings
+
+
+def owner_tag(api_key: str | None) -> str | None:
+    """What the store remembers of a key: enough to compare, useless to an attacker reading the disk."""
+    if not api_key:
+        return None
+    return hashlib.sha256(b"dynamics-owner\0" + api_key.encode()).hexdigest()[:32]
+
+
+def robot_id(urdf: str, *, name: str, floating_base: bool, owner: str | None) -> str:
+    h = hashlib.sha256()
+    for part in (b"dynamics-robot-v1", (owner or "").encode(), b"1" if floating_base else b"0", name.encode(),
+                 urdf.encode()):
+        h.update(len(part).to_bytes(8, "little"))  # length-prefixed, so no two field splits collide
+        h.update(part)
+    return h.hexdigest()[:24]
+
+
+def bundled_name(path: Path) -> str:
+    return path.stem.replace("_", "-").lower()
+
+
+def _fsync_dir(path: Path) -> None:
+    fd = os.open(path, os.O_RDONLY)
+    try:
+        os.fsync(fd)
+    finally:
+        os.close(fd)
+
+
+def atomic_write(path: Path, data: bytes) -> None:
+    """Write ``data`` to ``path`` so that a crash at any moment leaves either the old file or the new one."""
+    fd, tmp = tempfile.mkstemp(prefix="." + path.name + ".", suffix=".tmp", dir=path.parent)
+    try:
+        with os.fdopen(fd, "wb") as f:
+            f.write(data)
+            f.flush()
+            os.fsync(f.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        try:
+            os.unlink(tmp)
+        except FileNotFoundError:
+            pass
+        raise
+    _fsync_dir(path.parent)
+
+
+class RobotStore:
+    """Uploaded robots on disk plus the bundled ones; safe to share between threads and processes."""
+
+    def __init__(self, store_dir: Path, robots_dir: Path | None = None):
+        self.dir = Path(store_dir)
+        self.dir.mkdir(parents=True, exist_ok=True)
+        for stale in self.dir.glob(".*.tmp"):  # a crash between mkstemp and rename leaves these behind
+            try:
+                stale.unlink()
+            except OSError:
+                pass
+        self._bundled: dict[str, Path] = {}
+        if robots_dir is not None and Path(robots_dir).is_dir():
+            for p in sorted(Path(robots_dir).glob("*.urdf")):
+                self._bundled[bundled_name(p)] = p
+        self._bundled_cache: dict[str, RobotRecord] = {}
+        self._lock = threading.Lock()
+
+    # -- reading ---------------------------------------------------------------------------------------------
+    def bundled_ids(self) -> list[str]:
+        return list(self._bundled)
+
+    def _path(self, rid: str) -> Path:
+        return self.dir / f"{rid}.json"
+
+    def get(self, rid: str) -> RobotRecord | None:
+        if not ID_PATTERN.match(rid):
+            return None
+        if rid in self._bundled:
+            with self._lock:
+                rec = self._bundled_cache.get(rid)
+            if rec is None:
+                rec = RobotRecord(id=rid, name=rid, urdf=self._bundled[rid].read_text(encoding="utf-8"),
+                                  floating_base=False, bundled=True)
+                with self._lock:
+                    self._bundled_cache[rid] = rec
+            return rec
+        try:
+            raw = self._path(rid).read_bytes()
+        except (FileNotFoundError, IsADirectoryError):
+            return None
+        d = json.loads(raw)
+        return RobotRecord(id=d["id"], name=d["name"], urdf=d["urdf"], floating_base=bool(d["floating_base"]),
+                           bundled=False, owner=d.get("owner"), created=float(d.get("created", 0.0)),
+                           summary=d.get("summary", {}))
+
+    def exists(self, rid: str) -> bool:
+        return rid in self._bundled or (bool(ID_PATTERN.match(rid)) and self._path(rid).is_file())
+
+    def uploaded_ids(self) -> list[str]:
+        return sorted(p.stem for p in self.dir.glob("*.json") if ID_PATTERN.match(p.stem))
+
+    # -- writing ---------------------------------------------------------------------------------------------
+    def put(self, urdf: str, *, name: str, floating_base: bool, owner: str | None,
+            summary: dict[str, Any]) -> tuple[RobotRecord, bool]:
+        """Store a robot durably; returns (record, created) where created is False if it was already there."""
+        rid = robot_id(urdf, name=name, floating_base=floating_base, owner=owner)
+        existing = self.get(rid)
+        if existing is not None:
+            return existing, False
+        rec = RobotRecord(id=rid, name=name, urdf=urdf, floating_base=floating_base, bundled=False, owner=owner,
+                          created=time.time(), summary=summary)
+        doc = {"version": _RECORD_VERSION, "id": rid, "name": name, "floating_base": floating_base,
+               "owner": owner, "created": rec.created, "summary": summary, "urdf": urdf}
+        atomic_write(self._path(rid), json.dumps(doc).encode())
+        return rec, True
+
+    def delete(self, rid: str) -> bool:
+        try:
+            self._path(rid).unlink()
+        except FileNotFoundError:
+            return False
+        _fsync_dir(self.dir)
+        return True
+
+
+class ModelCache:
+    """A bounded least-recently-used map of compiled models, shared by the threads of one process.
+
+    Keys are ``(robot id, locked joints)``; the second part is empty today and will hold the locked set of
+    issue 5 without changing callers. Loading happens outside the lock: two threads missing the same key at
+    once both load (harmless: models are immutable) rather than one waiting on the other's lock.
+    """
+
+    def __init__(self, size: int):
+        self.size = max(1, int(size))
+        self._items: OrderedDict[Hashable, Any] = OrderedDict()
+        self._lock = threading.Lock()
+        self.hits = 0
+        self.misses = 0
+
+    def get_or_load(self, key: Hashable, load: Callable[[], Any]) -> Any:
+        with self._lock:
+            if key in self._items:
+                self._items.move_to_end(key)
+                self.hits += 1
+                return self._items[key]
+            self.misses += 1
+        value = load()
+        with self._lock:
+            self._items[key] = value
+            self._items.move_to_end(key)
+            while len(self._items) > self.size:
+                self._items.popitem(last=False)
+        return value
+
+    def discard(self, robot: str) -> None:
+        with self._lock:
+            for key in [k for k in self._items if (k[0] if isinstance(k, tuple) else k) == robot]:
+                del self._items[key]
+
+    def __len__(self) -> int:
+        return len(self._items)
