@@ -1,0 +1,24 @@
+"""Rigid-body dynamics for robots described by URDF.
+
+    >>> import dynamics
+    >>> model = dynamics.load_urdf("robots/planar_2r.urdf")
+    >>> tau = dynamics.inverse_dynamics(model, q, v, a)
+
+One module per algorithm: :mod:`~dynamics.rnea` (inverse dynamics), :mod:`~dynamics.crba` (mass matrix),
+:mod:`~dynamics.aba` (forward dynamics), :mod:`~dynamics.energy`, :mod:`~dynamics.coriolis`.
+"""
+
+from .errors import DynamicsError, InputError, URDFError
+from .model import Model
+from .urdf import load_urdf
+from .rnea import bias_forces, gravity_torques, inverse_dynamics
+from .crba import mass_matrix
+from .aba import forward_dynamics
+from .energy import kinetic_energy, potential_energy
+from .coriolis import coriolis_matrix
+
+__all__ = [
+    "DynamicsError", "InputError", "URDFError", "Model", "load_urdf",
+    "inverse_dynamics", "gravity_torques", "bias_forces", "mass_matrix", "forward_dynamics",
+    "kinetic_energy", "potential_energy", "coriolis_matrix",
+]

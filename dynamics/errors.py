@@ -1,0 +1,17 @@
+"""Errors raised by the library.
+
+Every error a caller can provoke with bad input is a ``ValueError`` subclass, so that
+``except ValueError`` catches them all, and its message names what was wrong and what was expected.
+"""
+
+
+class DynamicsError(ValueError):
+    """Base class of every input error raised by :mod:`dynamics`."""
+
+
+class URDFError(DynamicsError):
+    """The URDF could not be turned into a model; the message names the link or joint at fault."""
+
+
+class InputError(DynamicsError):
+    """An argument has the wrong shape, type or value; the message names the argument and what was expected."""

@@ -1,0 +1,788 @@
+"""Time steppers for y' = f(t, y): symplectic Euler, RK4, Dormand-Prince 5(4), Radau IIA(5), and ``auto``.
+
+Every solver here is a ``numba.njit`` function that takes the problem as functions (first-class njit
+functions) plus one opaque problem tuple ``p``, so the same compiled code integrates a robot
+(:mod:`dynamics.simulate`) or a plain ODE (the tests).  A solver never sees a robot; it sees
+
+* ``f(p, t, z, dz)``: write dz = f(t, z);
+* ``rebase(p, z, dz, mag)``: called after every accepted step.  A problem that integrates in a moving chart
+  (the robot's configuration, see :mod:`dynamics.integrate`) re-centres it here, i.e. folds the chart
+  coordinates of z into its base point and zeroes them, rewrites the chart part of ``dz = f(t, z)``
+  for the new chart, and stores in ``mag`` the magnitude of every state component (|q| for a chart
+  coordinate) for the relative tolerance.  Plain ODEs do nothing;
+* ``euler_config(p, z, h)``: symplectic Euler's position update from the (already updated) velocity part;
+* ``emit(p, j, t, z)``: record output sample j at time t (z is in the chart of the current step).
+
+State layout: z = [configuration part (nc), velocity part (nvel), quadratures].  Only the first ``ne``
+components enter error norms and Newton convergence tests; components from ``ne`` on are quadratures
+(the robot's work integral): f must not depend on them.
+
+Methods (Hairer, Norsett & Wanner, "Solving ODEs I", 2nd ed. 1993 = [HNW]; Hairer & Wanner, "Solving ODEs
+II", 2nd ed. 1996 = [HW]):
+
+* ``euler``: semi-implicit (symplectic) Euler, v+ = v + h a(q, v), q+ = q (+) h v+ (first order, fixed h).
+* ``rk4``: the classical Runge-Kutta method (fourth order, fixed h); samples between steps come from the
+  cubic Hermite interpolant of (z, f) at both ends.
+* ``rk45``: Dormand & Prince 5(4) with local extrapolation, FSAL, the PI step-size controller of DOPRI5
+  ([HNW] sec. IV.2, beta = 0.04), Shampine's quartic dense output, and DOPRI5's stiffness test
+  ([HW] sec. IV.2: h*|lambda| estimated from the last two stages exceeds 3.25 on 15 accepted steps).
+* ``radau``: Radau IIA of order 5 (3 stages, L-stable, stiffly accurate) with a simplified Newton iteration
+  on a finite-difference Jacobian, the real/complex splitting of the stage system, the embedded
+  third-order error estimate filtered through (1 - h gamma J)^-1 and Gustafsson's predictive controller
+  ([HW] sec. IV.8; the structure follows ``scipy.integrate.Radau``).
+* ``auto``: starts with ``rk45``; when the stiffness test fires it switches to ``radau``; while on
+  ``radau`` it estimates the spectral radius rho of the Jacobian (power iteration) and switches back when
+  h*rho < 2 (the explicit method would be stable at the same step) on 20 accepted steps in a row, the way
+  LSODA alternates between Adams and BDF.  Every switch is logged with its time and reason.
+
+Statuses returned: ``OK``, ``NONFINITE`` (a NaN/inf appeared and step reduction could not avoid it),
+``BLOWUP`` (a velocity exceeded ``blowup``), ``MAX_STEPS`` (step budget spent), ``STEP_TOO_SMALL``.
+"""
+
+import numpy as np
+from numba import njit
+
+_JIT = dict(cache=True, nogil=True)
+
+EULER, RK4, RK45, RADAU, AUTO = 0, 1, 2, 3, 4
+METHOD_NAMES = ("euler", "rk4", "rk45", "radau", "auto")
+
+OK, NONFINITE, BLOWUP, MAX_STEPS, STEP_TOO_SMALL = 0, 1, 2, 3, 4
+STATUS_NAMES = ("ok", "nonfinite", "blowup", "max_steps", "step_too_small")
+
+# switch reasons
+SWITCH_STIFF, SWITCH_NONSTIFF = 0, 1
+
+# integer options / statistics (index names)
+I_NC, I_NVEL, I_NE, I_MAXSTEPS, I_NSTEPS = 0, 1, 2, 3, 4
+S_STEPS, S_REJECTED, S_NFEV, S_NJEV, S_NLU, S_NSWITCH, S_STIFF_HITS, S_STATUS = 0, 1, 2, 3, 4, 5, 6, 7
+# float options / statistics
+F_RTOL, F_ATOL, F_H0, F_HMAX, F_BLOWUP = 0, 1, 2, 3, 4
+FS_T, FS_LOCAL_ERR, FS_H, FS_STIFF_T, FS_HRHO = 0, 1, 2, 3, 4
+
+MAX_SWITCHES = 64
+
+# ---------------------------------------------------------------------------------------------------
+# Dormand-Prince 5(4) tableau, error weights and dense-output polynomial ([HNW] table II.5.2; Shampine 1986)
+DP_C = np.array([0.0, 1 / 5, 3 / 10, 4 / 5, 8 / 9, 1.0])
+DP_A = np.array([
+    [0, 0, 0, 0, 0],
+    [1 / 5, 0, 0, 0, 0],
+    [3 / 40, 9 / 40, 0, 0, 0],
+    [44 / 45, -56 / 15, 32 / 9, 0, 0],
+    [19372 / 6561, -25360 / 2187, 64448 / 6561, -212 / 729, 0],
+    [9017 / 3168, -355 / 33, 46732 / 5247, 49 / 176, -5103 / 18656]])
+DP_B = np.array([35 / 384, 0, 500 / 1113, 125 / 192, -2187 / 6784, 11 / 84])
+DP_E = np.array([-71 / 57600, 0, 71 / 16695, -71 / 1920, 17253 / 339200, -22 / 525, 1 / 40])
+DP_P = np.array([
+    [1, -8048581381 / 2820520608, 8663915743 / 2820520608, -12715105075 / 11282082432],
+    [0, 0, 0, 0],
+    [0, 131558114200 / 32700410799, -68118460800 / 10900136933, 87487479700 / 32700410799],
+    [0, -1754552775 / 470086768, 14199869525 / 1410260304, -10690763975 / 1880347072],
+    [0, 127303824393 / 49829197408, -318862633887 / 49829197408, 701980252875 / 199316789632],
+    [0, -282668133 / 205662961, 2019193451 / 616988883, -1453857185 / 822651844],
+    [0, 40617522 / 29380423, -110615467 / 29380423, 69997945 / 29380423]])
+
+# Radau IIA(5) ([HW] sec. IV.8): nodes, error weights, A = T diag(mu) T^-1 split, dense output
+_S6 = 6 ** 0.5
+RA_C = np.array([(4 - _S6) / 10, (4 + _S6) / 10, 1.0])
+RA_E = np.array([-13 - 7 * _S6, -13 + 7 * _S6, -1.0]) / 3
+RA_MU_REAL = 3 + 3 ** (2 / 3) - 3 ** (1 / 3)
+RA_MU_CRE = 3 + 0.5 * (3 ** (1 / 3) - 3 ** (2 / 3))
+RA_MU_CIM = -0.5 * (3 ** (5 / 6) + 3 ** (7 / 6))
+RA_T = np.array([
+    [0.09443876248897524, -0.14125529502095421, 0.03002919410514742],
+    [0.25021312296533332, 0.20412935229379994, -0.38294211275726192],
+    [1, 1, 0]])
+RA_TI = np.array([
+    [4.17871859155190428, 0.32768282076106237, 0.52337644549944951],
+    [-4.17871859155190428, -0.32768282076106237, 0.47662355450055044],
+    [0.50287263494578682, -2.57192694985560522, 0.59603920482822492]])
+RA_P = np.array([
+    [13 / 3 + 7 * _S6 / 3, -23 / 3 - 22 * _S6 / 3, 10 / 3 + 5 * _S6],
+    [13 / 3 - 7 * _S6 / 3, -23 / 3 + 22 * _S6 / 3, 10 / 3 - 5 * _S6],
+    [1 / 3, -8 / 3, 10 / 3]])
+NEWTON_MAXITER = 6
+
+
+# ---------------------------------------------------------------------------------------------------
+# small helpers
+@njit(**_JIT)
+def lu_factor(A, piv):
+    """In-place LU with partial pivoting (real or complex A): P A = L U, L unit lower triangular."""
+    n = A.shape[0]
+    for k in range(n):
+        m = k
+        big = abs(A[k, k])
+        for i in range(k + 1, n):
+            if abs(A[i, k]) > big:
+                big = abs(A[i, k])
+                m = i
+        piv[k] = m
+        if m != k:
+            for j in range(n):
+                tmp = A[k, j]
+                A[k, j] = A[m, j]
+                A[m, j] = tmp
+        d = A[k, k]
+        if d == 0:
+            continue  # singular: the solve returns inf/nan and the step is rejected
+        for i in range(k + 1, n):
+            A[i, k] /= d
+            lik = A[i, k]
+            if lik != 0:
+                for j in range(k + 1, n):
+                    A[i, j] -= lik * A[k, j]
+
+
+@njit(**_JIT)
+def lu_solve(LU, piv, b):
+    """Solve (P^T L U) x = b in place, given lu_factor's output."""
+    n = LU.shape[0]
+    for k in range(n):
+        m = piv[k]
+        if m != k:
+            tmp = b[k]
+            b[k] = b[m]
+            b[m] = tmp
+    for i in range(n):
+        s = b[i]
+        for j in range(i):
+            s -= LU[i, j] * b[j]
+        b[i] = s
+    for i in range(n - 1, -1, -1):
+        s = b[i]
+        for j in range(i + 1, n):
+            s -= LU[i, j] * b[j]
+        b[i] = s / LU[i, i]
+
+
+@njit(**_JIT)
+def scaled_rms(e, z0, z1, mag, ne, rtol, atol):
+    """RMS of e_i / (atol + rtol max(|z0_i| + mag_i, |z1_i| + mag_i)) over the first ne components."""
+    s = 0.0
+    for i in range(ne):
+        sc = atol + rtol * max(abs(z0[i]) + mag[i], abs(z1[i]) + mag[i])
+        x = e[i] / sc
+        s += x * x
+    return np.sqrt(s / max(ne, 1))
+
+
+@njit(**_JIT)
+def _max_abs(x, ne):
+    m = 0.0
+    for i in range(ne):
+        a = abs(x[i])
+        if not a <= m:  # also propagates NaN
+            m = a
+    return m
+
+
+@njit(**_JIT)
+def _state_status(z, nc, nvel, blowup):
+    """OK, NONFINITE or BLOWUP for a state (velocities above ``blowup`` count as a blow-up)."""
+    for i in range(z.shape[0]):
+        if not np.isfinite(z[i]):
+            return NONFINITE
+    for i in range(nc, nc + nvel):
+        if abs(z[i]) > blowup:
+            return BLOWUP
+    return OK
+
+
+@njit(**_JIT)
+def initial_step(f, p, t, z, f0, order, rtol, atol, mag, ne, t_end, istats):
+    """Hairer's starting step ([HNW] sec. II.4), as scipy's ``select_initial_step``."""
+    n = z.shape[0]
+    span = t_end - t
+    if span <= 0:
+        return 0.0
+    d0 = 0.0
+    d1 = 0.0
+    for i in range(ne):
+        sc = atol + rtol * (abs(z[i]) + mag[i])
+        d0 += (z[i] / sc) ** 2
+        d1 += (f0[i] / sc) ** 2
+    d0 = np.sqrt(d0 / max(ne, 1))
+    d1 = np.sqrt(d1 / max(ne, 1))
+    if d0 < 1e-5 or d1 < 1e-5:
+        h0 = 1e-6
+    else:
+        h0 = 0.01 * d0 / d1
+    h0 = min(h0, span)
+    z1 = np.empty(n)
+    f1 = np.empty(n)
+    for i in range(n):
+        z1[i] = z[i] + h0 * f0[i]
+    f(p, t + h0, z1, f1)
+    istats[S_NFEV] += 1
+    d2 = 0.0
+    for i in range(ne):
+        sc = atol + rtol * (abs(z[i]) + mag[i])
+        d2 += ((f1[i] - f0[i]) / sc) ** 2
+    d2 = np.sqrt(d2 / max(ne, 1)) / h0
+    if not np.isfinite(d2):
+        return h0 * 1e-3
+    if d1 <= 1e-15 and d2 <= 1e-15:
+        h1 = max(1e-6, h0 * 1e-3)
+    else:
+        h1 = (0.01 / max(d1, d2)) ** (1.0 / (order + 1))
+    return min(100 * h0, h1, span)
+
+
+@njit(**_JIT)
+def fd_jacobian(f, p, t, z, f0, mag, ne, J, istats):
+    """Forward-difference Jacobian J = df/dz; columns of quadrature components (>= ne) are zero."""
+    n = z.shape[0]
+    zt = z.copy()
+    ft = np.empty(n)
+    for c in range(n):
+        if c >= ne:
+            for r in range(n):
+                J[r, c] = 0.0
+            continue
+        d = 1.4901161193847656e-08 * max(1.0, abs(z[c]) + mag[c])
+        zt[c] = z[c] + d
+        d = zt[c] - z[c]  # the step actually representable
+        f(p, t, zt, ft)
+        zt[c] = z[c]
+        for r in range(n):
+            J[r, c] = (ft[r] - f0[r]) / d
+    istats[S_NFEV] += ne
+    istats[S_NJEV] += 1
+
+
+@njit(**_JIT)
+def spectral_radius(J, ne):
+    """Estimate of max |lambda(J)| by 30 power iterations (geometric mean of the last 15 growth ratios;
+    this also gives the modulus for a dominant complex pair)."""
+    n = ne
+    x = np.empty(n)
+    for i in range(n):
+        x[i] = 1.0 + 0.1 * ((i * 7919) % 13)  # fixed, generic start vector
+    nrm = np.sqrt(np.sum(x * x))
+    if nrm == 0:
+        return 0.0
+    x /= nrm
+    y = np.empty(n)
+    logsum = 0.0
+    cnt = 0
+    for it in range(30):
+        for r in range(n):
+            s = 0.0
+            for c in range(n):
+                s += J[r, c] * x[c]
+            y[r] = s
+        nrm = np.sqrt(np.sum(y * y))
+        if nrm == 0.0 or not np.isfinite(nrm):
+            return 0.0 if nrm == 0.0 else np.inf
+        if it >= 15:
+            logsum += np.log(nrm)
+            cnt += 1
+        x[:] = y / nrm
+    return np.exp(logsum / cnt)
+
+
+# ---------------------------------------------------------------------------------------------------
+# fixed-step solvers
+@njit(**_JIT)
+def solve_fixed(f, rebase, euler_config, emit, p, method, z, t0, t_end, dt, out_t, iopt, fopt, istats,
+                fstats):
+    """Fixed steps of size dt from t0 to t_end (the last one shortened to land on t_end exactly)."""
+    n = z.shape[0]
+    nc = iopt[I_NC]
+    nvel = iopt[I_NVEL]
+    ne = iopt[I_NE]
+    nsteps = iopt[I_NSTEPS]
+    blowup = fopt[F_BLOWUP]
+    mag = np.zeros(n)
+    k1 = np.empty(n)
+    k2 = np.empty(n)
+    k3 = np.empty(n)
+    k4 = np.empty(n)
+    zs = np.empty(n)
+    zold = np.empty(n)
+    kend = np.empty(n)
+    zi = np.empty(n)
+    f(p, t0, z, k1)
+    istats[S_NFEV] += 1
+    j = 0
+    nout = out_t.shape[0]
+    while j < nout and out_t[j] <= t0:
+        emit(p, j, t0, z)
+        j += 1
+    status = _state_status(k1, 0, 0, blowup)
+    t = t0
+    for i in range(nsteps):
+        if status != OK:
+            break
+        tb = t0 + (i + 1) * dt
+        if i == nsteps - 1 or tb > t_end:
+            tb = t_end
+        h = tb - t
+        zold[:] = z
+        if method == EULER:
+            for r in range(nc, n):
+                z[r] += h * k1[r]
+            euler_config(p, z, h)
+        else:
+            for r in range(n):
+                zs[r] = z[r] + 0.5 * h * k1[r]
+            f(p, t + 0.5 * h, zs, k2)
+            for r in range(n):
+                zs[r] = z[r] + 0.5 * h * k2[r]
+            f(p, t + 0.5 * h, zs, k3)
+            for r in range(n):
+                zs[r] = z[r] + h * k3[r]
+            f(p, tb, zs, k4)
+            for r in range(n):
+                z[r] += h / 6.0 * (k1[r] + 2.0 * k2[r] + 2.0 * k3[r] + k4[r])
+            istats[S_NFEV] += 3
+        istats[S_STEPS] += 1
+        status = _state_status(z, nc, nvel, blowup)
+        if status != OK:
+            t = tb
+            break
+        if j < nout and out_t[j] <= tb:
+            if method == RK4 and out_t[j] < tb:
+                f(p, tb, z, kend)  # slope at the end, in this step's chart
+                istats[S_NFEV] += 1
+            while j < nout and out_t[j] <= tb:
+                if out_t[j] >= tb:
+                    emit(p, j, tb, z)
+                else:
+                    s = (out_t[j] - t) / h
+                    if method == EULER:
+                        for r in range(n):
+                            zi[r] = zold[r] + s * (z[r] - zold[r])
+                    else:  # cubic Hermite
+                        h00 = (1 + 2 * s) * (1 - s) ** 2
+                        h10 = s * (1 - s) ** 2
+                        h01 = s * s * (3 - 2 * s)
+                        h11 = s * s * (s - 1)
+                        for r in range(n):
+                            zi[r] = h00 * zold[r] + h10 * h * k1[r] + h01 * z[r] + h11 * h * kend[r]
+                    emit(p, j, out_t[j], zi)
+                j += 1
+        rebase(p, z, k1, mag)
+        t = tb
+        if i < nsteps - 1:
+            f(p, t, z, k1)
+            istats[S_NFEV] += 1
+            if _state_status(k1, 0, 0, blowup) != OK:
+                status = NONFINITE
+    istats[S_STATUS] = status
+    fstats[FS_T] = t
+    fstats[FS_LOCAL_ERR] = np.nan  # fixed-step methods have no embedded error estimate
+    fstats[FS_H] = dt
+    return status
+
+
+# ---------------------------------------------------------------------------------------------------
+# adaptive solvers: rk45, radau and the auto switch in one loop
+@njit(**_JIT)
+def solve_adaptive(f, rebase, emit, p, method, z, t0, t_end, out_t, iopt, fopt, istats, fstats, switch_log):
+    """Integrate from t0 to t_end with error control; ``method`` is RK45, RADAU or AUTO."""
+    n = z.shape[0]
+    nc = iopt[I_NC]
+    nvel = iopt[I_NVEL]
+    ne = iopt[I_NE]
+    max_steps = iopt[I_MAXSTEPS]
+    rtol = fopt[F_RTOL]
+    atol = fopt[F_ATOL]
+    hmax = fopt[F_HMAX]
+    blowup = fopt[F_BLOWUP]
+    eps = 2.220446049250313e-16
+
+    mag = np.zeros(n)
+    rebase(p, z, np.zeros(n), mag)  # magnitudes of the initial state
+    K = np.empty((7, n))  # DP stages; K[0] is always f(t, z)
+    znew = np.empty(n)
+    zs = np.empty(n)
+    y6 = np.empty(n)
+    errv = np.empty(n)
+    zi = np.empty(n)
+    bx = np.empty(7)
+    # Radau workspace
+    J = np.zeros((n, n))
+    LUr = np.empty((n, n))
+    LUc = np.empty((n, n), dtype=np.complex128)
+    pivr = np.empty(n, dtype=np.int64)
+    pivc = np.empty(n, dtype=np.int64)
+    Z = np.zeros((3, n))
+    W = np.zeros((3, n))
+    F = np.empty((3, n))
+    dWr = np.empty(n)
+    dWc = np.empty(n, dtype=np.complex128)
+    Qd = np.zeros((n, 3))  # Radau dense output of the last accepted step
+    fr = np.empty(n)
+    fc = np.empty(n, dtype=np.complex128)
+    fnew = np.empty(n)
+
+    mode = RADAU if method == RADAU else RK45
+    t = t0
+    f(p, t, z, K[0])
+    istats[S_NFEV] += 1
+    j = 0
+    nout = out_t.shape[0]
+    while j < nout and out_t[j] <= t0:
+        emit(p, j, t0, z)
+        j += 1
+    status = _state_status(K[0], 0, 0, blowup)
+    order = 5 if mode == RK45 else 3
+    h = fopt[F_H0]
+    if h <= 0:
+        h = initial_step(f, p, t, z, K[0], order, rtol, atol, mag, ne, t_end, istats)
+    h = min(h, hmax)
+    errold = 1e-4  # PI controller memory (DOPRI5's facold)
+    # stiffness test (DOPRI5)
+    iasti = 0
+    nonsti = 0
+    # Radau state
+    have_jac = False
+    current_jac = False
+    have_lu = False
+    have_sol = False
+    h_sol = 1.0
+    h_abs_old = -1.0
+    err_norm_old = -1.0
+    rho = -1.0
+    nonstiff_count = 0
+    newton_tol = max(10 * eps / rtol, min(0.03, rtol ** 0.5))
+    local_err = 0.0
+    total = 0
+    rejected_last = False
+
+    while status == OK and t < t_end:
+        if total >= max_steps:
+            status = MAX_STEPS
+            break
+        min_step = 10.0 * abs(np.nextafter(t, np.inf) - t)
+        if h < min_step:
+            status = STEP_TOO_SMALL
+            break
+        h = min(h, hmax)
+        tn = t + h
+        if tn >= t_end or t_end - tn < min_step:
+            tn = t_end
+        h = tn - t
+        total += 1
+
+        if mode == RK45:
+            # ---- one Dormand-Prince attempt
+            for s in range(1, 6):
+                for r in range(n):
+                    acc = 0.0
+                    for q in range(s):
+                        acc += DP_A[s, q] * K[q, r]
+                    zs[r] = z[r] + h * acc
+                f(p, t + DP_C[s] * h, zs, K[s])
+            y6[:] = zs  # the stage at c = 1 (for the stiffness test)
+            for r in range(n):
+                acc = 0.0
+                for q in range(6):
+                    acc += DP_B[q] * K[q, r]
+                znew[r] = z[r] + h * acc
+            f(p, tn, znew, K[6])
+            istats[S_NFEV] += 6
+            for r in range(n):
+                acc = 0.0
+                for q in range(7):
+                    acc += DP_E[q] * K[q, r]
+                errv[r] = h * acc
+            err = scaled_rms(errv, z, znew, mag, ne, rtol, atol)
+            if not np.isfinite(err) or _state_status(K[6], 0, 0, np.inf) != OK:
+                istats[S_REJECTED] += 1
+                h *= 0.1
+                rejected_last = True
+                continue
+            # PI step-size control ([HNW] IV.2, DOPRI5 with beta = 0.04)
+            fac11 = err ** (0.2 - 0.04 * 0.75)
+            fac = fac11 / errold ** 0.04 / 0.9
+            fac = max(0.1, min(5.0, fac))  # 1/fac in [0.2, 10]
+            if err > 1.0:
+                istats[S_REJECTED] += 1
+                h = h / min(5.0, fac11 / 0.9)
+                rejected_last = True
+                continue
+            errold = max(err, 1e-4)
+            hnew = h / fac
+            if rejected_last:
+                hnew = min(hnew, h)
+            rejected_last = False
+            # accepted
+            st = _state_status(znew, nc, nvel, blowup)
+            if st != OK:
+                status = st
+                z[:] = znew
+                t = tn
+                break
+            local_err += _max_abs(errv, ne)
+            # stiffness detection: h |lambda| ~ h ||k7 - k6|| / ||y1 - y6||
+            stnum = 0.0
+            stden = 0.0
+            for r in range(ne):
+                stnum += (K[6, r] - K[5, r]) ** 2
+                stden += (znew[r] - y6[r]) ** 2
+            if stden > 0.0:
+                hlamb = h * np.sqrt(stnum / stden)
+                if hlamb > 3.25:
+                    nonsti = 0
+                    iasti += 1
+                    istats[S_STIFF_HITS] += 1
+                    if iasti == 15:
+                        if not fstats[FS_STIFF_T] >= 0:
+                            fstats[FS_STIFF_T] = tn
+                        if method == AUTO and istats[S_NSWITCH] < MAX_SWITCHES:
+                            mode = RADAU
+                            switch_log[istats[S_NSWITCH], 0] = tn
+                            switch_log[istats[S_NSWITCH], 1] = RADAU
+                            switch_log[istats[S_NSWITCH], 2] = SWITCH_STIFF
+                            switch_log[istats[S_NSWITCH], 3] = hlamb
+                            istats[S_NSWITCH] += 1
+                            have_jac = False
+                            current_jac = False
+                            have_lu = False
+                            have_sol = False
+                            h_abs_old = -1.0
+                            err_norm_old = -1.0
+                            nonstiff_count = 0
+                else:
+                    nonsti += 1
+                    if nonsti == 6:
+                        iasti = 0
+            # samples in (t, tn] from the quartic dense output
+            while j < nout and out_t[j] <= tn:
+                if out_t[j] >= tn:
+                    emit(p, j, tn, znew)
+                else:
+                    x = (out_t[j] - t) / h
+                    for q in range(7):
+                        bx[q] = x * (DP_P[q, 0] + x * (DP_P[q, 1] + x * (DP_P[q, 2] + x * DP_P[q, 3])))
+                    for r in range(n):
+                        acc = 0.0
+                        for q in range(7):
+                            acc += bx[q] * K[q, r]
+                        zi[r] = z[r] + h * acc
+                    emit(p, j, out_t[j], zi)
+                j += 1
+            istats[S_STEPS] += 1
+            t = tn
+            z[:] = znew
+            K[0, :] = K[6, :]
+            rebase(p, z, K[0], mag)
+            h = hnew
+            continue
+
+        # ---- one Radau IIA attempt
+        if not have_jac:
+            fd_jacobian(f, p, t, z, K[0], mag, ne, J, istats)
+            have_jac = True
+            current_jac = True
+            have_lu = False
+            rho = spectral_radius(J, ne)
+        converged = False
+        n_iter = 0
+        rate = -1.0
+        while True:
+            if not have_lu:
+                mr = RA_MU_REAL / h
+                mc = complex(RA_MU_CRE, RA_MU_CIM) / h
+                for r in range(n):
+                    for c in range(n):
+                        LUr[r, c] = -J[r, c]
+                        LUc[r, c] = -J[r, c]
+                    LUr[r, r] += mr
+                    LUc[r, r] += mc
+                lu_factor(LUr, pivr)
+                lu_factor(LUc, pivc)
+                istats[S_NLU] += 2
+                have_lu = True
+            # initial guess from the last step's collocation polynomial (increments are chart-free to
+            # first order), else zero
+            if have_sol:
+                for s in range(3):
+                    x1 = 1.0 + RA_C[s] * h / h_sol
+                    for r in range(n):
+                        Z[s, r] = (Qd[r, 0] * (x1 - 1.0) + Qd[r, 1] * (x1 * x1 - 1.0)
+                                   + Qd[r, 2] * (x1 * x1 * x1 - 1.0))
+            else:
+                Z[:, :] = 0.0
+            for s in range(3):
+                for r in range(n):
+                    W[s, r] = RA_TI[s, 0] * Z[0, r] + RA_TI[s, 1] * Z[1, r] + RA_TI[s, 2] * Z[2, r]
+            # simplified Newton iterations on the transformed stage system
+            dW_norm_old = -1.0
+            converged = False
+            rate = -1.0
+            mr = RA_MU_REAL / h
+            mc = complex(RA_MU_CRE, RA_MU_CIM) / h
+            n_iter = 0
+            for it in range(NEWTON_MAXITER):
+                n_iter = it + 1
+                for s in range(3):
+                    for r in range(n):
+                        zs[r] = z[r] + Z[s, r]
+                    f(p, t + RA_C[s] * h, zs, F[s])
+                istats[S_NFEV] += 3
+                finite = True
+                for s in range(3):
+                    if _state_status(F[s], 0, 0, np.inf) != OK:
+                        finite = False
+                if not finite:
+                    break
+                for r in range(n):
+                    fr[r] = (RA_TI[0, 0] * F[0, r] + RA_TI[0, 1] * F[1, r] + RA_TI[0, 2] * F[2, r]
+                             - mr * W[0, r])
+                    fc[r] = (complex(RA_TI[1, 0], RA_TI[2, 0]) * F[0, r]
+                             + complex(RA_TI[1, 1], RA_TI[2, 1]) * F[1, r]
+                             + complex(RA_TI[1, 2], RA_TI[2, 2]) * F[2, r]
+                             - mc * complex(W[1, r], W[2, r]))
+                dWr[:] = fr
+                dWc[:] = fc
+                lu_solve(LUr, pivr, dWr)
+                lu_solve(LUc, pivc, dWc)
+                acc = 0.0
+                for r in range(ne):
+                    sc = atol + rtol * (abs(z[r]) + mag[r])
+                    acc += (dWr[r] / sc) ** 2 + (dWc[r].real / sc) ** 2 + (dWc[r].imag / sc) ** 2
+                dW_norm = np.sqrt(acc / (3 * max(ne, 1)))
+                if not np.isfinite(dW_norm):
+                    break
+                if dW_norm_old > 0:
+                    rate = dW_norm / dW_norm_old
+                if rate >= 0 and (rate >= 1 or rate ** (NEWTON_MAXITER - it) / (1 - rate) * dW_norm
+                                  > newton_tol):
+                    break
+                for r in range(n):
+                    W[0, r] += dWr[r]
+                    W[1, r] += dWc[r].real
+                    W[2, r] += dWc[r].imag
+                for s in range(3):
+                    for r in range(n):
+                        Z[s, r] = RA_T[s, 0] * W[0, r] + RA_T[s, 1] * W[1, r] + RA_T[s, 2] * W[2, r]
+                if dW_norm == 0 or (rate >= 0 and rate / (1 - rate) * dW_norm < newton_tol):
+                    converged = True
+                    break
+                dW_norm_old = dW_norm
+            if converged or current_jac:
+                break
+            fd_jacobian(f, p, t, z, K[0], mag, ne, J, istats)
+            rho = spectral_radius(J, ne)
+            current_jac = True
+            have_lu = False
+        if not converged:
+            istats[S_REJECTED] += 1
+            h *= 0.5
+            have_lu = False
+            rejected_last = True
+            continue
+        for r in range(n):
+            znew[r] = z[r] + Z[2, r]
+        # embedded error estimate, filtered: err = (mu_real/h - J)^-1 (f0 + Z^T E / h)
+        for r in range(n):
+            F[0, r] = (Z[0, r] * RA_E[0] + Z[1, r] * RA_E[1] + Z[2, r] * RA_E[2]) / h  # ZE
+            errv[r] = K[0, r] + F[0, r]
+        lu_solve(LUr, pivr, errv)
+        err = scaled_rms(errv, z, znew, mag, ne, rtol, atol)
+        safety = 0.9 * (2 * NEWTON_MAXITER + 1) / (2 * NEWTON_MAXITER + n_iter)
+        if rejected_last and err > 1:
+            for r in range(n):
+                zs[r] = z[r] + errv[r]
+            f(p, t, zs, fr)
+            istats[S_NFEV] += 1
+            for r in range(n):
+                errv[r] = fr[r] + F[0, r]
+            lu_solve(LUr, pivr, errv)
+            err = scaled_rms(errv, z, znew, mag, ne, rtol, atol)
+        if not np.isfinite(err):
+            istats[S_REJECTED] += 1
+            h *= 0.25
+            have_lu = False
+            rejected_last = True
+            continue
+        # Gustafsson's predictive controller ([HW] IV.8, eq. 8.25)
+        if err_norm_old < 0 or h_abs_old < 0 or err == 0:
+            mult = 1.0
+        else:
+            mult = h / h_abs_old * (err_norm_old / err) ** 0.25
+        factor = min(1.0, mult) * (err ** -0.25 if err > 0 else 10.0)
+        if err > 1:
+            istats[S_REJECTED] += 1
+            h *= max(0.2, safety * factor)
+            have_lu = False
+            rejected_last = True
+            continue
+        # accepted
+        st = _state_status(znew, nc, nvel, blowup)
+        if st != OK:
+            status = st
+            z[:] = znew
+            t = tn
+            break
+        rejected_last = False
+        local_err += _max_abs(errv, ne)
+        recompute_jac = n_iter > 2 and rate > 1e-3
+        factor = min(10.0, safety * factor)
+        if not recompute_jac and factor < 1.2:
+            factor = 1.0
+        else:
+            have_lu = False
+        h_abs_old = h
+        err_norm_old = err
+        f(p, tn, znew, fnew)
+        istats[S_NFEV] += 1
+        # dense output of this step (collocation polynomial), then samples in (t, tn]
+        for r in range(n):
+            for m in range(3):
+                Qd[r, m] = Z[0, r] * RA_P[0, m] + Z[1, r] * RA_P[1, m] + Z[2, r] * RA_P[2, m]
+        while j < nout and out_t[j] <= tn:
+            if out_t[j] >= tn:
+                emit(p, j, tn, znew)
+            else:
+                x = (out_t[j] - t) / h
+                for r in range(n):
+                    zi[r] = z[r] + x * (Qd[r, 0] + x * (Qd[r, 1] + x * Qd[r, 2]))
+                emit(p, j, out_t[j], zi)
+            j += 1
+        have_sol = True
+        h_sol = h
+        istats[S_STEPS] += 1
+        t = tn
+        z[:] = znew
+        K[0, :] = fnew
+        rebase(p, z, K[0], mag)
+        if recompute_jac:
+            fd_jacobian(f, p, t, z, K[0], mag, ne, J, istats)
+            rho = spectral_radius(J, ne)
+            current_jac = True
+        else:
+            current_jac = False
+        h = h * factor
+        if rho >= 0:
+            hr = h_abs_old * rho
+            if not fstats[FS_HRHO] >= hr:
+                fstats[FS_HRHO] = hr
+        # auto: back to the explicit method when it would be stable at this step size
+        if method == AUTO and rho >= 0:
+            if h_abs_old * rho < 2.0:
+                nonstiff_count += 1
+            else:
+                nonstiff_count = 0
+            if nonstiff_count >= 20 and istats[S_NSWITCH] < MAX_SWITCHES:
+                switch_log[istats[S_NSWITCH], 0] = t
+                switch_log[istats[S_NSWITCH], 1] = RK45
+                switch_log[istats[S_NSWITCH], 2] = SWITCH_NONSTIFF
+                switch_log[istats[S_NSWITCH], 3] = h_abs_old * rho
+                istats[S_NSWITCH] += 1
+                mode = RK45
+                iasti = 0
+                nonsti = 0
+                errold = 1e-4
+                h = h_abs_old
+                have_jac = False
+    istats[S_STATUS] = status
+    fstats[FS_T] = t
+    fstats[FS_LOCAL_ERR] = local_err
+    fstats[FS_H] = h
+    return status

@@ -1,0 +1,96 @@
+"""Joint models in one place (Featherstone 2008, sec. 4.4, ``jcalc``).
+
+Each body ``i`` hangs from its parent by joint ``i``.  The joint's placement ``(Xrot[i], Xpos[i])`` is the
+pose of the joint frame in the parent body frame at q = 0; the body frame *is* the joint frame, so the
+transform parent -> body is the placement followed by the joint motion:
+
+* revolute / continuous: ``R = Xrot Rot(axis, q)``, ``p = Xpos``            (nq = nv = 1)
+* prismatic:             ``R = Xrot``,              ``p = Xpos + Xrot axis q`` (nq = nv = 1)
+* free (floating):       ``R = Xrot Rot(quat)``,    ``p = Xpos + Xrot xyz``   (nq = 7, nv = 6)
+  with q = [x, y, z, qx, qy, qz, qw] and v = [linear, angular] in the body frame (Pinocchio's layout).
+
+The motion subspace is stored per velocity coordinate k as a constant 6-vector ``S[k] = (w, v)`` in the
+body frame: (axis, 0) for revolute, (0, axis) for prismatic, unit vectors for the free joint.  Constant S
+means the joint bias acceleration is zero in body coordinates (c_J = 0), and ``v_i x (S qd)`` is the only
+velocity-product term (eq. 5.8).
+"""
+
+import numpy as np
+from numba import njit
+
+from .spatial import matmul3, matvec, quat_to_rot, rotation_about_axis
+
+JOINT_REVOLUTE = 0
+JOINT_PRISMATIC = 1
+JOINT_FREE = 2
+
+#: nq and nv of each joint code
+JOINT_NQ = {JOINT_REVOLUTE: 1, JOINT_PRISMATIC: 1, JOINT_FREE: 7}
+JOINT_NV = {JOINT_REVOLUTE: 1, JOINT_PRISMATIC: 1, JOINT_FREE: 6}
+
+#: URDF joint type -> kernel code
+URDF_JOINT_CODES = {
+    "revolute": JOINT_REVOLUTE,
+    "continuous": JOINT_REVOLUTE,
+    "prismatic": JOINT_PRISMATIC,
+    "floating": JOINT_FREE,
+}
+
+
+def motion_subspace(code, axis):
+    """Rows S[k] = (w, v) of the joint's motion subspace in its body frame, shape (nv_joint, 6)."""
+    if code == JOINT_REVOLUTE:
+        return np.concatenate([axis, np.zeros(3)])[None, :]
+    if code == JOINT_PRISMATIC:
+        return np.concatenate([np.zeros(3), axis])[None, :]
+    S = np.zeros((6, 6))
+    S[0:3, 3:6] = np.eye(3)  # v[0:3] is linear velocity
+    S[3:6, 0:3] = np.eye(3)  # v[3:6] is angular velocity
+    return S
+
+
+@njit(cache=True, nogil=True)
+def joint_transform(tree, i, q, Rj, R, p):
+    """Write the pose of body i in its parent's frame: (R, p) = placement * joint motion at q.
+
+    Rj is a 3x3 scratch matrix.
+    """
+    code = tree.jtype[i]
+    k = tree.q_idx[i]
+    X = tree.Xrot[i]
+    p0 = tree.Xpos[i]
+    if code == JOINT_REVOLUTE:
+        rotation_about_axis(tree.axis[i], q[k], Rj)
+        matmul3(X, Rj, R)
+        p[0], p[1], p[2] = p0[0], p0[1], p0[2]
+    elif code == JOINT_PRISMATIC:
+        R[:, :] = X
+        matvec(X, tree.axis[i], p)
+        for r in range(3):
+            p[r] = p0[r] + p[r] * q[k]
+    else:
+        quat_to_rot(q[k + 3], q[k + 4], q[k + 5], q[k + 6], Rj)
+        matmul3(X, Rj, R)
+        matvec(X, q[k:k + 3], p)
+        for r in range(3):
+            p[r] += p0[r]
+
+
+@njit(cache=True, nogil=True)
+def add_joint_motion(tree, i, qd, w, v):
+    """(w, v) += S_i qd: the joint's contribution to a motion vector (velocity or acceleration)."""
+    S = tree.S
+    for k in range(tree.v_idx[i], tree.v_idx[i] + tree.nv_j[i]):
+        x = qd[k]
+        for r in range(3):
+            w[r] += S[k, r] * x
+            v[r] += S[k, 3 + r] * x
+
+
+@njit(cache=True, nogil=True)
+def project_force(tree, i, n, f, tau):
+    """tau[dofs of i] = S_i^T (n, f): the generalised force the joint transmits."""
+    S = tree.S
+    for k in range(tree.v_idx[i], tree.v_idx[i] + tree.nv_j[i]):
+        tau[k] = (S[k, 0] * n[0] + S[k, 1] * n[1] + S[k, 2] * n[2]
+                  + S[k, 3] * f[0] + S[k, 4] * f[1] + S[k, 5] * f[2])

@@ -1,0 +1,271 @@
+"""The kinematic-tree model: immutable, flat arrays, built once (see :func:`dynamics.load_urdf`).
+
+Bodies are numbered so that ``parents[i] < i`` (depth first from the root, children in document order),
+hence every algorithm is one forward and/or one reverse loop over ``range(nbodies)``.  Body ``i`` is moved by
+joint ``i``; fixed joints do not appear, their child links are merged into the parent body.  With a fixed
+base the URDF root link (and everything welded to it) is the world and is not a body; ``parents[i] == -1``
+means "attached to the world".
+
+Array shapes and frames (nb = nbodies):
+
+=================  ===============  =====================================================================
+field              shape            meaning
+=================  ===============  =====================================================================
+parents            (nb,) int64      parent body, -1 for the world
+jtype              (nb,) int64      joint code (:mod:`dynamics.joints`)
+q_idx, v_idx       (nb,) int64      first coordinate of joint i in q and in v
+nv_j               (nb,) int64      number of velocity coordinates of joint i
+Xrot, Xpos         (nb,3,3),(nb,3)  joint frame in the parent body frame at q = 0 (rotation, origin)
+axis               (nb,3)           unit joint axis in the joint (= body) frame
+S                  (nv,6)           motion subspace row per velocity coordinate, (w, v) in the body frame
+mass               (nb,)            body mass (kg)
+h                  (nb,3)           first moment of mass m*c in the body frame (kg m)
+Io                 (nb,3,3)         rotational inertia about the body frame origin, body frame (kg m^2)
+=================  ===============  =====================================================================
+"""
+
+from dataclasses import dataclass, field
+from typing import NamedTuple
+
+import numpy as np
+
+
+class Tree(NamedTuple):
+    """The flat arrays the compiled kernels read (one tuple, so a kernel takes one argument)."""
+
+    parents: np.ndarray
+    jtype: np.ndarray
+    q_idx: np.ndarray
+    v_idx: np.ndarray
+    nv_j: np.ndarray
+    Xrot: np.ndarray
+    Xpos: np.ndarray
+    axis: np.ndarray
+    S: np.ndarray
+    mass: np.ndarray
+    h: np.ndarray
+    Io: np.ndarray
+
+
+def _frozen(a, dtype=np.float64):
+    a = np.ascontiguousarray(a, dtype=dtype)
+    a.flags.writeable = False
+    return a
+
+
+@dataclass(frozen=True, eq=False)
+class Model:
+    """A robot as a kinematic tree of rigid bodies.  Immutable; build it with :func:`dynamics.load_urdf`.
+
+    Per-body arrays follow :class:`Tree` (see the module docstring for shapes and frames).  Per velocity
+    coordinate arrays (shape (nv,)): ``damping`` (N m s/rad or N s/m), ``friction`` (Coulomb, N m or N),
+    ``effort_limit``, ``velocity_limit`` (inf when absent), ``lower``/``upper`` position limits of 1-dof
+    joints (-inf/inf when absent, for continuous joints and for the free joint's coordinates).
+    """
+
+    name: str
+    nq: int
+    nv: int
+    tree: Tree
+    joint_names: tuple
+    joint_types: tuple
+    body_names: tuple
+    floating_base: bool
+    lower: np.ndarray
+    upper: np.ndarray
+    effort_limit: np.ndarray
+    velocity_limit: np.ndarray
+    damping: np.ndarray
+    friction: np.ndarray
+    gravity: np.ndarray
+    warnings: tuple = ()
+    #: every URDF link: name -> (body index or -1 for the world, 4x4 pose of the link frame in that body frame)
+    frames: dict = field(default_factory=dict)
+    #: what the model builder merged or left out, as counts and names (see :meth:`summary`)
+    info: dict = field(default_factory=dict)
+
+    # -- sizes ---------------------------------------------------------------------------------------
+    @property
+    def nbodies(self) -> int:
+        return self.tree.parents.shape[0]
+
+    # -- convenient views (all read-only) ----------------------------------------------------------
+    @property
+    def parents(self):
+        return self.tree.parents
+
+    @property
+    def q_index(self):
+        return self.tree.q_idx
+
+    @property
+    def v_index(self):
+        return self.tree.v_idx
+
+    @property
+    def nq_joint(self):
+        return _frozen([7 if c == 2 else 1 for c in self.tree.jtype], np.int64)
+
+    @property
+    def nv_joint(self):
+        return self.tree.nv_j
+
+    @property
+    def axes(self):
+        return self.tree.axis
+
+    @property
+    def placements(self):
+        """(nb, 4, 4) homogeneous pose of each joint frame in its parent body frame at q = 0."""
+        T = np.zeros((self.nbodies, 4, 4))
+        T[:, :3, :3] = self.tree.Xrot
+        T[:, :3, 3] = self.tree.Xpos
+        T[:, 3, 3] = 1.0
+        return T
+
+    @property
+    def masses(self):
+        return self.tree.mass
+
+    @property
+    def coms(self):
+        """(nb, 3) centre of mass of each body in its body frame (zero for massless bodies)."""
+        m = self.tree.mass[:, None]
+        return np.divide(self.tree.h, m, out=np.zeros_like(self.tree.h), where=m > 0)
+
+    @property
+    def inertias(self):
+        """(nb, 3, 3) rotational inertia of each body about its centre of mass, body frame."""
+        c = self.coms
+        m = self.tree.mass
+        out = np.array(self.tree.Io)
+        for i in range(self.nbodies):
+            out[i] -= m[i] * (np.dot(c[i], c[i]) * np.eye(3) - np.outer(c[i], c[i]))
+        return out
+
+    @property
+    def spatial_inertias(self):
+        """(nb, 6, 6) spatial inertia of each body about its frame origin, (angular, linear) order."""
+        out = np.zeros((self.nbodies, 6, 6))
+        for i, (m, h, Io) in enumerate(zip(self.tree.mass, self.tree.h, self.tree.Io)):
+            hx = np.array([[0, -h[2], h[1]], [h[2], 0, -h[0]], [-h[1], h[0], 0]])
+            out[i] = np.block([[Io, hx], [hx.T, m * np.eye(3)]])
+        return out
+
+    def joint_index(self, name: str) -> int:
+        """Index of the joint (= body) named ``name``."""
+        try:
+            return self.joint_names.index(name)
+        except ValueError:
+            raise KeyError(f"no movable joint named {name!r}; joints are {list(self.joint_names)}") from None
+
+    def neutral(self) -> np.ndarray:
+        """The neutral configuration: zeros, identity quaternion for a free joint."""
+        q = np.zeros(self.nq)
+        for code, k in zip(self.tree.jtype, self.tree.q_idx):
+            if code == 2:
+                q[k + 6] = 1.0
+        return q
+
+    def summary(self) -> dict:
+        """What the model contains and what the builder merged or left out (JSON-serialisable)."""
+        out = {
+            "name": self.name,
+            "nq": self.nq,
+            "nv": self.nv,
+            "bodies": self.nbodies,
+            "floating_base": self.floating_base,
+        }
+        out.update(self.info)
+        out["warnings"] = list(self.warnings)
+        return out
+
+    def __repr__(self):
+        return (f"Model({self.name!r}, nq={self.nq}, nv={self.nv}, bodies={self.nbodies}, "
+                f"floating_base={self.floating_base})")
+
+
+@dataclass
+class BodySpec:
+    """One body of a model under construction (used by the URDF loader, reductions and tests).
+
+    ``placement`` is the 4x4 pose of the joint frame in the parent body frame at q = 0; the inertia is
+    (mass, h = m c, Io about the body origin) in the body frame.
+    """
+
+    name: str
+    joint_name: str
+    joint_type: str  # "revolute" | "continuous" | "prismatic" | "floating"
+    parent: int
+    placement: np.ndarray
+    axis: np.ndarray
+    mass: float = 0.0
+    h: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    Io: np.ndarray = field(default_factory=lambda: np.zeros((3, 3)))
+    lower: float = -np.inf
+    upper: float = np.inf
+    effort: float = np.inf
+    velocity: float = np.inf
+    damping: float = 0.0
+    friction: float = 0.0
+
+
+def build_model(name, bodies, *, floating_base, gravity=(0.0, 0.0, -9.81), warnings=(), frames=None,
+                info=None) -> Model:
+    """Assemble the flat arrays of a :class:`Model` from body specs ordered with parents first."""
+    from .joints import JOINT_NQ, JOINT_NV, URDF_JOINT_CODES, motion_subspace
+
+    nb = len(bodies)
+    codes = [URDF_JOINT_CODES[b.joint_type] for b in bodies]
+    for i, b in enumerate(bodies):
+        if not -1 <= b.parent < i:
+            raise ValueError(f"body {b.name!r}: parent index {b.parent} must be in [-1, {i})")
+    nq_j = [JOINT_NQ[c] for c in codes]
+    nv_j = [JOINT_NV[c] for c in codes]
+    q_idx = np.concatenate([[0], np.cumsum(nq_j)[:-1]]).astype(np.int64) if nb else np.zeros(0, np.int64)
+    v_idx = np.concatenate([[0], np.cumsum(nv_j)[:-1]]).astype(np.int64) if nb else np.zeros(0, np.int64)
+    nv = int(sum(nv_j))
+    S = np.concatenate([motion_subspace(c, np.asarray(b.axis, float)) for c, b in zip(codes, bodies)]) \
+        if nb else np.zeros((0, 6))
+    per_dof = {k: [] for k in ("lower", "upper", "effort", "velocity", "damping", "friction")}
+    for c, b, n in zip(codes, bodies, nv_j):
+        for k in per_dof:
+            value = getattr(b, k)
+            if c == 2:  # the free joint has no URDF limits or damping
+                value = {"lower": -np.inf, "upper": np.inf, "effort": np.inf, "velocity": np.inf}.get(k, 0.0)
+            per_dof[k].extend([value] * n)
+    P = np.array([b.placement for b in bodies]).reshape(nb, 4, 4)
+    tree = Tree(
+        parents=_frozen([b.parent for b in bodies], np.int64),
+        jtype=_frozen(codes, np.int64),
+        q_idx=_frozen(q_idx, np.int64),
+        v_idx=_frozen(v_idx, np.int64),
+        nv_j=_frozen(nv_j, np.int64),
+        Xrot=_frozen(P[:, :3, :3]),
+        Xpos=_frozen(P[:, :3, 3]),
+        axis=_frozen(np.array([b.axis for b in bodies], float).reshape(nb, 3)),
+        S=_frozen(S.reshape(nv, 6)),
+        mass=_frozen([b.mass for b in bodies]),
+        h=_frozen(np.array([b.h for b in bodies], float).reshape(nb, 3)),
+        Io=_frozen(np.array([b.Io for b in bodies], float).reshape(nb, 3, 3)),
+    )
+    return Model(
+        name=name,
+        nq=int(sum(nq_j)),
+        nv=nv,
+        tree=tree,
+        joint_names=tuple(b.joint_name for b in bodies),
+        joint_types=tuple(b.joint_type for b in bodies),
+        body_names=tuple(b.name for b in bodies),
+        floating_base=floating_base,
+        lower=_frozen(per_dof["lower"]),
+        upper=_frozen(per_dof["upper"]),
+        effort_limit=_frozen(per_dof["effort"]),
+        velocity_limit=_frozen(per_dof["velocity"]),
+        damping=_frozen(per_dof["damping"]),
+        friction=_frozen(per_dof["friction"]),
+        gravity=_frozen(gravity),
+        warnings=tuple(warnings),
+        frames=dict(frames or {}),
+        info=dict(info or {}),
+    )

@@ -1,0 +1,286 @@
+"""URDF -> :class:`~dynamics.model.Model`.
+
+The XML comes from untrusted callers, so it is parsed by a locked-down lxml parser (no DTD, no entity
+expansion, no network, no huge trees, no recovery of broken XML); a document that declares a DOCTYPE is
+refused outright.  yourdfpy then reads links and joints from the parsed elements; no mesh, scene graph or
+any file named inside the URDF is ever opened.
+
+Fixed joints are merged: a link welded to its parent adds its mass, centre of mass and inertia to the
+parent body exactly (parallel-axis theorem, :func:`dynamics.spatial.inertia_to_parent`).
+"""
+
+import os
+
+import numpy as np
+from lxml import etree
+from yourdfpy import URDF
+
+from .errors import URDFError
+from .model import BodySpec, Model, build_model
+
+#: largest URDF accepted by the library (the service applies its own, smaller limit)
+MAX_URDF_BYTES = 64 * 1024 * 1024
+#: inertia check: a relative violation of positive-definiteness / the triangle inequality below WARN is
+#: accepted silently (round-off), below REFUSE it is accepted with a warning (real URDFs such as Talos are
+#: slightly off), above REFUSE the URDF is refused.
+INERTIA_WARN = 1e-9
+INERTIA_REFUSE = 1e-2
+
+_MOVABLE = ("revolute", "continuous", "prismatic", "floating")
+_KNOWN = _MOVABLE + ("fixed", "planar")
+
+
+def _safe_parser():
+    return etree.XMLParser(
+        resolve_entities=False, no_network=True, load_dtd=False, dtd_validation=False, huge_tree=False,
+        recover=False, remove_comments=True, remove_pis=True, remove_blank_text=True, collect_ids=False,
+    )
+
+
+def _read_source(source) -> bytes:
+    if isinstance(source, (bytes, bytearray, memoryview)):
+        return bytes(source)
+    if isinstance(source, str) and source.lstrip().startswith("<"):
+        return source.encode("utf-8")
+    if isinstance(source, (str, os.PathLike)):
+        path = os.fspath(source)
+        if not os.path.isfile(path):
+            raise URDFError(f"URDF source: {path!r} is neither URDF text nor an existing file")
+        if os.path.getsize(path) > MAX_URDF_BYTES:
+            raise URDFError(f"URDF source: {path!r} is larger than {MAX_URDF_BYTES} bytes")
+        with open(path, "rb") as fh:
+            return fh.read()
+    raise URDFError(f"URDF source: expected a path, str or bytes, got {type(source).__name__}")
+
+
+def parse_xml(data: bytes):
+    """Parse untrusted URDF bytes into an lxml element, refusing DTDs, entities and broken XML."""
+    if len(data) > MAX_URDF_BYTES:
+        raise URDFError(f"URDF is larger than {MAX_URDF_BYTES} bytes")
+    head = data[:4096].lower()
+    if b"<!doctype" in head or b"<!entity" in data.lower():
+        raise URDFError("URDF: DOCTYPE and ENTITY declarations are not allowed")
+    try:
+        root = etree.fromstring(data, parser=_safe_parser())
+    except etree.XMLSyntaxError as e:
+        raise URDFError(f"URDF is not well-formed XML: {e}") from None
+    if root.getroottree().docinfo.doctype:
+        raise URDFError("URDF: DOCTYPE declarations are not allowed")
+    if root.tag != "robot":
+        raise URDFError(f"URDF root element is <{root.tag}>, expected <robot>")
+    return root
+
+
+def _finite(what, *values):
+    for v in values:
+        if not np.all(np.isfinite(np.asarray(v, dtype=float))):
+            raise URDFError(f"{what}: non-finite number")
+
+
+def _check_inertia(link, mass, I, warnings):
+    """Refuse a negative mass or an inertia that no body can have; warn on small violations."""
+    if mass < 0:
+        raise URDFError(f"link {link!r}: negative mass {mass}")
+    if not np.allclose(I, I.T):
+        raise URDFError(f"link {link!r}: inertia matrix is not symmetric")
+    scale = max(np.trace(I), 1e-300)
+    ev = np.linalg.eigvalsh(I)
+    neg = max(0.0, -ev[0]) / scale
+    tri = max(0.0, ev[2] - ev[0] - ev[1]) / scale  # principal moments: I3 <= I1 + I2
+    bad = max(neg, tri)
+    if np.trace(I) == 0.0 and np.any(I != 0):
+        bad = 1.0
+    if bad > INERTIA_REFUSE:
+        what = "not positive semidefinite" if neg >= tri else "violates the triangle inequality"
+        raise URDFError(f"link {link!r}: inertia {what} (principal moments {ev.tolist()})")
+    if bad > INERTIA_WARN:
+        warnings.append(f"link {link!r}: inertia slightly off physical (relative violation {bad:.1e}); used as is")
+
+
+def _origin(T, what):
+    T = np.eye(4) if T is None else np.asarray(T, float)
+    if T.shape != (4, 4):
+        raise URDFError(f"{what} origin: expected xyz and rpy with 3 numbers each")
+    _finite(what + " origin", T)
+    return T
+
+
+def load_urdf(source, *, floating_base: bool = False) -> Model:
+    """Build a :class:`~dynamics.model.Model` from a URDF path or URDF text (str or bytes).
+
+    ``floating_base=True`` gives the root link a free joint ("root_joint"): q = [x, y, z, qx, qy, qz, qw, ...],
+    v = [linear, angular velocity in the base frame, ...].  A URDF ``floating`` joint means the same.
+    Raises :class:`~dynamics.URDFError` naming the link or joint when the URDF cannot describe a tree of
+    rigid bodies.
+    """
+    root = parse_xml(_read_source(source))
+    warnings = []
+    name = root.get("name") or "robot"
+
+    links, joints = {}, []
+    for el in root.findall("link"):
+        lname = el.get("name")
+        if not lname:
+            raise URDFError("a <link> has no name attribute")
+        if lname in links:
+            raise URDFError(f"link {lname!r} is defined twice")
+        inertia = el.find("inertial/inertia")
+        if inertia is not None:
+            missing = [k for k in ("ixx", "ixy", "ixz", "iyy", "iyz", "izz") if inertia.get(k) is None]
+            if missing:
+                raise URDFError(f"link {lname!r}: <inertia> is missing {missing}")
+        try:
+            links[lname] = URDF._parse_link(el)
+        except Exception as e:  # yourdfpy raises whatever float() or numpy raise
+            raise URDFError(f"link {lname!r}: cannot read it ({e})") from None
+    if not links:
+        raise URDFError("URDF has no <link>")
+    seen = set()
+    for el in root.findall("joint"):
+        jname = el.get("name")
+        if not jname:
+            raise URDFError("a <joint> has no name attribute")
+        if jname in seen:
+            raise URDFError(f"joint {jname!r} is defined twice")
+        seen.add(jname)
+        jtype = el.get("type")
+        if jtype not in _KNOWN:
+            raise URDFError(f"joint {jname!r}: unknown type {jtype!r}, expected one of {list(_KNOWN)}")
+        for tag in ("parent", "child"):
+            sub = el.find(tag)
+            if sub is None or not sub.get("link"):
+                raise URDFError(f"joint {jname!r}: missing <{tag} link=...>")
+        try:
+            joints.append(URDF._parse_joint(el))
+        except Exception as e:
+            raise URDFError(f"joint {jname!r}: cannot read it ({e})") from None
+
+    # --- tree structure ---------------------------------------------------------------------------
+    parent_joint, children = {}, {n: [] for n in links}
+    for j in joints:
+        for role, lname in (("parent", j.parent), ("child", j.child)):
+            if lname not in links:
+                raise URDFError(f"joint {j.name!r}: unknown {role} link {lname!r}")
+        if j.child in parent_joint:
+            raise URDFError(f"link {j.child!r} has two parents (joints {parent_joint[j.child].name!r} "
+                            f"and {j.name!r})")
+        if j.type == "planar":
+            raise URDFError(f"joint {j.name!r}: planar joints are not supported; model it as two prismatic "
+                            f"joints and a revolute joint")
+        parent_joint[j.child] = j
+        children[j.parent].append(j)
+    roots = [n for n in links if n not in parent_joint]
+    if not roots:
+        raise URDFError("URDF kinematic graph has a cycle: every link has a parent")
+    if len(roots) > 1:
+        raise URDFError(f"URDF has more than one root link: {roots}; expected one tree")
+    root_link = roots[0]
+
+    # --- walk the tree depth first, merging fixed joints ------------------------------------------
+    bodies, frames = [], {}
+    merged_fixed, massless = [], []
+    if floating_base:
+        bodies.append(BodySpec(name=root_link, joint_name="root_joint", joint_type="floating", parent=-1,
+                               placement=np.eye(4), axis=np.zeros(3)))
+    root_body = 0 if floating_base else -1
+    # stack of (link, joint into it or None, body of the joint's parent link, joint pose in that body)
+    stack = [(root_link, None, root_body, np.eye(4))]
+    visited = 0
+    while stack:
+        lname, j, body, T = stack.pop()
+        visited += 1
+        if j is not None and j.type != "fixed":
+            bodies.append(_movable_body(j, body, T))
+            body, T = len(bodies) - 1, np.eye(4)
+        frames[lname] = (body, T)
+        _add_link_inertia(links[lname], body, T, bodies, warnings)
+        for j in reversed(children[lname]):  # reversed: the first child is popped first
+            J = _origin(j.origin, f"joint {j.name!r}")
+            if j.type == "fixed":
+                merged_fixed.append(j.name)
+            elif j.type == "floating" and floating_base and lname == root_link:
+                raise URDFError(f"joint {j.name!r}: the URDF already has a floating joint; load it with "
+                                f"floating_base=False")
+            elif j.mimic is not None:
+                warnings.append(f"joint {j.name!r} mimics {j.mimic.joint!r}; it is treated as an independent "
+                                f"joint")
+            stack.append((j.child, j, body, T @ J))
+    if visited != len(links):
+        lost = sorted(set(links) - set(frames))
+        raise URDFError(f"URDF kinematic graph has a cycle through links {lost}")
+    for b in bodies:
+        if b.mass == 0.0:
+            massless.append(b.name)
+
+    info = {
+        "urdf_links": len(links),
+        "urdf_joints": len(joints),
+        "fixed_joints_merged": merged_fixed,
+        "massless_bodies": massless,
+        "meshes_loaded": 0,
+    }
+    return build_model(name, bodies, floating_base=floating_base or any(
+        b.joint_type == "floating" for b in bodies), warnings=warnings, frames=frames, info=info)
+
+
+def _movable_body(j, parent_body, placement):
+    what = f"joint {j.name!r}"
+    axis = np.asarray(j.axis if j.axis is not None else (1.0, 0.0, 0.0), float)
+    if axis.shape != (3,):
+        raise URDFError(f"{what}: axis must have 3 numbers, got {axis.size}")
+    _finite(what + " axis", axis)
+    n = np.linalg.norm(axis)
+    if j.type != "floating":
+        if n < 1e-12:
+            raise URDFError(f"{what}: joint axis is zero")
+        axis = axis / n
+    spec = BodySpec(name=j.child, joint_name=j.name, joint_type=j.type, parent=parent_body,
+                    placement=placement, axis=axis)
+    if j.type in ("revolute", "prismatic") and j.limit is not None:
+        lo = -np.inf if j.limit.lower is None else j.limit.lower
+        hi = np.inf if j.limit.upper is None else j.limit.upper
+        _finite(what + " limit", lo if np.isfinite(lo) else 0.0, hi if np.isfinite(hi) else 0.0)
+        if lo > hi:
+            raise URDFError(f"{what}: lower limit {lo} is above upper limit {hi}")
+        spec.lower, spec.upper = float(lo), float(hi)
+    if j.type != "floating" and j.limit is not None:
+        for attr in ("effort", "velocity"):
+            val = getattr(j.limit, attr)
+            if val is not None:
+                if not np.isfinite(val) or val < 0:
+                    raise URDFError(f"{what}: limit {attr} must be a finite number >= 0, got {val}")
+                setattr(spec, attr, float(val))
+    if j.dynamics is not None:
+        for attr in ("damping", "friction"):
+            val = getattr(j.dynamics, attr)
+            if val is not None:
+                try:
+                    val = float(val)
+                except ValueError:
+                    raise URDFError(f"{what}: dynamics {attr} {val!r} is not a number") from None
+                if not np.isfinite(val) or val < 0:
+                    raise URDFError(f"{what}: dynamics {attr} must be a finite number >= 0, got {val}")
+                setattr(spec, attr, float(val))
+    return spec
+
+
+def _add_link_inertia(link, body, T, bodies, warnings):
+    """Add the link's inertial to its body; links welded to the world (body -1) only get checked."""
+    inertial = link.inertial
+    if inertial is None:
+        return
+    what = f"link {link.name!r}"
+    m = float(inertial.mass or 0.0)
+    Ic = np.zeros((3, 3)) if inertial.inertia is None else np.asarray(inertial.inertia, dtype=float)
+    _finite(what + " mass", m)
+    _finite(what + " inertia", Ic)
+    O = _origin(inertial.origin, what + " inertial")
+    _check_inertia(link.name, m, Ic, warnings)
+    if body < 0 or (m == 0.0 and not Ic.any()):
+        return
+    R = T[:3, :3] @ O[:3, :3]
+    c = T[:3, :3] @ O[:3, 3] + T[:3, 3]
+    b = bodies[body]
+    b.mass += m
+    b.h = b.h + m * c
+    b.Io = b.Io + R @ Ic @ R.T + m * (np.dot(c, c) * np.eye(3) - np.outer(c, c))
