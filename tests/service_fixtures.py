@@ -1,0 +1,103 @@
+"""Helpers shared by the service tests: a real uvicorn server process on a free loopback port.
+
+Not a conftest: the test modules import what they need. One default server is shared by every module of the
+session (:func:`shared_server`), because each start imports numba and loads the compiled kernels (seconds).
+"""
+
+from __future__ import annotations
+
+import atexit
+import os
+import signal
+import socket
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import httpx
+
+REPO = Path(__file__).resolve().parent.parent
+ROBOTS = REPO / "robots"
+PYTHON = sys.executable
+
+
+def free_port() -> int:
+    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+class Server:
+    """``python -m service`` in a child process; ``url`` once :meth:`start` returned."""
+
+    def __init__(self, store: Path, *, env: dict[str, str] | None = None, cwd: Path | None = None,
+                 python: str = PYTHON, args: list[str] | None = None):
+        self.store = Path(store)
+        self.port = free_port()
+        self.url = f"http://127.0.0.1:{self.port}"
+        self.cwd = Path(cwd) if cwd else self.store.parent
+        self.python = python
+        self.args = args or []
+        self.env = {**os.environ, "DYNAMICS_ROBOTS_DIR": str(ROBOTS), "DYNAMICS_SIM_WORKERS": "1",
+                    "DYNAMICS_COMPUTE_THREADS": "2", **(env or {})}
+        self.proc: subprocess.Popen | None = None
+        self.log = self.cwd / f"server-{self.port}.log"
+
+    def start(self, timeout: float = 120.0) -> "Server":
+        self.cwd.mkdir(parents=True, exist_ok=True)
+        with open(self.log, "ab") as log:
+            self.proc = subprocess.Popen(
+                [self.python, "-m", "service", "--host", "127.0.0.1", "--port", str(self.port),
+                 "--store", str(self.store), "--log-level", "warning", *self.args],
+                cwd=self.cwd, env=self.env, stdout=log, stderr=subprocess.STDOUT, start_new_session=True)
+        deadline = time.monotonic() + timeout
+        while time.monotonic() < deadline:
+            if self.proc.poll() is not None:
+                raise RuntimeError(f"server exited with {self.proc.returncode}:\n{self.log.read_text()[-3000:]}")
+            try:
+                if httpx.get(self.url + "/v1/health", timeout=1.0).status_code == 200:
+                    return self
+            except httpx.TransportError:
+                pass
+            time.sleep(0.1)
+        self.stop()
+        raise RuntimeError(f"server did not answer within {timeout} s:\n{self.log.read_text()[-3000:]}")
+
+    def kill(self) -> None:
+        """SIGKILL the server and its process group (simulation workers included), as a crash would."""
+        if self.proc and self.proc.poll() is None:
+            os.killpg(self.proc.pid, signal.SIGKILL)
+            self.proc.wait(10)
+
+    def stop(self) -> None:
+        if self.proc and self.proc.poll() is None:
+            self.proc.terminate()
+            try:
+                self.proc.wait(15)
+            except subprocess.TimeoutExpired:
+                pass
+            try:  # whatever is left of the group (workers whose parent was stopped)
+                os.killpg(self.proc.pid, signal.SIGKILL)
+            except ProcessLookupError:
+                pass
+            self.proc.wait(10)
+
+    def rss_kib(self) -> int:
+        with open(f"/proc/{self.proc.pid}/status") as f:
+            for line in f:
+                if line.startswith("VmRSS:"):
+                    return int(line.split()[1])
+        return 0
+
+
+_shared: dict[str, Server] = {}
+
+
+def shared_server(tmp_root: Path) -> Server:
+    """The session's default server (no API keys, default limits), started on first use."""
+    if "default" not in _shared:
+        server = Server(tmp_root / "store").start()
+        _shared["default"] = server
+        atexit.register(server.stop)
+    return _shared["default"]
