@@ -22,9 +22,12 @@ from .model import BodySpec, Model, build_model
 MAX_URDF_BYTES = 64 * 1024 * 1024
 #: inertia check: a relative violation of positive-definiteness / the triangle inequality below WARN is
 #: accepted silently (round-off), below REFUSE it is accepted with a warning (real URDFs such as Talos are
-#: slightly off), above REFUSE the URDF is refused.
+#: slightly off), above REFUSE the URDF is refused unless strict_inertia=False (several published URDFs,
+#: e.g. ANYmal's dummy base link or PR2's sensor mounts, are far off; Pinocchio loads them as they are).
 INERTIA_WARN = 1e-9
 INERTIA_REFUSE = 1e-2
+#: violations smaller than this (kg m^2) are round-off in any real robot and pass silently
+INERTIA_ABS_TOL = 1e-12
 
 _MOVABLE = ("revolute", "continuous", "prismatic", "floating")
 _KNOWN = _MOVABLE + ("fixed", "planar")
@@ -77,24 +80,25 @@ def _finite(what, *values):
             raise URDFError(f"{what}: non-finite number")
 
 
-def _check_inertia(link, mass, I, warnings):
-    """Refuse a negative mass or an inertia that no body can have; warn on small violations."""
+def _check_inertia(link, mass, I, warnings, strict):
+    """Refuse a negative mass; refuse (strict) or warn about an inertia no rigid body can have."""
     if mass < 0:
         raise URDFError(f"link {link!r}: negative mass {mass}")
     if not np.allclose(I, I.T):
         raise URDFError(f"link {link!r}: inertia matrix is not symmetric")
-    scale = max(np.trace(I), 1e-300)
     ev = np.linalg.eigvalsh(I)
-    neg = max(0.0, -ev[0]) / scale
-    tri = max(0.0, ev[2] - ev[0] - ev[1]) / scale  # principal moments: I3 <= I1 + I2
+    neg = max(0.0, -ev[0])
+    tri = max(0.0, ev[2] - ev[0] - ev[1])  # principal moments must obey I3 <= I1 + I2
     bad = max(neg, tri)
-    if np.trace(I) == 0.0 and np.any(I != 0):
-        bad = 1.0
-    if bad > INERTIA_REFUSE:
-        what = "not positive semidefinite" if neg >= tri else "violates the triangle inequality"
-        raise URDFError(f"link {link!r}: inertia {what} (principal moments {ev.tolist()})")
-    if bad > INERTIA_WARN:
-        warnings.append(f"link {link!r}: inertia slightly off physical (relative violation {bad:.1e}); used as is")
+    rel = bad / max(abs(np.trace(I)), 1e-300)
+    if bad <= INERTIA_ABS_TOL or rel <= INERTIA_WARN:
+        return
+    what = "is not positive semidefinite" if neg >= tri else "violates the triangle inequality"
+    msg = (f"link {link!r}: inertia {what} (principal moments {np.array2string(ev, precision=4)}, "
+           f"relative violation {rel:.1e})")
+    if strict and rel > INERTIA_REFUSE:
+        raise URDFError(msg + "; fix the URDF, or load it with strict_inertia=False to accept it with a warning")
+    warnings.append(msg + "; used as is")
 
 
 def _origin(T, what):
@@ -105,13 +109,14 @@ def _origin(T, what):
     return T
 
 
-def load_urdf(source, *, floating_base: bool = False) -> Model:
+def load_urdf(source, *, floating_base: bool = False, strict_inertia: bool = True) -> Model:
     """Build a :class:`~dynamics.model.Model` from a URDF path or URDF text (str or bytes).
 
     ``floating_base=True`` gives the root link a free joint ("root_joint"): q = [x, y, z, qx, qy, qz, qw, ...],
     v = [linear, angular velocity in the base frame, ...].  A URDF ``floating`` joint means the same.
     Raises :class:`~dynamics.URDFError` naming the link or joint when the URDF cannot describe a tree of
-    rigid bodies.
+    rigid bodies.  ``strict_inertia=False`` accepts inertias that violate positive-definiteness or the
+    triangle inequality by more than 1 % (with a warning in ``model.warnings``) instead of refusing them.
     """
     root = parse_xml(_read_source(source))
     warnings = []
@@ -193,7 +198,7 @@ def load_urdf(source, *, floating_base: bool = False) -> Model:
             bodies.append(_movable_body(j, body, T))
             body, T = len(bodies) - 1, np.eye(4)
         frames[lname] = (body, T)
-        _add_link_inertia(links[lname], body, T, bodies, warnings)
+        _add_link_inertia(links[lname], body, T, bodies, warnings, strict_inertia)
         for j in reversed(children[lname]):  # reversed: the first child is popped first
             J = _origin(j.origin, f"joint {j.name!r}")
             if j.type == "fixed":
@@ -264,7 +269,7 @@ def _movable_body(j, parent_body, placement):
     return spec
 
 
-def _add_link_inertia(link, body, T, bodies, warnings):
+def _add_link_inertia(link, body, T, bodies, warnings, strict):
     """Add the link's inertial to its body; links welded to the world (body -1) only get checked."""
     inertial = link.inertial
     if inertial is None:
@@ -275,7 +280,7 @@ def _add_link_inertia(link, body, T, bodies, warnings):
     _finite(what + " mass", m)
     _finite(what + " inertia", Ic)
     O = _origin(inertial.origin, what + " inertial")
-    _check_inertia(link.name, m, Ic, warnings)
+    _check_inertia(link.name, m, Ic, warnings, strict)
     if body < 0 or (m == 0.0 and not Ic.any()):
         return
     R = T[:3, :3] @ O[:3, :3]
