@@ -1,0 +1,418 @@
+"""Core benchmarks (issue 2, section 5): `python -m benchmarks.core`.
+
+Per robot (Panda, UR5 and Talos from example-robot-data, found at run time through the installed
+package, never copied; a generated 200-link chain), in one run:
+
+* batched per-state time on B states (default 10,000) of inverse dynamics, forward dynamics and the
+  mass matrix, as ratios to Pinocchio's `rneaInParallel` / `abaInParallel` with 2 threads (one
+  `pin.ModelPool`) and to a Python loop over `pin.crba` (Pinocchio has no batched CRBA);
+* single-call latency of `inverse_dynamics` as a ratio to one `pin.rnea` call from Python;
+* cold start in a fresh subprocess (import, load_urdf, first calls) with the numba cache warm and
+  with NUMBA_CACHE_DIR pointed at an empty temporary directory;
+* cost growth: per-state time of batched RNEA and ABA on chains of 20, 200 and 1000 links.
+
+Ratios are ours / Pinocchio's: below 1.0 we are faster.  Every timing is the best of --repeat runs
+(the machine is shared, so the minimum is the least disturbed measurement).  Before timing, each
+robot's results are compared with Pinocchio's on a few states (the "check" column: max relative
+difference), so both sides compute the same thing.  The tables are printed and written to
+benchmarks/out/core.md (git-ignored).
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib.metadata
+import json
+import os
+import platform
+import subprocess
+import sys
+import tempfile
+import textwrap
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+OUT = Path(__file__).resolve().parent / "out" / "core.md"
+PIN_THREADS = 2
+
+
+# ---------------------------------------------------------------------------------------------
+# Robots
+# ---------------------------------------------------------------------------------------------
+
+
+def erd_robots_dir() -> Path:
+    """example-robot-data's robots directory, from the installed distribution (never copied)."""
+    dist = importlib.metadata.distribution("example-robot-data")
+    return Path(dist.locate_file("cmeel.prefix/share/example-robot-data/robots"))
+
+
+def chain_urdf(n: int, seed: int = 0) -> str:
+    """A serial chain of n revolute joints with axes cycling x, y, z, rotated joint origins and
+    offset, non-diagonal inertias: a generic spatial chain, not a planar one."""
+    rng = np.random.default_rng(seed)
+    axes = ["1 0 0", "0 1 0", "0 0 1"]
+    parts = [f'<robot name="chain{n}">', '<link name="link0"/>']
+    for i in range(1, n + 1):
+        rpy = " ".join(f"{x:.6f}" for x in rng.uniform(-0.3, 0.3, 3))
+        com = " ".join(f"{x:.6f}" for x in rng.uniform(-0.02, 0.02, 2)) + " 0.05"
+        m = rng.uniform(0.5, 1.5)
+        d = rng.uniform(0.005, 0.01, 3)
+        off = rng.uniform(-0.001, 0.001, 3)  # small products of inertia, tensor stays valid
+        parts.append(
+            f'<joint name="joint{i}" type="revolute"><parent link="link{i - 1}"/>'
+            f'<child link="link{i}"/><origin xyz="0 0 0.1" rpy="{rpy}"/>'
+            f'<axis xyz="{axes[i % 3]}"/><limit lower="-3.14" upper="3.14" effort="100" velocity="10"/></joint>'
+        )
+        parts.append(
+            f'<link name="link{i}"><inertial><origin xyz="{com}" rpy="0 0 0"/><mass value="{m:.6f}"/>'
+            f'<inertia ixx="{d[0]:.6f}" ixy="{off[0]:.6f}" ixz="{off[1]:.6f}" iyy="{d[1]:.6f}" '
+            f'iyz="{off[2]:.6f}" izz="{d[2]:.6f}"/></inertial></link>'
+        )
+    parts.append("</robot>")
+    return "\n".join(parts)
+
+
+@dataclass
+class Robot:
+    label: str
+    source: str  # path or URDF text
+    floating_base: bool = False
+
+
+def benchmark_robots() -> list[Robot]:
+    d = erd_robots_dir()
+    return [
+        Robot("Panda", str(d / "panda_description/urdf/panda.urdf")),
+        Robot("UR5", str(d / "ur_description/urdf/ur5_robot.urdf")),
+        Robot("Talos (floating)", str(d / "talos_data/robots/talos_full_v2.urdf"), True),
+        Robot("chain-200", chain_urdf(200)),
+    ]
+
+
+def load_pinocchio(pin, robot: Robot):
+    root = [pin.JointModelFreeFlyer()] if robot.floating_base else []
+    if robot.source.lstrip().startswith("<"):
+        return pin.buildModelFromXML(robot.source, *root)
+    return pin.buildModelFromUrdf(robot.source, *root)
+
+
+# ---------------------------------------------------------------------------------------------
+# States, mapped to Pinocchio's coordinates by joint name
+# ---------------------------------------------------------------------------------------------
+
+
+class PinMap:
+    """Maps our (B, nq) / (B, nv) arrays to Pinocchio's, joint by joint (by name).  Continuous
+    joints become Pinocchio's (cos, sin) pair; the free-flyer layouts are the same."""
+
+    def __init__(self, model, pm):
+        self.model, self.pm = model, pm
+        self.q_pairs = []  # (our q slice, pin q index, nq, is_cos_sin)
+        self.v_perm = np.empty(pm.nv, dtype=np.int64)  # pin v index -> our v index
+        pin_ids = {name: i for i, name in enumerate(pm.names)}
+        for j, name in enumerate(model.joint_names):
+            pj = pm.joints[pin_ids["root_joint" if model.joint_types[j] == "floating" else name]]
+            qi, vi, nvj = int(model.q_index[j]), int(model.v_index[j]), int(model.nv_joint[j])
+            self.q_pairs.append((qi, pj.idx_q, int(model.nq_joint[j]), pj.nq == 2 and pj.nv == 1))
+            self.v_perm[pj.idx_v : pj.idx_v + nvj] = np.arange(vi, vi + nvj)
+
+    def q(self, Q):
+        out = np.empty((Q.shape[0], self.pm.nq))
+        for qi, pqi, nq, cos_sin in self.q_pairs:
+            if cos_sin:
+                out[:, pqi], out[:, pqi + 1] = np.cos(Q[:, qi]), np.sin(Q[:, qi])
+            else:
+                out[:, pqi : pqi + nq] = Q[:, qi : qi + nq]
+        return out
+
+    def v(self, V):
+        return np.ascontiguousarray(V[:, self.v_perm])
+
+
+def random_states(model, B, rng):
+    Q = rng.uniform(-np.pi, np.pi, (B, model.nq))
+    for j, kind in enumerate(model.joint_types):
+        if kind == "floating":
+            k = int(model.q_index[j])
+            Q[:, k : k + 3] = rng.uniform(-1, 1, (B, 3))
+            quat = rng.normal(size=(B, 4))
+            Q[:, k + 3 : k + 7] = quat / np.linalg.norm(quat, axis=1, keepdims=True)
+    V = rng.uniform(-2, 2, (B, model.nv))
+    A = rng.uniform(-5, 5, (B, model.nv))
+    TAU = rng.uniform(-20, 20, (B, model.nv))
+    return Q, V, A, TAU
+
+
+# ---------------------------------------------------------------------------------------------
+# Timing
+# ---------------------------------------------------------------------------------------------
+
+
+def best_time(fn, repeat: int, number: int = 1) -> float:
+    """Best (smallest) time of one call over `repeat` runs of `number` calls each, in seconds."""
+    best = float("inf")
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        for _ in range(number):
+            fn()
+        best = min(best, (time.perf_counter() - t0) / number)
+    return best
+
+
+def rel_diff(a, b) -> float:
+    a, b = np.asarray(a), np.asarray(b)
+    return float(np.max(np.abs(a - b)) / max(np.max(np.abs(b)), 1e-300))
+
+
+def bench_robot(dyn, pin, robot: Robot, B: int, repeat: int, rng) -> dict:
+    model = dyn.load_urdf(robot.source, floating_base=robot.floating_base)
+    pm = load_pinocchio(pin, robot)
+    assert (pm.nv, pm.njoints - 1) == (model.nv, model.nbodies), robot.label
+    pmap = PinMap(model, pm)
+    Q, V, A, TAU = random_states(model, B, rng)
+    # Pinocchio wants (n, B) column-major matrices: the transpose of a C-ordered (B, n) array
+    Qp, Vp, Ap, TAUp = pmap.q(Q), pmap.v(V), pmap.v(A), pmap.v(TAU)
+    Qc, Vc, Ac, TAUc = Qp.T, Vp.T, Ap.T, TAUp.T
+    pool = pin.ModelPool(pm, PIN_THREADS)
+    pd = pm.createData()
+    out_p = np.zeros((pm.nv, B), order="F")
+
+    # same results on both sides (and the first calls compile / warm everything)
+    k = min(B, 5)
+    check = 0.0
+    tau = dyn.inverse_dynamics(model, Q[:k], V[:k], A[:k])
+    acc = dyn.forward_dynamics(model, Q[:k], V[:k], TAU[:k])
+    M = dyn.mass_matrix(model, Q[:k])
+    for i in range(k):
+        check = max(check, rel_diff(pmap.v(tau[i : i + 1])[0], pin.rnea(pm, pd, Qp[i], Vp[i], Ap[i])))
+        check = max(check, rel_diff(pmap.v(acc[i : i + 1])[0], pin.aba(pm, pd, Qp[i], Vp[i], TAUp[i])))
+        Mp = pin.crba(pm, pd, Qp[i])
+        Mp = np.triu(Mp) + np.triu(Mp, 1).T
+        check = max(check, rel_diff(M[i][np.ix_(pmap.v_perm, pmap.v_perm)], Mp))
+
+    r = {"robot": robot.label, "nq": model.nq, "nv": model.nv, "nbodies": model.nbodies, "check": check}
+    r["id"] = best_time(lambda: dyn.inverse_dynamics(model, Q, V, A), repeat) / B
+    r["id_pin"] = best_time(lambda: pin.rneaInParallel(PIN_THREADS, pool, Qc, Vc, Ac, out_p), repeat) / B
+    r["fd"] = best_time(lambda: dyn.forward_dynamics(model, Q, V, TAU), repeat) / B
+    r["fd_pin"] = best_time(lambda: pin.abaInParallel(PIN_THREADS, pool, Qc, Vc, TAUc, out_p), repeat) / B
+    r["m"] = best_time(lambda: dyn.mass_matrix(model, Q), repeat) / B
+
+    def crba_loop():
+        for i in range(B):
+            pin.crba(pm, pd, Qp[i])
+
+    r["m_pin"] = best_time(crba_loop, repeat) / B
+
+    q1, v1, a1 = Q[0].copy(), V[0].copy(), A[0].copy()
+    qp1, vp1, ap1 = Qp[0].copy(), Vp[0].copy(), Ap[0].copy()
+    n_calls = 2000
+    r["single"] = best_time(lambda: dyn.inverse_dynamics(model, q1, v1, a1), repeat, n_calls)
+    r["single_pin"] = best_time(lambda: pin.rnea(pm, pd, qp1, vp1, ap1), repeat, n_calls)
+    return r
+
+
+def bench_growth(dyn, pin, n: int, B: int, repeat: int, rng) -> dict:
+    robot = Robot(f"chain-{n}", chain_urdf(n))
+    model = dyn.load_urdf(robot.source)
+    pm = load_pinocchio(pin, robot)
+    Q, V, A, TAU = random_states(model, B, rng)
+    Qc, Vc, Ac, TAUc = Q.T, V.T, A.T, TAU.T  # chain: same coordinates on both sides
+    pool = pin.ModelPool(pm, PIN_THREADS)
+    out_p = np.zeros((pm.nv, B), order="F")
+    dyn.inverse_dynamics(model, Q[:2], V[:2], A[:2])
+    dyn.forward_dynamics(model, Q[:2], V[:2], TAU[:2])
+    return {
+        "n": n,
+        "B": B,
+        "id": best_time(lambda: dyn.inverse_dynamics(model, Q, V, A), repeat) / B,
+        "fd": best_time(lambda: dyn.forward_dynamics(model, Q, V, TAU), repeat) / B,
+        "id_pin": best_time(lambda: pin.rneaInParallel(PIN_THREADS, pool, Qc, Vc, Ac, out_p), repeat) / B,
+        "fd_pin": best_time(lambda: pin.abaInParallel(PIN_THREADS, pool, Qc, Vc, TAUc, out_p), repeat) / B,
+    }
+
+
+COLD_SCRIPT = textwrap.dedent(
+    """
+    import json, sys, time
+    import numpy as np
+    t0 = time.perf_counter()
+    import dynamics
+    t1 = time.perf_counter()
+    m = dynamics.load_urdf(sys.argv[1])
+    t2 = time.perf_counter()
+    q = np.zeros(m.nq); v = np.zeros(m.nv)
+    dynamics.inverse_dynamics(m, q, v, v)
+    t3 = time.perf_counter()
+    dynamics.forward_dynamics(m, q, v, v)
+    dynamics.mass_matrix(m, q)
+    Q = np.zeros((256, m.nq)); V = np.zeros((256, m.nv))
+    dynamics.inverse_dynamics(m, Q, V, V)
+    dynamics.forward_dynamics(m, Q, V, V)
+    dynamics.mass_matrix(m, Q)
+    t4 = time.perf_counter()
+    print(json.dumps({"import": t1 - t0, "load": t2 - t1, "first_id": t3 - t2, "all_first": t4 - t0}))
+    """
+)
+
+
+def cold_start(urdf: str, cache_dir: str | None) -> dict:
+    """Run COLD_SCRIPT in a fresh interpreter; cache_dir = None leaves numba's cache where it is."""
+    env = dict(os.environ)
+    if cache_dir is None:
+        env.pop("NUMBA_CACHE_DIR", None)
+    else:
+        env["NUMBA_CACHE_DIR"] = cache_dir
+    t0 = time.perf_counter()
+    out = subprocess.run(
+        [sys.executable, "-c", COLD_SCRIPT, urdf], env=env, capture_output=True, text=True, check=True
+    )
+    r = json.loads(out.stdout.strip().splitlines()[-1])
+    r["process"] = time.perf_counter() - t0
+    return r
+
+
+def bench_cold(urdf: str, repeat: int) -> dict:
+    cold_start(urdf, None)  # make sure the default cache is populated
+    warm = min((cold_start(urdf, None) for _ in range(repeat)), key=lambda r: r["process"])
+    runs = []
+    for _ in range(max(1, min(repeat, 2))):  # a cold compile is expensive: at most 2 runs
+        with tempfile.TemporaryDirectory(prefix="numba-cold-") as d:
+            runs.append(cold_start(urdf, d))
+    cold = min(runs, key=lambda r: r["process"])
+    return {"warm": warm, "cold": cold}
+
+
+# ---------------------------------------------------------------------------------------------
+# Report
+# ---------------------------------------------------------------------------------------------
+
+
+def us(t):
+    return f"{t * 1e6:.2f}"
+
+
+def machine_header(B, repeat) -> list[str]:
+    import numba
+    import pinocchio as pin
+
+    cpu = platform.processor() or platform.machine()
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                cpu = line.split(":", 1)[1].strip()
+                break
+    except OSError:
+        pass
+    load = ", ".join(f"{x:.2f}" for x in os.getloadavg()) if hasattr(os, "getloadavg") else "n/a"
+    from dynamics.batch import num_threads
+
+    return [
+        f"Machine: {cpu}, {os.cpu_count()} logical CPUs, load average at start {load}.  "
+        f"Python {platform.python_version()}, numpy {np.__version__}, numba {numba.__version__}, "
+        f"Pinocchio {pin.__version__}.",
+        f"Batched runs: {B} states; our batch uses {num_threads()} threads, Pinocchio {PIN_THREADS} "
+        f"(ModelPool).  Every time is the best of {repeat} runs.  Ratio = ours / Pinocchio (< 1: we are faster).",
+    ]
+
+
+def tables(header, rows, growth, cold, cold_robot) -> str:
+    L = ["# Core benchmarks (`python -m benchmarks.core`)", ""] + header + [""]
+    L += [
+        "## Batched, per state (us), and single-call latency",
+        "",
+        "| robot | nq/nv | ID | rneaInParallel | ratio | FD | abaInParallel | ratio | M | loop of pin.crba | ratio "
+        "| one ID call | one pin.rnea | ratio | check |",
+        "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|",
+    ]
+    for r in rows:
+        L.append(
+            f"| {r['robot']} | {r['nq']}/{r['nv']} | {us(r['id'])} | {us(r['id_pin'])} | {r['id'] / r['id_pin']:.2f} "
+            f"| {us(r['fd'])} | {us(r['fd_pin'])} | {r['fd'] / r['fd_pin']:.2f} "
+            f"| {us(r['m'])} | {us(r['m_pin'])} | {r['m'] / r['m_pin']:.2f} "
+            f"| {us(r['single'])} | {us(r['single_pin'])} | {r['single'] / r['single_pin']:.2f} | {r['check']:.0e} |"
+        )
+    L += ["", "Targets: batched ratios <= 1.0, single-call ratio <= 1.5.", ""]
+    if growth:
+        base = growth[0]
+        L += [
+            "## Cost growth on chains (batched, per state)",
+            "",
+            "| links | states | RNEA (us) | ns/link | pin (us) | ratio | ABA (us) | ns/link | pin (us) | ratio |",
+            "|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|",
+        ]
+        for g in growth:
+            n = g["n"]
+            L.append(
+                f"| {n} | {g['B']} | {us(g['id'])} | {g['id'] / n * 1e9:.0f} | {us(g['id_pin'])} | {g['id'] / g['id_pin']:.2f} "
+                f"| {us(g['fd'])} | {g['fd'] / n * 1e9:.0f} | {us(g['fd_pin'])} | {g['fd'] / g['fd_pin']:.2f} |"
+            )
+        last = growth[-1]
+        scale = last["n"] / base["n"]
+        L += [
+            "",
+            f"Linear growth means time x{scale:.0f} from {base['n']} to {last['n']} links: measured "
+            f"RNEA x{last['id'] / base['id']:.1f}, ABA x{last['fd'] / base['fd']:.1f} "
+            f"(Pinocchio: x{last['id_pin'] / base['id_pin']:.1f}, x{last['fd_pin'] / base['fd_pin']:.1f}).",
+            "",
+        ]
+    if cold:
+        L += [
+            f"## Cold start ({cold_robot}, fresh interpreter)",
+            "",
+            "| numba cache | import dynamics (s) | load_urdf (s) | first inverse_dynamics (s) "
+            "| import + first ID, FD, M single and batched (s) | whole process (s) |",
+            "|---|---:|---:|---:|---:|---:|",
+        ]
+        for label, key in [("warm", "warm"), ("empty (NUMBA_CACHE_DIR = new temp dir)", "cold")]:
+            c = cold[key]
+            L.append(
+                f"| {label} | {c['import']:.3f} | {c['load']:.3f} | {c['first_id']:.3f} | {c['all_first']:.3f} "
+                f"| {c['process']:.3f} |"
+            )
+        L.append("")
+    return "\n".join(L)
+
+
+def main(argv=None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    p.add_argument("--states", type=int, default=10_000, help="batch size (default 10000)")
+    p.add_argument("--repeat", type=int, default=5, help="best of N runs (default 5)")
+    p.add_argument("--quick", action="store_true", help="1000 states, best of 2, chains up to 200")
+    p.add_argument("--no-cold", action="store_true", help="skip the cold-start subprocesses")
+    p.add_argument("--no-growth", action="store_true", help="skip the chain growth table")
+    args = p.parse_args(argv)
+    B, repeat = (1000, 2) if args.quick else (args.states, args.repeat)
+
+    import pinocchio as pin
+
+    import dynamics as dyn
+
+    rng = np.random.default_rng(0)
+    header = machine_header(B, repeat)
+    rows = []
+    for robot in benchmark_robots():
+        print(f"... {robot.label}", file=sys.stderr, flush=True)
+        rows.append(bench_robot(dyn, pin, robot, B, repeat, rng))
+    growth = []
+    if not args.no_growth:
+        for n in (20, 200) if args.quick else (20, 200, 1000):
+            print(f"... chain of {n}", file=sys.stderr, flush=True)
+            growth.append(bench_growth(dyn, pin, n, B if n <= 200 else max(B // 5, 100), repeat, rng))
+    cold, cold_robot = None, "Panda"
+    if not args.no_cold:
+        print("... cold start", file=sys.stderr, flush=True)
+        cold = bench_cold(benchmark_robots()[0].source, min(repeat, 3))
+    report = tables(header, rows, growth, cold, cold_robot)
+    print(report)
+    OUT.parent.mkdir(parents=True, exist_ok=True)
+    OUT.write_text(report + "\n")
+    print(f"(written to {OUT})", file=sys.stderr)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
