@@ -98,30 +98,33 @@ class ConstantTorque(_Request):
 
 
 class TableTorque(_Request):
-    """Torques sampled at times ``t`` (K,), ``tau`` (K, nv); linear interpolation, held past the ends."""
+    """Torques tabulated at times ``t`` (N,), rows ``tau`` (N, nv); "linear" interpolation or "zoh" hold."""
     type: Literal["table"]
     t: Array
     tau: Array
+    hold: Literal["linear", "zoh"] = "linear"
 
 
 class PDTorque(_Request):
-    """tau = kp (q_ref - q) - kd v (+ gravity torques when gravity_compensation)."""
+    """tau = kp (q_target - q) + kd (v_target - v) + tau_ff (dynamics.torques.PD)."""
     type: Literal["pd"]
+    q_target: Array
     kp: Gains
     kd: Gains
-    q_ref: Array
-    v_ref: Optional[Array] = None
-    gravity_compensation: bool = False
+    v_target: Optional[Array] = None
+    tau_ff: Optional[Array] = None
 
 
 class ComputedTorque(_Request):
-    """tau = M(q) (a_ref + kp (q_ref - q) + kd (v_ref - v)) + h(q, v)."""
+    """tau = M(q) (a_ref + kd (v_ref - v) + kp (q_ref - q)) + h(q, v), tracking the reference samples
+    (t (N,), q (N, nq), v (N, nv), a (N, nv)) interpolated by quintic Hermite (dynamics.torques.ComputedTorque)."""
     type: Literal["computed_torque"]
+    t: Array
+    q: Array
+    v: Array
+    a: Array
     kp: Gains
     kd: Gains
-    q_ref: Array
-    v_ref: Optional[Array] = None
-    a_ref: Optional[Array] = None
 
 
 TorqueSpec = Annotated[Union[ZeroTorque, ConstantTorque, TableTorque, PDTorque, ComputedTorque],

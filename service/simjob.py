@@ -33,16 +33,27 @@ def _finite_report(obj: Any) -> Any:
 
 
 def build_torque(model, spec: dict[str, Any] | None):
-    """The HTTP torque spec -> the library's torque argument (see dynamics.torques)."""
-    import dynamics
+    """The HTTP torque spec -> the ``torque=`` argument of dynamics.simulate (see dynamics.torques).
 
-    torques = getattr(dynamics, "torques", None)
-    if spec is None or spec["type"] == "zero":
+    The library checks shapes and signs and names the field ("torque.kp: expected shape (6,), got (5,)").
+    """
+    from dynamics import torques
+
+    if spec is None:
         return None
     kind = spec["type"]
-    if torques is None:
-        raise ValueError(f"torque.type: {kind!r} needs dynamics.torques, which this build does not have")
-    raise ValueError(f"torque.type: {kind!r} is not supported")  # replaced once dynamics.torques lands
+    if kind == "zero":
+        return None
+    if kind == "constant":
+        return spec["tau"]
+    if kind == "table":
+        return torques.Table(spec["t"], spec["tau"], hold=spec.get("hold", "linear"))
+    if kind == "pd":
+        return torques.PD(spec["q_target"], spec["kp"], spec["kd"], v_target=spec.get("v_target"),
+                          tau_ff=spec.get("tau_ff"))
+    if kind == "computed_torque":
+        return torques.ComputedTorque(spec["t"], spec["q"], spec["v"], spec["a"], spec["kp"], spec["kd"])
+    raise ValueError(f"torque.type: unknown torque type {kind!r}")
 
 
 def run_simulation(model, job: dict[str, Any]) -> dict[str, Any]:
