@@ -36,6 +36,18 @@ def erd_urdfs():
     return sorted(out)
 
 
+def random_state(model, rng, scale=1.0):
+    q = rng.uniform(-np.pi, np.pi, model.nq)
+    for jtype, k in zip(model.joint_types, model.q_index):
+        if jtype == "floating":
+            q[k:k + 3] = rng.normal(size=3)
+            quat = rng.normal(size=4)
+            q[k + 3:k + 7] = quat / np.linalg.norm(quat)
+        elif jtype == "prismatic":
+            q[k] = rng.uniform(-0.5, 0.5)
+    return q, scale * rng.normal(size=model.nv), scale * rng.normal(size=model.nv)
+
+
 def _fmt(x):
     return " ".join(f"{v:.17g}" for v in x)
 

@@ -9,7 +9,7 @@ import pinocchio as pin
 import pytest
 
 import dynamics
-from robots import erd, erd_urdfs, random_urdf
+from robots import erd, erd_urdfs, random_state, random_urdf
 
 RTOL = 1e-10
 
@@ -52,18 +52,6 @@ class PinMap:
     def M_back(self, Mp):
         Mp = np.triu(Mp) + np.triu(Mp, 1).T
         return Mp[np.ix_(self.v_perm, self.v_perm)]
-
-
-def random_state(model, rng, scale=1.0):
-    q = rng.uniform(-np.pi, np.pi, model.nq)
-    for jtype, k in zip(model.joint_types, model.q_index):
-        if jtype == "floating":
-            q[k:k + 3] = rng.normal(size=3)
-            quat = rng.normal(size=4)
-            q[k + 3:k + 7] = quat / np.linalg.norm(quat)
-        elif jtype == "prismatic":
-            q[k] = rng.uniform(-0.5, 0.5)
-    return q, scale * rng.normal(size=model.nv), scale * rng.normal(size=model.nv)
 
 
 def a_tol(M):
