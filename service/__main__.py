@@ -30,8 +30,7 @@ def warmup() -> int:
     """Call every endpoint's library function once per bundled robot (numba compiles and caches them)."""
     import numpy as np
 
-    import dynamics
-
+    from .simjob import simulate_function
     from .settings import Settings
     from .store import RobotStore
     from .compute import load_model, operations
@@ -47,9 +46,10 @@ def warmup() -> int:
             args = {"q": q, "v": v, "a": v, "tau": v}
             op.func(model, *[args[s] for s in op.states])
             op.func(model, *[args[s][0] for s in op.states])
-        if hasattr(dynamics, "simulate"):
+        simulate = simulate_function()
+        if simulate is not None:
             try:
-                dynamics.simulate(model, q[0], v[0], 0.01)
+                simulate(model, q[0], v[0], 0.01, error_estimate="none")
             except Exception as e:  # noqa: BLE001 - warming is best effort
                 print(f"warmup: simulate on {rid} failed: {e}", file=sys.stderr)
         done += 1

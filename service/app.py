@@ -29,7 +29,7 @@ from .compute import BudgetExceeded, Compute, Operation, operations
 from .errors import ApiError, bad_input, error_response, field_of, install_handlers
 from .robots import delete_robot, list_robots, register_robot, robot_info
 from .settings import Settings
-from .simpool import PoolTimeout, SimPool, WorkerCrashed
+from .simpool import PoolBusy, PoolTimeout, SimPool, WorkerCrashed
 from .store import RobotStore, owner_tag
 
 HEALTH_PATH = "/v1/health"
@@ -46,12 +46,13 @@ class Services:
 
     @classmethod
     def start(cls, settings: Settings) -> "Services":
-        import dynamics
+        from .simjob import simulate_function
 
         store = RobotStore(settings.store_dir, settings.robots_dir)
-        sim = SimPool(settings.sim_workers) if hasattr(dynamics, "simulate") else None
+        # DYNAMICS_SIM_WORKERS=0 turns simulation off (each worker compiles the integrator when it starts).
+        sim = SimPool(settings.sim_workers) if settings.sim_workers > 0 and simulate_function() else None
         return cls(settings=settings, store=store, compute=Compute(settings, store), ops=operations(), sim=sim,
-                   sim_waiters=ThreadPoolExecutor(max_workers=4 * settings.sim_workers,
+                   sim_waiters=ThreadPoolExecutor(max_workers=max(1, 4 * settings.sim_workers),
                                                   thread_name_prefix="sim-wait"))
 
     def close(self) -> None:
@@ -113,6 +114,10 @@ def validate(schema: type[BaseModel], payload: dict[str, Any]) -> BaseModel:
         if err["type"] == "extra_forbidden":
             allowed = ", ".join(schema.model_fields)
             raise bad_input(f"{name}: unknown field; expected one of {allowed}", name) from None
+        if err["type"] == "union_tag_invalid":
+            ctx = err.get("ctx", {})
+            raise bad_input(f"{name}.type: {ctx.get('tag')!r} is not one of {ctx.get('expected_tags')}",
+                            f"{name}.type") from None
         if err["type"] == "missing":
             raise bad_input(f"{name}: missing (required)", name) from None
         raise bad_input(f"{name}: {err['msg']}", name) from None
@@ -222,7 +227,8 @@ async def simulate(robot_id: str, request: Request, svc: Services = Depends(serv
     deadline = time.monotonic() + svc.settings.time_budget
     body = await read_body(request, svc.settings.max_body_bytes)
     if svc.sim is None:
-        raise ApiError(501, "simulate: this build of dynamics has no simulate()", code="not_implemented")
+        raise ApiError(501, "simulate: not available on this server (DYNAMICS_SIM_WORKERS=0, or a build of "
+                            "dynamics without simulate())", code="not_implemented")
     job = await svc.compute.run(_simulation_job, svc, robot_id, body, request.headers.get("content-type"))
     loop = asyncio.get_running_loop()
     try:
@@ -230,6 +236,9 @@ async def simulate(robot_id: str, request: Request, svc: Services = Depends(serv
     except PoolTimeout:
         raise BudgetExceeded(f"the simulation of {job['duration']:g} s", svc.settings.time_budget,
                              "shorten the duration, loosen rtol/atol or use a larger dt") from None
+    except PoolBusy as e:
+        raise ApiError(503, f"simulate: {e}; retry shortly", code="starting" if e.starting else "busy",
+                       headers={"Retry-After": "5" if e.starting else "1"}) from None
     except WorkerCrashed as e:
         raise ApiError(500, f"simulate: {e}", code="worker_crashed") from None
     if "input_error" in answer:
@@ -255,13 +264,17 @@ def _simulation_job(svc: Services, robot_id: str, body: bytes, content_type: Opt
     if req.dt is not None and req.duration / req.dt > s.max_sim_steps:
         raise bad_input(f"dt: {req.duration:g} s in steps of {req.dt:g} s is over the limit of "
                         f"{s.max_sim_steps} steps (DYNAMICS_MAX_SIM_STEPS)", "dt")
+    if req.sample_dt is None and req.dt is not None and req.integrator in ("euler", "rk4") \
+            and req.duration / req.dt + 1 > s.max_samples:  # fixed-step runs sample every step by default
+        raise bad_input(f"sample_dt: a sample at every step of {req.dt:g} s is over the limit of "
+                        f"{s.max_samples} samples (DYNAMICS_MAX_SAMPLES); give a larger sample_dt", "sample_dt")
     model = svc.compute.model(robot_id)  # 404 here, and a cheap check before a process is involved
     rec = svc.compute.record(robot_id)
     if req.q0.ndim != 1 or req.v0.ndim != 1:
         bad = "q0" if req.q0.ndim != 1 else "v0"
         raise bad_input(f"{bad}: expected one state, shape ({model.nq if bad == 'q0' else model.nv},), "
                         f"got {getattr(req, bad).shape}", bad)
-    options = {k: getattr(req, k) for k in ("integrator", "rtol", "atol", "dt", "sample_dt", "gravity")}
+    options = {k: getattr(req, k) for k in schemas.SIMULATE_OPTIONS}
     return {"robot": {"id": rec.id, "urdf": rec.urdf, "floating_base": rec.floating_base},
             "q0": req.q0, "v0": req.v0, "duration": req.duration, "options": options,
             "torque": req.torque.model_dump() if req.torque is not None else None,

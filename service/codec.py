@@ -124,7 +124,7 @@ def to_array(value: Any, name: str, *, max_ndim: int = 2) -> np.ndarray:
         raise bad_input(f"{name}: expected numbers, got {what}", name)
     if arr.ndim > max_ndim:
         raise bad_input(f"{name}: expected at most {max_ndim} dimensions, got shape {arr.shape}", name)
-    arr = np.ascontiguousarray(arr, dtype=np.float64)
+    arr = np.asarray(arr, dtype=np.float64, order="C")  # (not ascontiguousarray: it makes 0-d arrays 1-d)
     if not np.isfinite(arr).all():
         raise bad_input(f"{name}: contains non-finite values", name)
     return arr

@@ -137,12 +137,24 @@ class SimulateRequest(_Request):
     v0: Array
     duration: float = Field(gt=0, description="seconds of simulated time")
     torque: Optional[TorqueSpec] = None
-    integrator: Optional[str] = Field(None, description="as in dynamics.simulate, e.g. 'rk45', 'rk4', 'euler'")
-    rtol: Optional[float] = Field(None, gt=0)
-    atol: Optional[float] = Field(None, gt=0)
-    dt: Optional[float] = Field(None, gt=0, description="step of fixed-step integrators, seconds")
+    integrator: Optional[Literal["euler", "rk4", "rk45", "radau", "auto"]] = Field(
+        None, description="default 'auto' (adaptive, switches to radau when stiff); euler and rk4 need dt")
+    rtol: Optional[float] = Field(None, gt=0, description="adaptive methods, default 1e-6")
+    atol: Optional[float] = Field(None, ge=0, description="adaptive methods, default 1e-8")
+    dt: Optional[float] = Field(None, gt=0, description="step of fixed-step integrators (first step otherwise), s")
     sample_dt: Optional[float] = Field(None, gt=0, description="spacing of the returned samples, seconds")
     gravity: Optional[Vec3] = None
+    limits: Optional[Literal["spring"]] = Field(None, description="spring-damper at the URDF position limits")
+    limit_stiffness: Optional[float] = Field(None, ge=0)
+    limit_damping: Optional[float] = Field(None, ge=0)
+    friction_eps: Optional[float] = Field(None, gt=0)
+    error_estimate: Optional[Literal["rerun", "local", "none"]] = Field(
+        None, description="how report.error_estimate is measured; 'rerun' (default) costs a second run")
+
+
+#: the SimulateRequest fields passed on to dynamics.simulate as keyword arguments (None = library default)
+SIMULATE_OPTIONS = ("integrator", "rtol", "atol", "dt", "sample_dt", "gravity", "limits", "limit_stiffness",
+                    "limit_damping", "friction_eps", "error_estimate")
 
 
 class UploadRequest(_Request):

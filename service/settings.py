@@ -59,6 +59,7 @@ class Settings:
     cache_size: int = 64
     # Threads running batched dynamics calls, and worker processes running simulations.
     compute_threads: int = field(default_factory=lambda: max(1, min(4, os.cpu_count() or 1)))
+    # 0 turns simulation off.
     sim_workers: int = field(default_factory=lambda: max(1, min(2, os.cpu_count() or 1)))
     # API keys; empty = no authentication.
     api_keys: tuple[str, ...] = ()

@@ -56,14 +56,32 @@ def build_torque(model, spec: dict[str, Any] | None):
     raise ValueError(f"torque.type: unknown torque type {kind!r}")
 
 
-def run_simulation(model, job: dict[str, Any]) -> dict[str, Any]:
+def simulate_function():
+    """``dynamics.simulate`` if this build of the library has it, else None."""
     import dynamics
 
+    fn = getattr(dynamics, "simulate", None)
+    if callable(fn):
+        return fn
+    try:
+        from dynamics.simulate import simulate as fn  # the module exists before __init__ exports it
+    except ImportError:
+        return None
+    return fn if callable(fn) else None
+
+
+def run_simulation(model, job: dict[str, Any]) -> dict[str, Any]:
+    simulate = simulate_function()
+    if simulate is None:
+        raise ValueError("simulate: this build of dynamics has no simulate()")
     torque = build_torque(model, job.get("torque"))
     options = {k: v for k, v in job["options"].items() if v is not None}
     if torque is not None:
         options["torque"] = torque
-    traj = dynamics.simulate(model, job["q0"], job["v0"], job["duration"], **options)
+    # The step budget is the service's, whatever the request says: a runaway adaptive run ends in a clear
+    # "max_steps: ..." 422 rather than in the time budget's 504.
+    options["max_steps"] = job["limits"]["max_sim_steps"]
+    traj = simulate(model, job["q0"], job["v0"], job["duration"], **options)
     out = {name: np.asarray(getattr(traj, name)) for name in ("t", "q", "v", "tau")}
     out["report"] = _finite_report(dict(getattr(traj, "report", {}) or {}))
     return out

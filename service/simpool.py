@@ -6,6 +6,10 @@ A request takes an idle worker, sends its job and waits at most until its deadli
 killed (SIGKILL: the simulation holds no resource worth a clean exit) and a fresh one is started in its place,
 so a runaway simulation never keeps a core busy after its answer (504) has left.
 
+A new worker imports the library and runs one tiny simulation (numba compiles the integrator, or loads it
+from its on-disk cache) before it says "ready"; only ready workers take jobs. So a request budget never kills
+a compilation (which would then never finish), and while no worker is ready the answer is a quick 503.
+
 Plain ``subprocess`` rather than ``multiprocessing.Process``: no re-import of ``__main__``, no fork of a process
 that runs an event loop and threads, and it works inside uvicorn's own worker processes.
 """
@@ -24,13 +28,24 @@ from typing import Any
 
 log = logging.getLogger("service")
 
+#: how long a new worker may take to import and compile before it is given up (and replaced)
+READY_TIMEOUT = 600.0
+
 
 class WorkerCrashed(RuntimeError):
     pass
 
 
-class PoolTimeout(TimeoutError):
-    pass
+class PoolTimeout(Exception):
+    """The job ran past its deadline; its worker was killed."""
+
+
+class PoolBusy(Exception):
+    """No worker became free (or ready, when ``starting``) before the deadline."""
+
+    def __init__(self, message: str, starting: bool):
+        super().__init__(message)
+        self.starting = starting
 
 
 class _Worker:
@@ -58,7 +73,7 @@ class _Worker:
 
 
 class SimPool:
-    """``run(job, deadline)`` blocks the calling (worker) thread until the answer or the deadline."""
+    """``run(job, deadline)`` blocks the calling thread until the answer or the deadline."""
 
     def __init__(self, size: int) -> None:
         self.size = max(1, size)
@@ -66,35 +81,59 @@ class SimPool:
         self._all: set[_Worker] = set()
         self._lock = threading.Lock()
         self._closed = False
+        self.ready_once = False
         self.killed = 0
         for _ in range(self.size):
-            self._idle.put(self._spawn())
+            self._spawn()
 
-    def _spawn(self) -> _Worker:
+    def _spawn(self) -> None:
+        if self._closed:
+            return
         w = _Worker()
         with self._lock:
             self._all.add(w)
-        return w
+        threading.Thread(target=self._await_ready, args=(w,), daemon=True, name="sim-ready").start()
 
-    def _replace(self, w: _Worker) -> None:
+    def _await_ready(self, w: _Worker) -> None:
+        try:
+            ok = w.conn.poll(READY_TIMEOUT) and w.conn.recv() == "ready"
+        except (EOFError, OSError):
+            ok = False
+        if ok and not self._closed:
+            self.ready_once = True
+            self._idle.put(w)
+            return
+        if not self._closed:
+            log.error("simulation worker %s did not start (exit code %s); starting another in 5 s",
+                      w.proc.pid, w.proc.poll())
+            self._retire(w)
+            time.sleep(5.0)
+            self._spawn()
+
+    def _retire(self, w: _Worker) -> None:
         w.kill()
         with self._lock:
             self._all.discard(w)
-        if not self._closed:
-            self._idle.put(self._spawn())
+
+    def _replace(self, w: _Worker) -> None:
+        self._retire(w)
+        self._spawn()
 
     def pids(self) -> list[int]:
         with self._lock:
             return [w.proc.pid for w in self._all]
 
     def run(self, job: Any, deadline: float) -> Any:
-        try:
-            w = self._idle.get(timeout=max(0.0, deadline - time.monotonic()))
-        except queue.Empty:
-            raise PoolTimeout("every simulation worker stayed busy until the deadline") from None
-        if w.proc.poll() is not None:  # died while idle (killed from outside, out of memory)
-            self._replace(w)
-            w = self._idle.get(timeout=max(0.0, deadline - time.monotonic()))
+        while True:
+            try:
+                w = self._idle.get(timeout=max(0.0, deadline - time.monotonic()))
+            except queue.Empty:
+                if not self.ready_once:
+                    raise PoolBusy("the simulation workers are still starting (compiling)", True) from None
+                raise PoolBusy("every simulation worker stayed busy until the deadline", False) from None
+            if w.proc.poll() is None:
+                break
+            self._replace(w)  # died while idle (killed from outside, out of memory): take another
         try:
             w.conn.send(job)
             if not w.conn.poll(max(0.0, deadline - time.monotonic())):
@@ -106,6 +145,8 @@ class SimPool:
             code = w.proc.poll()
             self._replace(w)
             raise WorkerCrashed(f"simulation worker exited (code {code}): {e}") from None
+        except PoolTimeout:
+            raise
         except BaseException:
             self._replace(w)
             raise
@@ -120,4 +161,3 @@ class SimPool:
             self._all.clear()
         for w in workers:
             w.kill()
-

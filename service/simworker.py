@@ -32,15 +32,41 @@ def handle(job: dict[str, Any], cache) -> dict[str, Any]:
         return {"error": f"{type(e).__name__}: {e}", "traceback": traceback.format_exc(limit=8)}
 
 
+_WARMUP_URDF = b"""<robot name="warmup"><link name="base"/>
+  <link name="arm"><inertial><origin xyz="0 0 -0.5"/><mass value="1"/>
+    <inertia ixx="0.01" iyy="0.01" izz="0.01" ixy="0" ixz="0" iyz="0"/></inertial></link>
+  <joint name="hinge" type="continuous"><parent link="base"/><child link="arm"/><axis xyz="0 1 0"/></joint>
+</robot>"""
+
+
+def warmup() -> None:
+    """One tiny simulation per torque kind: numba compiles the integration loop (or loads it from its cache)."""
+    import numpy as np
+
+    import dynamics
+    from .simjob import build_torque, simulate_function
+
+    simulate = simulate_function()
+    if simulate is None:
+        return
+    model = dynamics.load_urdf(_WARMUP_URDF)
+    for spec in ({"type": "zero"}, {"type": "pd", "q_target": np.zeros(1), "kp": 1.0, "kd": 1.0}):
+        simulate(model, np.array([0.1]), np.zeros(1), 0.01, torque=build_torque(model, spec))
+
+
 def main(fd: int) -> None:
     from .store import ModelCache
 
     conn = Connection(fd)
     cache = ModelCache(16)
     try:
-        import dynamics  # noqa: F401 - import (and load numba's cache) while idle, not on the first job
-    except Exception:  # pragma: no cover - the first job reports it
-        pass
+        warmup()  # before "ready": no request's time budget ever runs into a compilation
+    except Exception:  # noqa: BLE001 - the first job will report the real problem
+        traceback.print_exc()
+    try:
+        conn.send("ready")
+    except OSError:
+        return
     while True:
         try:
             job = conn.recv()
