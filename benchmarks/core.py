@@ -51,8 +51,8 @@ def erd_robots_dir() -> Path:
 
 
 def chain_urdf(n: int, seed: int = 0) -> str:
-    """A serial chain of n revolute joints with axes cycling x, y, z, rotated joint origins and
-    offset, non-diagonal inertias: a generic spatial chain, not a planar one."""
+    """A serial chain of n revolute joints with axes cycling x, y, z, rotated joint origins, offset
+    centres of mass and rotated (full) inertia tensors: a generic spatial chain, not a planar one."""
     rng = np.random.default_rng(seed)
     axes = ["1 0 0", "0 1 0", "0 0 1"]
     parts = [f'<robot name="chain{n}">', '<link name="link0"/>']
@@ -60,8 +60,11 @@ def chain_urdf(n: int, seed: int = 0) -> str:
         rpy = " ".join(f"{x:.6f}" for x in rng.uniform(-0.3, 0.3, 3))
         com = " ".join(f"{x:.6f}" for x in rng.uniform(-0.02, 0.02, 2)) + " 0.05"
         m = rng.uniform(0.5, 1.5)
-        d = rng.uniform(0.005, 0.01, 3)
-        off = rng.uniform(-0.001, 0.001, 3)  # small products of inertia, tensor stays valid
+        # a solid box (always a valid inertia), its principal axes turned by a random rotation
+        sx, sy, sz = rng.uniform(0.03, 0.12, 3)
+        box = m / 12 * np.diag([sy**2 + sz**2, sx**2 + sz**2, sx**2 + sy**2])
+        Rb = np.linalg.qr(rng.normal(size=(3, 3)))[0]
+        Ib = Rb @ box @ Rb.T
         parts.append(
             f'<joint name="joint{i}" type="revolute"><parent link="link{i - 1}"/>'
             f'<child link="link{i}"/><origin xyz="0 0 0.1" rpy="{rpy}"/>'
@@ -69,8 +72,8 @@ def chain_urdf(n: int, seed: int = 0) -> str:
         )
         parts.append(
             f'<link name="link{i}"><inertial><origin xyz="{com}" rpy="0 0 0"/><mass value="{m:.6f}"/>'
-            f'<inertia ixx="{d[0]:.6f}" ixy="{off[0]:.6f}" ixz="{off[1]:.6f}" iyy="{d[1]:.6f}" '
-            f'iyz="{off[2]:.6f}" izz="{d[2]:.6f}"/></inertial></link>'
+            f'<inertia ixx="{Ib[0, 0]:.17g}" ixy="{Ib[0, 1]:.17g}" ixz="{Ib[0, 2]:.17g}" iyy="{Ib[1, 1]:.17g}" '
+            f'iyz="{Ib[1, 2]:.17g}" izz="{Ib[2, 2]:.17g}"/></inertial></link>'
         )
     parts.append("</robot>")
     return "\n".join(parts)
