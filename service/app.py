@@ -104,6 +104,22 @@ class ApiKeys:
         return await self.app(scope, receive, send)
 
 
+def deadline_of(request: Request, settings: Settings) -> float:
+    """Now + the request's wall-time budget: the server's, or less if the caller asks (X-Time-Budget: s)."""
+    budget = settings.time_budget
+    asked = request.headers.get("x-time-budget")
+    if asked is not None:
+        try:
+            value = float(asked)
+        except ValueError:
+            value = float("nan")
+        if not value > 0:
+            raise bad_input(f"X-Time-Budget: expected a positive number of seconds, got {asked!r}", "X-Time-Budget")
+        budget = min(budget, value)
+    request.state.budget = budget
+    return time.monotonic() + budget
+
+
 def validate(schema: type[BaseModel], payload: dict[str, Any]) -> BaseModel:
     """A decoded body -> the schema, or a 422 whose message starts with the field at fault."""
     try:
@@ -195,21 +211,23 @@ async def delete(robot_id: str, svc: Services = Depends(services),
 
 def _dynamics_route(segment: str, schema: type[BaseModel]):
     async def route(robot_id: str, request: Request, svc: Services = Depends(services)) -> Response:
-        deadline = time.monotonic() + svc.settings.time_budget
+        deadline = deadline_of(request, svc.settings)
         body = await read_body(request, svc.settings.max_body_bytes)
         return await svc.compute.run(_answer_dynamics, svc, segment, schema, robot_id, body,
-                                     request.headers.get("content-type"), request.headers.get("accept"), deadline)
+                                     request.headers.get("content-type"), request.headers.get("accept"), deadline,
+                                     request.state.budget)
 
     route.__name__ = segment.replace("-", "_")
     return route
 
 
 def _answer_dynamics(svc: Services, segment: str, schema: type[BaseModel], robot_id: str, body: bytes,
-                     content_type: Optional[str], accept: Optional[str], deadline: float) -> Response:
+                     content_type: Optional[str], accept: Optional[str], deadline: float,
+                     budget: float) -> Response:
     """Runs in a compute thread: decode, check, compute (chunked, within the deadline), encode."""
     payload = decode(body, content_type, max_unpacked=8 * svc.settings.max_body_bytes)
     req = validate(schema, payload)
-    result = svc.compute.dynamics(svc.ops[segment], robot_id, dict(req), deadline)
+    result = svc.compute.dynamics(svc.ops[segment], robot_id, dict(req), deadline, budget)
     return encode(result, accept)
 
 
@@ -224,7 +242,7 @@ for _segment, (_schema, _answer, _summary) in _DYNAMICS_ROUTES.items():
              openapi_extra=_body_doc(schemas.SimulateRequest),
              summary="simulate from (q0, v0) for a duration under a torque law; runs in a worker process")
 async def simulate(robot_id: str, request: Request, svc: Services = Depends(services)) -> Response:
-    deadline = time.monotonic() + svc.settings.time_budget
+    deadline = deadline_of(request, svc.settings)
     body = await read_body(request, svc.settings.max_body_bytes)
     if svc.sim is None:
         raise ApiError(501, "simulate: not available on this server (DYNAMICS_SIM_WORKERS=0, or a build of "
@@ -234,7 +252,7 @@ async def simulate(robot_id: str, request: Request, svc: Services = Depends(serv
     try:
         answer = await loop.run_in_executor(svc.sim_waiters, svc.sim.run, job, deadline)
     except PoolTimeout:
-        raise BudgetExceeded(f"the simulation of {job['duration']:g} s", svc.settings.time_budget,
+        raise BudgetExceeded(f"the simulation of {job['duration']:g} s", request.state.budget,
                              "shorten the duration, loosen rtol/atol or use a larger dt") from None
     except PoolBusy as e:
         raise ApiError(503, f"simulate: {e}; retry shortly", code="starting" if e.starting else "busy",

@@ -58,8 +58,12 @@ class Client:
     """A connection pool to one service; use as a context manager or call :meth:`close`."""
 
     def __init__(self, base_url: str, api_key: Optional[str] = None, timeout: float = 60.0,
-                 npz_threshold: int = NPZ_THRESHOLD):
+                 npz_threshold: int = NPZ_THRESHOLD, time_budget: Optional[float] = None):
+        """``time_budget``: seconds of server work per request (at most the server's own budget); a request
+        past it fails with ServiceError 504."""
         headers = {"Authorization": f"Bearer {api_key}"} if api_key else {}
+        if time_budget is not None:
+            headers["X-Time-Budget"] = repr(float(time_budget))
         self.base_url = base_url.rstrip("/")
         self.npz_threshold = npz_threshold
         self._http = httpx.Client(base_url=self.base_url, headers=headers, timeout=timeout)

@@ -31,7 +31,8 @@ CHUNK_WORK = 40_000
 
 class BudgetExceeded(ApiError):
     def __init__(self, what: str, budget: float, hint: str):
-        super().__init__(504, f"time budget: {what} was stopped after {budget:g} s (DYNAMICS_TIME_BUDGET); {hint}",
+        super().__init__(504, f"time budget: {what} was stopped after {budget:g} s (DYNAMICS_TIME_BUDGET or "
+                              f"X-Time-Budget); {hint}",
                          code="time_budget_exceeded", field=None)
 
 
@@ -85,7 +86,8 @@ class Compute:
         return self.cache.get_or_load((rid, locked), lambda: load_model(self.record(rid)))
 
     # -- dynamics --------------------------------------------------------------------------------------------
-    def dynamics(self, op: Operation, rid: str, args: dict[str, Any], deadline: float) -> dict[str, Any]:
+    def dynamics(self, op: Operation, rid: str, args: dict[str, Any], deadline: float,
+                 budget: float) -> dict[str, Any]:
         """Run ``op`` on one state or a batch, chunked, checking ``deadline`` (time.monotonic) between chunks."""
         model = self.model(rid)
         states = [args[name] for name in op.states]
@@ -95,7 +97,7 @@ class Compute:
             if batch is None:
                 out = op.func(model, *states, **kwargs)
             else:
-                out = self._chunked(op, model, states, kwargs, batch, deadline)
+                out = self._chunked(op, model, states, kwargs, batch, deadline, budget)
         except ValueError as e:  # the library's InputError / DynamicsError: message names the argument
             raise bad_input(str(e), field_of(str(e))) from None
         out = np.asarray(out)
@@ -122,14 +124,14 @@ class Compute:
                             "f_ext")
         return batch
 
-    def _chunked(self, op, model, states, kwargs, batch, deadline):
+    def _chunked(self, op, model, states, kwargs, batch, deadline, budget):
         chunk = max(1, CHUNK_WORK // max(1, op.cost(model)))
         if batch <= chunk:
             return op.func(model, *states, **kwargs)
         parts = []
         for start in range(0, batch, chunk):
             if time.monotonic() > deadline:
-                raise BudgetExceeded(f"{op.name} of {batch} states", self.settings.time_budget,
+                raise BudgetExceeded(f"{op.name} of {batch} states", budget,
                                      f"{start} states were done; send smaller batches")
             sl = slice(start, start + chunk)
             part_states = [s[sl] if s.ndim == 2 else s for s in states]
