@@ -15,92 +15,105 @@ carries no mass or inertia it could move) makes M singular: the kernel stops and
 """
 
 import numpy as np
-from numba import njit
 
-from .joints import add_joint_motion, joint_transform
-from .spatial import (add_cross_force, add_cross_motion, add_force_to_parent, add_inertia6_to_parent,
-                      inertia_times_motion, motion_to_child, spd_inverse)
+from .jit import kernel
+from .joints import joint_motion, joint_transform
+from .spatial import (add, add_inertia6_to_parent, cross_force, cross_motion, force_to_parent, inertia_times,
+                      load3, load33, motion_to_child, spd_inverse, store3, store33)
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def workspace(nb, nv):
     return (np.empty((nb, 3, 3)), np.empty((nb, 3)),  # R, p
             np.empty((nb, 6)), np.empty((nb, 6)),  # velocity (w, v), bias acceleration c
             np.empty((nb, 6, 6)), np.empty((nb, 6)),  # IA, pA
             np.empty((nv, 6)), np.empty((nb, 6, 6)), np.empty(nv),  # U, Dinv, u
-            np.empty((nb, 6)), np.empty((6, 3, 3)), np.empty((6, 6)), np.empty(6), np.empty(6),
-            np.empty((3, 3)))
+            np.empty((nb, 6)), np.empty((6, 6)), np.empty((6, 6)), np.empty(6), np.empty(6))  # a, Ia, D, pa, t
 
 
-@njit(cache=True, nogil=True)
+@kernel
+def _get6(A, i):
+    return (A[i, 0], A[i, 1], A[i, 2]), (A[i, 3], A[i, 4], A[i, 5])
+
+
+@kernel
+def _set6(A, i, x, y):
+    A[i, 0], A[i, 1], A[i, 2] = x
+    A[i, 3], A[i, 4], A[i, 5] = y
+
+
+@kernel
 def aba_into(tree, q, v, tau, gravity, f_ext, ws, qdd):
     """ABA for one state into ``qdd``.  Returns -1, or the index of a body whose joint sees a singular
     articulated inertia (then qdd is not valid)."""
-    R, p, vel, c, IA, pA, U, Dinv, u, acc, tmp, Ia, pa, t6, Rj = ws
+    Rs, ps, vel, c, IA, pA, U, Dinv, u, acc, Ia, D, pa, t = ws
     nb = tree.parents.shape[0]
     S = tree.S
-    zero = np.zeros(3)
+    zero = (0.0, 0.0, 0.0)
+    # pass 1: velocities, bias accelerations, rigid-body inertias and bias forces
     for i in range(nb):
-        joint_transform(tree, i, q, Rj, R[i], p[i])
+        R, p = joint_transform(tree, i, q)
+        store33(Rs, i, R)
+        store3(ps, i, p)
         par = tree.parents[i]
-        w, vl = vel[i, 0:3], vel[i, 3:6]
         if par < 0:
-            motion_to_child(R[i], p[i], zero, zero, w, vl)
+            w, vl = motion_to_child(R, p, zero, zero)
         else:
-            motion_to_child(R[i], p[i], vel[par, 0:3], vel[par, 3:6], w, vl)
-        t6[:] = 0.0
-        add_joint_motion(tree, i, v, t6[0:3], t6[3:6])  # v_J
-        for r in range(6):
-            vel[i, r] += t6[r]
-        c[i] = 0.0
-        add_cross_motion(w, vl, t6[0:3], t6[3:6], c[i, 0:3], c[i, 3:6])
-        # I^A = I_i as a 6x6 matrix; p^A = v x* I v - f_ext
-        m, h, Io = tree.mass[i], tree.h[i], tree.Io[i]
-        IA[i] = 0.0
-        for r in range(3):
+            wp, vp = _get6(vel, par)
+            w, vl = motion_to_child(R, p, wp, vp)
+        wJ, vJ = joint_motion(tree, i, v)
+        w, vl = add(w, wJ), add(vl, vJ)
+        _set6(vel, i, w, vl)
+        cw, cv = cross_motion(w, vl, wJ, vJ)
+        _set6(c, i, cw, cv)
+        m, h, Io = tree.mass[i], load3(tree.h, i), load33(tree.Io, i)
+        for r in range(3):  # I^A = [[Io, [h]x], [[h]x^T, m 1]]
             for k in range(3):
-                IA[i, r, k] = Io[r, k]
-            IA[i, 3 + r, 3 + r] = m
-        IA[i, 0, 4], IA[i, 0, 5], IA[i, 1, 5] = -h[2], h[1], -h[0]
-        IA[i, 1, 3], IA[i, 2, 3], IA[i, 2, 4] = h[2], -h[1], h[0]
+                IA[i, r, k] = Io[3 * r + k]
+                IA[i, 3 + r, 3 + k] = m if r == k else 0.0
+        IA[i, 0, 3], IA[i, 0, 4], IA[i, 0, 5] = 0.0, -h[2], h[1]
+        IA[i, 1, 3], IA[i, 1, 4], IA[i, 1, 5] = h[2], 0.0, -h[0]
+        IA[i, 2, 3], IA[i, 2, 4], IA[i, 2, 5] = -h[1], h[0], 0.0
         for r in range(3):
             for k in range(3):
                 IA[i, 3 + k, r] = IA[i, r, 3 + k]
-        inertia_times_motion(m, h, Io, w, vl, t6[0:3], t6[3:6])
-        pA[i] = 0.0
-        add_cross_force(w, vl, t6[0:3], t6[3:6], pA[i, 0:3], pA[i, 3:6])
+        hn, hf = inertia_times(m, h, Io, w, vl)
+        bn, bf = cross_force(w, vl, hn, hf)
         if f_ext.shape[0] > 0:
-            for r in range(3):
-                pA[i, r] -= f_ext[i, 3 + r]
-                pA[i, 3 + r] -= f_ext[i, r]
+            bn = (bn[0] - f_ext[i, 3], bn[1] - f_ext[i, 4], bn[2] - f_ext[i, 5])
+            bf = (bf[0] - f_ext[i, 0], bf[1] - f_ext[i, 1], bf[2] - f_ext[i, 2])
+        _set6(pA, i, bn, bf)
 
+    # pass 2: articulated inertias from the leaves in
     for i in range(nb - 1, -1, -1):
         k0 = tree.v_idx[i]
         nj = tree.nv_j[i]
-        for k in range(k0, k0 + nj):
+        for k in range(k0, k0 + nj):  # U = I^A S,  u = tau - S^T p^A
             for r in range(6):
-                s = 0.0
+                x = 0.0
                 for cc in range(6):
-                    s += IA[i, r, cc] * S[k, cc]
-                U[k, r] = s
-            s = tau[k]
+                    x += IA[i, r, cc] * S[k, cc]
+                U[k, r] = x
+            x = tau[k]
             for r in range(6):
-                s -= S[k, r] * pA[i, r]
-            u[k] = s
-        for a_ in range(nj):  # D = S^T U, inverted in place of Ia's first block
+                x -= S[k, r] * pA[i, r]
+            u[k] = x
+        for a_ in range(nj):  # D = S^T U
             for b_ in range(nj):
-                s = 0.0
+                x = 0.0
                 for r in range(6):
-                    s += S[k0 + a_, r] * U[k0 + b_, r]
-                Ia[a_, b_] = s
-        if not spd_inverse(Ia, nj, Dinv[i]):
+                    x += S[k0 + a_, r] * U[k0 + b_, r]
+                D[a_, b_] = x
+        if not spd_inverse(D, nj, Dinv, i, Ia):
             return i
         par = tree.parents[i]
         if par < 0:
             continue
         # I^a = I^A - U Dinv U^T and p^a = p^A + I^a c + U Dinv u, one joint coordinate at a time
-        Ia[:, :] = IA[i]
-        pa[:] = 0.0
+        for r in range(6):
+            pa[r] = pA[i, r]
+            for cc in range(6):
+                Ia[r, cc] = IA[i, r, cc]
         for a_ in range(nj):
             du = 0.0
             for b_ in range(nj):
@@ -113,40 +126,45 @@ def aba_into(tree, q, v, tau, gravity, f_ext, ws, qdd):
                     Ia[r, cc] -= UD * U[k0 + a_, cc]
                 pa[r] += U[k0 + a_, r] * du
         for r in range(6):
-            s = pA[i, r] + pa[r]
+            x = pa[r]
             for cc in range(6):
-                s += Ia[r, cc] * c[i, cc]
-            pa[r] = s
-        add_inertia6_to_parent(R[i], p[i], Ia, IA[par], tmp)
-        add_force_to_parent(R[i], p[i], pa[0:3], pa[3:6], pA[par, 0:3], pA[par, 3:6])
+                x += Ia[r, cc] * c[i, cc]
+            t[r] = x
+        R, p = load33(Rs, i), load3(ps, i)
+        add_inertia6_to_parent(R, p, Ia, IA, par)
+        fn, ff = force_to_parent(R, p, (t[0], t[1], t[2]), (t[3], t[4], t[5]))
+        pn, pf = _get6(pA, par)
+        _set6(pA, par, add(pn, fn), add(pf, ff))
 
-    minus_g = -gravity
+    # pass 3: accelerations from the root out
+    a0 = (-gravity[0], -gravity[1], -gravity[2])
     for i in range(nb):
         par = tree.parents[i]
-        aw, al = acc[i, 0:3], acc[i, 3:6]
+        R, p = load33(Rs, i), load3(ps, i)
         if par < 0:
-            motion_to_child(R[i], p[i], zero, minus_g, aw, al)
+            aw, al = motion_to_child(R, p, zero, a0)
         else:
-            motion_to_child(R[i], p[i], acc[par, 0:3], acc[par, 3:6], aw, al)
-        for r in range(6):
-            acc[i, r] += c[i, r]
+            awp, alp = _get6(acc, par)
+            aw, al = motion_to_child(R, p, awp, alp)
+        cw, cv = _get6(c, i)
+        aw, al = add(aw, cw), add(al, cv)
         k0 = tree.v_idx[i]
         nj = tree.nv_j[i]
+        for a_ in range(nj):  # u - U^T a'
+            k = k0 + a_
+            t[a_] = (u[k] - U[k, 0] * aw[0] - U[k, 1] * aw[1] - U[k, 2] * aw[2]
+                     - U[k, 3] * al[0] - U[k, 4] * al[1] - U[k, 5] * al[2])
         for a_ in range(nj):
-            s = u[k0 + a_]
-            for r in range(6):
-                s -= U[k0 + a_, r] * acc[i, r]
-            t6[a_] = s
-        for a_ in range(nj):
-            s = 0.0
+            x = 0.0
             for b_ in range(nj):
-                s += Dinv[i, a_, b_] * t6[b_]
-            qdd[k0 + a_] = s
-        add_joint_motion(tree, i, qdd, aw, al)
+                x += Dinv[i, a_, b_] * t[b_]
+            qdd[k0 + a_] = x
+        sw, sv = joint_motion(tree, i, qdd)
+        _set6(acc, i, add(aw, sw), add(al, sv))
     return -1
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def aba(tree, q, v, tau, gravity, f_ext):
     """Joint accelerations for one state (allocates; callable from other kernels).  A singular joint gives
     NaN accelerations."""
@@ -158,7 +176,7 @@ def aba(tree, q, v, tau, gravity, f_ext):
     return qdd
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def aba_batch(tree, Q, V, T, F, gravity, out, status):
     ws = workspace(tree.parents.shape[0], tree.S.shape[0])
     last = F.shape[0] - 1
@@ -169,10 +187,12 @@ def aba_batch(tree, Q, V, T, F, gravity, out, status):
 # -- public entry point ----------------------------------------------------------------------------
 from . import batch as _b  # noqa: E402
 
+_aba_batch = _b.Kernel(aba_batch)
+
 
 def _aba_chunk(tree, Q, V, T, F, gravity, out):
     status = np.empty(Q.shape[0], np.int64)
-    aba_batch(tree, Q, V, T, F, gravity, out, status)
+    _aba_batch(tree, Q, V, T, F, gravity, out, status)
     bad = status[status >= 0]
     if bad.size:
         raise _SingularJoint(int(bad[0]))

@@ -12,21 +12,54 @@ import threading
 from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
+from .jit import kernel
 
 from .errors import InputError
+from .model import Model
 
 #: below this many states a batch runs on the calling thread (thread hand-off costs ~20 us)
 MIN_PARALLEL_BATCH = 64
 
 
+class Kernel:
+    """Call a numba kernel through its compiled entry point once it has been compiled.
+
+    numba's dispatcher re-derives the types of every argument on each call (~4 us for the model's tuple of
+    arrays); the public functions pass arguments whose types never vary (C-contiguous, writable float64
+    states, the model's read-only arrays), so after the first call the single compiled overload is called
+    directly.  If a second overload ever appears, calls go back through the dispatcher.
+    """
+
+    def __init__(self, dispatcher):
+        self.dispatcher = dispatcher
+        self.entry = None
+
+    def __call__(self, *args):
+        if self.entry is not None:
+            return self.entry(*args)
+        out = self.dispatcher(*args)
+        overloads = list(self.dispatcher.overloads.values())
+        if len(overloads) == 1:
+            self.entry = overloads[0].entry_point
+        return out
+
+
+_threads = None
+
+
 def num_threads() -> int:
-    env = os.environ.get("DYNAMICS_NUM_THREADS")
-    if env:
-        return max(1, int(env))
-    try:
-        return max(1, len(os.sched_getaffinity(0)))
-    except AttributeError:  # pragma: no cover - not Linux
-        return max(1, os.cpu_count() or 1)
+    """Threads a batch is spread over: $DYNAMICS_NUM_THREADS, else the cores this process may use."""
+    global _threads
+    if _threads is None:
+        env = os.environ.get("DYNAMICS_NUM_THREADS")
+        if env:
+            _threads = max(1, int(env))
+        else:
+            try:
+                _threads = max(1, len(os.sched_getaffinity(0)))
+            except AttributeError:  # pragma: no cover - not Linux
+                _threads = max(1, os.cpu_count() or 1)
+    return _threads
 
 
 _pool = None
@@ -60,56 +93,91 @@ def run_chunks(kernel, tree, batched, shared, out):
     return out
 
 
+@kernel
+def _first_nonfinite(X):
+    """Index of the first row of X holding a nan or inf, or -1."""
+    for b in range(X.shape[0]):
+        for k in range(X.shape[1]):
+            if not np.isfinite(X[b, k]):
+                return b
+    return -1
+
+
+_first_nonfinite_k = Kernel(_first_nonfinite)
+
+
 def states(name, x, n, B=None):
-    """Check one state (n,) or a batch (B, n); return (2-D float64 array, was_batched)."""
-    try:
-        arr = np.asarray(x, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise InputError(f"{name}: expected an array of numbers of shape ({n},) or (B, {n})") from None
-    if arr.ndim == 1 and arr.shape[0] == n:
-        arr2 = arr[None, :]
+    """Check one state (n,) or a batch (B, n); return (C-contiguous writable 2-D float64 array, batched)."""
+    if (type(x) is np.ndarray and x.dtype == np.float64 and x.ndim == 1 and x.shape[0] == n
+            and x.flags.c_contiguous):
+        arr2 = x.reshape(1, n)
         batched = False
-    elif arr.ndim == 2 and arr.shape[1] == n and (B is None or arr.shape[0] == B):
-        arr2 = arr
-        batched = True
     else:
-        bdesc = "B" if B is None else str(B)
-        raise InputError(f"{name}: expected shape ({n},) or ({bdesc}, {n}), got {arr.shape}")
-    if not np.all(np.isfinite(arr2)):
-        raise InputError(f"{name}: contains non-finite values (nan or inf)")
-    return np.ascontiguousarray(arr2), batched
+        try:
+            arr = np.asarray(x, dtype=np.float64)
+        except (TypeError, ValueError):
+            raise InputError(f"{name}: expected an array of numbers of shape ({n},) or (B, {n})") from None
+        if arr.ndim == 1 and arr.shape[0] == n:
+            arr2 = arr[None, :]
+            batched = False
+        elif arr.ndim == 2 and arr.shape[1] == n and (B is None or arr.shape[0] == B):
+            arr2 = arr
+            batched = True
+        else:
+            bdesc = "B" if B is None else str(B)
+            raise InputError(f"{name}: expected shape ({n},) or ({bdesc}, {n}), got {arr.shape}")
+        arr2 = np.ascontiguousarray(arr2)
+    if not arr2.flags.writeable:  # one compiled signature: writable arrays only
+        arr2 = arr2.copy()
+    bad = _first_nonfinite_k(arr2)
+    if bad >= 0:
+        where = f" (state {bad})" if batched else ""
+        raise InputError(f"{name}: contains non-finite values (nan or inf){where}")
+    return arr2, batched
+
+
+@kernel
+def _first_zero_quaternion(Q, starts):
+    for b in range(Q.shape[0]):
+        for k in starts:
+            if Q[b, k] * Q[b, k] + Q[b, k + 1] * Q[b, k + 1] + Q[b, k + 2] * Q[b, k + 2] + Q[b, k + 3] * Q[b, k + 3] < 1e-16:
+                return k
+    return -1
+
+
+_first_zero_quaternion_k = Kernel(_first_zero_quaternion)
 
 
 def configurations(model, q):
     """Check q; a free joint's quaternion must be non-zero (it is normalised inside the kernels)."""
     Q, batched = states("q", q, model.nq)
     if model.floating_base:
-        t = model.tree
-        for code, k in zip(t.jtype, t.q_idx):
-            if code == 2:
-                norms = np.linalg.norm(Q[:, k + 3:k + 7], axis=1)
-                if np.any(norms < 1e-8):
-                    raise InputError(f"q: the quaternion q[{k + 3}:{k + 7}] of a floating joint is zero; "
-                                     f"expected a unit quaternion (qx, qy, qz, qw)")
+        k = _first_zero_quaternion_k(Q, model.quaternion_starts)
+        if k >= 0:
+            raise InputError(f"q: the quaternion q[{k}:{k + 4}] of a floating joint is zero; "
+                             f"expected a unit quaternion (qx, qy, qz, qw)")
     return Q, batched
 
 
 def gravity_vector(model, gravity):
     if gravity is None:
-        return np.asarray(model.gravity, dtype=np.float64)
+        return np.array(model.gravity)  # a writable copy: one compiled signature
     g = np.asarray(gravity, dtype=np.float64)
     if g.shape != (3,):
         raise InputError(f"gravity: expected shape (3,), got {g.shape}")
     if not np.all(np.isfinite(g)):
         raise InputError("gravity: contains non-finite values (nan or inf)")
-    return np.ascontiguousarray(g)
+    return np.array(g)
+
+
+_NO_FORCES = np.zeros((1, 0, 6))  # empty: the kernels never write it
 
 
 def external_forces(model, f_ext, B):
     """f_ext: None, (nbodies, 6) shared by every state, or (B, nbodies, 6).  Returns (1 or B, nb or 0, 6)."""
     nb = model.nbodies
     if f_ext is None:
-        return np.zeros((1, 0, 6))
+        return _NO_FORCES
     F = np.asarray(f_ext, dtype=np.float64)
     if F.shape == (nb, 6):
         F = F[None]
@@ -118,12 +186,10 @@ def external_forces(model, f_ext, B):
                          f"in its body frame), got {F.shape}")
     if not np.all(np.isfinite(F)):
         raise InputError("f_ext: contains non-finite values (nan or inf)")
-    return np.ascontiguousarray(F)
+    return np.array(F, order="C")
 
 
 def check_model(model):
-    from .model import Model
-
     if not isinstance(model, Model):
         raise InputError(f"model: expected a dynamics.Model (from load_urdf), got {type(model).__name__}")
 
@@ -132,6 +198,8 @@ def broadcast(named):
     """Give every (name, 2-D array) the common batch size; a single state is repeated, other sizes are an
     error naming the argument."""
     B = max(X.shape[0] for _, X in named)
+    if all(X.shape[0] == B for _, X in named):
+        return [X for _, X in named]
     out = []
     for name, X in named:
         if X.shape[0] not in (1, B):

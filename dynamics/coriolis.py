@@ -15,13 +15,13 @@ Cost is O(n d^2) for depth d: it is meant for analysis and control design, not f
 """
 
 import numpy as np
-from numba import njit
+from .jit import kernel
 
-from .joints import add_joint_motion, joint_transform
-from .spatial import add_cross_motion, motion_to_child
+from .joints import joint_motion, joint_transform
+from .spatial import add, cross_motion, motion_to_child
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def _cross_matrices(I, w, vl, B):
     """B = 1/2 (v x* I + I v x + (I v) xbar) for the 6x6 inertia I and motion (w, vl)."""
     crm = np.zeros((6, 6))  # v x
@@ -48,73 +48,77 @@ def _cross_matrices(I, w, vl, B):
             B[r, c] = 0.5 * s
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def coriolis_kernel(tree, q, v, C):
     nb = tree.parents.shape[0]
     nv = tree.S.shape[0]
-    R = np.empty((3, 3))
-    Rj = np.empty((3, 3))
-    p = np.empty(3)
     vel = np.zeros((nb, 6))
     J = np.zeros((nb, 6, nv))
     dJ = np.zeros((nb, 6, nv))
     cols = np.zeros((nb, nv), dtype=np.bool_)  # columns of J_i that can be non-zero (ancestors' dofs)
-    vJ = np.empty(6)
     I6 = np.zeros((6, 6))
     Bm = np.empty((6, 6))
     Y = np.empty((6, nv))
-    zero = np.zeros(3)
+    zero = (0.0, 0.0, 0.0)
     C[:, :] = 0.0
     S = tree.S
     for i in range(nb):
-        joint_transform(tree, i, q, Rj, R, p)
+        R, p = joint_transform(tree, i, q)
         par = tree.parents[i]
-        vJ[:] = 0.0
-        add_joint_motion(tree, i, v, vJ[0:3], vJ[3:6])
+        wJ, vJ = joint_motion(tree, i, v)
         if par < 0:
-            motion_to_child(R, p, zero, zero, vel[i, 0:3], vel[i, 3:6])
+            w, vl = motion_to_child(R, p, zero, zero)
         else:
-            motion_to_child(R, p, vel[par, 0:3], vel[par, 3:6], vel[i, 0:3], vel[i, 3:6])
+            w, vl = motion_to_child(R, p, (vel[par, 0], vel[par, 1], vel[par, 2]),
+                                    (vel[par, 3], vel[par, 4], vel[par, 5]))
             for k in range(nv):
                 if cols[par, k]:
                     cols[i, k] = True
-                    motion_to_child(R, p, J[par, 0:3, k], J[par, 3:6, k], J[i, 0:3, k], J[i, 3:6, k])
-                    motion_to_child(R, p, dJ[par, 0:3, k], dJ[par, 3:6, k], dJ[i, 0:3, k], dJ[i, 3:6, k])
-                    # dJ -= v_J x J  (as += J x v_J)
-                    add_cross_motion(J[i, 0:3, k], J[i, 3:6, k], vJ[0:3], vJ[3:6], dJ[i, 0:3, k], dJ[i, 3:6, k])
-        for r in range(6):
-            vel[i, r] += vJ[r]
+                    jw, jv = motion_to_child(R, p, (J[par, 0, k], J[par, 1, k], J[par, 2, k]),
+                                             (J[par, 3, k], J[par, 4, k], J[par, 5, k]))
+                    dw, dv = motion_to_child(R, p, (dJ[par, 0, k], dJ[par, 1, k], dJ[par, 2, k]),
+                                             (dJ[par, 3, k], dJ[par, 4, k], dJ[par, 5, k]))
+                    xw, xv = cross_motion(jw, jv, wJ, vJ)  # dJ -= v_J x J, i.e. += J x v_J
+                    dw, dv = add(dw, xw), add(dv, xv)
+                    for r in range(3):
+                        J[i, r, k], J[i, 3 + r, k] = jw[r], jv[r]
+                        dJ[i, r, k], dJ[i, 3 + r, k] = dw[r], dv[r]
+        w, vl = add(w, wJ), add(vl, vJ)
+        for r in range(3):
+            vel[i, r], vel[i, 3 + r] = w[r], vl[r]
         for k in range(tree.v_idx[i], tree.v_idx[i] + tree.nv_j[i]):
             cols[i, k] = True
             for r in range(6):
                 J[i, r, k] = S[k, r]
-        m, h, Io = tree.mass[i], tree.h[i], tree.Io[i]
+        m = tree.mass[i]
+        h = (tree.h[i, 0], tree.h[i, 1], tree.h[i, 2])
         I6[:, :] = 0.0
-        I6[0:3, 0:3] = Io
         for r in range(3):
+            for c in range(3):
+                I6[r, c] = tree.Io[i, r, c]
             I6[3 + r, 3 + r] = m
         for (r, c, s) in ((0, 1, -h[2]), (0, 2, h[1]), (1, 0, h[2]), (1, 2, -h[0]), (2, 0, -h[1]), (2, 1, h[0])):
             I6[r, 3 + c] = s  # [h]x
             I6[3 + c, r] = s  # [h]x^T
-        _cross_matrices(I6, vel[i, 0:3], vel[i, 3:6], Bm)
+        _cross_matrices(I6, w, vl, Bm)
         for c in range(nv):
             if cols[i, c]:
                 for r in range(6):
-                    s = 0.0
+                    x = 0.0
                     for k in range(6):
-                        s += I6[r, k] * dJ[i, k, c] + Bm[r, k] * J[i, k, c]
-                    Y[r, c] = s
+                        x += I6[r, k] * dJ[i, k, c] + Bm[r, k] * J[i, k, c]
+                    Y[r, c] = x
         for a_ in range(nv):
             if cols[i, a_]:
                 for c in range(nv):
                     if cols[i, c]:
-                        s = 0.0
+                        x = 0.0
                         for r in range(6):
-                            s += J[i, r, a_] * Y[r, c]
-                        C[a_, c] += s
+                            x += J[i, r, a_] * Y[r, c]
+                        C[a_, c] += x
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def coriolis_batch(tree, Q, V, out):
     for b in range(Q.shape[0]):
         coriolis_kernel(tree, Q[b], V[b], out[b])
@@ -122,6 +126,8 @@ def coriolis_batch(tree, Q, V, out):
 
 # -- public entry point ----------------------------------------------------------------------------
 from . import batch as _b  # noqa: E402
+
+_coriolis_batch = _b.Kernel(coriolis_batch)
 
 
 def coriolis_matrix(model, q, v):
@@ -131,5 +137,5 @@ def coriolis_matrix(model, q, v):
     V, bv = _b.states("v", v, model.nv)
     Q, V = _b.broadcast((("q", Q), ("v", V)))
     out = np.empty((Q.shape[0], model.nv, model.nv))
-    _b.run_chunks(coriolis_batch, model.tree, (Q, V), (), out)
+    _b.run_chunks(_coriolis_batch, model.tree, (Q, V), (), out)
     return out if (bq or bv) else out[0]

@@ -9,38 +9,42 @@ Only the lower triangle is computed; the upper one is its mirror.
 """
 
 import numpy as np
-from numba import njit
 
+from .jit import kernel
 from .joints import joint_transform
-from .spatial import add_force_to_parent, inertia_times_motion, inertia_to_parent
+from .spatial import add, force_to_parent, inertia_times, inertia_to_parent, load3, load33, store3, store33
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def workspace(nb):
-    """Scratch: poses (R, p), composite inertias (m, h, Io), a force (n, f) and a 3x3 temporary."""
-    return (np.empty((nb, 3, 3)), np.empty((nb, 3)), np.empty(nb), np.empty((nb, 3)), np.empty((nb, 3, 3)),
-            np.empty(3), np.empty(3), np.empty(3), np.empty(3), np.empty((3, 3)))
+    """Scratch: poses (R, p) and composite inertias (m, h, Io)."""
+    return np.empty((nb, 3, 3)), np.empty((nb, 3)), np.empty(nb), np.empty((nb, 3)), np.empty((nb, 3, 3))
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def crba_into(tree, q, ws, M):
-    R, p, mc, hc, Ioc, n, f, n2, f2, Rj = ws
+    Rs, ps, mc, hc, Ioc = ws
     nb = tree.parents.shape[0]
     S = tree.S
     for i in range(nb):
-        joint_transform(tree, i, q, Rj, R[i], p[i])
+        R, p = joint_transform(tree, i, q)
+        store33(Rs, i, R)
+        store3(ps, i, p)
         mc[i] = tree.mass[i]
-        hc[i] = tree.h[i]
-        Ioc[i] = tree.Io[i]
+        store3(hc, i, load3(tree.h, i))
+        store33(Ioc, i, load33(tree.Io, i))
     for i in range(nb - 1, -1, -1):
+        m, h, Io = mc[i], load3(hc, i), load33(Ioc, i)
         par = tree.parents[i]
-        if par >= 0:
-            mc[par] += mc[i]
-            inertia_to_parent(R[i], p[i], mc[i], hc[i], Ioc[i], hc[par], Ioc[par])
+        if par >= 0:  # I^c_parent += X^T I^c_i X
+            hP, IoP = inertia_to_parent(load33(Rs, i), load3(ps, i), m, h, Io)
+            mc[par] += m
+            store3(hc, par, add(load3(hc, par), hP))
+            store33(Ioc, par, add9(load33(Ioc, par), IoP))
         for k in range(tree.v_idx[i], tree.v_idx[i] + tree.nv_j[i]):
-            inertia_times_motion(mc[i], hc[i], Ioc[i], S[k, 0:3], S[k, 3:6], n, f)
+            n, f = inertia_times(m, h, Io, (S[k, 0], S[k, 1], S[k, 2]), (S[k, 3], S[k, 4], S[k, 5]))  # F = I^c S_k
             j = i
-            while True:
+            while True:  # M[k, dofs(j)] = S_j^T F for j = i and its ancestors
                 for c in range(tree.v_idx[j], tree.v_idx[j] + tree.nv_j[j]):
                     if c <= k:
                         x = (S[c, 0] * n[0] + S[c, 1] * n[1] + S[c, 2] * n[2]
@@ -50,15 +54,17 @@ def crba_into(tree, q, ws, M):
                 pj = tree.parents[j]
                 if pj < 0:
                     break
-                n2[:] = 0.0
-                f2[:] = 0.0
-                add_force_to_parent(R[j], p[j], n, f, n2, f2)
-                n[:] = n2
-                f[:] = f2
+                n, f = force_to_parent(load33(Rs, j), load3(ps, j), n, f)
                 j = pj
 
 
-@njit(cache=True, nogil=True)
+@kernel
+def add9(A, B):
+    return (A[0] + B[0], A[1] + B[1], A[2] + B[2], A[3] + B[3], A[4] + B[4], A[5] + B[5], A[6] + B[6],
+            A[7] + B[7], A[8] + B[8])
+
+
+@kernel
 def crba(tree, q):
     """Mass matrix for one state (allocates; callable from other kernels).  Entries of unrelated
     branches are zero."""
@@ -68,7 +74,7 @@ def crba(tree, q):
     return M
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def crba_batch(tree, Q, out):
     ws = workspace(tree.parents.shape[0])
     out[:] = 0.0
@@ -79,11 +85,13 @@ def crba_batch(tree, Q, out):
 # -- public entry point ----------------------------------------------------------------------------
 from . import batch as _b  # noqa: E402
 
+_crba_batch = _b.Kernel(crba_batch)
+
 
 def mass_matrix(model, q):
     """The joint-space mass matrix M(q) (CRBA), symmetric positive definite: (nv, nv) or (B, nv, nv)."""
     _b.check_model(model)
     Q, batched = _b.configurations(model, q)
     out = np.empty((Q.shape[0], model.nv, model.nv))
-    _b.run_chunks(crba_batch, model.tree, (Q,), (), out)
+    _b.run_chunks(_crba_batch, model.tree, (Q,), (), out)
     return out if batched else out[0]

@@ -8,73 +8,61 @@ along g.
 """
 
 import numpy as np
-from numba import njit
 
-from .joints import add_joint_motion, joint_transform
-from .spatial import inertia_times_motion, matmul3, matvec, motion_to_child
+from .jit import kernel
+from .joints import joint_motion, joint_transform
+from .spatial import add, dot, inertia_times, load3, load33, matmul, motion_to_child, rot, store3, store33
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def kinetic_energy_kernel(tree, q, v):
     nb = tree.parents.shape[0]
-    R = np.empty((3, 3))
-    Rj = np.empty((3, 3))
-    p = np.empty(3)
-    w = np.zeros((nb, 3))
-    vl = np.zeros((nb, 3))
-    zero = np.zeros(3)
-    n = np.empty(3)
-    f = np.empty(3)
+    ws = np.empty((nb, 3))
+    vs = np.empty((nb, 3))
+    zero = (0.0, 0.0, 0.0)
     T = 0.0
     for i in range(nb):
-        joint_transform(tree, i, q, Rj, R, p)
+        R, p = joint_transform(tree, i, q)
         par = tree.parents[i]
         if par < 0:
-            motion_to_child(R, p, zero, zero, w[i], vl[i])
+            w, vl = motion_to_child(R, p, zero, zero)
         else:
-            motion_to_child(R, p, w[par], vl[par], w[i], vl[i])
-        add_joint_motion(tree, i, v, w[i], vl[i])
-        inertia_times_motion(tree.mass[i], tree.h[i], tree.Io[i], w[i], vl[i], n, f)
-        T += 0.5 * (w[i, 0] * n[0] + w[i, 1] * n[1] + w[i, 2] * n[2]
-                    + vl[i, 0] * f[0] + vl[i, 1] * f[1] + vl[i, 2] * f[2])
+            w, vl = motion_to_child(R, p, load3(ws, par), load3(vs, par))
+        wJ, vJ = joint_motion(tree, i, v)
+        w, vl = add(w, wJ), add(vl, vJ)
+        store3(ws, i, w)
+        store3(vs, i, vl)
+        n, f = inertia_times(tree.mass[i], load3(tree.h, i), load33(tree.Io, i), w, vl)
+        T += 0.5 * (dot(w, n) + dot(vl, f))
     return T
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def potential_energy_kernel(tree, q, gravity):
     nb = tree.parents.shape[0]
     Rw = np.empty((nb, 3, 3))  # world pose of each body
     pw = np.empty((nb, 3))
-    R = np.empty((3, 3))
-    Rj = np.empty((3, 3))
-    p = np.empty(3)
-    t = np.empty(3)
+    g = (gravity[0], gravity[1], gravity[2])
     U = 0.0
     for i in range(nb):
-        joint_transform(tree, i, q, Rj, R, p)
+        R, p = joint_transform(tree, i, q)
         par = tree.parents[i]
-        if par < 0:
-            Rw[i] = R
-            pw[i] = p
-        else:
-            matmul3(Rw[par], R, Rw[i])
-            matvec(Rw[par], p, t)
-            for r in range(3):
-                pw[i, r] = pw[par, r] + t[r]
-        matvec(Rw[i], tree.h[i], t)  # m R c
-        m = tree.mass[i]
-        for r in range(3):
-            U -= gravity[r] * (m * pw[i, r] + t[r])
+        if par >= 0:
+            Rp = load33(Rw, par)
+            R, p = matmul(Rp, R), add(load3(pw, par), rot(Rp, p))
+        store33(Rw, i, R)
+        store3(pw, i, p)
+        U -= tree.mass[i] * dot(g, p) + dot(g, rot(R, load3(tree.h, i)))  # m g . (p + R c)
     return U
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def kinetic_energy_batch(tree, Q, V, out):
     for b in range(Q.shape[0]):
         out[b] = kinetic_energy_kernel(tree, Q[b], V[b])
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def potential_energy_batch(tree, Q, gravity, out):
     for b in range(Q.shape[0]):
         out[b] = potential_energy_kernel(tree, Q[b], gravity)
@@ -82,6 +70,9 @@ def potential_energy_batch(tree, Q, gravity, out):
 
 # -- public entry points ---------------------------------------------------------------------------
 from . import batch as _b  # noqa: E402
+
+_kinetic_energy_batch = _b.Kernel(kinetic_energy_batch)
+_potential_energy_batch = _b.Kernel(potential_energy_batch)
 
 
 def kinetic_energy(model, q, v):
@@ -92,7 +83,7 @@ def kinetic_energy(model, q, v):
     Q, V = _b.broadcast((("q", Q), ("v", V)))
     B = Q.shape[0]
     out = np.empty(B)
-    _b.run_chunks(kinetic_energy_batch, model.tree, (Q, V), (), out)
+    _b.run_chunks(_kinetic_energy_batch, model.tree, (Q, V), (), out)
     return out if (bq or bv) else float(out[0])
 
 
@@ -101,5 +92,5 @@ def potential_energy(model, q, *, gravity=None):
     _b.check_model(model)
     Q, bq = _b.configurations(model, q)
     out = np.empty(Q.shape[0])
-    _b.run_chunks(potential_energy_batch, model.tree, (Q,), (_b.gravity_vector(model, gravity),), out)
+    _b.run_chunks(_potential_energy_batch, model.tree, (Q,), (_b.gravity_vector(model, gravity),), out)
     return out if bq else float(out[0])

@@ -16,9 +16,9 @@ velocity-product term (eq. 5.8).
 """
 
 import numpy as np
-from numba import njit
+from .jit import kernel
 
-from .spatial import matmul3, matvec, quat_to_rot, rotation_about_axis
+from .spatial import add, load3, load33, matmul, quat_rotation, rot, rotation_about_axis, scale
 
 JOINT_REVOLUTE = 0
 JOINT_PRISMATIC = 1
@@ -49,45 +49,38 @@ def motion_subspace(code, axis):
     return S
 
 
-@njit(cache=True, nogil=True)
-def joint_transform(tree, i, q, Rj, R, p):
-    """Write the pose of body i in its parent's frame: (R, p) = placement * joint motion at q.
-
-    Rj is a 3x3 scratch matrix.
-    """
+@kernel
+def joint_transform(tree, i, q):
+    """Pose (R, p) of body i in its parent's frame: placement * joint motion at q."""
     code = tree.jtype[i]
     k = tree.q_idx[i]
-    X = tree.Xrot[i]
-    p0 = tree.Xpos[i]
+    X = load33(tree.Xrot, i)
+    p0 = load3(tree.Xpos, i)
     if code == JOINT_REVOLUTE:
-        rotation_about_axis(tree.axis[i], q[k], Rj)
-        matmul3(X, Rj, R)
-        p[0], p[1], p[2] = p0[0], p0[1], p0[2]
-    elif code == JOINT_PRISMATIC:
-        R[:, :] = X
-        matvec(X, tree.axis[i], p)
-        for r in range(3):
-            p[r] = p0[r] + p[r] * q[k]
-    else:
-        quat_to_rot(q[k + 3], q[k + 4], q[k + 5], q[k + 6], Rj)
-        matmul3(X, Rj, R)
-        matvec(X, q[k:k + 3], p)
-        for r in range(3):
-            p[r] += p0[r]
+        return matmul(X, rotation_about_axis(load3(tree.axis, i), q[k])), p0
+    if code == JOINT_PRISMATIC:
+        return X, add(p0, rot(X, scale(q[k], load3(tree.axis, i))))
+    R = matmul(X, quat_rotation(q[k + 3], q[k + 4], q[k + 5], q[k + 6]))
+    return R, add(p0, rot(X, (q[k], q[k + 1], q[k + 2])))
 
 
-@njit(cache=True, nogil=True)
-def add_joint_motion(tree, i, qd, w, v):
-    """(w, v) += S_i qd: the joint's contribution to a motion vector (velocity or acceleration)."""
+@kernel
+def joint_motion(tree, i, qd):
+    """S_i qd: the joint's motion (w, v) in the body frame for joint rates (or accelerations) qd."""
     S = tree.S
+    w0 = w1 = w2 = v0 = v1 = v2 = 0.0
     for k in range(tree.v_idx[i], tree.v_idx[i] + tree.nv_j[i]):
         x = qd[k]
-        for r in range(3):
-            w[r] += S[k, r] * x
-            v[r] += S[k, 3 + r] * x
+        w0 += S[k, 0] * x
+        w1 += S[k, 1] * x
+        w2 += S[k, 2] * x
+        v0 += S[k, 3] * x
+        v1 += S[k, 4] * x
+        v2 += S[k, 5] * x
+    return (w0, w1, w2), (v0, v1, v2)
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def project_force(tree, i, n, f, tau):
     """tau[dofs of i] = S_i^T (n, f): the generalised force the joint transmits."""
     S = tree.S

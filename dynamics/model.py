@@ -152,6 +152,15 @@ class Model:
             out[i] = np.block([[Io, hx], [hx.T, m * np.eye(3)]])
         return out
 
+    @property
+    def quaternion_starts(self):
+        """(k,) int64: index in q of each free joint's quaternion (qx)."""
+        starts = self.__dict__.get("_quaternion_starts")
+        if starts is None:
+            starts = _frozen([k + 3 for c, k in zip(self.tree.jtype, self.tree.q_idx) if c == 2], np.int64)
+            object.__setattr__(self, "_quaternion_starts", starts)
+        return starts
+
     def joint_index(self, name: str) -> int:
         """Index of the joint (= body) named ``name``."""
         try:

@@ -13,61 +13,69 @@ Backward pass:  tau_i = S_i^T f_i ,  f_p += X_i^T f_i .
 """
 
 import numpy as np
-from numba import njit
 
-from .joints import add_joint_motion, joint_transform, project_force
-from .spatial import (add_cross_force, add_cross_motion, add_force_to_parent, inertia_times_motion,
-                      motion_to_child)
+from .jit import kernel
+from .joints import joint_motion, joint_transform, project_force
+from .spatial import (add, cross_force, cross_motion, force_to_parent, inertia_times, load3, load33,
+                      motion_to_child, store3, store33)
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def workspace(nb):
     """Scratch for one state: poses (R, p), velocities (w, v), accelerations (aw, av), forces (n, f)."""
     return (np.empty((nb, 3, 3)), np.empty((nb, 3)), np.empty((nb, 3)), np.empty((nb, 3)),
-            np.empty((nb, 3)), np.empty((nb, 3)), np.empty((nb, 3)), np.empty((nb, 3)), np.empty((3, 3)),
-            np.empty(3), np.empty(3))
+            np.empty((nb, 3)), np.empty((nb, 3)), np.empty((nb, 3)), np.empty((nb, 3)))
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def rnea_into(tree, q, v, a, gravity, f_ext, ws, tau):
     """RNEA for one state into ``tau``; ``f_ext`` is (nb, 6) [force, torque] per body or (0, 6)."""
-    R, p, w, vl, aw, al, n, f, Rj, wJ, vJ = ws
-    zero = np.zeros(3)
-    minus_g = -gravity
+    Rs, ps, ws_, vs, aws, avs, ns, fs = ws
+    zero = (0.0, 0.0, 0.0)
+    a0 = (-gravity[0], -gravity[1], -gravity[2])  # the world accelerates up: a_0 = (0, -g)
     nb = tree.parents.shape[0]
     for i in range(nb):
-        joint_transform(tree, i, q, Rj, R[i], p[i])
+        R, p = joint_transform(tree, i, q)
         par = tree.parents[i]
         if par < 0:
-            motion_to_child(R[i], p[i], zero, zero, w[i], vl[i])
-            motion_to_child(R[i], p[i], zero, minus_g, aw[i], al[i])
+            w, vl = motion_to_child(R, p, zero, zero)
+            aw, al = motion_to_child(R, p, zero, a0)
         else:
-            motion_to_child(R[i], p[i], w[par], vl[par], w[i], vl[i])
-            motion_to_child(R[i], p[i], aw[par], al[par], aw[i], al[i])
-        wJ[:] = 0.0
-        vJ[:] = 0.0
-        add_joint_motion(tree, i, v, wJ, vJ)
-        for r in range(3):
-            w[i, r] += wJ[r]
-            vl[i, r] += vJ[r]
-        add_joint_motion(tree, i, a, aw[i], al[i])
-        add_cross_motion(w[i], vl[i], wJ, vJ, aw[i], al[i])
-        # f_i = I a + v x* I v
-        inertia_times_motion(tree.mass[i], tree.h[i], tree.Io[i], aw[i], al[i], n[i], f[i])
-        inertia_times_motion(tree.mass[i], tree.h[i], tree.Io[i], w[i], vl[i], wJ, vJ)  # wJ, vJ reused: I v
-        add_cross_force(w[i], vl[i], wJ, vJ, n[i], f[i])
+            w, vl = motion_to_child(R, p, load3(ws_, par), load3(vs, par))
+            aw, al = motion_to_child(R, p, load3(aws, par), load3(avs, par))
+        wJ, vJ = joint_motion(tree, i, v)
+        w, vl = add(w, wJ), add(vl, vJ)
+        sw, sv = joint_motion(tree, i, a)
+        cw, cv = cross_motion(w, vl, wJ, vJ)
+        aw, al = add(aw, add(sw, cw)), add(al, add(sv, cv))
+        # f_i = I a + v x* I v - f_ext
+        m, h, Io = tree.mass[i], load3(tree.h, i), load33(tree.Io, i)
+        n, f = inertia_times(m, h, Io, aw, al)
+        hn, hf = inertia_times(m, h, Io, w, vl)
+        bn, bf = cross_force(w, vl, hn, hf)
+        n, f = add(n, bn), add(f, bf)
         if f_ext.shape[0] > 0:
-            for r in range(3):
-                f[i, r] -= f_ext[i, r]
-                n[i, r] -= f_ext[i, 3 + r]
+            n = (n[0] - f_ext[i, 3], n[1] - f_ext[i, 4], n[2] - f_ext[i, 5])
+            f = (f[0] - f_ext[i, 0], f[1] - f_ext[i, 1], f[2] - f_ext[i, 2])
+        store33(Rs, i, R)
+        store3(ps, i, p)
+        store3(ws_, i, w)
+        store3(vs, i, vl)
+        store3(aws, i, aw)
+        store3(avs, i, al)
+        store3(ns, i, n)
+        store3(fs, i, f)
     for i in range(nb - 1, -1, -1):
-        project_force(tree, i, n[i], f[i], tau)
+        n, f = load3(ns, i), load3(fs, i)
+        project_force(tree, i, n, f, tau)
         par = tree.parents[i]
         if par >= 0:
-            add_force_to_parent(R[i], p[i], n[i], f[i], n[par], f[par])
+            pn, pf = force_to_parent(load33(Rs, i), load3(ps, i), n, f)
+            store3(ns, par, add(load3(ns, par), pn))
+            store3(fs, par, add(load3(fs, par), pf))
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def rnea(tree, q, v, a, gravity, f_ext):
     """Joint torques for one state (allocates its own workspace; callable from other kernels)."""
     tau = np.empty(tree.S.shape[0])
@@ -75,7 +83,7 @@ def rnea(tree, q, v, a, gravity, f_ext):
     return tau
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def rnea_batch(tree, Q, V, A, F, gravity, out):
     """Rows of ``out`` = RNEA of the rows of Q, V, A; F is (1 or B, nb or 0, 6)."""
     ws = workspace(tree.parents.shape[0])
@@ -86,6 +94,8 @@ def rnea_batch(tree, Q, V, A, F, gravity, out):
 
 # -- public entry points ---------------------------------------------------------------------------
 from . import batch as _b  # noqa: E402
+
+_rnea_batch = _b.Kernel(rnea_batch)
 
 
 def _run(model, q, v, a, gravity, f_ext):
@@ -99,7 +109,7 @@ def _run(model, q, v, a, gravity, f_ext):
     out = np.empty((B, model.nv))
     F = _b.external_forces(model, f_ext, B)
     g = _b.gravity_vector(model, gravity)
-    _b.run_chunks(rnea_batch, model.tree, (Q, V, A, F), (g,), out)
+    _b.run_chunks(_rnea_batch, model.tree, (Q, V, A, F), (g,), out)
     return out if batched else out[0]
 
 

@@ -12,172 +12,249 @@ Conventions used by every kernel:
   rotational inertia about the origin ``Io = Ic + m [c]x^T [c]x``.  Its 6x6 form (angular first) is
   ``[[Io, [h]x], [[h]x^T, m 1]]`` (eq. 2.63).
 
-Everything here is ``numba.njit`` and allocation free: results are written into ``out`` arguments.
+3-vectors are tuples ``(x, y, z)`` and 3x3 matrices row-major 9-tuples, so that the kernels pass values in
+registers: slicing a row out of a numba array makes a reference-counted view, which costs more than the
+arithmetic here.  ``load3``/``store3`` move them between tuples and rows of the model's flat arrays.
 """
 
 import numpy as np
-from numba import njit
 
-_JIT = dict(cache=True, nogil=True)
-
-
-@njit(**_JIT)
-def cross(a, b, out):
-    """out = a x b (out must not alias a or b)."""
-    out[0] = a[1] * b[2] - a[2] * b[1]
-    out[1] = a[2] * b[0] - a[0] * b[2]
-    out[2] = a[0] * b[1] - a[1] * b[0]
+from .jit import kernel
 
 
-@njit(**_JIT)
-def add_cross(a, b, out):
-    """out += a x b."""
-    out[0] += a[1] * b[2] - a[2] * b[1]
-    out[1] += a[2] * b[0] - a[0] * b[2]
-    out[2] += a[0] * b[1] - a[1] * b[0]
+# -- moving values between arrays and tuples -------------------------------------------------------
+
+@kernel
+def load3(A, i):
+    return (A[i, 0], A[i, 1], A[i, 2])
 
 
-@njit(**_JIT)
-def matvec(R, x, out):
-    """out = R x."""
-    for r in range(3):
-        out[r] = R[r, 0] * x[0] + R[r, 1] * x[1] + R[r, 2] * x[2]
+@kernel
+def store3(A, i, x):
+    A[i, 0] = x[0]
+    A[i, 1] = x[1]
+    A[i, 2] = x[2]
 
 
-@njit(**_JIT)
-def matTvec(R, x, out):
-    """out = R^T x."""
-    for r in range(3):
-        out[r] = R[0, r] * x[0] + R[1, r] * x[1] + R[2, r] * x[2]
+@kernel
+def load33(A, i):
+    return (A[i, 0, 0], A[i, 0, 1], A[i, 0, 2], A[i, 1, 0], A[i, 1, 1], A[i, 1, 2], A[i, 2, 0], A[i, 2, 1],
+            A[i, 2, 2])
 
 
-@njit(**_JIT)
-def matmul3(A, B, out):
-    """out = A B for 3x3 matrices."""
+@kernel
+def store33(A, i, M):
     for r in range(3):
         for c in range(3):
-            out[r, c] = A[r, 0] * B[0, c] + A[r, 1] * B[1, c] + A[r, 2] * B[2, c]
+            A[i, r, c] = M[3 * r + c]
 
 
-@njit(**_JIT)
-def motion_to_child(R, p, wP, vP, wB, vB):
-    """Express the parent's spatial motion (wP, vP) in the child frame: (wB, vB) = X (wP, vP)."""
-    t0 = vP[0] + wP[1] * p[2] - wP[2] * p[1]
-    t1 = vP[1] + wP[2] * p[0] - wP[0] * p[2]
-    t2 = vP[2] + wP[0] * p[1] - wP[1] * p[0]
-    for r in range(3):
-        wB[r] = R[0, r] * wP[0] + R[1, r] * wP[1] + R[2, r] * wP[2]
-        vB[r] = R[0, r] * t0 + R[1, r] * t1 + R[2, r] * t2
+# -- 3-vectors and 3x3 matrices ------------------------------------------------------------------------
+
+@kernel
+def add(a, b):
+    return (a[0] + b[0], a[1] + b[1], a[2] + b[2])
 
 
-@njit(**_JIT)
-def add_force_to_parent(R, p, nB, fB, nP, fP):
-    """Accumulate the child's spatial force (nB, fB) into the parent's (nP, fP): (nP, fP) += X^T (nB, fB)."""
-    f0 = R[0, 0] * fB[0] + R[0, 1] * fB[1] + R[0, 2] * fB[2]
-    f1 = R[1, 0] * fB[0] + R[1, 1] * fB[1] + R[1, 2] * fB[2]
-    f2 = R[2, 0] * fB[0] + R[2, 1] * fB[1] + R[2, 2] * fB[2]
-    for r in range(3):
-        nP[r] += R[r, 0] * nB[0] + R[r, 1] * nB[1] + R[r, 2] * nB[2]
-    nP[0] += p[1] * f2 - p[2] * f1
-    nP[1] += p[2] * f0 - p[0] * f2
-    nP[2] += p[0] * f1 - p[1] * f0
-    fP[0] += f0
-    fP[1] += f1
-    fP[2] += f2
+@kernel
+def scale(s, a):
+    return (s * a[0], s * a[1], s * a[2])
 
 
-@njit(**_JIT)
-def inertia_times_motion(m, h, Io, w, v, n, f):
-    """(n, f) = I (w, v) for the rigid-body inertia (m, h, Io): n = Io w + h x v, f = m v - h x w."""
-    for r in range(3):
-        n[r] = Io[r, 0] * w[0] + Io[r, 1] * w[1] + Io[r, 2] * w[2]
-    n[0] += h[1] * v[2] - h[2] * v[1]
-    n[1] += h[2] * v[0] - h[0] * v[2]
-    n[2] += h[0] * v[1] - h[1] * v[0]
-    f[0] = m * v[0] - (h[1] * w[2] - h[2] * w[1])
-    f[1] = m * v[1] - (h[2] * w[0] - h[0] * w[2])
-    f[2] = m * v[2] - (h[0] * w[1] - h[1] * w[0])
+@kernel
+def dot(a, b):
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 
 
-@njit(**_JIT)
-def add_cross_force(w, v, n, f, nout, fout):
-    """(nout, fout) += (w, v) x* (n, f) = (w x n + v x f, w x f)   (eq. 2.32)."""
-    add_cross(w, n, nout)
-    add_cross(v, f, nout)
-    add_cross(w, f, fout)
+@kernel
+def cross(a, b):
+    return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
 
 
-@njit(**_JIT)
-def add_cross_motion(w, v, wJ, vJ, wout, vout):
-    """(wout, vout) += (w, v) x (wJ, vJ) = (w x wJ, w x vJ + v x wJ)   (eq. 2.31)."""
-    add_cross(w, wJ, wout)
-    add_cross(w, vJ, vout)
-    add_cross(v, wJ, vout)
+@kernel
+def rot(R, x):
+    """R x."""
+    return (R[0] * x[0] + R[1] * x[1] + R[2] * x[2],
+            R[3] * x[0] + R[4] * x[1] + R[5] * x[2],
+            R[6] * x[0] + R[7] * x[1] + R[8] * x[2])
 
 
-@njit(**_JIT)
-def inertia_to_parent(R, p, m, h, Io, hP, IoP):
-    """Accumulate a rigid-body inertia (m, h, Io) given in a child frame into the parent's (hP, IoP).
+@kernel
+def rotT(R, x):
+    """R^T x."""
+    return (R[0] * x[0] + R[3] * x[1] + R[6] * x[2],
+            R[1] * x[0] + R[4] * x[1] + R[7] * x[2],
+            R[2] * x[0] + R[5] * x[1] + R[8] * x[2])
+
+
+@kernel
+def matmul(A, B):
+    """A B for 3x3 matrices."""
+    return (A[0] * B[0] + A[1] * B[3] + A[2] * B[6], A[0] * B[1] + A[1] * B[4] + A[2] * B[7],
+            A[0] * B[2] + A[1] * B[5] + A[2] * B[8],
+            A[3] * B[0] + A[4] * B[3] + A[5] * B[6], A[3] * B[1] + A[4] * B[4] + A[5] * B[7],
+            A[3] * B[2] + A[4] * B[5] + A[5] * B[8],
+            A[6] * B[0] + A[7] * B[3] + A[8] * B[6], A[6] * B[1] + A[7] * B[4] + A[8] * B[7],
+            A[6] * B[2] + A[7] * B[5] + A[8] * B[8])
+
+
+@kernel
+def transpose(A):
+    return (A[0], A[3], A[6], A[1], A[4], A[7], A[2], A[5], A[8])
+
+
+@kernel
+def rot_congruence(R, X):
+    """R X R^T."""
+    return matmul(matmul(R, X), transpose(R))
+
+
+# -- spatial operations --------------------------------------------------------------------------------
+
+@kernel
+def motion_to_child(R, p, w, v):
+    """X (w, v): the parent's motion vector in the child frame."""
+    return rotT(R, w), rotT(R, add(v, cross(w, p)))
+
+
+@kernel
+def force_to_parent(R, p, n, f):
+    """X^T (n, f): the child's force in the parent frame."""
+    fP = rot(R, f)
+    return add(rot(R, n), cross(p, fP)), fP
+
+
+@kernel
+def inertia_times(m, h, Io, w, v):
+    """I (w, v) = (Io w + h x v, m v - h x w) for the rigid-body inertia (m, h, Io)."""
+    n = add(rot(Io, w), cross(h, v))
+    hw = cross(h, w)
+    return n, (m * v[0] - hw[0], m * v[1] - hw[1], m * v[2] - hw[2])
+
+
+@kernel
+def cross_motion(w, v, wJ, vJ):
+    """(w, v) x (wJ, vJ) = (w x wJ, w x vJ + v x wJ)   (eq. 2.31)."""
+    return cross(w, wJ), add(cross(w, vJ), cross(v, wJ))
+
+
+@kernel
+def cross_force(w, v, n, f):
+    """(w, v) x* (n, f) = (w x n + v x f, w x f)   (eq. 2.32)."""
+    return add(cross(w, n), cross(v, f)), cross(w, f)
+
+
+@kernel
+def inertia_to_parent(R, p, m, h, Io):
+    """The rigid-body inertia (m, h, Io) of a child frame, expressed about the parent's origin: (h', Io').
 
     With r' = R r + p for every mass point: h' = R h + m p and
     Io' = R Io R^T + (2 p.(R h) + m |p|^2) 1 - ((R h) p^T + p (R h)^T + m p p^T).
     """
-    hR0 = R[0, 0] * h[0] + R[0, 1] * h[1] + R[0, 2] * h[2]
-    hR1 = R[1, 0] * h[0] + R[1, 1] * h[1] + R[1, 2] * h[2]
-    hR2 = R[2, 0] * h[0] + R[2, 1] * h[1] + R[2, 2] * h[2]
-    hP[0] += hR0 + m * p[0]
-    hP[1] += hR1 + m * p[1]
-    hP[2] += hR2 + m * p[2]
-    # R Io R^T
-    for r in range(3):
-        t0 = R[r, 0] * Io[0, 0] + R[r, 1] * Io[1, 0] + R[r, 2] * Io[2, 0]
-        t1 = R[r, 0] * Io[0, 1] + R[r, 1] * Io[1, 1] + R[r, 2] * Io[2, 1]
-        t2 = R[r, 0] * Io[0, 2] + R[r, 1] * Io[1, 2] + R[r, 2] * Io[2, 2]
-        for c in range(3):
-            IoP[r, c] += t0 * R[c, 0] + t1 * R[c, 1] + t2 * R[c, 2]
-    d = 2.0 * (p[0] * hR0 + p[1] * hR1 + p[2] * hR2) + m * (p[0] * p[0] + p[1] * p[1] + p[2] * p[2])
-    hR = (hR0, hR1, hR2)
-    for r in range(3):
-        IoP[r, r] += d
-        for c in range(3):
-            IoP[r, c] -= hR[r] * p[c] + p[r] * hR[c] + m * p[r] * p[c]
+    hR = rot(R, h)
+    A = rot_congruence(R, Io)
+    d = 2.0 * dot(p, hR) + m * dot(p, p)
+    out = (A[0] + d - 2.0 * hR[0] * p[0] - m * p[0] * p[0],
+           A[1] - hR[0] * p[1] - p[0] * hR[1] - m * p[0] * p[1],
+           A[2] - hR[0] * p[2] - p[0] * hR[2] - m * p[0] * p[2],
+           A[3] - hR[1] * p[0] - p[1] * hR[0] - m * p[1] * p[0],
+           A[4] + d - 2.0 * hR[1] * p[1] - m * p[1] * p[1],
+           A[5] - hR[1] * p[2] - p[1] * hR[2] - m * p[1] * p[2],
+           A[6] - hR[2] * p[0] - p[2] * hR[0] - m * p[2] * p[0],
+           A[7] - hR[2] * p[1] - p[2] * hR[1] - m * p[2] * p[1],
+           A[8] + d - 2.0 * hR[2] * p[2] - m * p[2] * p[2])
+    return add(hR, scale(m, p)), out
 
 
-@njit(**_JIT)
-def rotation_about_axis(axis, angle, out):
-    """Rodrigues' formula: out = exp([axis]x angle) for a unit axis."""
+@kernel
+def _block(I, r0, c0):
+    return (I[r0, c0], I[r0, c0 + 1], I[r0, c0 + 2], I[r0 + 1, c0], I[r0 + 1, c0 + 1], I[r0 + 1, c0 + 2],
+            I[r0 + 2, c0], I[r0 + 2, c0 + 1], I[r0 + 2, c0 + 2])
+
+
+@kernel
+def add_inertia6_to_parent(R, p, I, IA, par):
+    """IA[par] += X^T I X for a 6x6 (articulated) inertia I given in the child frame.
+
+    With I = [[A, B], [B^T, C]], A' = R A R^T, B' = R B R^T, C' = R C R^T and P = [p]x:
+    X^T I X = [[A' - B'P - (B'P)^T - P C'P,  B' - (C'P)^T], [B'^T - C'P, C']].
+    """
+    A = rot_congruence(R, _block(I, 0, 0))
+    B = rot_congruence(R, _block(I, 0, 3))
+    C = rot_congruence(R, _block(I, 3, 3))
+    P = (0.0, -p[2], p[1], p[2], 0.0, -p[0], -p[1], p[0], 0.0)
+    CP = matmul(C, P)
+    BP = matmul(B, P)
+    PCP = matmul(P, CP)
+    for r in range(3):
+        for c in range(3):
+            IA[par, r, c] += A[3 * r + c] - BP[3 * r + c] - BP[3 * c + r] - PCP[3 * r + c]
+            t = B[3 * r + c] - CP[3 * c + r]
+            IA[par, r, 3 + c] += t
+            IA[par, 3 + c, r] += t
+            IA[par, 3 + r, 3 + c] += C[3 * r + c]
+
+
+@kernel
+def rotation_about_axis(axis, angle):
+    """Rodrigues' formula: exp([axis]x angle) for a unit axis, as a 9-tuple."""
     c = np.cos(angle)
     s = np.sin(angle)
     t = 1.0 - c
-    x, y, z = axis[0], axis[1], axis[2]
-    out[0, 0] = t * x * x + c
-    out[0, 1] = t * x * y - s * z
-    out[0, 2] = t * x * z + s * y
-    out[1, 0] = t * x * y + s * z
-    out[1, 1] = t * y * y + c
-    out[1, 2] = t * y * z - s * x
-    out[2, 0] = t * x * z - s * y
-    out[2, 1] = t * y * z + s * x
-    out[2, 2] = t * z * z + c
+    x, y, z = axis
+    return (t * x * x + c, t * x * y - s * z, t * x * z + s * y,
+            t * x * y + s * z, t * y * y + c, t * y * z - s * x,
+            t * x * z - s * y, t * y * z + s * x, t * z * z + c)
 
 
-@njit(**_JIT)
-def quat_to_rot(qx, qy, qz, qw, out):
-    """Rotation matrix of the quaternion (qx, qy, qz, qw), normalised first (Hamilton convention)."""
+@kernel
+def quat_rotation(qx, qy, qz, qw):
+    """Rotation matrix (9-tuple) of the quaternion (qx, qy, qz, qw), normalised first (Hamilton)."""
     nrm = np.sqrt(qx * qx + qy * qy + qz * qz + qw * qw)
     x, y, z, w = qx / nrm, qy / nrm, qz / nrm, qw / nrm
-    out[0, 0] = 1.0 - 2.0 * (y * y + z * z)
-    out[0, 1] = 2.0 * (x * y - z * w)
-    out[0, 2] = 2.0 * (x * z + y * w)
-    out[1, 0] = 2.0 * (x * y + z * w)
-    out[1, 1] = 1.0 - 2.0 * (x * x + z * z)
-    out[1, 2] = 2.0 * (y * z - x * w)
-    out[2, 0] = 2.0 * (x * z - y * w)
-    out[2, 1] = 2.0 * (y * z + x * w)
-    out[2, 2] = 1.0 - 2.0 * (x * x + y * y)
+    return (1.0 - 2.0 * (y * y + z * z), 2.0 * (x * y - z * w), 2.0 * (x * z + y * w),
+            2.0 * (x * y + z * w), 1.0 - 2.0 * (x * x + z * z), 2.0 * (y * z - x * w),
+            2.0 * (x * z - y * w), 2.0 * (y * z + x * w), 1.0 - 2.0 * (x * x + y * y))
 
 
-@njit(**_JIT)
+@kernel
+def spd_inverse(D, n, Dinv, i, A):
+    """Dinv[i, :n, :n] = inverse of the symmetric positive definite D[:n, :n] (Gauss-Jordan without
+    pivoting, valid for SPD; A is (6, 6) scratch).  Returns False when a pivot is not positive."""
+    for r in range(n):
+        for c in range(n):
+            A[r, c] = D[r, c]
+            Dinv[i, r, c] = 1.0 if r == c else 0.0
+    for k in range(n):
+        piv = A[k, k]
+        if not piv > 0.0:
+            return False
+        inv = 1.0 / piv
+        for c in range(n):
+            A[k, c] *= inv
+            Dinv[i, k, c] *= inv
+        for r in range(n):
+            if r != k:
+                fac = A[r, k]
+                if fac != 0.0:
+                    for c in range(n):
+                        A[r, c] -= fac * A[k, c]
+                        Dinv[i, r, c] -= fac * Dinv[i, k, c]
+    return True
+
+
+# -- quaternions on arrays (configuration updates) ---------------------------------------------------
+
+@kernel
+def quat_to_rot(qx, qy, qz, qw, out):
+    """out (3x3 array) = rotation matrix of the quaternion (qx, qy, qz, qw), normalised first."""
+    R = quat_rotation(qx, qy, qz, qw)
+    for r in range(3):
+        for c in range(3):
+            out[r, c] = R[3 * r + c]
+
+
+@kernel
 def quat_multiply(a, b, out):
     """out = a * b for quaternions stored (x, y, z, w)."""
     ax, ay, az, aw = a[0], a[1], a[2], a[3]
@@ -188,7 +265,7 @@ def quat_multiply(a, b, out):
     out[3] = aw * bw - ax * bx - ay * by - az * bz
 
 
-@njit(**_JIT)
+@kernel
 def exp_quat(w, out):
     """Unit quaternion (x, y, z, w) of the rotation vector w (exp map of so(3)), accurate near zero."""
     th = np.sqrt(w[0] * w[0] + w[1] * w[1] + w[2] * w[2])
@@ -215,66 +292,3 @@ def rpy_to_matrix(rpy):
             [-sp, cp * sr, cp * cr],
         ]
     )
-
-
-@njit(**_JIT)
-def rot_congruence(R, X, out):
-    """out = R X R^T for 3x3 matrices."""
-    for r in range(3):
-        t0 = R[r, 0] * X[0, 0] + R[r, 1] * X[1, 0] + R[r, 2] * X[2, 0]
-        t1 = R[r, 0] * X[0, 1] + R[r, 1] * X[1, 1] + R[r, 2] * X[2, 1]
-        t2 = R[r, 0] * X[0, 2] + R[r, 1] * X[1, 2] + R[r, 2] * X[2, 2]
-        for c in range(3):
-            out[r, c] = t0 * R[c, 0] + t1 * R[c, 1] + t2 * R[c, 2]
-
-
-@njit(cache=True, nogil=True)
-def add_inertia6_to_parent(R, p, I, IP, tmp):
-    """IP += X^T I X for a 6x6 (articulated) inertia I in the child frame; tmp is (6, 3, 3) scratch.
-
-    With I = [[A, B], [B^T, C]], A' = R A R^T, B' = R B R^T, C' = R C R^T and P = [p]x:
-    X^T I X = [[A' - B'P - (B'P)^T - P C'P,  B' - (C'P)^T], [B'^T - C'P, C']].
-    """
-    A, Bm, C, P, CP, BP = tmp[0], tmp[1], tmp[2], tmp[3], tmp[4], tmp[5]
-    rot_congruence(R, I[0:3, 0:3], A)
-    rot_congruence(R, I[0:3, 3:6], Bm)
-    rot_congruence(R, I[3:6, 3:6], C)
-    P[0, 0], P[0, 1], P[0, 2] = 0.0, -p[2], p[1]
-    P[1, 0], P[1, 1], P[1, 2] = p[2], 0.0, -p[0]
-    P[2, 0], P[2, 1], P[2, 2] = -p[1], p[0], 0.0
-    matmul3(C, P, CP)
-    matmul3(Bm, P, BP)
-    for r in range(3):
-        for c in range(3):
-            PCP = P[r, 0] * CP[0, c] + P[r, 1] * CP[1, c] + P[r, 2] * CP[2, c]
-            IP[r, c] += A[r, c] - BP[r, c] - BP[c, r] - PCP
-            tr = Bm[r, c] - CP[c, r]
-            IP[r, 3 + c] += tr
-            IP[3 + c, r] += tr
-            IP[3 + r, 3 + c] += C[r, c]
-
-
-@njit(cache=True, nogil=True)
-def spd_inverse(D, n, out):
-    """out[:n, :n] = inverse of the symmetric positive definite D[:n, :n] (Gauss-Jordan, no pivoting,
-    valid for SPD).  Returns False when a pivot is not positive (D singular or indefinite)."""
-    for r in range(n):
-        for c in range(n):
-            out[r, c] = 1.0 if r == c else 0.0
-    A = D[:n, :n].copy()
-    for k in range(n):
-        piv = A[k, k]
-        if not piv > 0.0:
-            return False
-        inv = 1.0 / piv
-        for c in range(n):
-            A[k, c] *= inv
-            out[k, c] *= inv
-        for r in range(n):
-            if r != k:
-                fac = A[r, k]
-                if fac != 0.0:
-                    for c in range(n):
-                        A[r, c] -= fac * A[k, c]
-                        out[r, c] -= fac * out[k, c]
-    return True
