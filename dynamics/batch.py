@@ -148,6 +148,32 @@ def _first_zero_quaternion(Q, starts):
 _first_zero_quaternion_k = Kernel(_first_zero_quaternion)
 
 
+def is_state(x, n):
+    """True for a C-contiguous writable float64 vector of length n: the fast single-state path."""
+    return (type(x) is np.ndarray and x.dtype == np.float64 and x.shape == (n,) and x.flags.c_contiguous
+            and x.flags.writeable)
+
+
+@kernel
+def inputs_ok(tree, q, vecs):
+    """Whether q and every vector of ``vecs`` are finite and each free joint's quaternion is non-zero
+    (the single-state kernels call this; on False the public function takes its general path, which
+    says exactly what is wrong)."""
+    for k in range(q.shape[0]):
+        if not np.isfinite(q[k]):
+            return False
+    for x in vecs:
+        for k in range(x.shape[0]):
+            if not np.isfinite(x[k]):
+                return False
+    for i in range(tree.jtype.shape[0]):
+        if tree.jtype[i] == 2:
+            k = tree.q_idx[i] + 3
+            if q[k] * q[k] + q[k + 1] * q[k + 1] + q[k + 2] * q[k + 2] + q[k + 3] * q[k + 3] < 1e-16:
+                return False
+    return True
+
+
 def configurations(model, q):
     """Check q; a free joint's quaternion must be non-zero (it is normalised inside the kernels)."""
     Q, batched = states("q", q, model.nq)
@@ -197,8 +223,13 @@ def check_model(model):
 def broadcast(named):
     """Give every (name, 2-D array) the common batch size; a single state is repeated, other sizes are an
     error naming the argument."""
-    B = max(X.shape[0] for _, X in named)
-    if all(X.shape[0] == B for _, X in named):
+    B = 1
+    same = True
+    for _, X in named:
+        if X.shape[0] != B:
+            same = B == 1 and X is named[0][1]
+            B = max(B, X.shape[0])
+    if same and all(X.shape[0] == B for _, X in named):
         return [X for _, X in named]
     out = []
     for name, X in named:

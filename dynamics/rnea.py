@@ -14,6 +14,7 @@ Backward pass:  tau_i = S_i^T f_i ,  f_p += X_i^T f_i .
 
 import numpy as np
 
+from .batch import inputs_ok
 from .jit import kernel
 from .joints import joint_motion, joint_transform, project_force
 from .spatial import (add, cross_force, cross_motion, force_to_parent, inertia_times, load3, load33,
@@ -22,9 +23,13 @@ from .spatial import (add, cross_force, cross_motion, force_to_parent, inertia_t
 
 @kernel
 def workspace(nb):
-    """Scratch for one state: poses (R, p), velocities (w, v), accelerations (aw, av), forces (n, f)."""
-    return (np.empty((nb, 3, 3)), np.empty((nb, 3)), np.empty((nb, 3)), np.empty((nb, 3)),
-            np.empty((nb, 3)), np.empty((nb, 3)), np.empty((nb, 3)), np.empty((nb, 3)))
+    """Scratch for one state: poses (R, p), velocities (w, v), accelerations (aw, av), forces (n, f),
+    carved out of one allocation."""
+    buf = np.empty(nb * 30)
+    return (buf[:9 * nb].reshape((nb, 3, 3)), buf[9 * nb:12 * nb].reshape((nb, 3)),
+            buf[12 * nb:15 * nb].reshape((nb, 3)), buf[15 * nb:18 * nb].reshape((nb, 3)),
+            buf[18 * nb:21 * nb].reshape((nb, 3)), buf[21 * nb:24 * nb].reshape((nb, 3)),
+            buf[24 * nb:27 * nb].reshape((nb, 3)), buf[27 * nb:30 * nb].reshape((nb, 3)))
 
 
 @kernel
@@ -84,6 +89,16 @@ def rnea(tree, q, v, a, gravity, f_ext):
 
 
 @kernel
+def rnea_single(tree, q, v, a, gravity):
+    """One state, inputs checked in the same compiled call: (tau, inputs were valid)."""
+    tau = np.empty(tree.S.shape[0])
+    if not inputs_ok(tree, q, (v, a)):
+        return tau, False
+    rnea_into(tree, q, v, a, gravity, np.zeros((0, 6)), workspace(tree.parents.shape[0]), tau)
+    return tau, True
+
+
+@kernel
 def rnea_batch(tree, Q, V, A, F, gravity, out):
     """Rows of ``out`` = RNEA of the rows of Q, V, A; F is (1 or B, nb or 0, 6)."""
     ws = workspace(tree.parents.shape[0])
@@ -94,8 +109,10 @@ def rnea_batch(tree, Q, V, A, F, gravity, out):
 
 # -- public entry points ---------------------------------------------------------------------------
 from . import batch as _b  # noqa: E402
+from .model import Model  # noqa: E402
 
 _rnea_batch = _b.Kernel(rnea_batch)
+_rnea_single = _b.Kernel(rnea_single)
 
 
 def _run(model, q, v, a, gravity, f_ext):
@@ -120,6 +137,11 @@ def inverse_dynamics(model, q, v, a, *, gravity=None, f_ext=None):
     f_ext: (nbodies, 6) or (B, nbodies, 6), one [force, torque] per body in its body frame, torque about the
     body frame origin.  Returns tau of shape (nv,) or (B, nv).
     """
+    if (gravity is None and f_ext is None and type(model) is Model and _b.is_state(q, model.nq)
+            and _b.is_state(v, model.nv) and _b.is_state(a, model.nv)):
+        tau, ok = _rnea_single(model.tree, q, v, a, model.gravity)
+        if ok:
+            return tau
     return _run(model, q, v, a, gravity, f_ext)
 
 
