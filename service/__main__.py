@@ -46,7 +46,7 @@ def warmup() -> int:
             args = {"q": q, "v": v, "a": v, "tau": v}
             op.func(model, *[args[s] for s in op.states])
             op.func(model, *[args[s][0] for s in op.states])
-        simulate = simulate_function()
+        simulate = simulate_function() if settings.sim_workers > 0 else None  # no simulation, no warming
         if simulate is not None:
             try:
                 simulate(model, q[0], v[0], 0.01, error_estimate="none")

@@ -1,0 +1,35 @@
+# The dynamics HTTP service.
+#   docker build -t dynamics .
+#   docker run -p 8000:8000 -v dynamics-store:/data dynamics
+# Stage 1 builds the wheel; stage 2 installs it (no compiler, no sources), adds the bundled robots, and warms
+# numba's on-disk cache so that the first requests do not pay for compilation.
+FROM python:3.11-slim AS build
+WORKDIR /src
+RUN pip install --no-cache-dir build==1.2.2
+COPY pyproject.toml README.md ./
+COPY dynamics/ dynamics/
+COPY service/ service/
+RUN python -m build --wheel --outdir /dist .
+
+FROM python:3.11-slim
+ENV PYTHONDONTWRITEBYTECODE=1 \
+    PYTHONUNBUFFERED=1 \
+    DYNAMICS_STORE=/data \
+    DYNAMICS_ROBOTS_DIR=/opt/dynamics/robots \
+    NUMBA_CACHE_DIR=/opt/dynamics/numba-cache
+COPY --from=build /dist/ /tmp/dist/
+RUN pip install --no-cache-dir /tmp/dist/*.whl \
+    && rm -rf /tmp/dist \
+    && groupadd --gid 10001 dynamics \
+    && useradd --create-home --uid 10001 --gid 10001 dynamics \
+    && mkdir -p /data /opt/dynamics/numba-cache \
+    && chown 10001:10001 /data /opt/dynamics/numba-cache
+COPY robots/ /opt/dynamics/robots/
+USER 10001:10001
+WORKDIR /home/dynamics
+RUN python -m service --warmup
+VOLUME ["/data"]
+EXPOSE 8000
+HEALTHCHECK --interval=30s --timeout=5s --start-period=120s --retries=3 \
+    CMD ["python", "-c", "import sys, urllib.request; sys.exit(urllib.request.urlopen('http://127.0.0.1:8000/v1/health', timeout=4).status != 200)"]
+CMD ["python", "-m", "service", "--host", "0.0.0.0", "--port", "8000", "--store", "/data"]
