@@ -16,9 +16,10 @@ from .crba import mass_matrix
 from .aba import forward_dynamics
 from .energy import kinetic_energy, potential_energy
 from .coriolis import coriolis_matrix
+from .reduce import lock_joints
 
 __all__ = [
     "DynamicsError", "InputError", "URDFError", "Model", "load_urdf",
     "inverse_dynamics", "gravity_torques", "bias_forces", "mass_matrix", "forward_dynamics",
-    "kinetic_energy", "potential_energy", "coriolis_matrix",
+    "kinetic_energy", "potential_energy", "coriolis_matrix", "lock_joints",
 ]

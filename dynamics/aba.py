@@ -46,6 +46,12 @@ def _set6(A, i, x, y):
 def aba_into(tree, q, v, tau, gravity, f_ext, ws, qdd):
     """ABA for one state into ``qdd``.  Returns -1, or the index of a body whose joint sees a singular
     articulated inertia (then qdd is not valid)."""
+    return aba_terms(tree, q, v, tau, gravity, f_ext, ws, qdd, True)
+
+
+@kernel
+def aba_terms(tree, q, v, tau, gravity, f_ext, ws, qdd, with_v):
+    """ABA for one state; ``with_v=False`` (v is zero) skips the velocity products c_i and v x* I v."""
     Rs, ps, vel, c, IA, pA, U, Dinv, u, acc, Ia, D, pa, t = ws
     nb = tree.parents.shape[0]
     S = tree.S
@@ -56,17 +62,23 @@ def aba_into(tree, q, v, tau, gravity, f_ext, ws, qdd):
         store33(Rs, i, R)
         store3(ps, i, p)
         par = tree.parents[i]
-        if par < 0:
-            w, vl = motion_to_child(R, p, zero, zero)
-        else:
-            wp, vp = _get6(vel, par)
-            w, vl = motion_to_child(R, p, wp, vp)
-        wJ, vJ = joint_motion(tree, i, v)
-        w, vl = add(w, wJ), add(vl, vJ)
-        _set6(vel, i, w, vl)
-        cw, cv = cross_motion(w, vl, wJ, vJ)
-        _set6(c, i, cw, cv)
         m, h, Io = tree.mass[i], load3(tree.h, i), load33(tree.Io, i)
+        if with_v:
+            if par < 0:
+                w, vl = motion_to_child(R, p, zero, zero)
+            else:
+                wp, vp = _get6(vel, par)
+                w, vl = motion_to_child(R, p, wp, vp)
+            wJ, vJ = joint_motion(tree, i, v)
+            w, vl = add(w, wJ), add(vl, vJ)
+            _set6(vel, i, w, vl)
+            cw, cv = cross_motion(w, vl, wJ, vJ)
+            _set6(c, i, cw, cv)
+            hn, hf = inertia_times(m, h, Io, w, vl)
+            bn, bf = cross_force(w, vl, hn, hf)
+        else:
+            _set6(c, i, zero, zero)
+            bn, bf = zero, zero
         for r in range(3):  # I^A = [[Io, [h]x], [[h]x^T, m 1]]
             for k in range(3):
                 IA[i, r, k] = Io[3 * r + k]
@@ -77,8 +89,6 @@ def aba_into(tree, q, v, tau, gravity, f_ext, ws, qdd):
         for r in range(3):
             for k in range(3):
                 IA[i, 3 + k, r] = IA[i, r, 3 + k]
-        hn, hf = inertia_times(m, h, Io, w, vl)
-        bn, bf = cross_force(w, vl, hn, hf)
         if f_ext.shape[0] > 0:
             bn = (bn[0] - f_ext[i, 3], bn[1] - f_ext[i, 4], bn[2] - f_ext[i, 5])
             bf = (bf[0] - f_ext[i, 0], bf[1] - f_ext[i, 1], bf[2] - f_ext[i, 2])
@@ -177,11 +187,11 @@ def aba(tree, q, v, tau, gravity, f_ext):
 
 
 @kernel
-def aba_batch(tree, Q, V, T, F, gravity, out, status):
+def aba_batch(tree, Q, V, T, F, gravity, with_v, out, status):
     ws = workspace(tree.parents.shape[0], tree.S.shape[0])
-    last = F.shape[0] - 1
+    lf, lv, lt = F.shape[0] - 1, V.shape[0] - 1, T.shape[0] - 1
     for b in range(Q.shape[0]):
-        status[b] = aba_into(tree, Q[b], V[b], T[b], gravity, F[min(b, last)], ws, out[b])
+        status[b] = aba_terms(tree, Q[b], V[min(b, lv)], T[min(b, lt)], gravity, F[min(b, lf)], ws, out[b], with_v)
 
 
 # -- public entry point ----------------------------------------------------------------------------
@@ -190,9 +200,9 @@ from . import batch as _b  # noqa: E402
 _aba_batch = _b.Kernel(aba_batch)
 
 
-def _aba_chunk(tree, Q, V, T, F, gravity, out):
+def _aba_chunk(tree, Q, V, T, F, gravity, with_v, out):
     status = np.empty(Q.shape[0], np.int64)
-    _aba_batch(tree, Q, V, T, F, gravity, out, status)
+    _aba_batch(tree, Q, V, T, F, gravity, with_v, out, status)
     bad = status[status >= 0]
     if bad.size:
         raise _SingularJoint(int(bad[0]))
@@ -213,13 +223,12 @@ def forward_dynamics(model, q, v, tau, *, gravity=None, f_ext=None):
     Q, bq = _b.configurations(model, q)
     V, bv = _b.states("v", v, model.nv)
     T, bt = _b.states("tau", tau, model.nv)
-    Q, V, T = _b.broadcast((("q", Q), ("v", V), ("tau", T)))
-    B = Q.shape[0]
+    Q, B = _b.batch_of(Q, (("v", V), ("tau", T)))
     out = np.empty((B, model.nv))
     F = _b.external_forces(model, f_ext, B)
     g = _b.gravity_vector(model, gravity)
     try:
-        _b.run_chunks(_aba_chunk, model.tree, (Q, V, T, F), (g,), out)
+        _b.run_chunks(_aba_chunk, model.tree, (Q, V, T, F), (g, bool(V.any())), out)
     except _SingularJoint as e:
         name = model.joint_names[e.body]
         raise _b.InputError(

@@ -220,6 +220,24 @@ def check_model(model):
         raise InputError(f"model: expected a dynamics.Model (from load_urdf), got {type(model).__name__}")
 
 
+def batch_of(Q, named):
+    """The batch size B of q and the other (name, 2-D array) arguments, each of which has B rows or one;
+    returns q repeated to B rows if it was a single state (the kernels read one-row arguments for every
+    state)."""
+    B = Q.shape[0]
+    for _, X in named:
+        if X.shape[0] != 1:
+            if B != 1 and X.shape[0] != B:
+                break
+            B = X.shape[0]
+    for name, X in (("q", Q),) + tuple(named):
+        if X.shape[0] not in (1, B):
+            raise InputError(f"{name}: expected a batch of {B} (or one state), got {X.shape[0]}")
+    if Q.shape[0] != B:
+        Q = np.ascontiguousarray(np.broadcast_to(Q, (B, Q.shape[1])))
+    return Q, B
+
+
 def broadcast(named):
     """Give every (name, 2-D array) the common batch size; a single state is repeated, other sizes are an
     error naming the argument."""

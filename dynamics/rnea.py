@@ -33,8 +33,12 @@ def workspace(nb):
 
 
 @kernel
-def rnea_into(tree, q, v, a, gravity, f_ext, ws, tau):
-    """RNEA for one state into ``tau``; ``f_ext`` is (nb, 6) [force, torque] per body or (0, 6)."""
+def rnea_terms(tree, q, v, a, gravity, f_ext, ws, tau, with_v, with_a):
+    """RNEA for one state into ``tau``; ``f_ext`` is (nb, 6) [force, torque] per body or (0, 6).
+
+    ``with_v=False`` (v is zero) skips the velocity pass and every velocity-product term; ``with_a=False``
+    (a is zero) skips the joint accelerations: the caller promises those inputs are zero.
+    """
     Rs, ps, ws_, vs, aws, avs, ns, fs = ws
     zero = (0.0, 0.0, 0.0)
     a0 = (-gravity[0], -gravity[1], -gravity[2])  # the world accelerates up: a_0 = (0, -g)
@@ -43,29 +47,35 @@ def rnea_into(tree, q, v, a, gravity, f_ext, ws, tau):
         R, p = joint_transform(tree, i, q)
         par = tree.parents[i]
         if par < 0:
-            w, vl = motion_to_child(R, p, zero, zero)
             aw, al = motion_to_child(R, p, zero, a0)
         else:
-            w, vl = motion_to_child(R, p, load3(ws_, par), load3(vs, par))
             aw, al = motion_to_child(R, p, load3(aws, par), load3(avs, par))
-        wJ, vJ = joint_motion(tree, i, v)
-        w, vl = add(w, wJ), add(vl, vJ)
-        sw, sv = joint_motion(tree, i, a)
-        cw, cv = cross_motion(w, vl, wJ, vJ)
-        aw, al = add(aw, add(sw, cw)), add(al, add(sv, cv))
-        # f_i = I a + v x* I v - f_ext
+        if with_a:
+            sw, sv = joint_motion(tree, i, a)
+            aw, al = add(aw, sw), add(al, sv)
         m, h, Io = tree.mass[i], load3(tree.h, i), load33(tree.Io, i)
+        if with_v:
+            if par < 0:
+                w, vl = motion_to_child(R, p, zero, zero)
+            else:
+                w, vl = motion_to_child(R, p, load3(ws_, par), load3(vs, par))
+            wJ, vJ = joint_motion(tree, i, v)
+            w, vl = add(w, wJ), add(vl, vJ)
+            store3(ws_, i, w)
+            store3(vs, i, vl)
+            cw, cv = cross_motion(w, vl, wJ, vJ)
+            aw, al = add(aw, cw), add(al, cv)
+        # f_i = I a + v x* I v - f_ext
         n, f = inertia_times(m, h, Io, aw, al)
-        hn, hf = inertia_times(m, h, Io, w, vl)
-        bn, bf = cross_force(w, vl, hn, hf)
-        n, f = add(n, bn), add(f, bf)
+        if with_v:
+            hn, hf = inertia_times(m, h, Io, w, vl)
+            bn, bf = cross_force(w, vl, hn, hf)
+            n, f = add(n, bn), add(f, bf)
         if f_ext.shape[0] > 0:
             n = (n[0] - f_ext[i, 3], n[1] - f_ext[i, 4], n[2] - f_ext[i, 5])
             f = (f[0] - f_ext[i, 0], f[1] - f_ext[i, 1], f[2] - f_ext[i, 2])
         store33(Rs, i, R)
         store3(ps, i, p)
-        store3(ws_, i, w)
-        store3(vs, i, vl)
         store3(aws, i, aw)
         store3(avs, i, al)
         store3(ns, i, n)
@@ -78,6 +88,12 @@ def rnea_into(tree, q, v, a, gravity, f_ext, ws, tau):
             pn, pf = force_to_parent(load33(Rs, i), load3(ps, i), n, f)
             store3(ns, par, add(load3(ns, par), pn))
             store3(fs, par, add(load3(fs, par), pf))
+
+
+@kernel
+def rnea_into(tree, q, v, a, gravity, f_ext, ws, tau):
+    """RNEA for one state into ``tau`` with every term."""
+    rnea_terms(tree, q, v, a, gravity, f_ext, ws, tau, True, True)
 
 
 @kernel
@@ -99,12 +115,13 @@ def rnea_single(tree, q, v, a, gravity):
 
 
 @kernel
-def rnea_batch(tree, Q, V, A, F, gravity, out):
-    """Rows of ``out`` = RNEA of the rows of Q, V, A; F is (1 or B, nb or 0, 6)."""
+def rnea_batch(tree, Q, V, A, F, gravity, with_v, with_a, out):
+    """Rows of ``out`` = RNEA of the rows of Q, V, A (V or A may have one row when unused); F is
+    (1 or B, nb or 0, 6)."""
     ws = workspace(tree.parents.shape[0])
-    last = F.shape[0] - 1
+    lf, lv, la = F.shape[0] - 1, V.shape[0] - 1, A.shape[0] - 1
     for b in range(Q.shape[0]):
-        rnea_into(tree, Q[b], V[b], A[b], gravity, F[min(b, last)], ws, out[b])
+        rnea_terms(tree, Q[b], V[min(b, lv)], A[min(b, la)], gravity, F[min(b, lf)], ws, out[b], with_v, with_a)
 
 
 # -- public entry points ---------------------------------------------------------------------------
@@ -117,17 +134,28 @@ _rnea_single = _b.Kernel(rnea_single)
 
 def _run(model, q, v, a, gravity, f_ext):
     _b.check_model(model)
-    Q, batched = _b.configurations(model, q)
+    Q, bq = _b.configurations(model, q)
     V, bv = _b.states("v", v, model.nv)
     A, ba = _b.states("a", a, model.nv)
-    Q, V, A = _b.broadcast((("q", Q), ("v", V), ("a", A)))
-    B = Q.shape[0]
-    batched = batched or bv or ba
-    out = np.empty((B, model.nv))
+    Q, B = _b.batch_of(Q, (("v", V), ("a", A)))
     F = _b.external_forces(model, f_ext, B)
     g = _b.gravity_vector(model, gravity)
-    _b.run_chunks(_rnea_batch, model.tree, (Q, V, A, F), (g,), out)
-    return out if batched else out[0]
+    with_v, with_a = bool(V.any()), bool(A.any())  # zero terms are skipped, not computed
+    out = np.empty((B, model.nv))
+    _b.run_chunks(_rnea_batch, model.tree, (Q, V, A, F), (g, with_v, with_a), out)
+    return out if (bq or bv or ba) else out[0]
+
+
+def skipped_terms(v=None, a=None, gravity=(0.0, 0.0, -9.81)):
+    """Names of the terms a call with these inputs does not compute (for scene reports)."""
+    out = []
+    if v is None or not np.any(v):
+        out.append("velocity products")
+    if a is None or not np.any(a):
+        out.append("joint accelerations")
+    if gravity is not None and not np.any(gravity):
+        out.append("gravity")
+    return out
 
 
 def inverse_dynamics(model, q, v, a, *, gravity=None, f_ext=None):
@@ -147,8 +175,8 @@ def inverse_dynamics(model, q, v, a, *, gravity=None, f_ext=None):
 
 def gravity_torques(model, q, *, gravity=None):
     """g(q): the torques that hold the robot still against gravity, (nv,) or (B, nv)."""
-    zeros = np.zeros(model.nv)
-    return _run(model, q, zeros, zeros, gravity, None)
+    zero = np.zeros(model.nv)
+    return _run(model, q, zero, zero, gravity, None)
 
 
 def bias_forces(model, q, v, *, gravity=None):

@@ -216,16 +216,29 @@ def load_urdf(source, *, floating_base: bool = False, strict_inertia: bool = Tru
     for b in bodies:
         if b.mass == 0.0:
             massless.append(b.name)
+    # links that carry no mass and have no moving joint below them are dropped (merged as bare frames)
+    moving_below = {}
+    for lname in reversed(list(frames)):  # frames is in depth-first order: children after parents
+        moving_below[lname] = any(j.type != "fixed" or moving_below[j.child] for j in children[lname])
+    pruned = [n for n in frames if n != root_link and parent_joint[n].type == "fixed"
+              and not moving_below[n] and _massless(links[n])]
 
     info = {
         "urdf_links": len(links),
         "urdf_joints": len(joints),
         "fixed_joints_merged": merged_fixed,
+        "links_pruned": pruned,
         "massless_bodies": massless,
+        "locked_joints": {},
         "meshes_loaded": 0,
     }
     return build_model(name, bodies, floating_base=floating_base or any(
         b.joint_type == "floating" for b in bodies), warnings=warnings, frames=frames, info=info)
+
+
+def _massless(link):
+    i = link.inertial
+    return i is None or (not i.mass and (i.inertia is None or not np.any(np.asarray(i.inertia, dtype=float))))
 
 
 def _movable_body(j, parent_body, placement):

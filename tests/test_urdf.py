@@ -241,7 +241,7 @@ def panda():
 
 @pytest.mark.parametrize("call, message", [
     (lambda m: dynamics.inverse_dynamics(m, np.zeros(8), np.zeros(9), np.zeros(9)), "q: expected shape (9,) or (B, 9), got (8,)"),
-    (lambda m: dynamics.inverse_dynamics(m, np.zeros(9), np.zeros((3, 9)), np.zeros((4, 9))), "v: expected a batch of 4 (or one state), got 3"),
+    (lambda m: dynamics.inverse_dynamics(m, np.zeros(9), np.zeros((3, 9)), np.zeros((4, 9))), "a: expected a batch of 3 (or one state), got 4"),
     (lambda m: dynamics.inverse_dynamics(m, np.zeros(9), [np.nan] * 9, np.zeros(9)), "v: contains non-finite"),
     (lambda m: dynamics.inverse_dynamics(m, np.zeros(9), np.zeros(9), np.zeros(9), gravity=[0, 0]), "gravity: expected shape (3,)"),
     (lambda m: dynamics.inverse_dynamics(m, np.zeros(9), np.zeros(9), np.zeros(9), f_ext=np.zeros((3, 6))), "f_ext: expected shape (9, 6)"),

@@ -1,0 +1,117 @@
+"""Smaller models for a scene: joints locked at given values (Pinocchio's ``buildReducedModel``).
+
+Locking joint i at value q_i turns it into a fixed joint with placement X_i * J_i(q_i); body i is then welded
+to its parent and merged exactly (mass, first moment and inertia carried into the parent frame by the
+parallel-axis theorem), and its children hang from the parent with their placements composed.  A body
+welded to the world (fixed base) simply leaves the model.  Frames of merged links are kept, expressed in
+the body they now belong to.
+"""
+
+import numpy as np
+
+from .errors import InputError
+from .model import BodySpec, Model, build_model
+
+
+def _axis_rotation(axis, angle):
+    x, y, z = axis
+    c, s = np.cos(angle), np.sin(angle)
+    t = 1 - c
+    return np.array([[t * x * x + c, t * x * y - s * z, t * x * z + s * y],
+                     [t * x * y + s * z, t * y * y + c, t * y * z - s * x],
+                     [t * x * z - s * y, t * y * z + s * x, t * z * z + c]])
+
+
+def _quat_matrix(x, y, z, w):
+    n = np.sqrt(x * x + y * y + z * z + w * w)
+    x, y, z, w = x / n, y / n, z / n, w / n
+    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+                     [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+                     [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]])
+
+
+def joint_pose(model, i, qi):
+    """4x4 pose of body i in its parent frame with its joint at the coordinates qi (placement * motion)."""
+    t = model.tree
+    J = np.eye(4)
+    kind = model.joint_types[i]
+    if kind in ("revolute", "continuous"):
+        J[:3, :3] = _axis_rotation(t.axis[i], qi[0])
+    elif kind == "prismatic":
+        J[:3, 3] = t.axis[i] * qi[0]
+    else:
+        J[:3, :3] = _quat_matrix(*qi[3:7])
+        J[:3, 3] = qi[:3]
+    return model.placements[i] @ J
+
+
+def _spec(model, i, parent, placement):
+    t = model.tree
+    k = t.v_idx[i]
+    return BodySpec(
+        name=model.body_names[i], joint_name=model.joint_names[i], joint_type=model.joint_types[i],
+        parent=parent, placement=placement, axis=np.array(t.axis[i]), mass=float(t.mass[i]),
+        h=np.array(t.h[i]), Io=np.array(t.Io[i]), lower=float(model.lower[k]), upper=float(model.upper[k]),
+        effort=float(model.effort_limit[k]), velocity=float(model.velocity_limit[k]),
+        damping=float(model.damping[k]), friction=float(model.friction[k]))
+
+
+def _merge_inertia(spec, T, m, h, Io):
+    """Add a rigid-body inertia (m, h, Io) given in a frame at pose T (in spec's body frame) to spec."""
+    R, p = T[:3, :3], T[:3, 3]
+    hR = R @ h
+    spec.mass += m
+    spec.h = spec.h + hR + m * p
+    spec.Io = (spec.Io + R @ Io @ R.T + (2 * p @ hR + m * p @ p) * np.eye(3)
+               - (np.outer(hR, p) + np.outer(p, hR) + m * np.outer(p, p)))
+
+
+def lock_joints(model: Model, values: dict) -> Model:
+    """A reduced model with the joints named in ``values`` frozen there and their bodies merged.
+
+    ``values`` maps joint names to a position (a number for 1-dof joints, 7 numbers for a floating joint).
+    The reduced model lists what was locked in ``model.summary()["locked_joints"]``.
+    """
+    if not isinstance(model, Model):
+        raise InputError(f"model: expected a dynamics.Model, got {type(model).__name__}")
+    if not isinstance(values, dict):
+        raise InputError("locked: expected a mapping {joint name: value}")
+    locked = {}
+    for name, value in values.items():
+        if name not in model.joint_names:
+            raise InputError(f"locked: no movable joint named {name!r}; joints are {list(model.joint_names)}")
+        i = model.joint_names.index(name)
+        nq = int(model.nq_joint[i])
+        qi = np.atleast_1d(np.asarray(value, dtype=float)) if not isinstance(value, str) else None
+        if qi is None or qi.shape != (nq,) or not np.all(np.isfinite(qi)):
+            raise InputError(f"locked[{name!r}]: expected {nq} finite number{'s' if nq > 1 else ''}, got {value!r}")
+        locked[i] = qi
+
+    # new_of[i] = (body it now belongs to or -1, pose of body i's frame in that body)
+    new_of, specs = [], []
+    for i in range(model.nbodies):
+        par = int(model.parents[i])
+        pbody, Tp = (-1, np.eye(4)) if par < 0 else new_of[par]
+        if i in locked:
+            T = Tp @ joint_pose(model, i, locked[i])
+            new_of.append((pbody, T))
+            if pbody >= 0:
+                t = model.tree
+                _merge_inertia(specs[pbody], T, t.mass[i], np.array(t.h[i]), np.array(t.Io[i]))
+        else:
+            specs.append(_spec(model, i, pbody, Tp @ model.placements[i]))
+            new_of.append((len(specs) - 1, np.eye(4)))
+    frames = {}
+    for link, (b, T) in model.frames.items():
+        if b < 0:
+            frames[link] = (b, T)
+        else:
+            nb, Tb = new_of[b]
+            frames[link] = (nb, Tb @ T)
+    info = dict(model.info)
+    info["locked_joints"] = {**info.get("locked_joints", {}),
+                             **{model.joint_names[i]: (float(v[0]) if v.size == 1 else v.tolist())
+                                for i, v in locked.items()}}
+    info["massless_bodies"] = [s.name for s in specs if s.mass == 0.0]
+    return build_model(model.name, specs, floating_base=any(s.joint_type == "floating" for s in specs),
+                       gravity=model.gravity, warnings=model.warnings, frames=frames, info=info)
