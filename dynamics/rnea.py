@@ -17,8 +17,8 @@ import numpy as np
 from .batch import inputs_ok
 from .jit import kernel
 from .joints import joint_motion, joint_transform, project_force
-from .spatial import (add, cross_force, cross_motion, force_to_parent, inertia_times, load3, load33,
-                      motion_to_child, store3, store33)
+from .spatial import (add, cross, cross_force, cross_motion, force_to_parent, inertia_times, load3, load33,
+                      motion_to_child, rot, rotT, scale, store3, store33)
 
 
 @kernel
@@ -91,6 +91,42 @@ def rnea_terms(tree, q, v, a, gravity, f_ext, ws, tau, with_v, with_a):
 
 
 @kernel
+def gravity_into(tree, q, gravity, ws, tau):
+    """g(q): RNEA at v = a = 0, where each body's force reduces to the weight of its subtree.
+
+    With a_0 = (0, -g) every a_i = (0, -g_i), g_i = R_i^T g_p, so f_i summed over the subtree of i is
+    (-H_i x g_i, -M_i g_i) with M_i, H_i the subtree's mass and first moment in frame i:
+    tau_i = S_i^T (-H_i x g_i, -M_i g_i).  No inertia tensor and no velocity enters.
+    """
+    Rs, ps, gs, Hs = ws[0], ws[1], ws[2], ws[3]
+    Ms = ws[4][:, 0]
+    nb = tree.parents.shape[0]
+    for i in range(nb):
+        R, p = joint_transform(tree, i, q)
+        par = tree.parents[i]
+        g = rotT(R, (gravity[0], gravity[1], gravity[2]) if par < 0 else load3(gs, par))
+        store33(Rs, i, R)
+        store3(ps, i, p)
+        store3(gs, i, g)
+        store3(Hs, i, load3(tree.h, i))
+        Ms[i] = tree.mass[i]
+    for i in range(nb - 1, -1, -1):
+        H, M, g = load3(Hs, i), Ms[i], load3(gs, i)
+        project_force(tree, i, cross(g, H), scale(-M, g), tau)  # -H x g = g x H
+        par = tree.parents[i]
+        if par >= 0:
+            store3(Hs, par, add(load3(Hs, par), add(rot(load33(Rs, i), H), scale(M, load3(ps, i)))))
+            Ms[par] += M
+
+
+@kernel
+def gravity_batch(tree, Q, gravity, out):
+    ws = workspace(tree.parents.shape[0])
+    for b in range(Q.shape[0]):
+        gravity_into(tree, Q[b], gravity, ws, out[b])
+
+
+@kernel
 def rnea_into(tree, q, v, a, gravity, f_ext, ws, tau):
     """RNEA for one state into ``tau`` with every term."""
     rnea_terms(tree, q, v, a, gravity, f_ext, ws, tau, True, True)
@@ -130,6 +166,7 @@ from .model import Model  # noqa: E402
 
 _rnea_batch = _b.Kernel(rnea_batch)
 _rnea_single = _b.Kernel(rnea_single)
+_gravity_batch = _b.Kernel(gravity_batch)
 
 
 def _run(model, q, v, a, gravity, f_ext):
@@ -175,8 +212,11 @@ def inverse_dynamics(model, q, v, a, *, gravity=None, f_ext=None):
 
 def gravity_torques(model, q, *, gravity=None):
     """g(q): the torques that hold the robot still against gravity, (nv,) or (B, nv)."""
-    zero = np.zeros(model.nv)
-    return _run(model, q, zero, zero, gravity, None)
+    _b.check_model(model)
+    Q, batched = _b.configurations(model, q)
+    out = np.empty((Q.shape[0], model.nv))
+    _b.run_chunks(_gravity_batch, model.tree, (Q,), (_b.gravity_vector(model, gravity),), out)
+    return out if batched else out[0]
 
 
 def bias_forces(model, q, v, *, gravity=None):

@@ -13,7 +13,7 @@ import os
 
 import numpy as np
 from lxml import etree
-from yourdfpy import URDF
+from yourdfpy import URDF, Link
 
 from .errors import URDFError
 from .model import BodySpec, Model, build_model
@@ -135,7 +135,8 @@ def load_urdf(source, *, floating_base: bool = False, strict_inertia: bool = Tru
             if missing:
                 raise URDFError(f"link {lname!r}: <inertia> is missing {missing}")
         try:
-            links[lname] = URDF._parse_link(el)
+            # inertial only: visuals and collisions (meshes) mean nothing to the dynamics and are not parsed
+            links[lname] = Link(name=lname, inertial=URDF._parse_inertial(el.find("inertial")))
         except Exception as e:  # yourdfpy raises whatever float() or numpy raise
             raise URDFError(f"link {lname!r}: cannot read it ({e})") from None
     if not links:
