@@ -25,7 +25,7 @@ from starlette.responses import Response
 
 from . import __version__, schemas
 from .codec import JSON, NPZ, XML_TYPES, decode, encode, media_type, read_body
-from .compute import BudgetExceeded, Compute, Operation, operations
+from .compute import INLINE_BYTES, BudgetExceeded, Compute, Operation, operations
 from .errors import ApiError, bad_input, error_response, field_of, install_handlers
 from .robots import delete_robot, list_robots, register_robot, robot_info
 from .settings import Settings
@@ -210,24 +210,36 @@ async def delete(robot_id: str, svc: Services = Depends(services),
 
 
 def _dynamics_route(segment: str, schema: type[BaseModel]):
-    async def route(robot_id: str, request: Request, svc: Services = Depends(services)) -> Response:
+    async def route(robot_id: str, request: Request) -> Response:
+        svc: Services = request.app.state.services  # (not Depends: it costs ~50 us on the hottest path)
         deadline = deadline_of(request, svc.settings)
         body = await read_body(request, svc.settings.max_body_bytes)
-        return await svc.compute.run(_answer_dynamics, svc, segment, schema, robot_id, body,
-                                     request.headers.get("content-type"), request.headers.get("accept"), deadline,
-                                     request.state.budget)
+        content_type, accept = request.headers.get("content-type"), request.headers.get("accept")
+        op = svc.ops[segment]
+        if len(body) <= INLINE_BYTES:
+            # A tiny request (one state, a handful of states) costs ~20-40 us of parsing and compiled work:
+            # less than the thread hop itself, so it runs here once its kernel is known to be compiled and
+            # its model cached (the first call of each kind goes to a thread: a compilation or a URDF parse
+            # must never stall the loop).
+            args = dict(validate(schema, decode(body, content_type, max_unpacked=INLINE_BYTES)))
+            if svc.compute.can_inline(op, robot_id, args):
+                return encode(svc.compute.dynamics(op, robot_id, args, deadline, request.state.budget), accept)
+            result = await svc.compute.run(svc.compute.dynamics, op, robot_id, args, deadline, request.state.budget)
+            return encode(result, accept)
+        return await svc.compute.run(_answer_dynamics, svc, op, schema, robot_id, body, content_type, accept,
+                                     deadline, request.state.budget)
 
     route.__name__ = segment.replace("-", "_")
     return route
 
 
-def _answer_dynamics(svc: Services, segment: str, schema: type[BaseModel], robot_id: str, body: bytes,
+def _answer_dynamics(svc: Services, op: Operation, schema: type[BaseModel], robot_id: str, body: bytes,
                      content_type: Optional[str], accept: Optional[str], deadline: float,
                      budget: float) -> Response:
     """Runs in a compute thread: decode, check, compute (chunked, within the deadline), encode."""
     payload = decode(body, content_type, max_unpacked=8 * svc.settings.max_body_bytes)
     req = validate(schema, payload)
-    result = svc.compute.dynamics(svc.ops[segment], robot_id, dict(req), deadline, budget)
+    result = svc.compute.dynamics(op, robot_id, dict(req), deadline, budget)
     return encode(result, accept)
 
 

@@ -25,6 +25,8 @@ from .errors import ApiError, bad_input, field_of
 from .settings import Settings
 from .store import ModelCache, RobotRecord, RobotStore
 
+# Requests with bodies up to this size may run on the event loop (see service.app._dynamics_route).
+INLINE_BYTES = 2048
 # Work of one chunk, in body-states: about 1-5 ms of RNEA/ABA; the budget is checked between chunks.
 CHUNK_WORK = 40_000
 
@@ -63,6 +65,7 @@ class Compute:
         self.store = store
         self.cache = ModelCache(settings.cache_size)
         self.executor = ThreadPoolExecutor(max_workers=settings.compute_threads, thread_name_prefix="dynamics")
+        self._warm: set[tuple] = set()  # (robot, operation, argument layout) already run once in a thread
 
     def close(self) -> None:
         self.executor.shutdown(wait=False, cancel_futures=True)
@@ -86,6 +89,16 @@ class Compute:
         return self.cache.get_or_load((rid, locked), lambda: load_model(self.record(rid)))
 
     # -- dynamics --------------------------------------------------------------------------------------------
+    @staticmethod
+    def _layout(op: Operation, rid: str, args: dict[str, Any]) -> tuple:
+        """What selects a compiled specialisation: dimensions of the states, which keywords are given."""
+        return (rid, op.name, tuple(args[s].ndim for s in op.states),
+                tuple(k for k in op.keywords if args.get(k) is not None))
+
+    def can_inline(self, op: Operation, rid: str, args: dict[str, Any]) -> bool:
+        """True when this call has run before (compiled) and its model is in memory: microseconds of work."""
+        return self._layout(op, rid, args) in self._warm and self.cache.peek((rid, ())) is not None
+
     def dynamics(self, op: Operation, rid: str, args: dict[str, Any], deadline: float,
                  budget: float) -> dict[str, Any]:
         """Run ``op`` on one state or a batch, chunked, checking ``deadline`` (time.monotonic) between chunks."""
@@ -104,6 +117,7 @@ class Compute:
         if not np.isfinite(out).all():
             raise bad_input(f"{op.answer}: the result is not finite (is a movable joint carrying no mass, "
                             f"or are the inputs extreme?)", op.answer)
+        self._warm.add(self._layout(op, rid, args))
         return {op.answer: out}
 
     def _batch_size(self, op: Operation, states: list[np.ndarray], kwargs: dict[str, Any]) -> int | None:

@@ -192,6 +192,11 @@ class ModelCache:
                 self._items.popitem(last=False)
         return value
 
+    def peek(self, key: Hashable) -> Any:
+        """The cached value or None, without loading and without touching the recency order."""
+        with self._lock:
+            return self._items.get(key)
+
     def discard(self, robot: str) -> None:
         with self._lock:
             for key in [k for k in self._items if (k[0] if isinstance(k, tuple) else k) == robot]:
