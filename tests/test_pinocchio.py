@@ -169,3 +169,24 @@ def test_batch_equals_single_states():
         np.testing.assert_array_equal(T[k], dynamics.inverse_dynamics(model, Q[k], V[k], A[k]))
         np.testing.assert_array_equal(M[k], dynamics.mass_matrix(model, Q[k]))
     np.testing.assert_allclose(acc, A, atol=1e-8 * np.abs(A).max())
+
+
+def test_concurrent_calls_from_threads_are_safe_and_identical():
+    from concurrent.futures import ThreadPoolExecutor
+
+    model = dynamics.load_urdf(erd("panda_description/urdf/panda.urdf"))
+    rng = np.random.default_rng(8)
+    Q, V, A = (np.array(x) for x in zip(*(random_state(model, rng) for _ in range(500))))
+    ref_tau = dynamics.inverse_dynamics(model, Q, V, A)
+    ref_acc = dynamics.forward_dynamics(model, Q, V, ref_tau)
+    ref_M = dynamics.mass_matrix(model, Q[:50])
+
+    def work(k):
+        if k % 3 == 0:
+            return np.array_equal(dynamics.inverse_dynamics(model, Q, V, A), ref_tau)
+        if k % 3 == 1:
+            return np.array_equal(dynamics.forward_dynamics(model, Q, V, ref_tau), ref_acc)
+        return all(np.array_equal(dynamics.mass_matrix(model, Q[j]), ref_M[j]) for j in range(50))
+
+    with ThreadPoolExecutor(8) as pool:
+        assert all(pool.map(work, range(48)))
