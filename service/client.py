@@ -94,8 +94,9 @@ class Client:
                 raise ServiceError(r.status_code, r.text or r.reason_phrase) from None
         return r
 
-    def call(self, path: str, payload: Mapping[str, Any]) -> dict[str, Any]:
-        """POST ``payload`` (numpy arrays and plain values); .npz both ways when it is large."""
+    def call(self, path: str, payload: Mapping[str, Any], *, npz_answer: bool = False) -> dict[str, Any]:
+        """POST ``payload`` (numpy arrays and plain values); .npz both ways when it is large, and for the
+        answer when ``npz_answer`` (a trajectory is large even when its request is small)."""
         arrays = {k: v for k, v in payload.items() if isinstance(v, np.ndarray)}
         size = sum(a.size for a in arrays.values())
         if size > self.npz_threshold:
@@ -109,7 +110,7 @@ class Client:
         else:
             body = {k: (v.tolist() if isinstance(v, np.ndarray) else v) for k, v in payload.items() if v is not None}
             r = self.request("POST", path, content=json.dumps(body, default=_plain).encode(),
-                             headers={"Content-Type": JSON, "Accept": JSON})
+                             headers={"Content-Type": JSON, "Accept": NPZ if npz_answer else JSON})
         return decode_answer(r)
 
     # -- robots ----------------------------------------------------------------------------------------------
@@ -201,7 +202,7 @@ class Robot:
         payload = {"q0": _as_array(q0), "v0": _as_array(v0), "duration": float(duration),
                    "torque": _plain_tree(torque) if torque is not None else None, "integrator": integrator,
                    "rtol": rtol, "atol": atol, "dt": dt, "sample_dt": sample_dt, "gravity": self._opt(gravity)}
-        ans = self.client.call(f"/v1/robots/{self.id}/simulate", payload)
+        ans = self.client.call(f"/v1/robots/{self.id}/simulate", payload, npz_answer=True)
         report = ans.get("report", {})
         if isinstance(report, str):
             report = json.loads(report)

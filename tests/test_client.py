@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import time
 
+import httpx
 import numpy as np
 import pytest
 
@@ -101,6 +102,11 @@ def test_simulate(client):
     again = robot.simulate(q0, v0, 0.5, torque={"type": "pd", "q_target": target, "kp": kp, "kd": kd},
                            sample_dt=0.05)
     assert np.array_equal(again.q, traj.q)  # deterministic
+    raw = httpx.post(f"{client.base_url}/v1/robots/planar-2r/simulate", timeout=60, json={
+        "q0": q0.tolist(), "v0": v0.tolist(), "duration": 0.5, "sample_dt": 0.05,
+        "torque": {"type": "pd", "q_target": target.tolist(), "kp": kp.tolist(), "kd": kd}})
+    assert raw.status_code == 200 and raw.headers["content-type"] == "application/json"
+    assert np.array_equal(raw.json()["q"], traj.q) and raw.json()["report"]["status"] == "ok"  # JSON = .npz
     const = robot.simulate(q0, v0, 0.2, torque={"type": "constant", "tau": [1.0, -2.0]}, integrator="rk4",
                            dt=1e-3, sample_dt=0.1)
     assert np.array_equal(const.tau, np.tile([1.0, -2.0], (3, 1))) and const.report["integrator"] == "rk4"
