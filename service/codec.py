@@ -84,7 +84,6 @@ def decode_npz(body: bytes, *, max_unpacked: int) -> dict[str, Any]:
             if total > max_unpacked:
                 raise ApiError(413, f"body: the .npz archive unpacks to {total} bytes, over the limit of "
                                     f"{max_unpacked}", code="too_large", field="body")
-            names = [i.filename for i in infos]
     except zipfile.BadZipFile:
         raise bad_input("body: not a valid .npz archive", "body") from None
     out: dict[str, Any] = {}
@@ -102,7 +101,6 @@ def decode_npz(body: bytes, *, max_unpacked: int) -> dict[str, Any]:
         raise bad_input(f"body: .npz member refused ({e}); only numeric arrays are accepted", "body") from None
     except (OSError, EOFError, zipfile.BadZipFile) as e:
         raise bad_input(f"body: unreadable .npz archive ({e})", "body") from None
-    del names
     return out
 
 

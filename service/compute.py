@@ -80,6 +80,13 @@ class Compute:
             raise ApiError(404, f"robot: no robot with id {rid!r}", code="not_found", field="robot")
         return rec
 
+    @staticmethod
+    def scene_key(args: dict[str, Any]) -> tuple:
+        """The part of a request that selects a reduced model: empty today. Issue 5 returns here
+        ``tuple(sorted(args["locked"].items()))`` and builds the model below with ``dynamics.lock_joints``; the
+        cache, the inline check and the layout key already carry it."""
+        return ()
+
     def model(self, rid: str, locked: tuple = ()):
         """The compiled model of robot ``rid`` (404 if unknown). Runs in a worker thread: it may parse a URDF."""
         # A robot deleted through another server process must not keep answering from this one's cache.
@@ -89,20 +96,20 @@ class Compute:
         return self.cache.get_or_load((rid, locked), lambda: load_model(self.record(rid)))
 
     # -- dynamics --------------------------------------------------------------------------------------------
-    @staticmethod
-    def _layout(op: Operation, rid: str, args: dict[str, Any]) -> tuple:
+    def _layout(self, op: Operation, rid: str, args: dict[str, Any]) -> tuple:
         """What selects a compiled specialisation: dimensions of the states, which keywords are given."""
-        return (rid, op.name, tuple(args[s].ndim for s in op.states),
+        return (rid, self.scene_key(args), op.name, tuple(args[s].ndim for s in op.states),
                 tuple(k for k in op.keywords if args.get(k) is not None))
 
     def can_inline(self, op: Operation, rid: str, args: dict[str, Any]) -> bool:
         """True when this call has run before (compiled) and its model is in memory: microseconds of work."""
-        return self._layout(op, rid, args) in self._warm and self.cache.peek((rid, ())) is not None
+        return (self._layout(op, rid, args) in self._warm
+                and self.cache.peek((rid, self.scene_key(args))) is not None)
 
     def dynamics(self, op: Operation, rid: str, args: dict[str, Any], deadline: float,
                  budget: float) -> dict[str, Any]:
         """Run ``op`` on one state or a batch, chunked, checking ``deadline`` (time.monotonic) between chunks."""
-        model = self.model(rid)
+        model = self.model(rid, self.scene_key(args))
         states = [args[name] for name in op.states]
         kwargs = {k: args[k] for k in op.keywords if args.get(k) is not None}
         batch = self._batch_size(op, states, kwargs)
