@@ -121,6 +121,9 @@ def test_simulate(client):
     with pytest.raises(ServiceError) as e:
         robot.simulate(q0, v0, 100.0, integrator="euler", dt=1e-6)
     assert e.value.status == 422 and e.value.field == "dt"
+    with pytest.raises(ServiceError) as e:
+        robot.simulate(q0, v0, 100.0, sample_dt=1e-5)
+    assert e.value.status == 422 and e.value.field == "sample_dt" and "DYNAMICS_MAX_SAMPLES" in e.value.message
 
 
 def test_simulation_past_its_budget_is_killed(server):

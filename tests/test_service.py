@@ -75,7 +75,9 @@ def test_health_list_and_info(http):
     assert j1["type"] == "revolute" and j1["parent"] is None and j1["effort_limit"] == [500.0]
     assert j1["lower"] == [pytest.approx(-np.pi)] and j1["damping"] == [0.0]
     assert info["joints"][1]["parent"] == "link1"
-    assert "openapi" in http.get("/openapi.json").json()
+    doc = http.get("/openapi.json").json()
+    assert "/v1/robots/{robot_id}/simulate" in doc["paths"] and "InverseDynamicsRequest" in doc["components"]["schemas"]
+    assert http.get("/docs").status_code == 200
 
 
 @pytest.mark.parametrize("batch", [None, 5])
@@ -157,6 +159,20 @@ def test_other_refusals(http):
     assert len(bomb.getvalue()) < 1 << 20
     r = http.post("/v1/robots/puma560/mass-matrix", content=bomb.getvalue(), headers={"Content-Type": NPZ})
     assert r.status_code == 413
+
+
+def test_batch_and_dof_limits(http):
+    r = http.post("/v1/robots/pendulum/mass-matrix", content=npz_bytes(q=np.zeros((200_001, 1))),
+                  headers={"Content-Type": NPZ})
+    assert r.status_code == 422 and "DYNAMICS_MAX_BATCH" in r.json()["detail"] and r.json()["field"] == "q"
+    links = "".join(f'<link name="l{i}"><inertial><mass value="1"/><inertia ixx="1" iyy="1" izz="1" ixy="0" '
+                    f'ixz="0" iyz="0"/></inertial></link>' for i in range(130))
+    joints = "".join(f'<joint name="j{i}" type="revolute"><parent link="l{i - 1}"/><child link="l{i}"/>'
+                     f'<axis xyz="0 0 1"/><limit lower="-1" upper="1" effort="1" velocity="1"/></joint>'
+                     for i in range(1, 130))
+    r = http.post("/v1/robots", content=f'<robot name="long">{links}{joints}</robot>',
+                  headers={"Content-Type": "application/xml"})
+    assert r.status_code == 422 and "DYNAMICS_MAX_DOF" in r.json()["detail"], r.text
 
 
 def test_64_mib_body_is_refused_while_reading(server, http):
