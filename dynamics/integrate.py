@@ -35,106 +35,122 @@ from numba import njit
 
 from .errors import InputError
 from .joints import JOINT_FREE
-from .spatial import exp_quat, quat_multiply, quat_to_rot
 
-_JIT = dict(cache=True, nogil=True)
+_JIT = dict(cache=True, nogil=True, error_model="numpy")  # no ZeroDivisionError checks: they cost ~10x in hot loops
+_JIT_INLINE = dict(_JIT, inline="always")  # called once per right-hand side: inlined into it
 
 
-@njit(**_JIT)
-def _rotvec_terms(th0, th1, th2):
-    """(phi^2, a, b) with V = 1 + a [th] + b [th]^2 (the SE(3) left Jacobian of SO(3)), series near 0."""
-    phi2 = th0 * th0 + th1 * th1 + th2 * th2
-    if phi2 < 1e-8:
-        a = 0.5 - phi2 / 24.0
-        b = 1.0 / 6.0 - phi2 / 120.0
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def _qmul(ax, ay, az, aw, bx, by, bz, bw):
+    """Hamilton product a * b of quaternions (x, y, z, w)."""
+    return (aw * bx + ax * bw + ay * bz - az * by,
+            aw * by - ax * bz + ay * bw + az * bx,
+            aw * bz + ax * by - ay * bx + az * bw,
+            aw * bw - ax * bx - ay * by - az * bz)
+
+
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def _qexp(w0, w1, w2):
+    """Unit quaternion of the rotation vector w (exp map), accurate near zero."""
+    th2 = w0 * w0 + w1 * w1 + w2 * w2
+    if th2 < 1e-12:
+        s = 0.5 - th2 / 48.0  # sin(th/2)/th by its Taylor series
+        c = 1.0 - th2 / 8.0
     else:
-        phi = np.sqrt(phi2)
-        a = (1.0 - np.cos(phi)) / phi2
-        b = (phi - np.sin(phi)) / (phi2 * phi)
-    return phi2, a, b
+        th = np.sqrt(th2)
+        s = np.sin(0.5 * th) / th
+        c = np.cos(0.5 * th)
+    return s * w0, s * w1, s * w2, c
 
 
-@njit(**_JIT)
-def _skew_apply(a, b, th, x, out):
-    """out = (1 + a [th] + b [th]^2) x."""
-    c0 = th[1] * x[2] - th[2] * x[1]
-    c1 = th[2] * x[0] - th[0] * x[2]
-    c2 = th[0] * x[1] - th[1] * x[0]
-    d0 = th[1] * c2 - th[2] * c1
-    d1 = th[2] * c0 - th[0] * c2
-    d2 = th[0] * c1 - th[1] * c0
-    out[0] = x[0] + a * c0 + b * d0
-    out[1] = x[1] + a * c1 + b * d1
-    out[2] = x[2] + a * c2 + b * d2
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def _qrot(x, y, z, w, a0, a1, a2):
+    """R(quat) a for a unit quaternion (x, y, z, w)."""
+    # a + 2 w (u x a) + 2 u x (u x a), u = (x, y, z)
+    c0 = y * a2 - z * a1
+    c1 = z * a0 - x * a2
+    c2 = x * a1 - y * a0
+    return (a0 + 2.0 * (w * c0 + y * c2 - z * c1),
+            a1 + 2.0 * (w * c1 + z * c0 - x * c2),
+            a2 + 2.0 * (w * c2 + x * c1 - y * c0))
+
+
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def _skew_poly(a, b, t0, t1, t2, x0, x1, x2):
+    """(1 + a [t] + b [t]^2) x."""
+    c0 = t1 * x2 - t2 * x1
+    c1 = t2 * x0 - t0 * x2
+    c2 = t0 * x1 - t1 * x0
+    d0 = t1 * c2 - t2 * c1
+    d1 = t2 * c0 - t0 * c2
+    d2 = t0 * c1 - t1 * c0
+    return x0 + a * c0 + b * d0, x1 + a * c1 + b * d1, x2 + a * c2 + b * d2
 
 
 @njit(**_JIT)
 def integrate_delta(tree, q, v, dt, delta):
     """Chart coordinates (see the module docstring) of ``integrate_q(tree, q, v, dt)`` around q."""
-    R = np.empty((3, 3))
-    th = np.empty(3)
-    tmp = np.empty(3)
     for i in range(tree.jtype.shape[0]):
         k = tree.v_idx[i]
         if tree.jtype[i] == JOINT_FREE:
             kq = tree.q_idx[i]
-            for r in range(3):
-                th[r] = v[k + 3 + r] * dt
-                tmp[r] = v[k + r] * dt
-            phi2, a, b = _rotvec_terms(th[0], th[1], th[2])
-            _skew_apply(a, b, th, tmp, tmp)  # V(theta) v_lin dt, in the body frame
-            quat_to_rot(q[kq + 3], q[kq + 4], q[kq + 5], q[kq + 6], R)
-            for r in range(3):
-                delta[k + r] = R[r, 0] * tmp[0] + R[r, 1] * tmp[1] + R[r, 2] * tmp[2]
-                delta[k + 3 + r] = th[r]
+            t0, t1, t2 = v[k + 3] * dt, v[k + 4] * dt, v[k + 5] * dt
+            phi2 = t0 * t0 + t1 * t1 + t2 * t2
+            if phi2 < 1e-8:  # V = 1 + a [t] + b [t]^2 by its series
+                a = 0.5 - phi2 / 24.0
+                b = 1.0 / 6.0 - phi2 / 120.0
+            else:
+                phi = np.sqrt(phi2)
+                a = (1.0 - np.cos(phi)) / phi2
+                b = (phi - np.sin(phi)) / (phi2 * phi)
+            x0, x1, x2 = _skew_poly(a, b, t0, t1, t2, v[k] * dt, v[k + 1] * dt, v[k + 2] * dt)
+            nrm = np.sqrt(q[kq + 3] ** 2 + q[kq + 4] ** 2 + q[kq + 5] ** 2 + q[kq + 6] ** 2)
+            p0, p1, p2 = _qrot(q[kq + 3] / nrm, q[kq + 4] / nrm, q[kq + 5] / nrm, q[kq + 6] / nrm, x0, x1, x2)
+            delta[k], delta[k + 1], delta[k + 2] = p0, p1, p2
+            delta[k + 3], delta[k + 4], delta[k + 5] = t0, t1, t2
         else:
             delta[k] = v[k] * dt
 
 
-@njit(**_JIT)
+@njit(**_JIT_INLINE)
 def retract(tree, q0, delta, q):
     """q = q0 (+) delta in the stepper's chart: q0 + delta for 1-dof joints; p0 + delta_p and
     quat0 (x) exp(delta_theta), renormalised, for the free joint."""
-    dq = np.empty(4)
-    qn = np.empty(4)
     for i in range(tree.jtype.shape[0]):
         k = tree.v_idx[i]
         kq = tree.q_idx[i]
         if tree.jtype[i] == JOINT_FREE:
             for r in range(3):
                 q[kq + r] = q0[kq + r] + delta[k + r]
-            exp_quat(delta[k + 3:k + 6], dq)
-            quat_multiply(q0[kq + 3:kq + 7], dq, qn)
-            nrm = np.sqrt(qn[0] ** 2 + qn[1] ** 2 + qn[2] ** 2 + qn[3] ** 2)
-            for r in range(4):
-                q[kq + 3 + r] = qn[r] / nrm
+            dx, dy, dz, dw = _qexp(delta[k + 3], delta[k + 4], delta[k + 5])
+            x, y, z, w = _qmul(q0[kq + 3], q0[kq + 4], q0[kq + 5], q0[kq + 6], dx, dy, dz, dw)
+            nrm = np.sqrt(x * x + y * y + z * z + w * w)
+            q[kq + 3], q[kq + 4], q[kq + 5], q[kq + 6] = x / nrm, y / nrm, z / nrm, w / nrm
         else:
             q[kq] = q0[kq] + delta[k]
 
 
-@njit(**_JIT)
+@njit(**_JIT_INLINE)
 def chart_rate(tree, q, delta, v, out):
     """out = d(delta)/dt for velocity v, at the configuration q = retract(q0, delta).
 
     1-dof joints: v.  Free joint: (R(q) v_lin, Jr(delta_theta)^-1 omega), with
     Jr^-1 = 1 + [th]/2 + (1/phi^2 - (1 + cos phi)/(2 phi sin phi)) [th]^2.
     """
-    R = np.empty((3, 3))
     for i in range(tree.jtype.shape[0]):
         k = tree.v_idx[i]
         if tree.jtype[i] == JOINT_FREE:
             kq = tree.q_idx[i]
-            quat_to_rot(q[kq + 3], q[kq + 4], q[kq + 5], q[kq + 6], R)
-            for r in range(3):
-                out[k + r] = R[r, 0] * v[k] + R[r, 1] * v[k + 1] + R[r, 2] * v[k + 2]
-            th = delta[k + 3:k + 6]
-            phi2 = th[0] * th[0] + th[1] * th[1] + th[2] * th[2]
+            out[k], out[k + 1], out[k + 2] = _qrot(q[kq + 3], q[kq + 4], q[kq + 5], q[kq + 6],
+                                                   v[k], v[k + 1], v[k + 2])
+            t0, t1, t2 = delta[k + 3], delta[k + 4], delta[k + 5]
+            phi2 = t0 * t0 + t1 * t1 + t2 * t2
             if phi2 < 1e-8:
                 c = 1.0 / 12.0 + phi2 / 720.0
             else:
                 phi = np.sqrt(phi2)
                 c = 1.0 / phi2 - (1.0 + np.cos(phi)) / (2.0 * phi * np.sin(phi))
-            _skew_apply(0.5, c, th, v[k + 3:k + 6], out[k + 3:k + 6])
+            out[k + 3], out[k + 4], out[k + 5] = _skew_poly(0.5, c, t0, t1, t2, v[k + 3], v[k + 4], v[k + 5])
         else:
             out[k] = v[k]
 
@@ -143,25 +159,20 @@ def chart_rate(tree, q, delta, v, out):
 def difference(tree, q0, q1, out):
     """Tangent vector ``d`` with ``retract(q0, d) == q1`` (the chart's inverse; used for error norms):
     q1 - q0 for 1-dof joints, (p1 - p0, log(quat0^-1 quat1)) for the free joint."""
-    qi = np.empty(4)
-    qr = np.empty(4)
     for i in range(tree.jtype.shape[0]):
         k = tree.v_idx[i]
         kq = tree.q_idx[i]
         if tree.jtype[i] == JOINT_FREE:
             for r in range(3):
                 out[k + r] = q1[kq + r] - q0[kq + r]
-                qi[r] = -q0[kq + 3 + r]
-            qi[3] = q0[kq + 6]
-            quat_multiply(qi, q1[kq + 3:kq + 7], qr)
-            if qr[3] < 0.0:  # the shorter way round
-                for r in range(4):
-                    qr[r] = -qr[r]
-            s = np.sqrt(qr[0] ** 2 + qr[1] ** 2 + qr[2] ** 2)
-            ang = 2.0 * np.arctan2(s, qr[3])
-            f = 2.0 if s < 1e-12 else ang / s
-            for r in range(3):
-                out[k + 3 + r] = f * qr[r]
+            x, y, z, w = _qmul(-q0[kq + 3], -q0[kq + 4], -q0[kq + 5], q0[kq + 6],
+                               q1[kq + 3], q1[kq + 4], q1[kq + 5], q1[kq + 6])
+            if w < 0.0:  # the shorter way round
+                x, y, z, w = -x, -y, -z, -w
+            s = np.sqrt(x * x + y * y + z * z)
+            ang = 2.0 * np.arctan2(s, w)
+            f = 2.0 / w if s < 1e-12 else ang / s
+            out[k + 3], out[k + 4], out[k + 5] = f * x, f * y, f * z
         else:
             out[k] = q1[kq] - q0[kq]
 

@@ -1,10 +1,12 @@
 """Time steppers for y' = f(t, y): symplectic Euler, RK4, Dormand-Prince 5(4), Radau IIA(5), and ``auto``.
 
-Every solver here is a ``numba.njit`` function that takes the problem as functions (first-class njit
-functions) plus one opaque problem tuple ``p``, so the same compiled code integrates a robot
-(:mod:`dynamics.simulate`) or a plain ODE (the tests).  A solver never sees a robot; it sees
+Every solver here is a ``numba.njit`` function of one opaque problem ``p``, so the same compiled code
+integrates a robot (:mod:`dynamics.simulate`) or a plain ODE (the tests).  ``p`` is an instance of a
+``typing.NamedTuple`` subclass that carries four njit functions as class attributes; the solvers reach them
+through the overloaded stubs below, resolved at compile time from ``type(p)`` (static calls, so the callers
+stay cacheable, which passing functions as arguments would not):
 
-* ``f(p, t, z, dz)``: write dz = f(t, z);
+* ``rhs(p, t, z, dz)``: write dz = f(t, z);
 * ``rebase(p, z, dz, mag)``: called after every accepted step.  A problem that integrates in a moving chart
   (the robot's configuration, see :mod:`dynamics.integrate`) re-centres it here, i.e. folds the chart
   coordinates of z into its base point and zeroes them, rewrites the chart part of ``dz = f(t, z)``
@@ -41,8 +43,62 @@ Statuses returned: ``OK``, ``NONFINITE`` (a NaN/inf appeared and step reduction 
 
 import numpy as np
 from numba import njit
+from numba.extending import overload
 
-_JIT = dict(cache=True, nogil=True)
+_JIT = dict(cache=True, nogil=True, error_model="numpy")  # no ZeroDivisionError checks: they cost ~10x in hot loops
+
+
+# ---------------------------------------------------------------------------------------------------
+# the problem interface: stubs resolved from type(p) at compile time
+def problem_rhs(p, t, z, dz):
+    """dz = f(t, z) (compiled code only)."""
+    raise NotImplementedError
+
+
+def problem_rebase(p, z, dz, mag):
+    """Re-centre the chart after an accepted step (compiled code only)."""
+    raise NotImplementedError
+
+
+def problem_euler_config(p, z, h):
+    """Symplectic Euler's configuration update (compiled code only)."""
+    raise NotImplementedError
+
+
+def problem_emit(p, j, t, z):
+    """Record output sample j (compiled code only)."""
+    raise NotImplementedError
+
+
+def _method(p, name):
+    fn = getattr(getattr(p, "instance_class", None), name, None)
+    if fn is None:
+        raise TypeError(f"{p} is not a problem type: its NamedTuple class needs the njit attribute {name!r}")
+    return fn
+
+
+@overload(problem_rhs, jit_options=_JIT)
+def _ov_rhs(p, t, z, dz):
+    fn = _method(p, "rhs")
+    return lambda p, t, z, dz: fn(p, t, z, dz)
+
+
+@overload(problem_rebase, jit_options=_JIT)
+def _ov_rebase(p, z, dz, mag):
+    fn = _method(p, "rebase")
+    return lambda p, z, dz, mag: fn(p, z, dz, mag)
+
+
+@overload(problem_euler_config, jit_options=_JIT)
+def _ov_euler_config(p, z, h):
+    fn = _method(p, "euler_config")
+    return lambda p, z, h: fn(p, z, h)
+
+
+@overload(problem_emit, jit_options=_JIT)
+def _ov_emit(p, j, t, z):
+    fn = _method(p, "emit")
+    return lambda p, j, t, z: fn(p, j, t, z)
 
 EULER, RK4, RK45, RADAU, AUTO = 0, 1, 2, 3, 4
 METHOD_NAMES = ("euler", "rk4", "rk45", "radau", "auto")
@@ -73,6 +129,10 @@ DP_A = np.array([
     [19372 / 6561, -25360 / 2187, 64448 / 6561, -212 / 729, 0],
     [9017 / 3168, -355 / 33, 46732 / 5247, 49 / 176, -5103 / 18656]])
 DP_B = np.array([35 / 384, 0, 500 / 1113, 125 / 192, -2187 / 6784, 11 / 84])
+DP_A7 = np.zeros((7, 6))  # A with the weights as 7th row: the last stage is the new point (FSAL)
+DP_A7[:6, :5] = DP_A
+DP_A7[6, :] = DP_B
+DP_C7 = np.append(DP_C, 1.0)
 DP_E = np.array([-71 / 57600, 0, 71 / 16695, -71 / 1920, 17253 / 339200, -22 / 525, 1 / 40])
 DP_P = np.array([
     [1, -8048581381 / 2820520608, 8663915743 / 2820520608, -12715105075 / 11282082432],
@@ -191,7 +251,7 @@ def _state_status(z, nc, nvel, blowup):
 
 
 @njit(**_JIT)
-def initial_step(f, p, t, z, f0, order, rtol, atol, mag, ne, t_end, istats):
+def initial_step(p, t, z, f0, order, rtol, atol, mag, ne, t_end, istats):
     """Hairer's starting step ([HNW] sec. II.4), as scipy's ``select_initial_step``."""
     n = z.shape[0]
     span = t_end - t
@@ -214,7 +274,7 @@ def initial_step(f, p, t, z, f0, order, rtol, atol, mag, ne, t_end, istats):
     f1 = np.empty(n)
     for i in range(n):
         z1[i] = z[i] + h0 * f0[i]
-    f(p, t + h0, z1, f1)
+    problem_rhs(p, t + h0, z1, f1)
     istats[S_NFEV] += 1
     d2 = 0.0
     for i in range(ne):
@@ -231,7 +291,7 @@ def initial_step(f, p, t, z, f0, order, rtol, atol, mag, ne, t_end, istats):
 
 
 @njit(**_JIT)
-def fd_jacobian(f, p, t, z, f0, mag, ne, J, istats):
+def fd_jacobian(p, t, z, f0, mag, ne, J, istats):
     """Forward-difference Jacobian J = df/dz; columns of quadrature components (>= ne) are zero."""
     n = z.shape[0]
     zt = z.copy()
@@ -244,7 +304,7 @@ def fd_jacobian(f, p, t, z, f0, mag, ne, J, istats):
         d = 1.4901161193847656e-08 * max(1.0, abs(z[c]) + mag[c])
         zt[c] = z[c] + d
         d = zt[c] - z[c]  # the step actually representable
-        f(p, t, zt, ft)
+        problem_rhs(p, t, zt, ft)
         zt[c] = z[c]
         for r in range(n):
             J[r, c] = (ft[r] - f0[r]) / d
@@ -286,91 +346,103 @@ def spectral_radius(J, ne):
 # ---------------------------------------------------------------------------------------------------
 # fixed-step solvers
 @njit(**_JIT)
-def solve_fixed(f, rebase, euler_config, emit, p, method, z, t0, t_end, dt, out_t, iopt, fopt, istats,
-                fstats):
-    """Fixed steps of size dt from t0 to t_end (the last one shortened to land on t_end exactly)."""
+def solve_fixed(p, method, z, t0, t_end, dt, out_t, iopt, fopt, istats, fstats):
+    """Fixed steps of size dt from t0 to t_end (the last one shortened to land on t_end exactly).
+
+    The slope at the end of a step serves the Hermite interpolant of that step and, re-expressed in the new
+    chart by ``rebase``, the first stage of the next step (so RK4 costs 4 evaluations per step).  Every
+    problem function has a single call site here, so the right-hand side is compiled (and inlined) once.
+    """
     n = z.shape[0]
     nc = iopt[I_NC]
     nvel = iopt[I_NVEL]
-    ne = iopt[I_NE]
     nsteps = iopt[I_NSTEPS]
     blowup = fopt[F_BLOWUP]
     mag = np.zeros(n)
-    k1 = np.empty(n)
-    k2 = np.empty(n)
-    k3 = np.empty(n)
-    k4 = np.empty(n)
+    K = np.empty((5, n))  # K[0] slope at the start, K[1:4] RK4 stages 2-4, K[4] slope at the end
     zs = np.empty(n)
     zold = np.empty(n)
-    kend = np.empty(n)
     zi = np.empty(n)
-    f(p, t0, z, k1)
-    istats[S_NFEV] += 1
-    j = 0
+    c = (0.0, 0.5, 0.5, 1.0)
     nout = out_t.shape[0]
-    while j < nout and out_t[j] <= t0:
-        emit(p, j, t0, z)
-        j += 1
-    status = _state_status(k1, 0, 0, blowup)
+    j = 0
+    status = OK
     t = t0
-    for i in range(nsteps):
-        if status != OK:
+    tb = t0
+    h = 0.0
+    i = -1  # index of the step just taken; -1 before the first
+    stage = 4  # 1-3: RK4 stages, 4: the slope at the end of step i (at t0 for i = -1)
+    while True:
+        if stage == 4:
+            zs[:] = z
+            ts = tb
+        else:
+            for r in range(n):
+                zs[r] = z[r] + c[stage] * h * K[stage - 1, r]
+            ts = t + c[stage] * h
+        problem_rhs(p, ts, zs, K[stage])
+        istats[S_NFEV] += 1
+        if stage < 3:
+            stage += 1
+            continue
+        if stage == 3:
+            for r in range(n):
+                z[r] += h / 6.0 * (K[0, r] + 2.0 * K[1, r] + 2.0 * K[2, r] + K[3, r])
+            istats[S_STEPS] += 1
+            status = _state_status(z, nc, nvel, blowup)
+            if status != OK:
+                t = tb
+                break
+            stage = 4
+            continue
+        # stage 4: the end slope of step i is known
+        if _state_status(K[4], 0, 0, blowup) != OK:
+            status = NONFINITE
+            t = tb
             break
+        while j < nout and out_t[j] <= tb:  # samples in (t, tb]
+            if out_t[j] >= tb or i < 0:
+                zi[:] = z
+                ts = tb
+            else:
+                ts = out_t[j]
+                x = (ts - t) / h
+                if method == EULER:
+                    for r in range(n):
+                        zi[r] = zold[r] + x * (z[r] - zold[r])
+                else:  # cubic Hermite through (z, slope) at both ends
+                    h00 = (1 + 2 * x) * (1 - x) ** 2
+                    h10 = x * (1 - x) ** 2
+                    h01 = x * x * (3 - 2 * x)
+                    h11 = x * x * (x - 1)
+                    for r in range(n):
+                        zi[r] = h00 * zold[r] + h10 * h * K[0, r] + h01 * z[r] + h11 * h * K[4, r]
+            problem_emit(p, j, ts, zi)
+            j += 1
+        problem_rebase(p, z, K[4], mag)
+        K[0, :] = K[4, :]
+        t = tb
+        i += 1
+        if i >= nsteps:
+            break
+        # start step i: from t to tb
         tb = t0 + (i + 1) * dt
         if i == nsteps - 1 or tb > t_end:
             tb = t_end
         h = tb - t
         zold[:] = z
-        if method == EULER:
+        if method == EULER:  # v+ = v + h a(q, v), then q+ = q (+) h v+; quadratures by explicit Euler
             for r in range(nc, n):
-                z[r] += h * k1[r]
-            euler_config(p, z, h)
+                z[r] += h * K[0, r]
+            problem_euler_config(p, z, h)
+            istats[S_STEPS] += 1
+            status = _state_status(z, nc, nvel, blowup)
+            if status != OK:
+                t = tb
+                break
+            stage = 4
         else:
-            for r in range(n):
-                zs[r] = z[r] + 0.5 * h * k1[r]
-            f(p, t + 0.5 * h, zs, k2)
-            for r in range(n):
-                zs[r] = z[r] + 0.5 * h * k2[r]
-            f(p, t + 0.5 * h, zs, k3)
-            for r in range(n):
-                zs[r] = z[r] + h * k3[r]
-            f(p, tb, zs, k4)
-            for r in range(n):
-                z[r] += h / 6.0 * (k1[r] + 2.0 * k2[r] + 2.0 * k3[r] + k4[r])
-            istats[S_NFEV] += 3
-        istats[S_STEPS] += 1
-        status = _state_status(z, nc, nvel, blowup)
-        if status != OK:
-            t = tb
-            break
-        if j < nout and out_t[j] <= tb:
-            if method == RK4 and out_t[j] < tb:
-                f(p, tb, z, kend)  # slope at the end, in this step's chart
-                istats[S_NFEV] += 1
-            while j < nout and out_t[j] <= tb:
-                if out_t[j] >= tb:
-                    emit(p, j, tb, z)
-                else:
-                    s = (out_t[j] - t) / h
-                    if method == EULER:
-                        for r in range(n):
-                            zi[r] = zold[r] + s * (z[r] - zold[r])
-                    else:  # cubic Hermite
-                        h00 = (1 + 2 * s) * (1 - s) ** 2
-                        h10 = s * (1 - s) ** 2
-                        h01 = s * s * (3 - 2 * s)
-                        h11 = s * s * (s - 1)
-                        for r in range(n):
-                            zi[r] = h00 * zold[r] + h10 * h * k1[r] + h01 * z[r] + h11 * h * kend[r]
-                    emit(p, j, out_t[j], zi)
-                j += 1
-        rebase(p, z, k1, mag)
-        t = tb
-        if i < nsteps - 1:
-            f(p, t, z, k1)
-            istats[S_NFEV] += 1
-            if _state_status(k1, 0, 0, blowup) != OK:
-                status = NONFINITE
+            stage = 1
     istats[S_STATUS] = status
     fstats[FS_T] = t
     fstats[FS_LOCAL_ERR] = np.nan  # fixed-step methods have no embedded error estimate
@@ -381,8 +453,12 @@ def solve_fixed(f, rebase, euler_config, emit, p, method, z, t0, t_end, dt, out_
 # ---------------------------------------------------------------------------------------------------
 # adaptive solvers: rk45, radau and the auto switch in one loop
 @njit(**_JIT)
-def solve_adaptive(f, rebase, emit, p, method, z, t0, t_end, out_t, iopt, fopt, istats, fstats, switch_log):
-    """Integrate from t0 to t_end with error control; ``method`` is RK45, RADAU or AUTO."""
+def solve_adaptive(p, method, z, t0, t_end, out_t, iopt, fopt, istats, fstats, switch_log):
+    """Integrate from t0 to t_end with error control; ``method`` is RK45, RADAU or AUTO.
+
+    As in :func:`solve_fixed`, each problem function has as few call sites as possible (one per kind of
+    evaluation), so the right-hand side is compiled a handful of times, not once per use.
+    """
     n = z.shape[0]
     nc = iopt[I_NC]
     nvel = iopt[I_NVEL]
@@ -395,7 +471,6 @@ def solve_adaptive(f, rebase, emit, p, method, z, t0, t_end, out_t, iopt, fopt, 
     eps = 2.220446049250313e-16
 
     mag = np.zeros(n)
-    rebase(p, z, np.zeros(n), mag)  # magnitudes of the initial state
     K = np.empty((7, n))  # DP stages; K[0] is always f(t, z)
     znew = np.empty(n)
     zs = np.empty(n)
@@ -417,29 +492,25 @@ def solve_adaptive(f, rebase, emit, p, method, z, t0, t_end, out_t, iopt, fopt, 
     Qd = np.zeros((n, 3))  # Radau dense output of the last accepted step
     fr = np.empty(n)
     fc = np.empty(n, dtype=np.complex128)
-    fnew = np.empty(n)
+    mr = 0.0
+    mc = 0j
 
     mode = RADAU if method == RADAU else RK45
     t = t0
-    f(p, t, z, K[0])
+    problem_rebase(p, z, K[0], mag)  # magnitudes of the initial state (z's chart part is zero)
+    problem_rhs(p, t, z, K[0])
     istats[S_NFEV] += 1
     j = 0
     nout = out_t.shape[0]
-    while j < nout and out_t[j] <= t0:
-        emit(p, j, t0, z)
-        j += 1
     status = _state_status(K[0], 0, 0, blowup)
-    order = 5 if mode == RK45 else 3
     h = fopt[F_H0]
     if h <= 0:
-        h = initial_step(f, p, t, z, K[0], order, rtol, atol, mag, ne, t_end, istats)
+        h = initial_step(p, t, z, K[0], 5 if mode == RK45 else 3, rtol, atol, mag, ne, t_end, istats)
     h = min(h, hmax)
     errold = 1e-4  # PI controller memory (DOPRI5's facold)
-    # stiffness test (DOPRI5)
-    iasti = 0
+    iasti = 0  # DOPRI5 stiffness test counters
     nonsti = 0
-    # Radau state
-    have_jac = False
+    need_jac = True  # Radau state
     current_jac = False
     have_lu = False
     have_sol = False
@@ -452,8 +523,40 @@ def solve_adaptive(f, rebase, emit, p, method, z, t0, t_end, out_t, iopt, fopt, 
     local_err = 0.0
     total = 0
     rejected_last = False
+    h_acc = 0.0  # size of the last accepted step
+    acc_mode = mode
+    fresh = True  # a step was just accepted (or we are at t0): emit samples, re-centre the chart
 
-    while status == OK and t < t_end:
+    while status == OK:
+        # ---- samples in (t - h_acc, t] from the accepted step's dense output (t0 itself first)
+        while fresh and j < nout and out_t[j] <= t:
+            if out_t[j] >= t or h_acc == 0.0:
+                zi[:] = z
+                ts = t
+            else:
+                ts = out_t[j]
+                x = (ts - (t - h_acc)) / h_acc
+                if acc_mode == RK45:  # Shampine's quartic
+                    for q in range(7):
+                        bx[q] = x * (DP_P[q, 0] + x * (DP_P[q, 1] + x * (DP_P[q, 2] + x * DP_P[q, 3])))
+                    for r in range(n):
+                        acc = 0.0
+                        for q in range(7):
+                            acc += bx[q] * K[q, r]
+                        zi[r] = zs[r] + h_acc * acc
+                else:  # Radau's collocation polynomial
+                    for r in range(n):
+                        zi[r] = zs[r] + x * (Qd[r, 0] + x * (Qd[r, 1] + x * Qd[r, 2]))
+            problem_emit(p, j, ts, zi)
+            j += 1
+        if fresh and h_acc > 0.0:
+            # re-centre the chart; K[0] = f(t, z) in the new chart
+            if acc_mode == RK45:
+                K[0, :] = K[6, :]
+            problem_rebase(p, z, K[0], mag)
+        fresh = False
+        if t >= t_end:
+            break
         if total >= max_steps:
             status = MAX_STEPS
             break
@@ -467,24 +570,21 @@ def solve_adaptive(f, rebase, emit, p, method, z, t0, t_end, out_t, iopt, fopt, 
             tn = t_end
         h = tn - t
         total += 1
+        accepted = False
 
         if mode == RK45:
-            # ---- one Dormand-Prince attempt
-            for s in range(1, 6):
+            # ---- one Dormand-Prince attempt: stages 2-7 (stage 7 is the new point, FSAL)
+            for s in range(1, 7):
                 for r in range(n):
                     acc = 0.0
                     for q in range(s):
-                        acc += DP_A[s, q] * K[q, r]
+                        acc += DP_A7[s, q] * K[q, r]
                     zs[r] = z[r] + h * acc
-                f(p, t + DP_C[s] * h, zs, K[s])
-            y6[:] = zs  # the stage at c = 1 (for the stiffness test)
-            for r in range(n):
-                acc = 0.0
-                for q in range(6):
-                    acc += DP_B[q] * K[q, r]
-                znew[r] = z[r] + h * acc
-            f(p, tn, znew, K[6])
+                if s == 5:
+                    y6[:] = zs
+                problem_rhs(p, t + DP_C7[s] * h, zs, K[s])
             istats[S_NFEV] += 6
+            znew[:] = zs
             for r in range(n):
                 acc = 0.0
                 for q in range(7):
@@ -498,27 +598,18 @@ def solve_adaptive(f, rebase, emit, p, method, z, t0, t_end, out_t, iopt, fopt, 
                 continue
             # PI step-size control ([HNW] IV.2, DOPRI5 with beta = 0.04)
             fac11 = err ** (0.2 - 0.04 * 0.75)
-            fac = fac11 / errold ** 0.04 / 0.9
-            fac = max(0.1, min(5.0, fac))  # 1/fac in [0.2, 10]
             if err > 1.0:
                 istats[S_REJECTED] += 1
                 h = h / min(5.0, fac11 / 0.9)
                 rejected_last = True
                 continue
+            fac = max(0.1, min(5.0, fac11 / errold ** 0.04 / 0.9))  # 1/fac in [0.2, 10]
             errold = max(err, 1e-4)
             hnew = h / fac
             if rejected_last:
                 hnew = min(hnew, h)
-            rejected_last = False
-            # accepted
-            st = _state_status(znew, nc, nvel, blowup)
-            if st != OK:
-                status = st
-                z[:] = znew
-                t = tn
-                break
-            local_err += _max_abs(errv, ne)
-            # stiffness detection: h |lambda| ~ h ||k7 - k6|| / ||y1 - y6||
+            accepted = True
+            # stiffness detection: h |lambda| ~ h ||k7 - k6|| / ||y7 - y6||
             stnum = 0.0
             stden = 0.0
             for r in range(ne):
@@ -534,14 +625,14 @@ def solve_adaptive(f, rebase, emit, p, method, z, t0, t_end, out_t, iopt, fopt, 
                         if not fstats[FS_STIFF_T] >= 0:
                             fstats[FS_STIFF_T] = tn
                         if method == AUTO and istats[S_NSWITCH] < MAX_SWITCHES:
-                            mode = RADAU
-                            switch_log[istats[S_NSWITCH], 0] = tn
-                            switch_log[istats[S_NSWITCH], 1] = RADAU
-                            switch_log[istats[S_NSWITCH], 2] = SWITCH_STIFF
-                            switch_log[istats[S_NSWITCH], 3] = hlamb
+                            k = istats[S_NSWITCH]
+                            switch_log[k, 0] = tn
+                            switch_log[k, 1] = RADAU
+                            switch_log[k, 2] = SWITCH_STIFF
+                            switch_log[k, 3] = hlamb
                             istats[S_NSWITCH] += 1
-                            have_jac = False
-                            current_jac = False
+                            mode = RADAU
+                            need_jac = True
                             have_lu = False
                             have_sol = False
                             h_abs_old = -1.0
@@ -551,236 +642,193 @@ def solve_adaptive(f, rebase, emit, p, method, z, t0, t_end, out_t, iopt, fopt, 
                     nonsti += 1
                     if nonsti == 6:
                         iasti = 0
-            # samples in (t, tn] from the quartic dense output
-            while j < nout and out_t[j] <= tn:
-                if out_t[j] >= tn:
-                    emit(p, j, tn, znew)
-                else:
-                    x = (out_t[j] - t) / h
-                    for q in range(7):
-                        bx[q] = x * (DP_P[q, 0] + x * (DP_P[q, 1] + x * (DP_P[q, 2] + x * DP_P[q, 3])))
-                    for r in range(n):
-                        acc = 0.0
-                        for q in range(7):
-                            acc += bx[q] * K[q, r]
-                        zi[r] = z[r] + h * acc
-                    emit(p, j, out_t[j], zi)
-                j += 1
-            istats[S_STEPS] += 1
-            t = tn
-            z[:] = znew
-            K[0, :] = K[6, :]
-            rebase(p, z, K[0], mag)
-            h = hnew
-            continue
-
-        # ---- one Radau IIA attempt
-        if not have_jac:
-            fd_jacobian(f, p, t, z, K[0], mag, ne, J, istats)
-            have_jac = True
-            current_jac = True
-            have_lu = False
-            rho = spectral_radius(J, ne)
-        converged = False
-        n_iter = 0
-        rate = -1.0
-        while True:
-            if not have_lu:
+            acc_mode = RK45
+        else:
+            # ---- one Radau IIA attempt
+            converged = False
+            n_iter = 0
+            rate = -1.0
+            while True:
+                if need_jac:
+                    fd_jacobian(p, t, z, K[0], mag, ne, J, istats)
+                    rho = spectral_radius(J, ne)
+                    need_jac = False
+                    current_jac = True
+                    have_lu = False
                 mr = RA_MU_REAL / h
                 mc = complex(RA_MU_CRE, RA_MU_CIM) / h
-                for r in range(n):
-                    for c in range(n):
-                        LUr[r, c] = -J[r, c]
-                        LUc[r, c] = -J[r, c]
-                    LUr[r, r] += mr
-                    LUc[r, r] += mc
-                lu_factor(LUr, pivr)
-                lu_factor(LUc, pivc)
-                istats[S_NLU] += 2
-                have_lu = True
-            # initial guess from the last step's collocation polynomial (increments are chart-free to
-            # first order), else zero
-            if have_sol:
-                for s in range(3):
-                    x1 = 1.0 + RA_C[s] * h / h_sol
+                if not have_lu:
                     for r in range(n):
-                        Z[s, r] = (Qd[r, 0] * (x1 - 1.0) + Qd[r, 1] * (x1 * x1 - 1.0)
-                                   + Qd[r, 2] * (x1 * x1 * x1 - 1.0))
-            else:
-                Z[:, :] = 0.0
-            for s in range(3):
-                for r in range(n):
-                    W[s, r] = RA_TI[s, 0] * Z[0, r] + RA_TI[s, 1] * Z[1, r] + RA_TI[s, 2] * Z[2, r]
-            # simplified Newton iterations on the transformed stage system
-            dW_norm_old = -1.0
-            converged = False
-            rate = -1.0
-            mr = RA_MU_REAL / h
-            mc = complex(RA_MU_CRE, RA_MU_CIM) / h
-            n_iter = 0
-            for it in range(NEWTON_MAXITER):
-                n_iter = it + 1
+                        for c in range(n):
+                            LUr[r, c] = -J[r, c]
+                            LUc[r, c] = -J[r, c]
+                        LUr[r, r] += mr
+                        LUc[r, r] += mc
+                    lu_factor(LUr, pivr)
+                    lu_factor(LUc, pivc)
+                    istats[S_NLU] += 2
+                    have_lu = True
+                # initial guess: the last step's collocation polynomial (increments are chart-free to
+                # first order), else zero
+                if have_sol:
+                    for s in range(3):
+                        x1 = 1.0 + RA_C[s] * h / h_sol
+                        for r in range(n):
+                            Z[s, r] = (Qd[r, 0] * (x1 - 1.0) + Qd[r, 1] * (x1 * x1 - 1.0)
+                                       + Qd[r, 2] * (x1 * x1 * x1 - 1.0))
+                else:
+                    Z[:, :] = 0.0
                 for s in range(3):
                     for r in range(n):
-                        zs[r] = z[r] + Z[s, r]
-                    f(p, t + RA_C[s] * h, zs, F[s])
-                istats[S_NFEV] += 3
-                finite = True
-                for s in range(3):
-                    if _state_status(F[s], 0, 0, np.inf) != OK:
-                        finite = False
-                if not finite:
-                    break
-                for r in range(n):
-                    fr[r] = (RA_TI[0, 0] * F[0, r] + RA_TI[0, 1] * F[1, r] + RA_TI[0, 2] * F[2, r]
-                             - mr * W[0, r])
-                    fc[r] = (complex(RA_TI[1, 0], RA_TI[2, 0]) * F[0, r]
-                             + complex(RA_TI[1, 1], RA_TI[2, 1]) * F[1, r]
-                             + complex(RA_TI[1, 2], RA_TI[2, 2]) * F[2, r]
-                             - mc * complex(W[1, r], W[2, r]))
-                dWr[:] = fr
-                dWc[:] = fc
-                lu_solve(LUr, pivr, dWr)
-                lu_solve(LUc, pivc, dWc)
-                acc = 0.0
-                for r in range(ne):
-                    sc = atol + rtol * (abs(z[r]) + mag[r])
-                    acc += (dWr[r] / sc) ** 2 + (dWc[r].real / sc) ** 2 + (dWc[r].imag / sc) ** 2
-                dW_norm = np.sqrt(acc / (3 * max(ne, 1)))
-                if not np.isfinite(dW_norm):
-                    break
-                if dW_norm_old > 0:
-                    rate = dW_norm / dW_norm_old
-                if rate >= 0 and (rate >= 1 or rate ** (NEWTON_MAXITER - it) / (1 - rate) * dW_norm
-                                  > newton_tol):
-                    break
-                for r in range(n):
-                    W[0, r] += dWr[r]
-                    W[1, r] += dWc[r].real
-                    W[2, r] += dWc[r].imag
-                for s in range(3):
+                        W[s, r] = RA_TI[s, 0] * Z[0, r] + RA_TI[s, 1] * Z[1, r] + RA_TI[s, 2] * Z[2, r]
+                # simplified Newton iterations on the transformed stage system
+                dW_norm_old = -1.0
+                converged = False
+                rate = -1.0
+                n_iter = 0
+                for it in range(NEWTON_MAXITER):
+                    n_iter = it + 1
+                    finite = True
+                    for s in range(3):
+                        for r in range(n):
+                            zs[r] = z[r] + Z[s, r]
+                        problem_rhs(p, t + RA_C[s] * h, zs, F[s])
+                        if _state_status(F[s], 0, 0, np.inf) != OK:
+                            finite = False
+                    istats[S_NFEV] += 3
+                    if not finite:
+                        break
                     for r in range(n):
-                        Z[s, r] = RA_T[s, 0] * W[0, r] + RA_T[s, 1] * W[1, r] + RA_T[s, 2] * W[2, r]
-                if dW_norm == 0 or (rate >= 0 and rate / (1 - rate) * dW_norm < newton_tol):
-                    converged = True
+                        fr[r] = (RA_TI[0, 0] * F[0, r] + RA_TI[0, 1] * F[1, r] + RA_TI[0, 2] * F[2, r]
+                                 - mr * W[0, r])
+                        fc[r] = (complex(RA_TI[1, 0], RA_TI[2, 0]) * F[0, r]
+                                 + complex(RA_TI[1, 1], RA_TI[2, 1]) * F[1, r]
+                                 + complex(RA_TI[1, 2], RA_TI[2, 2]) * F[2, r]
+                                 - mc * complex(W[1, r], W[2, r]))
+                    dWr[:] = fr
+                    dWc[:] = fc
+                    lu_solve(LUr, pivr, dWr)
+                    lu_solve(LUc, pivc, dWc)
+                    acc = 0.0
+                    for r in range(ne):
+                        sc = atol + rtol * (abs(z[r]) + mag[r])
+                        acc += (dWr[r] / sc) ** 2 + (dWc[r].real / sc) ** 2 + (dWc[r].imag / sc) ** 2
+                    dW_norm = np.sqrt(acc / (3 * max(ne, 1)))
+                    if not np.isfinite(dW_norm):
+                        break
+                    if dW_norm_old > 0:
+                        rate = dW_norm / dW_norm_old
+                    if rate >= 0 and (rate >= 1 or rate ** (NEWTON_MAXITER - it) / (1 - rate) * dW_norm
+                                      > newton_tol):
+                        break
+                    for r in range(n):
+                        W[0, r] += dWr[r]
+                        W[1, r] += dWc[r].real
+                        W[2, r] += dWc[r].imag
+                    for s in range(3):
+                        for r in range(n):
+                            Z[s, r] = RA_T[s, 0] * W[0, r] + RA_T[s, 1] * W[1, r] + RA_T[s, 2] * W[2, r]
+                    if dW_norm == 0 or (rate >= 0 and rate / (1 - rate) * dW_norm < newton_tol):
+                        converged = True
+                        break
+                    dW_norm_old = dW_norm
+                if converged or current_jac:
                     break
-                dW_norm_old = dW_norm
-            if converged or current_jac:
-                break
-            fd_jacobian(f, p, t, z, K[0], mag, ne, J, istats)
-            rho = spectral_radius(J, ne)
-            current_jac = True
-            have_lu = False
-        if not converged:
-            istats[S_REJECTED] += 1
-            h *= 0.5
-            have_lu = False
-            rejected_last = True
-            continue
-        for r in range(n):
-            znew[r] = z[r] + Z[2, r]
-        # embedded error estimate, filtered: err = (mu_real/h - J)^-1 (f0 + Z^T E / h)
-        for r in range(n):
-            F[0, r] = (Z[0, r] * RA_E[0] + Z[1, r] * RA_E[1] + Z[2, r] * RA_E[2]) / h  # ZE
-            errv[r] = K[0, r] + F[0, r]
-        lu_solve(LUr, pivr, errv)
-        err = scaled_rms(errv, z, znew, mag, ne, rtol, atol)
-        safety = 0.9 * (2 * NEWTON_MAXITER + 1) / (2 * NEWTON_MAXITER + n_iter)
-        if rejected_last and err > 1:
+                need_jac = True  # retry once with a fresh Jacobian
+            if not converged:
+                istats[S_REJECTED] += 1
+                h *= 0.5
+                have_lu = False
+                rejected_last = True
+                continue
             for r in range(n):
-                zs[r] = z[r] + errv[r]
-            f(p, t, zs, fr)
-            istats[S_NFEV] += 1
+                znew[r] = z[r] + Z[2, r]
+            # embedded error estimate, filtered ([HW] IV.8, eq. 8.20): err = (mu_real/h - J)^-1 (f0 + Z^T E / h)
             for r in range(n):
-                errv[r] = fr[r] + F[0, r]
+                errv[r] = K[0, r] + (Z[0, r] * RA_E[0] + Z[1, r] * RA_E[1] + Z[2, r] * RA_E[2]) / h
             lu_solve(LUr, pivr, errv)
             err = scaled_rms(errv, z, znew, mag, ne, rtol, atol)
-        if not np.isfinite(err):
-            istats[S_REJECTED] += 1
-            h *= 0.25
-            have_lu = False
-            rejected_last = True
-            continue
-        # Gustafsson's predictive controller ([HW] IV.8, eq. 8.25)
-        if err_norm_old < 0 or h_abs_old < 0 or err == 0:
-            mult = 1.0
-        else:
-            mult = h / h_abs_old * (err_norm_old / err) ** 0.25
-        factor = min(1.0, mult) * (err ** -0.25 if err > 0 else 10.0)
-        if err > 1:
-            istats[S_REJECTED] += 1
-            h *= max(0.2, safety * factor)
-            have_lu = False
-            rejected_last = True
-            continue
-        # accepted
+            safety = 0.9 * (2 * NEWTON_MAXITER + 1) / (2 * NEWTON_MAXITER + n_iter)
+            if not np.isfinite(err):
+                istats[S_REJECTED] += 1
+                h *= 0.25
+                have_lu = False
+                rejected_last = True
+                continue
+            # Gustafsson's predictive controller ([HW] IV.8, eq. 8.25)
+            if err_norm_old < 0 or h_abs_old < 0 or err == 0:
+                mult = 1.0
+            else:
+                mult = h / h_abs_old * (err_norm_old / err) ** 0.25
+            factor = min(1.0, mult) * (err ** -0.25 if err > 0 else 10.0)
+            if err > 1:
+                istats[S_REJECTED] += 1
+                h *= max(0.2, safety * factor)
+                have_lu = False
+                rejected_last = True
+                continue
+            accepted = True
+            recompute_jac = n_iter > 2 and rate > 1e-3
+            factor = min(10.0, safety * factor)
+            if not recompute_jac and factor < 1.2:
+                factor = 1.0
+            else:
+                have_lu = False
+            h_abs_old = h
+            err_norm_old = err
+            hnew = h * factor
+            if recompute_jac:
+                need_jac = True
+                current_jac = False
+            else:
+                current_jac = False
+            for r in range(n):  # this step's dense output
+                for m in range(3):
+                    Qd[r, m] = Z[0, r] * RA_P[0, m] + Z[1, r] * RA_P[1, m] + Z[2, r] * RA_P[2, m]
+            have_sol = True
+            h_sol = h
+            if rho >= 0:
+                hr = h * rho
+                if not fstats[FS_HRHO] >= hr:
+                    fstats[FS_HRHO] = hr
+            acc_mode = RADAU
+            # auto: back to the explicit method when it would be stable at this step size
+            if method == AUTO and rho >= 0:
+                if h * rho < 2.0:
+                    nonstiff_count += 1
+                else:
+                    nonstiff_count = 0
+                if nonstiff_count >= 20 and istats[S_NSWITCH] < MAX_SWITCHES:
+                    k = istats[S_NSWITCH]
+                    switch_log[k, 0] = tn
+                    switch_log[k, 1] = RK45
+                    switch_log[k, 2] = SWITCH_NONSTIFF
+                    switch_log[k, 3] = h * rho
+                    istats[S_NSWITCH] += 1
+                    mode = RK45
+                    iasti = 0
+                    nonsti = 0
+                    errold = 1e-4
+                    hnew = h
+                    need_jac = True
+
+        # ---- accepted (either method)
+        rejected_last = False
+        fresh = True
         st = _state_status(znew, nc, nvel, blowup)
+        local_err += _max_abs(errv, ne)
+        istats[S_STEPS] += 1
+        zs[:] = z  # start of the step, for the dense output
+        z[:] = znew
+        t = tn
+        h_acc = h
+        h = hnew
+        if acc_mode == RADAU:  # f at the new point (Radau is not FSAL)
+            problem_rhs(p, t, z, K[0])
+            istats[S_NFEV] += 1
         if st != OK:
             status = st
-            z[:] = znew
-            t = tn
             break
-        rejected_last = False
-        local_err += _max_abs(errv, ne)
-        recompute_jac = n_iter > 2 and rate > 1e-3
-        factor = min(10.0, safety * factor)
-        if not recompute_jac and factor < 1.2:
-            factor = 1.0
-        else:
-            have_lu = False
-        h_abs_old = h
-        err_norm_old = err
-        f(p, tn, znew, fnew)
-        istats[S_NFEV] += 1
-        # dense output of this step (collocation polynomial), then samples in (t, tn]
-        for r in range(n):
-            for m in range(3):
-                Qd[r, m] = Z[0, r] * RA_P[0, m] + Z[1, r] * RA_P[1, m] + Z[2, r] * RA_P[2, m]
-        while j < nout and out_t[j] <= tn:
-            if out_t[j] >= tn:
-                emit(p, j, tn, znew)
-            else:
-                x = (out_t[j] - t) / h
-                for r in range(n):
-                    zi[r] = z[r] + x * (Qd[r, 0] + x * (Qd[r, 1] + x * Qd[r, 2]))
-                emit(p, j, out_t[j], zi)
-            j += 1
-        have_sol = True
-        h_sol = h
-        istats[S_STEPS] += 1
-        t = tn
-        z[:] = znew
-        K[0, :] = fnew
-        rebase(p, z, K[0], mag)
-        if recompute_jac:
-            fd_jacobian(f, p, t, z, K[0], mag, ne, J, istats)
-            rho = spectral_radius(J, ne)
-            current_jac = True
-        else:
-            current_jac = False
-        h = h * factor
-        if rho >= 0:
-            hr = h_abs_old * rho
-            if not fstats[FS_HRHO] >= hr:
-                fstats[FS_HRHO] = hr
-        # auto: back to the explicit method when it would be stable at this step size
-        if method == AUTO and rho >= 0:
-            if h_abs_old * rho < 2.0:
-                nonstiff_count += 1
-            else:
-                nonstiff_count = 0
-            if nonstiff_count >= 20 and istats[S_NSWITCH] < MAX_SWITCHES:
-                switch_log[istats[S_NSWITCH], 0] = t
-                switch_log[istats[S_NSWITCH], 1] = RK45
-                switch_log[istats[S_NSWITCH], 2] = SWITCH_NONSTIFF
-                switch_log[istats[S_NSWITCH], 3] = h_abs_old * rho
-                istats[S_NSWITCH] += 1
-                mode = RK45
-                iasti = 0
-                nonsti = 0
-                errold = 1e-4
-                h = h_abs_old
-                have_jac = False
     istats[S_STATUS] = status
     fstats[FS_T] = t
     fstats[FS_LOCAL_ERR] = local_err

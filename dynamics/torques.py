@@ -1,0 +1,329 @@
+"""Joint torque sources for :func:`dynamics.simulate`, and the passive joint torques of the model.
+
+A torque source turns (t, q, v) into the applied joint torques tau (nv,).  Every source except a Python
+callable is compiled: it is stored as one tuple of arrays (``Source``) of the same numba type for every
+kind, and :func:`torque_eval` evaluates it inside the compiled integration loop.
+
+=====================  ========================================================================================
+``torque=`` argument   tau(t, q, v)
+=====================  ========================================================================================
+``None``               0
+array (nv,)            the constant vector
+``Table(t, tau)``      piecewise linear in t through the rows of tau (N, nv); ``hold="zoh"``: tau[k] on
+                       [t_k, t_k+1).  Before t_0 / after t_N-1 the first / last row.
+``PD(q_target, kp,     kp (q_target - q) + kd (v_target - v) + tau_ff; the position error is the tangent
+kd)``                  vector from q to q_target (:func:`dynamics.integrate.difference`), so it is also
+                       defined for a free-flyer (whose gains are zero by default unless given per dof).
+``ComputedTorque(t,    M(q) a* + h(q, v) - tau_passive(q, v) with a* = a_ref + kd (v_ref - v) + kp (q_ref - q)
+q, v, a, kp, kd)``     (inverse dynamics, the RNEA), so the closed loop is e'' + kd e' + kp e = 0 exactly for the
+                       model.  The reference is a table of samples (t_k, q_k, v_k, a_k) interpolated by quintic
+                       Hermite polynomials, which are C2 and consistent (v_ref = q_ref', a_ref = v_ref').
+callable f(t, q, v)    called from the compiled loop through ``numba.objmode`` (one Python call per
+                       right-hand-side evaluation; everything else stays compiled).
+=====================  ========================================================================================
+
+Passive joint torques (:func:`passive_torques`), always added by the simulator:
+
+* viscous damping ``-d v`` (URDF ``<dynamics damping>``);
+* Coulomb friction ``-F tanh(v / eps)`` (URDF ``<dynamics friction>``), regularised with the velocity scale
+  ``eps`` (``friction_eps``, default 1e-3 rad/s or m/s): exact Coulomb for |v| >> eps, a stiff viscous law of
+  slope F/eps near rest (so tiny eps makes the problem stiff);
+* with ``limits="spring"``, a Hunt-Crossley spring-damper at the URDF position limits, penetration
+  x = lower - q (or q - upper) > 0:  ``tau = +-max(0, k x + b x x')`` (stiffness k, damping b*x that vanishes
+  at contact, so the force is continuous).
+"""
+
+import warnings
+from typing import NamedTuple
+
+import numpy as np
+from numba import njit, objmode
+from numba.core.errors import NumbaWarning
+
+from .errors import InputError
+from .integrate import difference
+from .rnea import rnea_into
+
+_JIT = dict(cache=True, nogil=True, error_model="numpy")  # no ZeroDivisionError checks: they cost ~10x in hot loops
+
+_JIT_INLINE = dict(_JIT, inline="always")  # small helpers of the right-hand side: one function for LLVM
+
+# The objmode block for Python callables re-takes the GIL by design; numba warns about it at compile time.
+warnings.filterwarnings("ignore", message="Code running in object mode won't allow parallel execution",
+                        category=NumbaWarning)
+
+ZERO, CONSTANT, TABLE_LINEAR, TABLE_ZOH, PD_KIND, COMPUTED_TORQUE, CALLABLE = range(7)
+KIND_NAMES = ("zero", "constant", "table_linear", "table_zoh", "pd", "computed_torque", "callable")
+
+
+class Source(NamedTuple):
+    """Compiled form of a torque source (identical numba type for every kind)."""
+
+    kind: int
+    times: np.ndarray  # (N,) table or reference times
+    table: np.ndarray  # (N, m): torques (m = nv) or reference [q, v, a] (m = 3 nv)
+    gains: np.ndarray  # (4, nv): rows are kind-dependent (constant tau | kp, kd, v_target, tau_ff)
+    qref: np.ndarray  # (nq,) PD target configuration
+    slot: int  # callable registry slot
+
+
+class Passive(NamedTuple):
+    """Model and simulation parameters of the passive joint torques (numba-friendly)."""
+
+    damping: np.ndarray  # (nv,)
+    friction: np.ndarray  # (nv,)
+    friction_eps: float
+    limits: int  # 0 none, 1 spring
+    lower: np.ndarray  # (nv,)
+    upper: np.ndarray  # (nv,)
+    qpos: np.ndarray  # (nv,) int64: q index of a 1-dof coordinate, -1 for free-joint coordinates
+    k_limit: float
+    b_limit: float
+    gravity: np.ndarray  # (3,)
+    f_ext: np.ndarray  # (0, 6)
+
+
+# ---------------------------------------------------------------------------------------------------
+# user-facing descriptions
+class Table:
+    """Tabulated torques: times (N,) strictly increasing, tau (N, nv); hold "linear" or "zoh"."""
+
+    def __init__(self, t, tau, hold="linear"):
+        self.t, self.tau, self.hold = t, tau, hold
+
+
+class PD:
+    """PD control to a target posture: tau = kp (q_target - q) + kd (v_target - v) + tau_ff.
+
+    kp, kd: scalars or (nv,) arrays (>= 0); v_target, tau_ff: (nv,) arrays, default zero.
+    """
+
+    def __init__(self, q_target, kp, kd, v_target=None, tau_ff=None):
+        self.q_target, self.kp, self.kd, self.v_target, self.tau_ff = q_target, kp, kd, v_target, tau_ff
+
+
+class ComputedTorque:
+    """Computed-torque tracking of a reference (t (N,), q (N, nq), v (N, nv), a (N, nv)); fixed base only.
+
+    kp, kd: scalars or (nv,) arrays (>= 0).  The reference is interpolated by quintic Hermite polynomials.
+    """
+
+    def __init__(self, t, q, v, a, kp, kd):
+        self.t, self.q, self.v, self.a, self.kp, self.kd = t, q, v, a, kp, kd
+
+
+# ---------------------------------------------------------------------------------------------------
+# callables: a registry the compiled code reaches through objmode
+_REGISTRY = {}
+_NEXT_SLOT = [0]
+
+
+def register_callable(fn, nv):
+    """Store fn and return its slot; release it with :func:`release_callable`."""
+    slot = _NEXT_SLOT[0]
+    _NEXT_SLOT[0] += 1
+    _REGISTRY[slot] = (fn, nv)
+    return slot
+
+
+def release_callable(slot):
+    _REGISTRY.pop(slot, None)
+
+
+def _call_torque(slot, t, q, v, out):
+    fn, nv = _REGISTRY[slot]
+    tau = np.asarray(fn(float(t), q.copy(), v.copy()), dtype=np.float64)
+    if tau.shape != (nv,):
+        raise InputError(f"torque: the callable must return shape ({nv},), got {tau.shape}")
+    out[:] = tau
+
+
+# ---------------------------------------------------------------------------------------------------
+# compiled evaluation
+@njit(**_JIT)
+def _segment(times, t):
+    """k with times[k] <= t < times[k+1], clipped to [0, N-2] (N >= 2)."""
+    k = np.searchsorted(times, t, side="right") - 1
+    if k < 0:
+        k = 0
+    if k > times.shape[0] - 2:
+        k = times.shape[0] - 2
+    return k
+
+
+@njit(**_JIT)
+def reference_at(times, table, nv, t, q, v, a):
+    """Quintic Hermite interpolation of the reference [q, v, a] rows of ``table`` at time t (clamped)."""
+    N = times.shape[0]
+    if N == 1 or t <= times[0] or t >= times[N - 1]:
+        k = 0 if (N == 1 or t <= times[0]) else N - 1
+        for i in range(nv):
+            q[i] = table[k, i]
+            v[i] = table[k, nv + i]
+            a[i] = table[k, 2 * nv + i]
+        return
+    k = _segment(times, t)
+    h = times[k + 1] - times[k]
+    s = (t - times[k]) / h
+    s2 = s * s
+    s3 = s2 * s
+    s4 = s3 * s
+    s5 = s4 * s
+    H = (1 - 10 * s3 + 15 * s4 - 6 * s5, s - 6 * s3 + 8 * s4 - 3 * s5, 0.5 * s2 - 1.5 * s3 + 1.5 * s4 - 0.5 * s5,
+         0.5 * s3 - s4 + 0.5 * s5, -4 * s3 + 7 * s4 - 3 * s5, 10 * s3 - 15 * s4 + 6 * s5)
+    D = (-30 * s2 + 60 * s3 - 30 * s4, 1 - 18 * s2 + 32 * s3 - 15 * s4, s - 4.5 * s2 + 6 * s3 - 2.5 * s4,
+         1.5 * s2 - 4 * s3 + 2.5 * s4, -12 * s2 + 28 * s3 - 15 * s4, 30 * s2 - 60 * s3 + 30 * s4)
+    DD = (-60 * s + 180 * s2 - 120 * s3, -36 * s + 96 * s2 - 60 * s3, 1 - 9 * s + 18 * s2 - 10 * s3,
+          3 * s - 12 * s2 + 10 * s3, -24 * s + 84 * s2 - 60 * s3, 60 * s - 180 * s2 + 120 * s3)
+    for i in range(nv):
+        c0 = table[k, i]
+        c1 = h * table[k, nv + i]
+        c2 = h * h * table[k, 2 * nv + i]
+        c3 = h * h * table[k + 1, 2 * nv + i]
+        c4 = h * table[k + 1, nv + i]
+        c5 = table[k + 1, i]
+        q[i] = H[0] * c0 + H[1] * c1 + H[2] * c2 + H[3] * c3 + H[4] * c4 + H[5] * c5
+        v[i] = (D[0] * c0 + D[1] * c1 + D[2] * c2 + D[3] * c3 + D[4] * c4 + D[5] * c5) / h
+        a[i] = (DD[0] * c0 + DD[1] * c1 + DD[2] * c2 + DD[3] * c3 + DD[4] * c4 + DD[5] * c5) / (h * h)
+
+
+@njit(**_JIT_INLINE)
+def passive_torques(ps, q, v, out):
+    """out = damping + friction + limit-spring torques (module docstring)."""
+    for k in range(v.shape[0]):
+        tq = -ps.damping[k] * v[k]
+        if ps.friction[k] != 0.0:
+            tq -= ps.friction[k] * np.tanh(v[k] / ps.friction_eps)
+        if ps.limits == 1 and ps.qpos[k] >= 0:
+            x = q[ps.qpos[k]]
+            if x < ps.lower[k]:
+                pen = ps.lower[k] - x
+                tq += max(0.0, ps.k_limit * pen - ps.b_limit * pen * v[k])
+            elif x > ps.upper[k]:
+                pen = x - ps.upper[k]
+                tq -= max(0.0, ps.k_limit * pen + ps.b_limit * pen * v[k])
+        out[k] = tq
+
+
+@njit(**_JIT)
+def _torque_callable(slot, t, q, v, tau):
+    with objmode():
+        _call_torque(slot, t, q, v, tau)
+
+
+@njit(**_JIT_INLINE)
+def torque_eval(src, tree, ps, t, q, v, ws, tau):
+    """tau = the source's applied torques at (t, q, v).  ws: (rnea workspace, 4 scratch (nv,) rows)."""
+    nv = v.shape[0]
+    kind = src.kind
+    if kind == ZERO:
+        tau[:] = 0.0
+    elif kind == CONSTANT:
+        tau[:] = src.gains[0]
+    elif kind == TABLE_LINEAR or kind == TABLE_ZOH:
+        times = src.times
+        N = times.shape[0]
+        if N == 1 or t <= times[0]:
+            tau[:] = src.table[0]
+        elif t >= times[N - 1]:
+            tau[:] = src.table[N - 1]
+        else:
+            k = _segment(times, t)
+            if kind == TABLE_ZOH:
+                tau[:] = src.table[k]
+            else:
+                s = (t - times[k]) / (times[k + 1] - times[k])
+                for i in range(nv):
+                    tau[i] = (1 - s) * src.table[k, i] + s * src.table[k + 1, i]
+    elif kind == PD_KIND:
+        e = ws[1][0]
+        difference(tree, q, src.qref, e)
+        for i in range(nv):
+            tau[i] = src.gains[0, i] * e[i] + src.gains[1, i] * (src.gains[2, i] - v[i]) + src.gains[3, i]
+    elif kind == COMPUTED_TORQUE:
+        qr = ws[1][0]
+        vr = ws[1][1]
+        ar = ws[1][2]
+        reference_at(src.times, src.table, nv, t, qr, vr, ar)
+        for i in range(nv):
+            ar[i] += src.gains[1, i] * (vr[i] - v[i]) + src.gains[0, i] * (qr[i] - q[i])
+        rnea_into(tree, q, v, ar, ps.gravity, ps.f_ext, ws[0], tau)
+        pas = ws[1][3]
+        passive_torques(ps, q, v, pas)
+        for i in range(nv):
+            tau[i] -= pas[i]
+    else:
+        _torque_callable(src.slot, t, q, v, tau)
+
+
+# ---------------------------------------------------------------------------------------------------
+# building a Source from the user's argument (input checks live here, at the public entry)
+def _array(name, x, shape, *, nonneg=False):
+    try:
+        a = np.array(x, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise InputError(f"{name}: expected a float array of shape {shape}, got {type(x).__name__}") from None
+    if a.ndim == 0 and len(shape) == 1:
+        a = np.full(shape, float(a))
+    if a.shape != shape:
+        raise InputError(f"{name}: expected shape {shape}, got {a.shape}")
+    if not np.all(np.isfinite(a)):
+        raise InputError(f"{name}: contains non-finite values")
+    if nonneg and np.any(a < 0):
+        raise InputError(f"{name}: expected values >= 0")
+    return np.ascontiguousarray(a)
+
+
+def _times(name, t):
+    t = np.array(t, dtype=np.float64)
+    if t.ndim != 1 or t.shape[0] < 1:
+        raise InputError(f"{name}: expected shape (N,) with N >= 1, got {t.shape}")
+    if not np.all(np.isfinite(t)):
+        raise InputError(f"{name}: contains non-finite values")
+    if np.any(np.diff(t) <= 0):
+        raise InputError(f"{name}: times must be strictly increasing")
+    return np.ascontiguousarray(t)
+
+
+def make_source(model, torque):
+    """The compiled :class:`Source` for the ``torque`` argument of :func:`dynamics.simulate`."""
+    nv, nq = model.nv, model.nq
+    empty_t = np.zeros(1)
+    empty_tab = np.zeros((1, nv))
+    gains = np.zeros((4, nv))
+    qref = np.zeros(nq)
+    if torque is None:
+        return Source(ZERO, empty_t, empty_tab, gains, qref, -1)
+    if isinstance(torque, Table):
+        times = _times("torque.t", torque.t)
+        tab = _array("torque.tau", torque.tau, (times.shape[0], nv))
+        if torque.hold not in ("linear", "zoh"):
+            raise InputError(f"torque.hold: expected 'linear' or 'zoh', got {torque.hold!r}")
+        return Source(TABLE_LINEAR if torque.hold == "linear" else TABLE_ZOH, times, tab, gains, qref, -1)
+    if isinstance(torque, PD):
+        qref = _array("torque.q_target", torque.q_target, (nq,))
+        gains[0] = _array("torque.kp", torque.kp, (nv,), nonneg=True)
+        gains[1] = _array("torque.kd", torque.kd, (nv,), nonneg=True)
+        if torque.v_target is not None:
+            gains[2] = _array("torque.v_target", torque.v_target, (nv,))
+        if torque.tau_ff is not None:
+            gains[3] = _array("torque.tau_ff", torque.tau_ff, (nv,))
+        return Source(PD_KIND, empty_t, empty_tab, gains, qref, -1)
+    if isinstance(torque, ComputedTorque):
+        if model.floating_base or nq != nv:
+            raise InputError("torque: ComputedTorque needs a fixed-base model with 1-dof joints (nq == nv)")
+        times = _times("torque.t", torque.t)
+        N = times.shape[0]
+        tab = np.concatenate([_array("torque.q", torque.q, (N, nq)), _array("torque.v", torque.v, (N, nv)),
+                              _array("torque.a", torque.a, (N, nv))], axis=1)
+        gains[0] = _array("torque.kp", torque.kp, (nv,), nonneg=True)
+        gains[1] = _array("torque.kd", torque.kd, (nv,), nonneg=True)
+        return Source(COMPUTED_TORQUE, times, np.ascontiguousarray(tab), gains, qref, -1)
+    if callable(torque):
+        return Source(CALLABLE, empty_t, empty_tab, gains, qref, register_callable(torque, nv))
+    try:
+        gains[0] = _array("torque", torque, (nv,))
+    except InputError as e:
+        raise InputError(f"{e} (torque: expected None, an (nv,) = ({nv},) array, a Table, PD, ComputedTorque "
+                         "or a callable f(t, q, v) -> tau)") from None
+    return Source(CONSTANT, empty_t, empty_tab, gains, qref, -1)
