@@ -25,7 +25,7 @@ from starlette.responses import Response
 
 from . import __version__, schemas
 from .codec import JSON, NPZ, XML_TYPES, decode, encode, media_type, read_body
-from .compute import INLINE_BYTES, BudgetExceeded, Compute, Operation, operations
+from .compute import INLINE_BYTES, BudgetExceeded, Compute, Operation, locked_key, operations, simulation_scene
 from .errors import ApiError, bad_input, error_response, field_of, install_handlers
 from .robots import delete_robot, list_robots, register_robot, robot_info
 from .settings import Settings
@@ -167,7 +167,7 @@ async def health() -> Response:
     return Response(b'{"status":"ok"}', media_type=JSON)
 
 
-@router.post("/robots", status_code=201, response_model=schemas.RobotSummary, responses=_ERRORS,
+@router.post("/robots", status_code=201, response_model=schemas.UploadAnswer, responses=_ERRORS,
              openapi_extra={"requestBody": {"required": True, "content": {
                  "application/xml": {"schema": {"type": "string", "description": "the URDF document"}},
                  JSON: {"schema": {"$ref": "#/components/schemas/UploadRequest"}}}}},
@@ -259,7 +259,7 @@ async def simulate(robot_id: str, request: Request, svc: Services = Depends(serv
     if svc.sim is None:
         raise ApiError(501, "simulate: not available on this server (DYNAMICS_SIM_WORKERS=0, or a build of "
                             "dynamics without simulate())", code="not_implemented")
-    job = await svc.compute.run(_simulation_job, svc, robot_id, body, request.headers.get("content-type"))
+    job, scene = await svc.compute.run(_simulation_job, svc, robot_id, body, request.headers.get("content-type"))
     loop = asyncio.get_running_loop()
     try:
         answer = await loop.run_in_executor(svc.sim_waiters, svc.sim.run, job, deadline)
@@ -276,10 +276,12 @@ async def simulate(robot_id: str, request: Request, svc: Services = Depends(serv
         raise bad_input(msg, field_of(msg))
     if "error" in answer:
         raise ApiError(500, f"simulate: {answer['error']}", code="internal_error")
-    return await svc.compute.run(encode, answer["ok"], request.headers.get("accept"))
+    return await svc.compute.run(encode, {**answer["ok"], "scene": scene}, request.headers.get("accept"))
 
 
-def _simulation_job(svc: Services, robot_id: str, body: bytes, content_type: Optional[str]) -> dict[str, Any]:
+def _simulation_job(svc: Services, robot_id: str, body: bytes,
+                    content_type: Optional[str]) -> tuple[dict[str, Any], dict[str, Any]]:
+    """The job for a simulation worker, and the scene of its answer."""
     payload = decode(body, content_type, max_unpacked=8 * svc.settings.max_body_bytes)
     if isinstance(payload.get("torque"), str):  # in .npz the torque spec travels as a JSON string
         try:
@@ -298,17 +300,21 @@ def _simulation_job(svc: Services, robot_id: str, body: bytes, content_type: Opt
             and req.duration / req.dt + 1 > s.max_samples:  # fixed-step runs sample every step by default
         raise bad_input(f"sample_dt: a sample at every step of {req.dt:g} s is over the limit of "
                         f"{s.max_samples} samples (DYNAMICS_MAX_SAMPLES); give a larger sample_dt", "sample_dt")
-    model = svc.compute.model(robot_id)  # 404 here, and a cheap check before a process is involved
+    # 404 and a bad locked set (422) here, before a process is involved; the worker builds the same model
+    locked = locked_key(req.locked)
+    entry = svc.compute.loaded(robot_id, locked)
+    model = entry.model
     rec = svc.compute.record(robot_id)
     if req.q0.ndim != 1 or req.v0.ndim != 1:
         bad = "q0" if req.q0.ndim != 1 else "v0"
         raise bad_input(f"{bad}: expected one state, shape ({model.nq if bad == 'q0' else model.nv},), "
                         f"got {getattr(req, bad).shape}", bad)
     options = {k: getattr(req, k) for k in schemas.SIMULATE_OPTIONS}
-    return {"robot": {"id": rec.id, "urdf": rec.urdf, "floating_base": rec.floating_base},
-            "q0": req.q0, "v0": req.v0, "duration": req.duration, "options": options,
-            "torque": req.torque.model_dump() if req.torque is not None else None,
-            "limits": {"max_samples": s.max_samples, "max_sim_steps": s.max_sim_steps}}
+    job = {"robot": {"id": rec.id, "urdf": rec.urdf, "floating_base": rec.floating_base}, "locked": locked,
+           "q0": req.q0, "v0": req.v0, "duration": req.duration, "options": options,
+           "torque": req.torque.model_dump() if req.torque is not None else None,
+           "limits": {"max_samples": s.max_samples, "max_sim_steps": s.max_sim_steps}}
+    return job, simulation_scene(entry, req.gravity)
 
 
 def _openapi(app: FastAPI):

@@ -14,10 +14,11 @@ Two kinds of work, two mechanisms:
 from __future__ import annotations
 
 import asyncio
+import functools
 import time
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
-from typing import Any, Callable
+from typing import Any, Callable, Optional
 
 import numpy as np
 
@@ -47,6 +48,18 @@ class Operation:
     keywords: tuple[str, ...]  # optional keyword arguments (gravity, f_ext)
     answer: str                # key of the answer: "tau", "a", "mass_matrix"
     cost: Callable[[Any], int]  # work per state, in body-states, for chunking
+    # Where v and a come from, to tell which terms vanish: "state" (the request's array), "zero" (held at zero:
+    # gravity torques, bias forces) or "computed" (ABA's answer is a). None: the operation has none of the
+    # terms (the mass matrix), so nothing is reported skipped.
+    terms: Optional[dict[str, str]] = None
+
+    def skipped(self, args: dict[str, Any], model_gravity: np.ndarray) -> tuple[str, ...]:
+        """Terms this request does not compute, for any state of its batch."""
+        if self.terms is None:
+            return ()
+        present = [_nonzero(args[x]) if self.terms[x] == "state" else self.terms[x] == "computed" for x in "va"]
+        g = args.get("gravity")
+        return terms_skipped(present[0], present[1], _nonzero(model_gravity if g is None else g))
 
 
 def load_model(record: RobotRecord):
@@ -55,6 +68,65 @@ def load_model(record: RobotRecord):
     # Always bytes: the library reads a str that does not start with '<' as a file path, and no path named
     # by a caller may ever be opened.
     return dynamics.load_urdf(record.urdf.encode("utf-8"), floating_base=record.floating_base)
+
+
+# -- scenes: locked joints select a reduced model; every answer says what its model left out ---------------------
+def locked_key(locked: Optional[dict[str, Any]]) -> tuple:
+    """A request's ``locked`` -> the hashable, canonical part of a model cache key.
+
+    Sorted by joint name, every value a tuple of floats, so that {"a": 1, "b": [2]} and {"b": 2.0, "a": 1.0}
+    share one reduced model. ``+ 0.0`` turns -0.0 into 0.0 (the same pose).
+    """
+    if not locked:
+        return ()
+    return tuple(sorted((name, tuple(float(x) + 0.0 for x in (v if isinstance(v, (list, tuple)) else (v,))))
+                        for name, v in locked.items()))
+
+
+def reduce_model(model, key: tuple):
+    """``dynamics.lock_joints`` for a :func:`locked_key`; its InputError names the joint ("locked: no movable
+    joint named 'x'; joints are [...]", "locked['j']: expected 1 finite number, got [1.0, 2.0]")."""
+    import dynamics
+
+    return dynamics.lock_joints(model, {name: (v[0] if len(v) == 1 else list(v)) for name, v in key})
+
+
+@dataclass(frozen=True)
+class Loaded:
+    """What the model cache holds: a model, and the part of every answer's scene that depends only on it."""
+    model: Any
+    scene: dict[str, Any]  # locked, pruned, merged_fixed_joints, nq, nv
+
+    @classmethod
+    def of(cls, model) -> "Loaded":
+        info = model.summary()
+        return cls(model, {"locked": info.get("locked_joints", {}), "pruned": list(info.get("links_pruned", [])),
+                           "merged_fixed_joints": len(info.get("fixed_joints_merged", ())),
+                           "nq": int(model.nq), "nv": int(model.nv)})
+
+    def answer_scene(self, skipped: tuple[str, ...]) -> dict[str, Any]:
+        s = self.scene
+        return {"locked": s["locked"], "pruned": s["pruned"], "merged_fixed_joints": s["merged_fixed_joints"],
+                "skipped": list(skipped), "nq": s["nq"], "nv": s["nv"]}
+
+
+@functools.lru_cache(maxsize=None)
+def terms_skipped(with_v: bool, with_a: bool, with_gravity: bool) -> tuple[str, ...]:
+    """The library's names of the terms it leaves out (``dynamics.rnea.skipped_terms``), asked once per case:
+    its np.any calls cost ~12 us, a third of a whole single-state request answered on the event loop."""
+    from dynamics.rnea import skipped_terms
+
+    return tuple(skipped_terms(v=float(with_v), a=float(with_a), gravity=(float(with_gravity), 0.0, 0.0)))
+
+
+def simulation_scene(entry: Loaded, gravity: Optional[np.ndarray]) -> dict[str, Any]:
+    """The scene of a simulation: velocities and accelerations evolve, so only gravity can be left out."""
+    g = entry.model.gravity if gravity is None else gravity
+    return entry.answer_scene(terms_skipped(True, True, _nonzero(g)))
+
+
+def _nonzero(x: Any) -> bool:
+    return bool(x.any()) if isinstance(x, np.ndarray) else bool(np.any(x))
 
 
 class Compute:
@@ -82,18 +154,37 @@ class Compute:
 
     @staticmethod
     def scene_key(args: dict[str, Any]) -> tuple:
-        """The part of a request that selects a reduced model: empty today. Issue 5 returns here
-        ``tuple(sorted(args["locked"].items()))`` and builds the model below with ``dynamics.lock_joints``; the
-        cache, the inline check and the layout key already carry it."""
-        return ()
+        """The part of a request that selects a reduced model: its canonical locked set (() for none)."""
+        locked = args.get("locked")
+        return locked_key(locked) if locked else ()
 
-    def model(self, rid: str, locked: tuple = ()):
-        """The compiled model of robot ``rid`` (404 if unknown). Runs in a worker thread: it may parse a URDF."""
+    def loaded(self, rid: str, locked: tuple = ()) -> Loaded:
+        """Robot ``rid`` (404 if unknown) with the joints of ``locked`` (a :func:`locked_key`) held still: the
+        full model from the cache or the URDF, then the reduced one from the cache or ``lock_joints`` (a bad
+        joint name or value is a 422 naming it). Runs in a worker thread: it may parse a URDF."""
         # A robot deleted through another server process must not keep answering from this one's cache.
         if not self.store.exists(rid):
             self.cache.discard(rid)
             raise ApiError(404, f"robot: no robot with id {rid!r}", code="not_found", field="robot")
-        return self.cache.get_or_load((rid, locked), lambda: load_model(self.record(rid)))
+
+        def load() -> Loaded:
+            return Loaded.of(load_model(self.record(rid)))
+
+        if not locked:
+            return self.cache.get_or_load((rid, ()), load)
+
+        def reduce() -> Loaded:  # (a cached reduced model is used even when the full one was evicted)
+            full = self.cache.get_or_load((rid, ()), load)
+            try:
+                return Loaded.of(reduce_model(full.model, locked))
+            except ValueError as e:  # InputError: "locked: no movable joint named 'x'; ..."
+                raise bad_input(str(e), field_of(str(e)) or "locked") from None
+
+        return self.cache.get_or_load((rid, locked), reduce)
+
+    def model(self, rid: str, locked: tuple = ()):
+        """The compiled model of robot ``rid`` (see :meth:`loaded`)."""
+        return self.loaded(rid, locked).model
 
     # -- dynamics --------------------------------------------------------------------------------------------
     def _layout(self, op: Operation, rid: str, args: dict[str, Any]) -> tuple:
@@ -109,7 +200,8 @@ class Compute:
     def dynamics(self, op: Operation, rid: str, args: dict[str, Any], deadline: float,
                  budget: float) -> dict[str, Any]:
         """Run ``op`` on one state or a batch, chunked, checking ``deadline`` (time.monotonic) between chunks."""
-        model = self.model(rid, self.scene_key(args))
+        entry = self.loaded(rid, self.scene_key(args))
+        model = entry.model
         states = [args[name] for name in op.states]
         kwargs = {k: args[k] for k in op.keywords if args.get(k) is not None}
         batch = self._batch_size(op, states, kwargs)
@@ -125,7 +217,7 @@ class Compute:
             raise bad_input(f"{op.answer}: the result is not finite (is a movable joint carrying no mass, "
                             f"or are the inputs extreme?)", op.answer)
         self._warm.add(self._layout(op, rid, args))
-        return {op.answer: out}
+        return {op.answer: out, "scene": entry.answer_scene(op.skipped(args, model.gravity))}
 
     def _batch_size(self, op: Operation, states: list[np.ndarray], kwargs: dict[str, Any]) -> int | None:
         first = states[0]
@@ -173,11 +265,12 @@ def operations() -> dict[str, Operation]:
 
     return {
         "inverse-dynamics": Operation("inverse dynamics", dynamics.inverse_dynamics, ("q", "v", "a"),
-                                      ("gravity", "f_ext"), "tau", per_body),
+                                      ("gravity", "f_ext"), "tau", per_body, {"v": "state", "a": "state"}),
         "forward-dynamics": Operation("forward dynamics", dynamics.forward_dynamics, ("q", "v", "tau"),
-                                      ("gravity", "f_ext"), "a", mass_cost),
+                                      ("gravity", "f_ext"), "a", mass_cost, {"v": "state", "a": "computed"}),
         "mass-matrix": Operation("mass matrix", dynamics.mass_matrix, ("q",), (), "mass_matrix", mass_cost),
         "gravity-torques": Operation("gravity torques", dynamics.gravity_torques, ("q",), ("gravity",), "tau",
-                                     per_body),
-        "bias-forces": Operation("bias forces", dynamics.bias_forces, ("q", "v"), ("gravity",), "tau", per_body),
+                                     per_body, {"v": "zero", "a": "zero"}),
+        "bias-forces": Operation("bias forces", dynamics.bias_forces, ("q", "v"), ("gravity",), "tau", per_body,
+                                 {"v": "state", "a": "zero"}),
     }

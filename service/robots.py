@@ -6,11 +6,13 @@ process's :class:`service.app.Services` as their first argument.
 
 from __future__ import annotations
 
+import json
 from typing import TYPE_CHECKING, Any, Optional
 
 from lxml import etree
 
-from .codec import finite_or_none
+from .codec import _jsonable, finite_or_none
+from .compute import Loaded
 from .errors import ApiError, bad_input
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -65,8 +67,10 @@ def register_robot(svc: "Services", urdf: bytes, name: Optional[str], floating_b
     record, _created = svc.store.put(text, name=name, floating_base=floating_base, owner=owner,
                                      summary=_summary(model))
     # The model we just built is the one a request would build: keep it.
-    svc.compute.cache.get_or_load((record.id, ()), lambda: model)
-    return _public(record.id, record.name, False, record.floating_base, record.summary)
+    svc.compute.cache.get_or_load((record.id, ()), lambda: Loaded.of(model))
+    info = _public(record.id, record.name, False, record.floating_base, record.summary)
+    info["summary"] = model_summary(model)
+    return info
 
 
 def _summary(model) -> dict[str, Any]:
@@ -122,20 +126,14 @@ def robot_info(svc: "Services", rid: str) -> dict[str, Any]:
     info = _public(rec.id, rec.name, rec.bundled, rec.floating_base, _summary(model))
     info["joints"] = joints
     info["gravity"] = [float(x) for x in model.gravity]
-    info["summary"] = _jsonable_summary(model)
+    info["summary"] = model_summary(model)
     return info
 
 
-def _jsonable_summary(model) -> dict[str, Any]:
-    summary = getattr(model, "summary", None)
-    if not callable(summary):
-        return {}
-    import json
-
-    try:
-        return json.loads(json.dumps(summary(), default=lambda o: o.tolist() if hasattr(o, "tolist") else str(o)))
-    except (TypeError, ValueError):
-        return {}
+def model_summary(model) -> dict[str, Any]:
+    """``model.summary()``: URDF links and joints, bodies kept, fixed joints merged, links pruned, locked joints,
+    warnings. JSON-safe by the library's contract; numpy scalars are turned into numbers all the same."""
+    return json.loads(json.dumps(model.summary(), default=_jsonable))
 
 
 def delete_robot(svc: "Services", rid: str, owner: Optional[str]) -> None:

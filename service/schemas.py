@@ -4,7 +4,11 @@ State arguments are typed :data:`Array`: one state (a list of nq or nv numbers) 
 lists); they are turned into float64 arrays in one ``np.asarray`` call, never walked in Python, and the
 shape check against the robot is the library's (its messages name the argument and the expected shape).
 Unknown fields are refused (``extra="forbid"``) so that a typo is a 422, not a silently ignored option; new
-optional fields (issue 5's ``locked``; a ``scene`` object in answers) are added without breaking a caller.
+optional fields (``locked``; the ``scene`` object of answers) are added without breaking a caller.
+
+``locked`` ({joint name: value}) selects a reduced model (``dynamics.lock_joints``): the request's states are then
+those of the reduced model. Here only its form is checked (names are strings, values numbers or lists of
+numbers); joint names and value counts are the library's to check, its messages name the joint.
 """
 
 from __future__ import annotations
@@ -42,11 +46,46 @@ def _gains(value: Any, info: ValidationInfo) -> np.ndarray:
     return to_array(value, info.field_name or "value", max_ndim=1)
 
 
+def _locked(value: Any) -> dict[str, Any]:
+    """{joint: number | [numbers]} (in .npz: that object as a JSON string) -> a dict of floats / float lists."""
+    import json
+
+    from .errors import bad_input
+
+    if value is None:
+        return None
+    if isinstance(value, str):  # .npz carries objects as JSON strings, like the simulation's torque spec
+        try:
+            value = json.loads(value)
+        except json.JSONDecodeError:
+            raise bad_input("locked: not a JSON object {joint name: value}", "locked") from None
+    if not isinstance(value, dict):
+        raise bad_input(f"locked: expected an object {{joint name: value}}, got {type(value).__name__}", "locked")
+    out: dict[str, Any] = {}
+    for name, v in value.items():
+        where = f"locked[{name!r}]"
+        if isinstance(v, (int, float)) and not isinstance(v, bool):
+            out[name] = float(v)
+        elif isinstance(v, (list, np.ndarray)) and all(
+                isinstance(x, (int, float, np.floating, np.integer)) and not isinstance(x, (bool, np.bool_))
+                for x in (v.tolist() if isinstance(v, np.ndarray) else v)):
+            out[name] = [float(x) for x in v]
+        else:
+            raise bad_input(f"{where}: expected a number (1-dof joint) or a list of numbers (7 for a floating "
+                            f"joint: x, y, z, qx, qy, qz, qw), got {v!r:.60}", where)
+    return out
+
+
 Array = Annotated[Any, BeforeValidator(_array), WithJsonSchema(_STATE_SCHEMA)]
 Array3 = Annotated[Any, BeforeValidator(_array3), WithJsonSchema(
     {"type": "array", "description": "(nbodies, 6) or (B, nbodies, 6): [force, torque] per body, body frame"})]
 Vec3 = Annotated[Any, BeforeValidator(_vec3), WithJsonSchema(
     {"type": "array", "items": {"type": "number"}, "minItems": 3, "maxItems": 3})]
+Locked = Annotated[Optional[dict[str, Any]], BeforeValidator(_locked), WithJsonSchema({
+    "type": "object", "additionalProperties": {"anyOf": [{"type": "number"}, _NUMBERS]},
+    "description": "joints held still at these positions (a number for a 1-dof joint, [x, y, z, qx, qy, qz, qw] "
+                   "for a floating one); the other arrays are then those of the reduced model (its nq, nv and "
+                   "joint order: GET the robot and drop the locked joints)"})]
 Gains = Annotated[Any, BeforeValidator(_gains), WithJsonSchema(
     {"anyOf": [{"type": "number"}, _NUMBERS], "description": "a number, or one per velocity coordinate"})]
 
@@ -56,7 +95,7 @@ class _Request(BaseModel):
 
 
 class _Dynamics(_Request):
-    # Issue 5 adds here: locked: Optional[dict[str, float]] = None  (the model cache is already keyed for it)
+    locked: Locked = None
     gravity: Optional[Vec3] = Field(None, description="world-frame gravity, default (0, 0, -9.81)")
 
 
@@ -74,7 +113,8 @@ class ForwardDynamicsRequest(_Dynamics):
     f_ext: Optional[Array3] = None
 
 
-class MassMatrixRequest(_Request):
+class MassMatrixRequest(_Request):  # no gravity: M(q) does not depend on it
+    locked: Locked = None
     q: Array
 
 
@@ -132,7 +172,7 @@ TorqueSpec = Annotated[Union[ZeroTorque, ConstantTorque, TableTorque, PDTorque, 
 
 
 class SimulateRequest(_Request):
-    # Issue 5 adds here: locked: Optional[dict[str, float]] = None
+    locked: Locked = None
     q0: Array
     v0: Array
     duration: float = Field(gt=0, description="seconds of simulated time")
@@ -164,16 +204,32 @@ class UploadRequest(_Request):
 
 
 # -- answers (documented in OpenAPI; the routes write them directly, arrays never go through pydantic) ---------
+class Scene(BaseModel):
+    """What the answer's model left out (in .npz answers: a member holding this object as a JSON string)."""
+    locked: dict[str, Any] = Field(description="joints held still: {name: position} (a number, or 7 for a floating "
+                                               "joint), as the reduced model records them")
+    pruned: list[str] = Field(description="URDF links dropped when the model was built (no mass, nothing "
+                                          "moving below them)")
+    merged_fixed_joints: int = Field(description="URDF fixed joints whose links were merged into their parent")
+    skipped: list[str] = Field(description="terms not computed for this request's inputs: 'velocity products' "
+                                           "(v = 0), 'joint accelerations' (a = 0), 'gravity' (gravity = 0)")
+    nq: int = Field(description="configuration size of the model that answered (the reduced one when locked)")
+    nv: int
+
+
 class TauAnswer(BaseModel):
     tau: list  # (nv,) or (B, nv)
+    scene: Scene
 
 
 class AccelerationAnswer(BaseModel):
     a: list
+    scene: Scene
 
 
 class MassMatrixAnswer(BaseModel):
     mass_matrix: list  # (nv, nv) or (B, nv, nv)
+    scene: Scene
 
 
 class TrajectoryAnswer(BaseModel):
@@ -182,6 +238,25 @@ class TrajectoryAnswer(BaseModel):
     v: list
     tau: list
     report: dict
+    scene: Scene
+
+
+class ModelSummary(BaseModel):
+    """``dynamics.Model.summary()``: what the model holds and what the builder merged or left out."""
+    model_config = ConfigDict(extra="allow")
+    name: str
+    nq: int
+    nv: int
+    bodies: int = Field(description="bodies kept (one per movable joint)")
+    floating_base: bool
+    urdf_links: int
+    urdf_joints: int
+    fixed_joints_merged: list[str]
+    links_pruned: list[str]
+    massless_bodies: list[str]
+    locked_joints: dict[str, Any]
+    meshes_loaded: int
+    warnings: list[str]
 
 
 class RobotSummary(BaseModel):
@@ -194,6 +269,10 @@ class RobotSummary(BaseModel):
     joint_names: list[str]
     bodies: list[str]
     warnings: list[str]
+
+
+class UploadAnswer(RobotSummary):
+    summary: ModelSummary
 
 
 class JointInfo(BaseModel):
@@ -216,7 +295,7 @@ class JointInfo(BaseModel):
 class RobotInfo(RobotSummary):
     joints: list[JointInfo]
     gravity: list[float]
-    summary: dict
+    summary: ModelSummary
 
 
 class RobotList(BaseModel):

@@ -1,9 +1,9 @@
 """The simulation worker process: ``python -m service.simworker FD`` (started by :mod:`service.simpool`).
 
 It reads jobs from the connection on file descriptor FD, runs ``dynamics.simulate`` and sends the trajectory
-back. Models are cached per worker by robot id, as in the server process. Any library error becomes an
-``input_error`` answer (the server turns it into a 422 naming the field); the process only ends when its
-connection closes or the server kills it.
+back. Models are cached per worker by robot id and locked set, as in the server process. Any library error
+becomes an ``input_error`` answer (the server turns it into a 422 naming the field); the process only ends when
+its connection closes or the server kills it.
 """
 
 from __future__ import annotations
@@ -17,14 +17,17 @@ from typing import Any
 def handle(job: dict[str, Any], cache) -> dict[str, Any]:
     from .simjob import run_simulation
     from .store import RobotRecord
-    from .compute import load_model
+    from .compute import load_model, reduce_model
 
     robot = job["robot"]
-    key = (robot["id"], ())
+    locked = job.get("locked", ())  # canonical locked set (service.compute.locked_key), () for none
     record = RobotRecord(id=robot["id"], name=robot["id"], urdf=robot["urdf"],
                          floating_base=robot["floating_base"], bundled=False)
     try:
-        model = cache.get_or_load(key, lambda: load_model(record))
+        model = cache.get_or_load((robot["id"], ()), lambda: load_model(record))
+        if locked:
+            full = model
+            model = cache.get_or_load((robot["id"], locked), lambda: reduce_model(full, locked))
         return {"ok": run_simulation(model, job)}
     except ValueError as e:  # InputError, URDFError, DynamicsError and our own checks
         return {"input_error": str(e)}

@@ -165,8 +165,9 @@ class RobotStore:
 class ModelCache:
     """A bounded least-recently-used map of compiled models, shared by the threads of one process.
 
-    Keys are ``(robot id, locked joints)``; the second part is empty today and will hold the locked set of
-    issue 5 without changing callers. Loading happens outside the lock: two threads missing the same key at
+    Keys are ``(robot id, locked joints)``: ``()`` for the robot as uploaded, the canonical locked set of a
+    request (:func:`service.compute.locked_key`) for a reduced model, so each locked set is built once and
+    evicted like any robot. Loading happens outside the lock: two threads missing the same key at
     once both load (harmless: models are immutable) rather than one waiting on the other's lock.
     """
 
