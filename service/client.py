@@ -5,6 +5,8 @@
     ...     robot = client.robot("planar-2r")             # or client.upload("my_arm.urdf")
     ...     tau = robot.inverse_dynamics(q, v, a)         # numpy in, numpy out; (nq,) or (B, nq)
     ...     traj = robot.simulate(q0, v0, 1.0, torque={"type": "zero"})
+    ...     tau1 = robot.inverse_dynamics(q[:1], v[:1], a[:1], locked={"joint2": 0.3})  # joint1 moves alone
+    ...     robot.last_scene                    # {"locked": {"joint2": 0.3}, "skipped": [...], "nv": 1, ...}
 
 Batches of more than :data:`NPZ_THRESHOLD` numbers travel as ``.npz`` both ways (no JSON number formatting
 or parsing); smaller requests use JSON. Every failure raises :class:`ServiceError` with the HTTP status, the
@@ -166,43 +168,58 @@ class Robot:
         self.nq: int = info["nq"]
         self.nv: int = info["nv"]
         self.joint_names: tuple[str, ...] = tuple(info["joint_names"])
+        #: the ``scene`` of the last answer this object received (what was locked, pruned, skipped; nq and nv
+        #: of the model that answered), None before the first call. One per object, not per thread.
+        self.last_scene: Optional[dict[str, Any]] = None
 
     def __repr__(self) -> str:
         return f"Robot({self.id!r}, name={self.name!r}, nq={self.nq}, nv={self.nv})"
 
-    def _call(self, op: str, payload: dict[str, Any]) -> dict[str, Any]:
-        return self.client.call(f"/v1/robots/{self.id}/{op}", payload)
+    def _call(self, op: str, payload: dict[str, Any], **kw: Any) -> dict[str, Any]:
+        ans = self.client.call(f"/v1/robots/{self.id}/{op}", payload, **kw)
+        self.last_scene = ans.pop("scene", None)
+        return ans
 
     @staticmethod
     def _opt(x: Any) -> Any:
         return None if x is None else _as_array(x)
 
-    def inverse_dynamics(self, q, v, a, *, gravity=None, f_ext=None) -> np.ndarray:
+    @staticmethod
+    def _locked(locked: Optional[Mapping[str, Any]]) -> Optional[dict[str, Any]]:
+        return None if locked is None else _plain_tree(dict(locked))
+
+    def inverse_dynamics(self, q, v, a, *, gravity=None, f_ext=None, locked=None) -> np.ndarray:
         return self._call("inverse-dynamics", {"q": _as_array(q), "v": _as_array(v), "a": _as_array(a),
-                                               "gravity": self._opt(gravity), "f_ext": self._opt(f_ext)})["tau"]
+                                               "gravity": self._opt(gravity), "f_ext": self._opt(f_ext),
+                                               "locked": self._locked(locked)})["tau"]
 
-    def forward_dynamics(self, q, v, tau, *, gravity=None, f_ext=None) -> np.ndarray:
+    def forward_dynamics(self, q, v, tau, *, gravity=None, f_ext=None, locked=None) -> np.ndarray:
         return self._call("forward-dynamics", {"q": _as_array(q), "v": _as_array(v), "tau": _as_array(tau),
-                                               "gravity": self._opt(gravity), "f_ext": self._opt(f_ext)})["a"]
+                                               "gravity": self._opt(gravity), "f_ext": self._opt(f_ext),
+                                               "locked": self._locked(locked)})["a"]
 
-    def mass_matrix(self, q) -> np.ndarray:
-        return self._call("mass-matrix", {"q": _as_array(q)})["mass_matrix"]
+    def mass_matrix(self, q, *, locked=None) -> np.ndarray:
+        """(No gravity argument: M(q) does not depend on it, as in ``dynamics.mass_matrix``.)"""
+        return self._call("mass-matrix", {"q": _as_array(q), "locked": self._locked(locked)})["mass_matrix"]
 
-    def gravity_torques(self, q, *, gravity=None) -> np.ndarray:
-        return self._call("gravity-torques", {"q": _as_array(q), "gravity": self._opt(gravity)})["tau"]
+    def gravity_torques(self, q, *, gravity=None, locked=None) -> np.ndarray:
+        return self._call("gravity-torques", {"q": _as_array(q), "gravity": self._opt(gravity),
+                                              "locked": self._locked(locked)})["tau"]
 
-    def bias_forces(self, q, v, *, gravity=None) -> np.ndarray:
-        return self._call("bias-forces", {"q": _as_array(q), "v": _as_array(v),
-                                          "gravity": self._opt(gravity)})["tau"]
+    def bias_forces(self, q, v, *, gravity=None, locked=None) -> np.ndarray:
+        return self._call("bias-forces", {"q": _as_array(q), "v": _as_array(v), "gravity": self._opt(gravity),
+                                          "locked": self._locked(locked)})["tau"]
 
     def simulate(self, q0, v0, duration: float, *, torque: Optional[Mapping[str, Any]] = None,
                  integrator: Optional[str] = None, rtol: Optional[float] = None, atol: Optional[float] = None,
-                 dt: Optional[float] = None, sample_dt: Optional[float] = None, gravity=None) -> Trajectory:
+                 dt: Optional[float] = None, sample_dt: Optional[float] = None, gravity=None,
+                 locked=None) -> Trajectory:
         """``torque``: {"type": "zero" | "constant" | "table" | "pd" | "computed_torque", ...} (see the API docs)."""
         payload = {"q0": _as_array(q0), "v0": _as_array(v0), "duration": float(duration),
                    "torque": _plain_tree(torque) if torque is not None else None, "integrator": integrator,
-                   "rtol": rtol, "atol": atol, "dt": dt, "sample_dt": sample_dt, "gravity": self._opt(gravity)}
-        ans = self.client.call(f"/v1/robots/{self.id}/simulate", payload, npz_answer=True)
+                   "rtol": rtol, "atol": atol, "dt": dt, "sample_dt": sample_dt, "gravity": self._opt(gravity),
+                   "locked": self._locked(locked)}
+        ans = self._call("simulate", payload, npz_answer=True)
         report = ans.get("report", {})
         if isinstance(report, str):
             report = json.loads(report)
