@@ -114,9 +114,12 @@ def states(name, x, n, B=None):
         batched = False
     else:
         try:
-            arr = np.asarray(x, dtype=np.float64)
+            arr = np.asarray(x)
+            if arr.dtype.kind not in "fiu":  # complex, bool, strings, objects: not joint coordinates
+                raise TypeError
+            arr = arr.astype(np.float64, copy=False)
         except (TypeError, ValueError):
-            raise InputError(f"{name}: expected an array of numbers of shape ({n},) or (B, {n})") from None
+            raise InputError(f"{name}: expected an array of real numbers of shape ({n},) or (B, {n})") from None
         if arr.ndim == 1 and arr.shape[0] == n:
             arr2 = arr[None, :]
             batched = False

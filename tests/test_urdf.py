@@ -245,10 +245,13 @@ def panda():
     (lambda m: dynamics.inverse_dynamics(m, np.zeros(9), [np.nan] * 9, np.zeros(9)), "v: contains non-finite"),
     (lambda m: dynamics.inverse_dynamics(m, np.zeros(9), np.zeros(9), np.zeros(9), gravity=[0, 0]), "gravity: expected shape (3,)"),
     (lambda m: dynamics.inverse_dynamics(m, np.zeros(9), np.zeros(9), np.zeros(9), f_ext=np.zeros((3, 6))), "f_ext: expected shape (9, 6)"),
-    (lambda m: dynamics.mass_matrix(m, "abc"), "q: expected an array of numbers"),
+    (lambda m: dynamics.mass_matrix(m, "abc"), "q: expected an array of real numbers"),
     (lambda m: dynamics.forward_dynamics(m, np.zeros((2, 9)), np.zeros(9), np.zeros((2, 8))), "tau: expected shape (9,) or (B, 9), got (2, 8)"),
     (lambda m: dynamics.kinetic_energy(m, np.zeros(9), np.full(9, np.inf)), "v: contains non-finite"),
     (lambda m: dynamics.mass_matrix("panda", np.zeros(9)), "model: expected a dynamics.Model"),
+    (lambda m: dynamics.mass_matrix(m, np.zeros(9) + 1j), "q: expected an array of real numbers"),
+    (lambda m: dynamics.inverse_dynamics(m, np.zeros(9), np.zeros(9, bool), np.zeros(9)), "v: expected an array of real numbers"),
+    (lambda m: dynamics.inverse_dynamics(m, np.zeros(9), [[1, 2], [3]], np.zeros(9)), "v: expected an array of real numbers"),
 ])
 def test_bad_arguments_name_the_argument(panda, call, message):
     with pytest.raises(dynamics.InputError) as err:
