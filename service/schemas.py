@@ -70,6 +70,10 @@ def _locked(value: Any) -> dict[str, Any]:
                 isinstance(x, (int, float, np.floating, np.integer)) and not isinstance(x, (bool, np.bool_))
                 for x in (v.tolist() if isinstance(v, np.ndarray) else v)):
             out[name] = [float(x) for x in v]
+            # (dynamics.lock_joints checks counts and finiteness, but a zero quaternion gives a NaN model)
+            if len(out[name]) == 7 and not any(out[name][3:]):
+                raise bad_input(f"{where}: the quaternion (qx, qy, qz, qw) is zero; the identity is [0, 0, 0, 1]",
+                                where)
         else:
             raise bad_input(f"{where}: expected a number (1-dof joint) or a list of numbers (7 for a floating "
                             f"joint: x, y, z, qx, qy, qz, qw), got {v!r:.60}", where)

@@ -157,6 +157,7 @@ def test_npz_answer_carries_the_scene(app_client, puma):
 @pytest.mark.parametrize("locked, field, words", [
     ({"elbow": 0.1}, "locked", ["no movable joint named 'elbow'", "joint1"]),
     ({"joint2": [0.1, 0.2]}, "locked['joint2']", ["expected 1 finite number"]),
+    ({"joint2": float("nan")}, "locked['joint2']", ["finite"]),
     ({"joint2": "up"}, "locked['joint2']", ["expected a number"]),
     ({"joint2": True}, "locked['joint2']", ["expected a number"]),
     ({"joint2": [[0.1]]}, "locked['joint2']", ["expected a number"]),
@@ -166,7 +167,8 @@ def test_npz_answer_carries_the_scene(app_client, puma):
 def test_bad_locked_is_a_422_naming_the_joint(app_client, locked, field, words):
     for op, payload in [("inverse-dynamics", {"q": [0.0] * 5, "v": [0.0] * 5, "a": [0.0] * 5}),
                         ("mass-matrix", {"q": [0.0] * 5})]:
-        r = app_client.post(f"/v1/robots/puma560/{op}", json={**payload, "locked": locked})
+        r = app_client.post(f"/v1/robots/puma560/{op}", content=json.dumps({**payload, "locked": locked}),
+                            headers={"Content-Type": "application/json"})  # (json.dumps writes NaN)
         assert r.status_code == 422, r.text
         body = r.json()
         assert body["field"] == field and body["detail"].startswith(field + ":"), body
@@ -179,6 +181,10 @@ def test_bad_floating_lock_and_states_of_the_full_model_are_422(app_client, sens
                                                                     "locked": {"root_joint": [0, 0, 1]}})
     assert r.status_code == 422 and r.json()["field"] == "locked['root_joint']"
     assert "expected 7 finite numbers" in r.json()["detail"]
+    r = app_client.post(f"/v1/robots/{rid}/gravity-torques", json={"q": [0.0] * 4,
+                                                                    "locked": {"root_joint": [0] * 7}})
+    assert r.status_code == 422 and r.json()["field"] == "locked['root_joint']"
+    assert "quaternion" in r.json()["detail"]
     # with a locked set, states are those of the reduced model: the full model's q is refused, naming q
     r = app_client.post("/v1/robots/puma560/inverse-dynamics",
                         json={"q": [[0.0] * 6] * 2, "v": [[0.0] * 4] * 2, "a": [[0.0] * 4] * 2,
