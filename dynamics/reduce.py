@@ -85,6 +85,8 @@ def lock_joints(model: Model, values: dict) -> Model:
         qi = np.atleast_1d(np.asarray(value, dtype=float)) if not isinstance(value, str) else None
         if qi is None or qi.shape != (nq,) or not np.all(np.isfinite(qi)):
             raise InputError(f"locked[{name!r}]: expected {nq} finite number{'s' if nq > 1 else ''}, got {value!r}")
+        if nq == 7 and np.linalg.norm(qi[3:7]) < 1e-8:
+            raise InputError(f"locked[{name!r}]: the quaternion (qx, qy, qz, qw) is zero; expected a unit quaternion")
         locked[i] = qi
 
     # new_of[i] = (body it now belongs to or -1, pose of body i's frame in that body)

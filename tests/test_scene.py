@@ -73,6 +73,9 @@ def test_lock_joints_rejects_bad_requests():
         dynamics.lock_joints(model, {"panda_joint1": [0.0, 1.0]})
     with pytest.raises(dynamics.InputError, match="panda_joint1"):
         dynamics.lock_joints(model, {"panda_joint1": float("nan")})
+    floating = dynamics.load_urdf(erd("panda_description/urdf/panda.urdf"), floating_base=True)
+    with pytest.raises(dynamics.InputError, match="quaternion"):
+        dynamics.lock_joints(floating, {"root_joint": [0, 0, 0, 0, 0, 0, 0]})
 
 
 def test_pruned_massless_leaves_change_no_number():
