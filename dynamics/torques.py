@@ -205,7 +205,7 @@ def passive_torques(ps, q, v, out):
         out[k] = tq
 
 
-@njit(**_JIT)
+@njit(cache=True, error_model="numpy")  # not nogil: the objmode block takes the GIL anyway
 def _torque_callable(slot, t, q, v, tau):
     with objmode():
         _call_torque(slot, t, q, v, tau)

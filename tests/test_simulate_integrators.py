@@ -1,0 +1,167 @@
+"""The steppers of dynamics.integrators on plain ODEs, against closed forms and scipy at rtol 1e-12.
+
+One problem type (a linear system z' = A z, or Van der Pol when ``mu`` > 0) so that each solver is
+compiled once for the whole module.
+"""
+
+from typing import NamedTuple
+
+import numpy as np
+import pytest
+from numba import njit
+from scipy.integrate import solve_ivp
+from scipy.linalg import expm
+
+from dynamics import integrators as I
+
+
+class ODE(NamedTuple):
+    A: np.ndarray  # (n, n)
+    mu: float  # > 0: Van der Pol y'' = mu (1 - y^2) y' - y instead of the linear system
+    out_t: np.ndarray
+    out_z: np.ndarray
+
+
+@njit(cache=True)
+def _rhs(p, t, z, dz):
+    if p.mu > 0:
+        dz[0] = z[1]
+        dz[1] = p.mu * (1.0 - z[0] * z[0]) * z[1] - z[0]
+        return
+    for i in range(z.shape[0]):
+        s = 0.0
+        for k in range(z.shape[0]):
+            s += p.A[i, k] * z[k]
+        dz[i] = s
+
+
+@njit(cache=True)
+def _rebase(p, z, dz, mag):
+    pass
+
+
+@njit(cache=True)
+def _euler_config(p, z, h):
+    n = z.shape[0] // 2
+    for i in range(n):
+        z[i] += h * z[n + i]
+
+
+@njit(cache=True)
+def _emit(p, j, t, z):
+    p.out_t[j] = t
+    p.out_z[j] = z
+
+
+ODE.rhs, ODE.rebase, ODE.euler_config, ODE.emit = _rhs, _rebase, _euler_config, _emit
+
+
+@njit(cache=True)
+def _fixed(p, method, z, t1, dt, out_t, iopt, fopt, ist, fst):
+    return I.solve_fixed(p, method, z, 0.0, t1, dt, out_t, iopt, fopt, ist, fst)
+
+
+@njit(cache=True)
+def _adaptive(p, method, z, t1, out_t, iopt, fopt, ist, fst, sw):
+    return I.solve_adaptive(p, method, z, 0.0, t1, out_t, iopt, fopt, ist, fst, sw)
+
+
+def solve(method, z0, t1, *, A=None, mu=0.0, dt=0.01, rtol=1e-6, atol=1e-9, out_t=None, max_steps=10**6):
+    z0 = np.array(z0, float)
+    n = z0.shape[0]
+    A = np.zeros((n, n)) if A is None else np.asarray(A, float)
+    out_t = np.array([0.0, t1]) if out_t is None else np.asarray(out_t, float)
+    p = ODE(A, float(mu), np.zeros(len(out_t)), np.zeros((len(out_t), n)))
+    iopt = np.zeros(8, np.int64)
+    iopt[I.I_NC], iopt[I.I_NVEL], iopt[I.I_NE], iopt[I.I_MAXSTEPS] = n // 2, n - n // 2, n, max_steps
+    iopt[I.I_NSTEPS] = int(np.ceil(t1 / dt * (1 - 1e-12)))
+    fopt = np.zeros(8)
+    fopt[I.F_RTOL], fopt[I.F_ATOL], fopt[I.F_HMAX], fopt[I.F_BLOWUP] = rtol, atol, np.inf, 1e12
+    ist, fst, sw = np.zeros(8, np.int64), np.full(8, np.nan), np.zeros((I.MAX_SWITCHES, 4))
+    z = z0.copy()
+    m = I.METHOD_NAMES.index(method)
+    if method in ("euler", "rk4"):
+        _fixed(p, m, z, t1, dt, out_t, iopt, fopt, ist, fst)
+    else:
+        _adaptive(p, m, z, t1, out_t, iopt, fopt, ist, fst, sw)
+    return z, p, ist, fst, sw[:ist[I.S_NSWITCH]]
+
+
+OSC = np.array([[0.0, 1.0], [-1.0, 0.0]])  # x'' = -x
+
+
+def exact_osc(t):
+    return np.array([np.cos(t), -np.sin(t)])
+
+
+@pytest.mark.parametrize("method, order", [("euler", 1), ("rk4", 4)])
+def test_fixed_step_order(method, order):
+    errs = [np.abs(solve(method, [1, 0], 5.0, A=OSC, dt=dt)[0] - exact_osc(5.0)).max() for dt in (0.02, 0.01)]
+    assert errs[0] / errs[1] == pytest.approx(2 ** order, rel=0.15)
+
+
+def test_fixed_step_samples_and_last_step():
+    # dt does not divide the duration: the last step is shortened and lands exactly on t1
+    out = np.linspace(0, 1.05, 8)
+    z, p, ist, *_ = solve("rk4", [1, 0], 1.05, A=OSC, dt=0.1, out_t=out)
+    assert p.out_t[-1] == 1.05 and ist[I.S_STEPS] == 11
+    assert np.abs(p.out_z - exact_osc(out).T).max() < 1e-5  # Hermite samples between steps
+
+
+@pytest.mark.parametrize("method", ["rk45", "radau", "auto"])
+@pytest.mark.parametrize("tol", [1e-5, 1e-9])
+def test_adaptive_accuracy_and_dense_output(method, tol):
+    rng = np.random.default_rng(1)
+    A = rng.normal(size=(4, 4)) - 0.5 * np.eye(4)
+    z0 = rng.normal(size=4)
+    out = np.linspace(0, 3, 31)
+    z, p, ist, *_ = solve(method, z0, 3.0, A=A, rtol=tol, atol=tol, out_t=out)
+    exact = np.array([expm(A * t) @ z0 for t in out])
+    assert np.abs(z - exact[-1]).max() < 200 * tol
+    assert np.abs(p.out_z - exact).max() < 2000 * tol  # dense output, lower order between steps
+    assert ist[I.S_STATUS] == I.OK
+
+
+def test_radau_on_stiff_linear_system_takes_few_steps():
+    # eigenvalues -1e6 and -1 +- 10i: rk45 would need ~ 1e6 steps for 1 s
+    A = np.array([[-1e6, 0, 0], [0, -1, 10], [0, -10, -1]])
+    z0 = np.array([1.0, 1.0, 0.0])
+    z, p, ist, *_ = solve("radau", z0, 1.0, A=A, rtol=1e-8, atol=1e-10)
+    assert np.abs(z - expm(A) @ z0).max() < 1e-7
+    assert ist[I.S_STEPS] < 1000
+
+
+def test_rk45_detects_stiffness_and_auto_switches_both_ways():
+    mu = 1000.0
+    ref = solve_ivp(lambda t, y: [y[1], mu * (1 - y[0] ** 2) * y[1] - y[0]], (0, 1000), [2, 0], method="Radau",
+                    rtol=1e-12, atol=1e-12).y[:, -1]
+    z, _, ist, fst, switches = solve("auto", [2, 0], 1000.0, mu=mu, rtol=1e-8, atol=1e-8)
+    assert abs(z[0] - ref[0]) < 1e-4
+    to = switches[:, 1].astype(int).tolist()
+    assert to[0] == I.RADAU and I.RK45 in to  # stiff on the slow branch, explicit on the fast jumps
+    assert ist[I.S_STEPS] < 20000
+    # plain rk45 notices the stiffness (and says when), even if it does not switch
+    _, _, ist45, fst45, _ = solve("rk45", [2, 0], 50.0, mu=mu, rtol=1e-6, atol=1e-6)
+    assert 0 < fst45[I.FS_STIFF_T] < 50 and ist45[I.S_STIFF_HITS] >= 15
+
+
+def test_fixed_step_blowup_is_reported():
+    A = np.array([[-1e4, 0.0], [0.0, -1.0]])
+    z, _, ist, fst, _ = solve("rk4", [1.0, 1.0], 1.0, A=A, dt=0.01)
+    assert ist[I.S_STATUS] in (I.NONFINITE, I.BLOWUP) and fst[I.FS_T] < 1.0
+
+
+def test_max_steps_status():
+    _, _, ist, _, _ = solve("rk45", [1, 0], 100.0, A=OSC, rtol=1e-10, atol=1e-10, max_steps=50)
+    assert ist[I.S_STATUS] == I.MAX_STEPS
+
+
+def test_lu_solve_real_and_complex():
+    rng = np.random.default_rng(0)
+    for dtype in (np.float64, np.complex128):
+        A = rng.normal(size=(7, 7)) + (1j * rng.normal(size=(7, 7)) if dtype is np.complex128 else 0)
+        b = rng.normal(size=7).astype(dtype)
+        LU, piv, x = A.astype(dtype).copy(), np.zeros(7, np.int64), b.copy()
+        I.lu_factor(LU, piv)
+        I.lu_solve(LU, piv, x)
+        assert np.allclose(A @ x, b, atol=1e-12)
