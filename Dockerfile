@@ -1,21 +1,21 @@
 # The dynamics HTTP service.
 #   docker build -t dynamics .
 #   docker run -p 8000:8000 -v dynamics-store:/data dynamics
-# Stage 1 builds the wheel; stage 2 installs it (no compiler, no sources), adds the bundled robots, and warms
-# numba's on-disk cache so that the first requests do not pay for compilation.
+# Stage 1 builds the wheel (the bundled robots/ ship inside it); stage 2 installs it (no compiler, no sources)
+# and warms numba's on-disk cache so that the first requests do not pay for compilation.
 FROM python:3.11-slim AS build
 WORKDIR /src
 RUN pip install --no-cache-dir build==1.2.2
 COPY pyproject.toml README.md ./
 COPY dynamics/ dynamics/
 COPY service/ service/
+COPY robots/ robots/
 RUN python -m build --wheel --outdir /dist .
 
 FROM python:3.11-slim
 ENV PYTHONDONTWRITEBYTECODE=1 \
     PYTHONUNBUFFERED=1 \
     DYNAMICS_STORE=/data \
-    DYNAMICS_ROBOTS_DIR=/opt/dynamics/robots \
     NUMBA_CACHE_DIR=/opt/dynamics/numba-cache
 COPY --from=build /dist/ /tmp/dist/
 RUN pip install --no-cache-dir /tmp/dist/*.whl \
@@ -24,7 +24,6 @@ RUN pip install --no-cache-dir /tmp/dist/*.whl \
     && useradd --create-home --uid 10001 --gid 10001 dynamics \
     && mkdir -p /data /opt/dynamics/numba-cache \
     && chown 10001:10001 /data /opt/dynamics/numba-cache
-COPY robots/ /opt/dynamics/robots/
 USER 10001:10001
 WORKDIR /home/dynamics
 RUN python -m service --warmup

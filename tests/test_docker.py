@@ -61,8 +61,6 @@ def test_image_steps_in_a_fresh_venv(tmp_path):
     src.mkdir()
     for item in steps["copies"]:
         item = item.rstrip("/")
-        if item in ("robots",):
-            continue  # copied into the runtime stage below
         (shutil.copytree if (REPO / item).is_dir() else shutil.copy2)(REPO / item, src / item)
     dist = tmp_path / "dist"
     build = [sys.executable, "-m", "build", "--wheel", "--outdir", str(dist), str(src)]
@@ -86,14 +84,12 @@ def test_image_steps_in_a_fresh_venv(tmp_path):
     where = subprocess.check_output([str(vpy), "-c", "import dynamics, service; print(dynamics.__file__); "
                                                      "print(service.__file__)"], text=True, cwd=tmp_path)
     assert all(line.startswith(str(venv)) for line in where.split()), where
-    robots = tmp_path / "opt" / "robots"
-    shutil.copytree(REPO / "robots", robots)
     data, home = tmp_path / "data", tmp_path / "home"
     data.mkdir()
     home.mkdir()
     env = {k: v for k, v in os.environ.items() if not k.startswith(("DYNAMICS_", "NUMBA_CACHE_DIR"))}
     env.update({k: v for k, v in steps["env"].items()})
-    env.update({"DYNAMICS_STORE": str(data), "DYNAMICS_ROBOTS_DIR": str(robots),
+    env.update({"DYNAMICS_STORE": str(data),  # the bundled robots must come from the wheel itself
                 "NUMBA_CACHE_DIR": str(tmp_path / "numba-cache"), "PATH": f"{venv / 'bin'}:{env['PATH']}",
                 "DYNAMICS_SIM_WORKERS": "0"})  # no simulation worker: spares a compilation on a 2-core runner
     # 3. the warm-up RUN step, as the image's user would run it, from its empty home
