@@ -37,18 +37,33 @@ def per_state(fn, B, repeat):
     return best_time(fn, repeat) / B
 
 
+def paired(reduced, full, B, repeat):
+    """Best per-state times of two calls measured alternately, so both see the same machine load."""
+    reduced(), full()
+    tr = tf = float("inf")
+    for _ in range(repeat):
+        tr = min(tr, best_time(reduced, 1) / B)
+        tf = min(tf, best_time(full, 1) / B)
+    return tr, tf
+
+
 def skipped_rows(name, model, B, repeat, rng):
     Q, V, A = states(model, B, rng)
     Z = np.zeros_like(V)
-    full_id = per_state(lambda: dynamics.inverse_dynamics(model, Q, V, A), B, repeat)
-    full_fd = per_state(lambda: dynamics.forward_dynamics(model, Q, V, A), B, repeat)
-    rows = [
-        (name, "gravity torques (v = a = 0) vs full ID", per_state(lambda: dynamics.gravity_torques(model, Q), B, repeat), full_id, 0.5),
-        (name, "ID at v = 0 vs full ID", per_state(lambda: dynamics.inverse_dynamics(model, Q, Z, A), B, repeat), full_id, 0.8),
-        (name, "bias forces (a = 0) vs full ID", per_state(lambda: dynamics.bias_forces(model, Q, V), B, repeat), full_id, None),
-        (name, "FD at v = 0 vs full FD", per_state(lambda: dynamics.forward_dynamics(model, Q, Z, A), B, repeat), full_fd, None),
+
+    def full_id():
+        return dynamics.inverse_dynamics(model, Q, V, A)
+
+    def full_fd():
+        return dynamics.forward_dynamics(model, Q, V, A)
+
+    cases = [
+        ("gravity torques (v = a = 0) vs full ID", lambda: dynamics.gravity_torques(model, Q), full_id, 0.5),
+        ("ID at v = 0 vs full ID", lambda: dynamics.inverse_dynamics(model, Q, Z, A), full_id, 0.8),
+        ("bias forces (a = 0) vs full ID", lambda: dynamics.bias_forces(model, Q, V), full_id, None),
+        ("FD at v = 0 vs full FD", lambda: dynamics.forward_dynamics(model, Q, Z, A), full_fd, None),
     ]
-    return rows
+    return [(name, what, *paired(fn, ref, B, repeat), target) for what, fn, ref, target in cases]
 
 
 def lock_rows(model, B, repeat, rng):
@@ -61,14 +76,15 @@ def lock_rows(model, B, repeat, rng):
               for k in range(model.nq_joint[i])]
     Qr, Vr, Ar = (np.ascontiguousarray(X[:, idx]) for X, idx in ((Q, keep_q), (V, keep), (A, keep)))
     name = f"Talos {model.nv} -> {reduced.nv} dof"
-    return [
-        (name, "locked arms, grippers, head: ID", per_state(lambda: dynamics.inverse_dynamics(reduced, Qr, Vr, Ar), B, repeat),
-         per_state(lambda: dynamics.inverse_dynamics(model, Q, V, A), B, repeat), None),
-        (name, "locked arms, grippers, head: FD", per_state(lambda: dynamics.forward_dynamics(reduced, Qr, Vr, Ar), B, repeat),
-         per_state(lambda: dynamics.forward_dynamics(model, Q, V, A), B, repeat), None),
-        (name, "locked arms, grippers, head: M", per_state(lambda: dynamics.mass_matrix(reduced, Qr), B, repeat),
-         per_state(lambda: dynamics.mass_matrix(model, Q), B, repeat), None),
+    cases = [
+        ("locked arms, grippers, head: ID", lambda: dynamics.inverse_dynamics(reduced, Qr, Vr, Ar),
+         lambda: dynamics.inverse_dynamics(model, Q, V, A)),
+        ("locked arms, grippers, head: FD", lambda: dynamics.forward_dynamics(reduced, Qr, Vr, Ar),
+         lambda: dynamics.forward_dynamics(model, Q, V, A)),
+        ("locked arms, grippers, head: M", lambda: dynamics.mass_matrix(reduced, Qr),
+         lambda: dynamics.mass_matrix(model, Q)),
     ]
+    return [(name, what, *paired(fn, ref, B, repeat), None) for what, fn, ref in cases]
 
 
 def load_rows(talos_path, repeat):
