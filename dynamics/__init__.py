@@ -23,3 +23,11 @@ __all__ = [
     "inverse_dynamics", "gravity_torques", "bias_forces", "mass_matrix", "forward_dynamics",
     "kinetic_energy", "potential_energy", "coriolis_matrix", "lock_joints",
 ]
+
+# --- simulation ---
+from . import torques  # noqa: E402  (torque sources: Table, PD, ComputedTorque)
+from .integrate import integrate  # noqa: E402
+from .simulate import Trajectory, simulate  # noqa: E402
+
+__all__ += ["simulate", "Trajectory", "integrate", "torques"]
+# --- end simulation ---

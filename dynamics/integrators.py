@@ -46,6 +46,10 @@ from numba import njit
 from numba.extending import overload
 
 _JIT = dict(cache=True, nogil=True, error_model="numpy")  # no ZeroDivisionError checks: they cost ~10x in hot loops
+# Functions generic over the problem type are not cached themselves: a cache index would pickle every problem
+# type it saw (a test's ODE class too) and fail to load where that module is not importable.  They are
+# compiled into their caller (e.g. dynamics.simulate._run), whose cache holds the whole machine code.
+_JIT_GENERIC = dict(nogil=True, error_model="numpy")
 
 
 # ---------------------------------------------------------------------------------------------------
@@ -77,25 +81,25 @@ def _method(p, name):
     return fn
 
 
-@overload(problem_rhs, jit_options=_JIT)
+@overload(problem_rhs, jit_options=_JIT_GENERIC)
 def _ov_rhs(p, t, z, dz):
     fn = _method(p, "rhs")
     return lambda p, t, z, dz: fn(p, t, z, dz)
 
 
-@overload(problem_rebase, jit_options=_JIT)
+@overload(problem_rebase, jit_options=_JIT_GENERIC)
 def _ov_rebase(p, z, dz, mag):
     fn = _method(p, "rebase")
     return lambda p, z, dz, mag: fn(p, z, dz, mag)
 
 
-@overload(problem_euler_config, jit_options=_JIT)
+@overload(problem_euler_config, jit_options=_JIT_GENERIC)
 def _ov_euler_config(p, z, h):
     fn = _method(p, "euler_config")
     return lambda p, z, h: fn(p, z, h)
 
 
-@overload(problem_emit, jit_options=_JIT)
+@overload(problem_emit, jit_options=_JIT_GENERIC)
 def _ov_emit(p, j, t, z):
     fn = _method(p, "emit")
     return lambda p, j, t, z: fn(p, j, t, z)
@@ -250,7 +254,7 @@ def _state_status(z, nc, nvel, blowup):
     return OK
 
 
-@njit(**_JIT)
+@njit(**_JIT_GENERIC)
 def initial_step(p, t, z, f0, order, rtol, atol, mag, ne, t_end, istats):
     """Hairer's starting step ([HNW] sec. II.4), as scipy's ``select_initial_step``."""
     n = z.shape[0]
@@ -290,7 +294,7 @@ def initial_step(p, t, z, f0, order, rtol, atol, mag, ne, t_end, istats):
     return min(100 * h0, h1, span)
 
 
-@njit(**_JIT)
+@njit(**_JIT_GENERIC)
 def fd_jacobian(p, t, z, f0, mag, ne, J, istats):
     """Forward-difference Jacobian J = df/dz; columns of quadrature components (>= ne) are zero."""
     n = z.shape[0]
@@ -345,7 +349,7 @@ def spectral_radius(J, ne):
 
 # ---------------------------------------------------------------------------------------------------
 # fixed-step solvers
-@njit(**_JIT)
+@njit(**_JIT_GENERIC)
 def solve_fixed(p, method, z, t0, t_end, dt, out_t, iopt, fopt, istats, fstats):
     """Fixed steps of size dt from t0 to t_end (the last one shortened to land on t_end exactly).
 
@@ -452,7 +456,7 @@ def solve_fixed(p, method, z, t0, t_end, dt, out_t, iopt, fopt, istats, fstats):
 
 # ---------------------------------------------------------------------------------------------------
 # adaptive solvers: rk45, radau and the auto switch in one loop
-@njit(**_JIT)
+@njit(**_JIT_GENERIC)
 def solve_adaptive(p, method, z, t0, t_end, out_t, iopt, fopt, istats, fstats, switch_log):
     """Integrate from t0 to t_end with error control; ``method`` is RK45, RADAU or AUTO.
 

@@ -21,7 +21,8 @@ Report (``Trajectory.report``, a JSON-serialisable dict)
 ``rejected_steps``, ``rhs_evals`` (ABA calls, Jacobian columns included), ``jacobian_evals``,
 ``lu_decompositions``, ``wall_time_s`` (the integration run alone), the error fields below, ``energy_drift``,
 ``energy_drift_max``, ``work_torque``, ``work_passive``, ``stability`` (fixed-step methods: dt * spectral radius
-of the Jacobian at t0, and the method's stability limit), ``warnings``.
+of the Jacobian at t0, and the method's stability limit), ``warnings``.  Non-finite numbers are reported as
+None (strict JSON); the warnings say why (e.g. the error-estimate rerun failed).
 
 How ``error_estimate`` is computed
 ----------------------------------
@@ -525,6 +526,7 @@ def simulate(model, q0, v0, duration, *, torque=None, integrator="auto", rtol=1e
                        "energy_initial": float(E[0]) if cnt else float("nan"),
                        "energy_final": float(E[-1]) if cnt else float("nan")})
         report["warnings"] = warnings
+        report = {k: (None if isinstance(x, float) and not math.isfinite(x) else x) for k, x in report.items()}
         return Trajectory(t.copy(), q.copy(), v.copy(), tau.copy(), report)
     finally:
         if src.slot >= 0:
