@@ -28,6 +28,10 @@ II", 2nd ed. 1996 = [HW]):
 * ``rk45``: Dormand & Prince 5(4) with local extrapolation, FSAL, the PI step-size controller of DOPRI5
   ([HNW] sec. IV.2, beta = 0.04), Shampine's quartic dense output, and DOPRI5's stiffness test
   ([HW] sec. IV.2: h*|lambda| estimated from the last two stages exceeds 3.25 on 15 accepted steps).
+* ``dop853``: Hairer's explicit Runge-Kutta method of order 8 with the 5th/3rd-order combined error
+  estimate and the 7th-order dense output (3 extra stages, only on steps that hold output samples) ([HNW]
+  sec. II.10; the structure follows ``scipy.integrate.DOP853``).  The cheapest for smooth, non-stiff
+  problems at tight tolerances; no stiffness test.
 * ``radau``: Radau IIA of order 5 (3 stages, L-stable, stiffly accurate) with a simplified Newton iteration
   on a finite-difference Jacobian, the real/complex splitting of the stage system, the embedded
   third-order error estimate filtered through (1 - h gamma J)^-1 and Gustafsson's predictive controller
@@ -104,8 +108,8 @@ def _ov_emit(p, j, t, z):
     fn = _method(p, "emit")
     return lambda p, j, t, z: fn(p, j, t, z)
 
-EULER, RK4, RK45, RADAU, AUTO = 0, 1, 2, 3, 4
-METHOD_NAMES = ("euler", "rk4", "rk45", "radau", "auto")
+EULER, RK4, RK45, RADAU, AUTO, DOP853 = 0, 1, 2, 3, 4, 5
+METHOD_NAMES = ("euler", "rk4", "rk45", "radau", "auto", "dop853")
 
 OK, NONFINITE, BLOWUP, MAX_STEPS, STEP_TOO_SMALL = 0, 1, 2, 3, 4
 STATUS_NAMES = ("ok", "nonfinite", "blowup", "max_steps", "step_too_small")
@@ -146,6 +150,34 @@ DP_P = np.array([
     [0, 127303824393 / 49829197408, -318862633887 / 49829197408, 701980252875 / 199316789632],
     [0, -282668133 / 205662961, 2019193451 / 616988883, -1453857185 / 822651844],
     [0, 40617522 / 29380423, -110615467 / 29380423, 69997945 / 29380423]])
+
+# DOP853 (Hairer's DOP853, coefficients as in scipy.integrate's dop853_coefficients): 12 stages + FSAL,
+# rows 13-15 of A8 are the extra stages of the 7th-order dense output
+A8 = np.array([
+    [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+    [0.05260015195876773, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+    [0.0197250569845379, 0.0591751709536137, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+    [0.02958758547680685, 0.0, 0.08876275643042054, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+    [0.2413651341592667, 0.0, -0.8845494793282861, 0.924834003261792, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+    [0.037037037037037035, 0.0, 0.0, 0.17082860872947386, 0.12546768756682242, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+    [0.037109375, 0.0, 0.0, 0.17025221101954405, 0.06021653898045596, -0.017578125, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+    [0.03709200011850479, 0.0, 0.0, 0.17038392571223998, 0.10726203044637328, -0.015319437748624402, 0.008273789163814023, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+    [0.6241109587160757, 0.0, 0.0, -3.3608926294469414, -0.868219346841726, 27.59209969944671, 20.154067550477894, -43.48988418106996, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+    [0.47766253643826434, 0.0, 0.0, -2.4881146199716677, -0.590290826836843, 21.230051448181193, 15.279233632882423, -33.28821096898486, -0.020331201708508627, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+    [-0.9371424300859873, 0.0, 0.0, 5.186372428844064, 1.0914373489967295, -8.149787010746927, -18.52006565999696, 22.739487099350505, 2.4936055526796523, -3.0467644718982196, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+    [2.273310147516538, 0.0, 0.0, -10.53449546673725, -2.0008720582248625, -17.9589318631188, 27.94888452941996, -2.8589982771350235, -8.87285693353063, 12.360567175794303, 0.6433927460157636, 0.0, 0.0, 0.0, 0.0, 0.0],
+    [0.054293734116568765, 0.0, 0.0, 0.0, 0.0, 4.450312892752409, 1.8915178993145003, -5.801203960010585, 0.3111643669578199, -0.1521609496625161, 0.20136540080403034, 0.04471061572777259, 0.0, 0.0, 0.0, 0.0],
+    [0.056167502283047954, 0.0, 0.0, 0.0, 0.0, 0.0, 0.25350021021662483, -0.2462390374708025, -0.12419142326381637, 0.15329179827876568, 0.00820105229563469, 0.007567897660545699, -0.008298, 0.0, 0.0, 0.0],
+    [0.03183464816350214, 0.0, 0.0, 0.0, 0.0, 0.028300909672366776, 0.053541988307438566, -0.05492374857139099, 0.0, 0.0, -0.00010834732869724932, 0.0003825710908356584, -0.00034046500868740456, 0.1413124436746325, 0.0, 0.0],
+    [-0.42889630158379194, 0.0, 0.0, 0.0, 0.0, -4.697621415361164, 7.683421196062599, 4.06898981839711, 0.3567271874552811, 0.0, 0.0, 0.0, -0.0013990241651590145, 2.9475147891527724, -9.15095847217987, 0.0],])
+C8 = np.array([0.0, 0.05260015195876773, 0.0789002279381516, 0.1183503419072274, 0.2816496580927726, 0.3333333333333333, 0.25, 0.3076923076923077, 0.6512820512820513, 0.6, 0.8571428571428571, 1.0, 1.0, 0.1, 0.2, 0.7777777777777778])
+E3_8 = np.array([-0.18980075407240762, 0.0, 0.0, 0.0, 0.0, 4.450312892752409, 1.8915178993145003, -5.801203960010585, -0.4226823213237919, -0.1521609496625161, 0.20136540080403034, 0.02265179219836082, 0.0])
+E5_8 = np.array([0.01312004499419488, 0.0, 0.0, 0.0, 0.0, -1.2251564463762044, -0.4957589496572502, 1.6643771824549864, -0.35032884874997366, 0.3341791187130175, 0.08192320648511571, -0.022355307863886294, 0.0])
+D8 = np.array([
+    [-8.428938276109013, 0.0, 0.0, 0.0, 0.0, 0.5667149535193777, -3.0689499459498917, 2.38466765651207, 2.117034582445028, -0.871391583777973, 2.2404374302607883, 0.6315787787694688, -0.08899033645133331, 18.148505520854727, -9.194632392478356, -4.436036387594894],
+    [10.427508642579134, 0.0, 0.0, 0.0, 0.0, 242.28349177525817, 165.20045171727028, -374.5467547226902, -22.113666853125306, 7.733432668472264, -30.674084731089398, -9.332130526430229, 15.697238121770845, -31.139403219565178, -9.35292435884448, 35.81684148639408],
+    [19.985053242002433, 0.0, 0.0, 0.0, 0.0, -387.0373087493518, -189.17813819516758, 527.8081592054236, -11.57390253995963, 6.8812326946963, -1.0006050966910838, 0.7777137798053443, -2.778205752353508, -60.19669523126412, 84.32040550667716, 11.99229113618279],
+    [-25.69393346270375, 0.0, 0.0, 0.0, 0.0, -154.18974869023643, -231.5293791760455, 357.6391179106141, 93.40532418362432, -37.45832313645163, 104.0996495089623, 29.8402934266605, -43.53345659001114, 96.32455395918828, -39.17726167561544, -149.72683625798564],])
 
 # Radau IIA(5) ([HW] sec. IV.8): nodes, error weights, A = T diag(mu) T^-1 split, dense output
 _S6 = 6 ** 0.5
@@ -458,7 +490,7 @@ def solve_fixed(p, method, z, t0, t_end, dt, out_t, iopt, fopt, istats, fstats):
 # adaptive solvers: rk45, radau and the auto switch in one loop
 @njit(**_JIT_GENERIC)
 def solve_adaptive(p, method, z, t0, t_end, out_t, iopt, fopt, istats, fstats, switch_log):
-    """Integrate from t0 to t_end with error control; ``method`` is RK45, RADAU or AUTO.
+    """Integrate from t0 to t_end with error control; ``method`` is RK45, DOP853, RADAU or AUTO.
 
     As in :func:`solve_fixed`, each problem function has as few call sites as possible (one per kind of
     evaluation), so the right-hand side is compiled a handful of times, not once per use.
@@ -475,7 +507,8 @@ def solve_adaptive(p, method, z, t0, t_end, out_t, iopt, fopt, istats, fstats, s
     eps = 2.220446049250313e-16
 
     mag = np.zeros(n)
-    K = np.empty((7, n))  # DP stages; K[0] is always f(t, z)
+    K = np.empty((16, n))  # explicit stages (DP: 7, DOP853: 13 + 3 for dense output); K[0] = f(t, z)
+    F8 = np.empty((7, n))  # DOP853 dense output
     znew = np.empty(n)
     zs = np.empty(n)
     y6 = np.empty(n)
@@ -499,7 +532,7 @@ def solve_adaptive(p, method, z, t0, t_end, out_t, iopt, fopt, istats, fstats, s
     mr = 0.0
     mc = 0j
 
-    mode = RADAU if method == RADAU else RK45
+    mode = RADAU if method == RADAU else (DOP853 if method == DOP853 else RK45)
     t = t0
     problem_rebase(p, z, K[0], mag)  # magnitudes of the initial state (z's chart part is zero)
     problem_rhs(p, t, z, K[0])
@@ -509,7 +542,8 @@ def solve_adaptive(p, method, z, t0, t_end, out_t, iopt, fopt, istats, fstats, s
     status = _state_status(K[0], 0, 0, blowup)
     h = fopt[F_H0]
     if h <= 0:
-        h = initial_step(p, t, z, K[0], 5 if mode == RK45 else 3, rtol, atol, mag, ne, t_end, istats)
+        h = initial_step(p, t, z, K[0], 5 if mode == RK45 else (8 if mode == DOP853 else 3), rtol, atol, mag, ne,
+                         t_end, istats)
     h = min(h, hmax)
     errold = 1e-4  # PI controller memory (DOPRI5's facold)
     iasti = 0  # DOPRI5 stiffness test counters
@@ -530,6 +564,7 @@ def solve_adaptive(p, method, z, t0, t_end, out_t, iopt, fopt, istats, fstats, s
     h_acc = 0.0  # size of the last accepted step
     acc_mode = mode
     fresh = True  # a step was just accepted (or we are at t0): emit samples, re-centre the chart
+    dense_ready = False  # DOP853's extra stages for this step's dense output are computed
 
     while status == OK:
         # ---- samples in (t - h_acc, t] from the accepted step's dense output (t0 itself first)
@@ -540,7 +575,37 @@ def solve_adaptive(p, method, z, t0, t_end, out_t, iopt, fopt, istats, fstats, s
             else:
                 ts = out_t[j]
                 x = (ts - (t - h_acc)) / h_acc
-                if acc_mode == RK45:  # Shampine's quartic
+                if acc_mode == DOP853:
+                    if not dense_ready:  # the 3 extra stages of the 7th-order interpolant
+                        for st in range(13, 16):
+                            for r in range(n):
+                                acc = 0.0
+                                for q in range(st):
+                                    acc += A8[st, q] * K[q, r]
+                                zi[r] = zs[r] + h_acc * acc
+                            problem_rhs(p, t - h_acc + C8[st] * h_acc, zi, K[st])
+                        istats[S_NFEV] += 3
+                        for r in range(n):
+                            dy = z[r] - zs[r]
+                            F8[0, r] = dy
+                            F8[1, r] = h_acc * K[0, r] - dy
+                            F8[2, r] = 2 * dy - h_acc * (K[12, r] + K[0, r])
+                            for m in range(4):
+                                acc = 0.0
+                                for q in range(16):
+                                    acc += D8[m, q] * K[q, r]
+                                F8[3 + m, r] = h_acc * acc
+                        dense_ready = True
+                    for r in range(n):
+                        acc = 0.0
+                        for m in range(6, -1, -1):
+                            acc += F8[m, r]
+                            if (6 - m) % 2 == 0:
+                                acc *= x
+                            else:
+                                acc *= 1.0 - x
+                        zi[r] = zs[r] + acc
+                elif acc_mode == RK45:  # Shampine's quartic
                     for q in range(7):
                         bx[q] = x * (DP_P[q, 0] + x * (DP_P[q, 1] + x * (DP_P[q, 2] + x * DP_P[q, 3])))
                     for r in range(n):
@@ -557,6 +622,8 @@ def solve_adaptive(p, method, z, t0, t_end, out_t, iopt, fopt, istats, fstats, s
             # re-centre the chart; K[0] = f(t, z) in the new chart
             if acc_mode == RK45:
                 K[0, :] = K[6, :]
+            elif acc_mode == DOP853:
+                K[0, :] = K[12, :]
             problem_rebase(p, z, K[0], mag)
         fresh = False
         if t >= t_end:
@@ -576,7 +643,49 @@ def solve_adaptive(p, method, z, t0, t_end, out_t, iopt, fopt, istats, fstats, s
         total += 1
         accepted = False
 
-        if mode == RK45:
+        if mode == DOP853:
+            # ---- one DOP853 attempt: stages 2-12 and the new point (stage 13, FSAL)
+            for st in range(1, 13):
+                for r in range(n):
+                    acc = 0.0
+                    for q in range(st):
+                        acc += A8[st, q] * K[q, r]
+                    zs[r] = z[r] + h * acc
+                problem_rhs(p, t + C8[st] * h, zs, K[st])
+            istats[S_NFEV] += 12
+            znew[:] = zs
+            e5 = 0.0
+            e3 = 0.0
+            for r in range(n):
+                a5 = 0.0
+                a3 = 0.0
+                for q in range(13):
+                    a5 += E5_8[q] * K[q, r]
+                    a3 += E3_8[q] * K[q, r]
+                errv[r] = h * a5  # local error estimate (for the "local" report)
+                if r < ne:
+                    sc = atol + rtol * max(abs(z[r]) + mag[r], abs(znew[r]) + mag[r])
+                    e5 += (a5 / sc) ** 2
+                    e3 += (a3 / sc) ** 2
+            if e5 == 0.0 and e3 == 0.0:
+                err = 0.0
+            else:
+                err = abs(h) * e5 / np.sqrt((e5 + 0.01 * e3) * max(ne, 1))
+            if not np.isfinite(err) or _state_status(K[12], 0, 0, np.inf) != OK:
+                istats[S_REJECTED] += 1
+                h *= 0.1
+                rejected_last = True
+                continue
+            if err > 1.0:
+                istats[S_REJECTED] += 1
+                h *= max(0.2, 0.9 * err ** (-1.0 / 8.0))
+                rejected_last = True
+                continue
+            fac = 10.0 if err == 0.0 else min(10.0, 0.9 * err ** (-1.0 / 8.0))
+            hnew = h * (min(1.0, fac) if rejected_last else fac)
+            accepted = True
+            acc_mode = DOP853
+        elif mode == RK45:
             # ---- one Dormand-Prince attempt: stages 2-7 (stage 7 is the new point, FSAL)
             for s in range(1, 7):
                 for r in range(n):
@@ -816,9 +925,10 @@ def solve_adaptive(p, method, z, t0, t_end, out_t, iopt, fopt, istats, fstats, s
                     hnew = h
                     need_jac = True
 
-        # ---- accepted (either method)
+        # ---- accepted (any method)
         rejected_last = False
         fresh = True
+        dense_ready = False
         st = _state_status(znew, nc, nvel, blowup)
         local_err += _max_abs(errv, ne)
         istats[S_STEPS] += 1

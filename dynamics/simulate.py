@@ -32,7 +32,7 @@ and ``v_final - v_true`` (rad/s or m/s).  ``error_estimate_q`` and ``error_estim
 It is measured, not modelled, by a second run of the same method on the same problem (``error_estimate=
 "rerun"``, the default):
 
-* adaptive methods (``rk45``, ``radau``, ``auto``): a second run with rtol and atol divided by 32.  With
+* adaptive methods (``rk45``, ``dop853``, ``radau``, ``auto``): a second run with rtol and atol divided by 32.  With
   tolerance proportionality (global error ~ C tol^a, a in [0.8, 1] for these methods) the tighter run's error
   is 16-32x smaller, so ``|y(tol) - y(tol/32)|`` is the error of y(tol) to within ~6%.
 * fixed-step methods (``euler``, ``rk4``, order p = 1, 4): a second run with dt/2, and Richardson's estimate
@@ -72,7 +72,7 @@ __all__ = ["simulate", "Trajectory", "INTEGRATORS"]
 
 _JIT = dict(cache=True, nogil=True, error_model="numpy")  # no ZeroDivisionError checks: they cost ~10x in hot loops
 
-INTEGRATORS = ("euler", "rk4", "rk45", "radau", "auto")
+INTEGRATORS = ("euler", "rk4", "rk45", "radau", "auto", "dop853")
 _ORDER = {"euler": 1, "rk4": 4}
 # stability limits of the explicit methods along the negative real axis (|h lambda| <= limit)
 _STABILITY = {"euler": 2.0, "rk4": 2.785, "rk45": 3.3}
@@ -358,8 +358,8 @@ def simulate(model, q0, v0, duration, *, torque=None, integrator="auto", rtol=1e
 
     torque: None, an (nv,) constant, :class:`dynamics.torques.Table`, :class:`~dynamics.torques.PD`,
         :class:`~dynamics.torques.ComputedTorque`, or a callable f(t, q, v) -> (nv,) (module docs).
-    integrator: "euler" | "rk4" (fixed step ``dt``, required) | "rk45" | "radau" | "auto" (adaptive, ``rtol``
-        and ``atol`` on each component of (q, v); ``dt`` if given is the first step).
+    integrator: "euler" | "rk4" (fixed step ``dt``, required) | "rk45" | "dop853" | "radau" | "auto" (adaptive,
+        ``rtol`` and ``atol`` on each component of (q, v); ``dt`` if given is the first step).
     sample_dt: output spacing (the last sample is always t = duration).  Default: every step for fixed-step
         methods, duration/1000 for adaptive ones (dense output between steps).
     gravity: (3,) world gravity, default ``model.gravity``.  max_steps: budget of attempted steps.

@@ -57,6 +57,7 @@ def true_error(model, tr, qref, vref):
 @pytest.mark.parametrize("integrator, kw", [
     ("rk45", dict(rtol=1e-5, atol=1e-7)), ("rk45", dict(rtol=1e-9, atol=1e-11)),
     ("radau", dict(rtol=1e-6, atol=1e-8)), ("auto", dict(rtol=1e-7, atol=1e-9)),
+    ("dop853", dict(rtol=1e-6, atol=1e-8)), ("dop853", dict(rtol=1e-10, atol=1e-12)),
     ("rk4", dict(dt=2e-3)), ("euler", dict(dt=1e-4)),
 ])
 def test_2r_error_estimate_is_honest(arm2, integrator, kw):
@@ -92,7 +93,7 @@ def test_3r_constant_torque_matches_pinocchio_scipy():
     T = 3.0
     ref = solve_ivp(lambda t, y: np.r_[y[3:], pin.aba(pm, pd, y[:3], y[3:], tau)], (0, T), np.r_[q0, v0],
                     method="DOP853", rtol=1e-12, atol=1e-12).y[:, -1]
-    for integrator in ("rk45", "radau"):
+    for integrator in ("rk45", "dop853", "radau"):
         tr = simulate(model, q0, v0, T, torque=tau, integrator=integrator, rtol=1e-10, atol=1e-12)
         assert np.abs(np.r_[tr.q[-1], tr.v[-1]] - ref).max() < 1e-7
         assert np.allclose(tr.tau, 1.0)

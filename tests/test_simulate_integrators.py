@@ -108,7 +108,7 @@ def test_fixed_step_samples_and_last_step():
     assert np.abs(p.out_z - exact_osc(out).T).max() < 1e-5  # Hermite samples between steps
 
 
-@pytest.mark.parametrize("method", ["rk45", "radau", "auto"])
+@pytest.mark.parametrize("method", ["rk45", "dop853", "radau", "auto"])
 @pytest.mark.parametrize("tol", [1e-5, 1e-9])
 def test_adaptive_accuracy_and_dense_output(method, tol):
     rng = np.random.default_rng(1)
