@@ -10,7 +10,8 @@ Problems (all from URDFs: robots/ and example-robot-data, found at run time, nev
 * ``chain10 stiff``: a 10-link chain with joint damping 1e3 (time constants ~10 us), 0.5 s.
 
 Each method runs over a range of tolerances (adaptive) or steps (fixed); the error is the max-norm of the
-final (q, v) against a reference computed by our rk45 at rtol = atol = 1e-13, cross-checked against
+final (q, v) against a reference computed by our dop853 (radau for the stiff chain) at rtol = atol = 1e-13,
+cross-checked against
 Pinocchio's ABA + scipy DOP853 at 1e-13 (their difference is printed as the reference's own accuracy).
 What users would use instead runs in the same process, on the same problems:
 
@@ -233,7 +234,7 @@ def run_mujoco(p, integrator, dt):
 
 # -- the sweep ----------------------------------------------------------------------------------------------
 def reference(p, log):
-    qa, va, t, _ = run_ours(p, "rk45" if p.scipy_explicit else "radau", rtol=1e-13, atol=1e-13)
+    qa, va, t, _ = run_ours(p, "dop853" if p.scipy_explicit else "radau", rtol=1e-13, atol=1e-13)
     cross = None
     try:
         qb, vb, _, _ = run_scipy(p, "DOP853" if p.scipy_explicit else "Radau", 1e-13)
@@ -257,8 +258,8 @@ def sweep(p, log, skip_competitors=False):
         log(f"  {label:<22} {setting:>10}  error {err:9.2e}  time {t:8.4f} s")
 
     for k, tol in enumerate(p.tols):
-        for integ in ("rk45", "radau", "auto"):
-            if integ == "rk45" and not p.scipy_explicit and k > 0:
+        for integ in ("rk45", "dop853", "radau", "auto"):
+            if integ in ("rk45", "dop853") and not p.scipy_explicit and k > 0:
                 continue  # explicit on the stiff problem: one run shows the cost (stability-bound steps)
             add("ours", f"ours {integ}", f"rtol {tol:.0e}", run_ours(p, integ, rtol=tol, atol=tol * 1e-2))
     for dt in p.dts:
@@ -440,7 +441,7 @@ def main(argv=None) -> int:
         runs, cross = sweep(p, log, args.no_competitors)
         all_runs.append((p.name, runs))
         lines += [f"\n### {p.name} (nv = {p.model.nv}, {p.T:g} s)", "",
-                  f"reference: ours (rk45/radau at 1e-13); Pinocchio + scipy at 1e-13 differs by "
+                  f"reference: ours (dop853/radau at 1e-13); Pinocchio + scipy at 1e-13 differs by "
                   f"{'n/a' if cross is None else f'{cross:.1e}'}"
                   + (f"; MuJoCo vs ours, max |qdd| difference at t=0: {p.extra['mj_check']:.1e}"
                      if "mj_check" in p.extra else ""), ""]
