@@ -16,7 +16,7 @@ carries no mass or inertia it could move) makes M singular: the kernel stops and
 
 import numpy as np
 
-from .jit import kernel
+from .jit import inline_kernel, kernel
 from .joints import joint_motion, joint_transform
 from .spatial import (add, add_inertia6_to_parent, cross_force, cross_motion, force_to_parent, inertia_times,
                       load3, load33, motion_to_child, spd_inverse, store3, store33)
@@ -49,20 +49,20 @@ def aba_into(tree, q, v, tau, gravity, f_ext, ws, qdd):
     return aba_terms(tree, q, v, tau, gravity, f_ext, ws, qdd, True)
 
 
-@kernel
+@inline_kernel
 def aba_terms(tree, q, v, tau, gravity, f_ext, ws, qdd, with_v):
     """ABA for one state; ``with_v=False`` (v is zero) skips the velocity products c_i and v x* I v."""
+    parents, mass, hs, Ios, S, v_idx, nv_j = tree.parents, tree.mass, tree.h, tree.Io, tree.S, tree.v_idx, tree.nv_j
     Rs, ps, vel, c, IA, pA, U, Dinv, u, acc, Ia, D, pa, t = ws
-    nb = tree.parents.shape[0]
-    S = tree.S
+    nb = parents.shape[0]
     zero = (0.0, 0.0, 0.0)
     # pass 1: velocities, bias accelerations, rigid-body inertias and bias forces
     for i in range(nb):
         R, p = joint_transform(tree, i, q)
         store33(Rs, i, R)
         store3(ps, i, p)
-        par = tree.parents[i]
-        m, h, Io = tree.mass[i], load3(tree.h, i), load33(tree.Io, i)
+        par = parents[i]
+        m, h, Io = mass[i], load3(hs, i), load33(Ios, i)
         if with_v:
             if par < 0:
                 w, vl = motion_to_child(R, p, zero, zero)
@@ -96,8 +96,8 @@ def aba_terms(tree, q, v, tau, gravity, f_ext, ws, qdd, with_v):
 
     # pass 2: articulated inertias from the leaves in
     for i in range(nb - 1, -1, -1):
-        k0 = tree.v_idx[i]
-        nj = tree.nv_j[i]
+        k0 = v_idx[i]
+        nj = nv_j[i]
         for k in range(k0, k0 + nj):  # U = I^A S,  u = tau - S^T p^A
             for r in range(6):
                 x = 0.0
@@ -116,7 +116,7 @@ def aba_terms(tree, q, v, tau, gravity, f_ext, ws, qdd, with_v):
                 D[a_, b_] = x
         if not spd_inverse(D, nj, Dinv, i, Ia):
             return i
-        par = tree.parents[i]
+        par = parents[i]
         if par < 0:
             continue
         # I^a = I^A - U Dinv U^T and p^a = p^A + I^a c + U Dinv u, one joint coordinate at a time
@@ -149,7 +149,7 @@ def aba_terms(tree, q, v, tau, gravity, f_ext, ws, qdd, with_v):
     # pass 3: accelerations from the root out
     a0 = (-gravity[0], -gravity[1], -gravity[2])
     for i in range(nb):
-        par = tree.parents[i]
+        par = parents[i]
         R, p = load33(Rs, i), load3(ps, i)
         if par < 0:
             aw, al = motion_to_child(R, p, zero, a0)
@@ -158,8 +158,8 @@ def aba_terms(tree, q, v, tau, gravity, f_ext, ws, qdd, with_v):
             aw, al = motion_to_child(R, p, awp, alp)
         cw, cv = _get6(c, i)
         aw, al = add(aw, cw), add(al, cv)
-        k0 = tree.v_idx[i]
-        nj = tree.nv_j[i]
+        k0 = v_idx[i]
+        nj = nv_j[i]
         for a_ in range(nj):  # u - U^T a'
             k = k0 + a_
             t[a_] = (u[k] - U[k, 0] * aw[0] - U[k, 1] * aw[1] - U[k, 2] * aw[2]

@@ -23,35 +23,35 @@ def workspace(nb):
 
 @kernel
 def crba_into(tree, q, ws, M):
+    parents, mass, hs, Ios, S, v_idx, nv_j = tree.parents, tree.mass, tree.h, tree.Io, tree.S, tree.v_idx, tree.nv_j
     Rs, ps, mc, hc, Ioc = ws
-    nb = tree.parents.shape[0]
-    S = tree.S
+    nb = parents.shape[0]
     for i in range(nb):
         R, p = joint_transform(tree, i, q)
         store33(Rs, i, R)
         store3(ps, i, p)
-        mc[i] = tree.mass[i]
-        store3(hc, i, load3(tree.h, i))
-        store33(Ioc, i, load33(tree.Io, i))
+        mc[i] = mass[i]
+        store3(hc, i, load3(hs, i))
+        store33(Ioc, i, load33(Ios, i))
     for i in range(nb - 1, -1, -1):
         m, h, Io = mc[i], load3(hc, i), load33(Ioc, i)
-        par = tree.parents[i]
+        par = parents[i]
         if par >= 0:  # I^c_parent += X^T I^c_i X
             hP, IoP = inertia_to_parent(load33(Rs, i), load3(ps, i), m, h, Io)
             mc[par] += m
             store3(hc, par, add(load3(hc, par), hP))
             store33(Ioc, par, add9(load33(Ioc, par), IoP))
-        for k in range(tree.v_idx[i], tree.v_idx[i] + tree.nv_j[i]):
+        for k in range(v_idx[i], v_idx[i] + nv_j[i]):
             n, f = inertia_times(m, h, Io, (S[k, 0], S[k, 1], S[k, 2]), (S[k, 3], S[k, 4], S[k, 5]))  # F = I^c S_k
             j = i
             while True:  # M[k, dofs(j)] = S_j^T F for j = i and its ancestors
-                for c in range(tree.v_idx[j], tree.v_idx[j] + tree.nv_j[j]):
+                for c in range(v_idx[j], v_idx[j] + nv_j[j]):
                     if c <= k:
                         x = (S[c, 0] * n[0] + S[c, 1] * n[1] + S[c, 2] * n[2]
                              + S[c, 3] * f[0] + S[c, 4] * f[1] + S[c, 5] * f[2])
                         M[k, c] = x
                         M[c, k] = x
-                pj = tree.parents[j]
+                pj = parents[j]
                 if pj < 0:
                     break
                 n, f = force_to_parent(load33(Rs, j), load3(ps, j), n, f)

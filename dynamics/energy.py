@@ -16,14 +16,15 @@ from .spatial import add, dot, inertia_times, load3, load33, matmul, motion_to_c
 
 @kernel
 def kinetic_energy_kernel(tree, q, v):
-    nb = tree.parents.shape[0]
+    parents, mass, hs, Ios = tree.parents, tree.mass, tree.h, tree.Io
+    nb = parents.shape[0]
     ws = np.empty((nb, 3))
     vs = np.empty((nb, 3))
     zero = (0.0, 0.0, 0.0)
     T = 0.0
     for i in range(nb):
         R, p = joint_transform(tree, i, q)
-        par = tree.parents[i]
+        par = parents[i]
         if par < 0:
             w, vl = motion_to_child(R, p, zero, zero)
         else:
@@ -32,27 +33,28 @@ def kinetic_energy_kernel(tree, q, v):
         w, vl = add(w, wJ), add(vl, vJ)
         store3(ws, i, w)
         store3(vs, i, vl)
-        n, f = inertia_times(tree.mass[i], load3(tree.h, i), load33(tree.Io, i), w, vl)
+        n, f = inertia_times(mass[i], load3(hs, i), load33(Ios, i), w, vl)
         T += 0.5 * (dot(w, n) + dot(vl, f))
     return T
 
 
 @kernel
 def potential_energy_kernel(tree, q, gravity):
-    nb = tree.parents.shape[0]
+    parents, mass, hs = tree.parents, tree.mass, tree.h
+    nb = parents.shape[0]
     Rw = np.empty((nb, 3, 3))  # world pose of each body
     pw = np.empty((nb, 3))
     g = (gravity[0], gravity[1], gravity[2])
     U = 0.0
     for i in range(nb):
         R, p = joint_transform(tree, i, q)
-        par = tree.parents[i]
+        par = parents[i]
         if par >= 0:
             Rp = load33(Rw, par)
             R, p = matmul(Rp, R), add(load3(pw, par), rot(Rp, p))
         store33(Rw, i, R)
         store3(pw, i, p)
-        U -= tree.mass[i] * dot(g, p) + dot(g, rot(R, load3(tree.h, i)))  # m g . (p + R c)
+        U -= mass[i] * dot(g, p) + dot(g, rot(R, load3(hs, i)))  # m g . (p + R c)
     return U
 
 

@@ -16,7 +16,7 @@ velocity-product term (eq. 5.8).
 """
 
 import numpy as np
-from .jit import kernel
+from .jit import inline_kernel, kernel
 
 from .spatial import add, load3, load33, matmul, quat_rotation, rot, rotation_about_axis, scale
 
@@ -49,7 +49,7 @@ def motion_subspace(code, axis):
     return S
 
 
-@kernel
+@inline_kernel
 def joint_transform(tree, i, q):
     """Pose (R, p) of body i in its parent's frame: placement * joint motion at q."""
     code = tree.jtype[i]
@@ -64,7 +64,7 @@ def joint_transform(tree, i, q):
     return R, add(p0, rot(X, (q[k], q[k + 1], q[k + 2])))
 
 
-@kernel
+@inline_kernel
 def joint_motion(tree, i, qd):
     """S_i qd: the joint's motion (w, v) in the body frame for joint rates (or accelerations) qd."""
     S = tree.S
@@ -80,7 +80,7 @@ def joint_motion(tree, i, qd):
     return (w0, w1, w2), (v0, v1, v2)
 
 
-@kernel
+@inline_kernel
 def project_force(tree, i, n, f, tau):
     """tau[dofs of i] = S_i^T (n, f): the generalised force the joint transmits."""
     S = tree.S

@@ -15,7 +15,7 @@ Backward pass:  tau_i = S_i^T f_i ,  f_p += X_i^T f_i .
 import numpy as np
 
 from .batch import inputs_ok
-from .jit import kernel
+from .jit import inline_kernel, kernel
 from .joints import joint_motion, joint_transform, project_force
 from .spatial import (add, cross, cross_force, cross_motion, force_to_parent, inertia_times, load3, load33,
                       motion_to_child, rot, rotT, scale, store3, store33)
@@ -32,20 +32,21 @@ def workspace(nb):
             buf[24 * nb:27 * nb].reshape((nb, 3)), buf[27 * nb:30 * nb].reshape((nb, 3)))
 
 
-@kernel
+@inline_kernel
 def rnea_terms(tree, q, v, a, gravity, f_ext, ws, tau, with_v, with_a):
     """RNEA for one state into ``tau``; ``f_ext`` is (nb, 6) [force, torque] per body or (0, 6).
 
     ``with_v=False`` (v is zero) skips the velocity pass and every velocity-product term; ``with_a=False``
     (a is zero) skips the joint accelerations: the caller promises those inputs are zero.
     """
+    parents, mass, hs, Ios = tree.parents, tree.mass, tree.h, tree.Io
     Rs, ps, ws_, vs, aws, avs, ns, fs = ws
     zero = (0.0, 0.0, 0.0)
     a0 = (-gravity[0], -gravity[1], -gravity[2])  # the world accelerates up: a_0 = (0, -g)
-    nb = tree.parents.shape[0]
+    nb = parents.shape[0]
     for i in range(nb):
         R, p = joint_transform(tree, i, q)
-        par = tree.parents[i]
+        par = parents[i]
         if par < 0:
             aw, al = motion_to_child(R, p, zero, a0)
         else:
@@ -53,7 +54,7 @@ def rnea_terms(tree, q, v, a, gravity, f_ext, ws, tau, with_v, with_a):
         if with_a:
             sw, sv = joint_motion(tree, i, a)
             aw, al = add(aw, sw), add(al, sv)
-        m, h, Io = tree.mass[i], load3(tree.h, i), load33(tree.Io, i)
+        m, h, Io = mass[i], load3(hs, i), load33(Ios, i)
         if with_v:
             if par < 0:
                 w, vl = motion_to_child(R, p, zero, zero)
@@ -83,7 +84,7 @@ def rnea_terms(tree, q, v, a, gravity, f_ext, ws, tau, with_v, with_a):
     for i in range(nb - 1, -1, -1):
         n, f = load3(ns, i), load3(fs, i)
         project_force(tree, i, n, f, tau)
-        par = tree.parents[i]
+        par = parents[i]
         if par >= 0:
             pn, pf = force_to_parent(load33(Rs, i), load3(ps, i), n, f)
             store3(ns, par, add(load3(ns, par), pn))
@@ -98,22 +99,23 @@ def gravity_into(tree, q, gravity, ws, tau):
     (-H_i x g_i, -M_i g_i) with M_i, H_i the subtree's mass and first moment in frame i:
     tau_i = S_i^T (-H_i x g_i, -M_i g_i).  No inertia tensor and no velocity enters.
     """
+    parents, mass, hs = tree.parents, tree.mass, tree.h
     Rs, ps, gs, Hs = ws[0], ws[1], ws[2], ws[3]
     Ms = ws[4][:, 0]
-    nb = tree.parents.shape[0]
+    nb = parents.shape[0]
     for i in range(nb):
         R, p = joint_transform(tree, i, q)
-        par = tree.parents[i]
+        par = parents[i]
         g = rotT(R, (gravity[0], gravity[1], gravity[2]) if par < 0 else load3(gs, par))
         store33(Rs, i, R)
         store3(ps, i, p)
         store3(gs, i, g)
-        store3(Hs, i, load3(tree.h, i))
-        Ms[i] = tree.mass[i]
+        store3(Hs, i, load3(hs, i))
+        Ms[i] = mass[i]
     for i in range(nb - 1, -1, -1):
         H, M, g = load3(Hs, i), Ms[i], load3(gs, i)
         project_force(tree, i, cross(g, H), scale(-M, g), tau)  # -H x g = g x H
-        par = tree.parents[i]
+        par = parents[i]
         if par >= 0:
             store3(Hs, par, add(load3(Hs, par), add(rot(load33(Rs, i), H), scale(M, load3(ps, i)))))
             Ms[par] += M

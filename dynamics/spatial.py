@@ -19,7 +19,7 @@ arithmetic here.  ``load3``/``store3`` move them between tuples and rows of the 
 
 import numpy as np
 
-from .jit import kernel
+from .jit import inline_kernel, kernel
 
 
 # -- moving values between arrays and tuples -------------------------------------------------------
@@ -172,7 +172,7 @@ def _block(I, r0, c0):
             I[r0 + 2, c0], I[r0 + 2, c0 + 1], I[r0 + 2, c0 + 2])
 
 
-@kernel
+@inline_kernel
 def add_inertia6_to_parent(R, p, I, IA, par):
     """IA[par] += X^T I X for a 6x6 (articulated) inertia I given in the child frame.
 
@@ -217,7 +217,7 @@ def quat_rotation(qx, qy, qz, qw):
             2.0 * (x * z - y * w), 2.0 * (y * z + x * w), 1.0 - 2.0 * (x * x + y * y))
 
 
-@kernel
+@inline_kernel
 def spd_inverse(D, n, Dinv, i, A):
     """Dinv[i, :n, :n] = inverse of the symmetric positive definite D[:n, :n] (Gauss-Jordan without
     pivoting, valid for SPD; A is (6, 6) scratch).  Returns False when a pivot is not positive."""
