@@ -59,7 +59,7 @@ import numpy as np
 from numba import njit
 
 from . import integrators as I
-from .aba import aba_into
+from .aba import aba_into, forward_dynamics
 from .aba import workspace as aba_workspace
 from .energy import kinetic_energy_kernel, potential_energy_kernel
 from .errors import InputError
@@ -77,6 +77,10 @@ _ORDER = {"euler": 1, "rk4": 4}
 # stability limits of the explicit methods along the negative real axis (|h lambda| <= limit)
 _STABILITY = {"euler": 2.0, "rk4": 2.785, "rk45": 3.3}
 NQUAD = 2  # W_source, W_passive
+
+
+#: what a simulation can keep per sample (besides t)
+OUTPUTS = ("q", "v", "tau")
 
 
 class Trajectory(NamedTuple):
@@ -159,13 +163,18 @@ def _euler_config(p, z, h):
 
 @njit(**_JIT)
 def _emit(p, j, t, z):
-    tree, ps, src, base, ws_src = p[0], p[1], p[2], p[3], p[8]
+    """Write sample j.  An output the caller did not ask for has zero rows: it is neither kept nor, for the
+    torques, computed."""
+    tree, ps, src, base, qbuf, ws_src = p[0], p[1], p[2], p[3], p[4], p[8]
     out_t, out_q, out_v, out_tau, out_w, count = p[9], p[10], p[11], p[12], p[13], p[14]
     nv = out_v.shape[1]
     out_t[j] = t
-    retract(tree, base, z[:nv], out_q[j])
-    out_v[j] = z[nv:2 * nv]
-    torque_eval(src, tree, ps, t, out_q[j], out_v[j], ws_src, out_tau[j])
+    q = out_q[j] if out_q.shape[0] > 0 else qbuf  # qbuf is free between right-hand-side evaluations
+    retract(tree, base, z[:nv], q)
+    if out_v.shape[0] > 0:
+        out_v[j] = z[nv:2 * nv]
+    if out_tau.shape[0] > 0:
+        torque_eval(src, tree, ps, t, q, z[nv:2 * nv], ws_src, out_tau[j])
     out_w[j] = z[2 * nv:]
     count[0] = j + 1
 
@@ -299,13 +308,14 @@ def _qpos_map(model):
 
 
 # ---------------------------------------------------------------------------------------------------
-def _one_run(model, ps, src, method, q0, v0, duration, dt, out_t, rtol, atol, h0, max_steps, blowup):
+def _one_run(model, ps, src, method, q0, v0, duration, dt, out_t, rtol, atol, h0, max_steps, blowup,
+             outputs=OUTPUTS):
     """One compiled run.  Returns (q, v, tau, t, W, count, istats, fstats, switch_log, wall, zfinal, base)."""
     nv, nq = model.nv, model.nq
     T = out_t.shape[0]
-    out_q = np.zeros((T, nq))
-    out_v = np.zeros((T, nv))
-    out_tau = np.zeros((T, nv))
+    out_q = np.zeros((T if "q" in outputs else 0, nq))
+    out_v = np.zeros((T if "v" in outputs else 0, nv))
+    out_tau = np.zeros((T if "tau" in outputs else 0, nv))
     out_w = np.zeros((T, NQUAD))
     count = np.zeros(1, np.int64)
     z = np.zeros(2 * nv + NQUAD)
@@ -353,7 +363,7 @@ def _sample_times(duration, dt, sample_dt, fixed):
 
 def simulate(model, q0, v0, duration, *, torque=None, integrator="auto", rtol=1e-6, atol=1e-8, dt=None,
              sample_dt=None, gravity=None, max_steps=1_000_000, limits=None, limit_stiffness=1e4,
-             limit_damping=100.0, friction_eps=1e-3, error_estimate="rerun"):
+             limit_damping=100.0, friction_eps=1e-3, error_estimate="rerun", outputs=OUTPUTS):
     """Simulate the robot from (q0, v0) for ``duration`` seconds; returns a :class:`Trajectory`.
 
     torque: None, an (nv,) constant, :class:`dynamics.torques.Table`, :class:`~dynamics.torques.PD`,
@@ -366,6 +376,9 @@ def simulate(model, q0, v0, duration, *, torque=None, integrator="auto", rtol=1e
     limits: None or "spring" (Hunt-Crossley spring-damper at the URDF position limits, ``limit_stiffness``
         N m/rad, ``limit_damping`` N m s/rad^2).  friction_eps: velocity scale of the regularised Coulomb
         friction.  error_estimate: "rerun" (default), "local" or "none" (module docs).
+    outputs: which of "q", "v", "tau" to keep per sample (``t`` always); the others come back as empty
+        (0, n) arrays and are not computed (the applied torques) or stored.  Without q and v per sample the
+        energy balance is taken between the first and last states only (``energy_drift_max`` is None).
 
     Raises InputError for bad arguments and when the step budget is exceeded; a run that goes unstable
     stops, returns the samples up to the failure and says so in ``report["status"]`` and ``warnings``.
@@ -394,6 +407,9 @@ def simulate(model, q0, v0, duration, *, torque=None, integrator="auto", rtol=1e
     limit_stiffness = _float("limit_stiffness", limit_stiffness, lo=0.0)
     limit_damping = _float("limit_damping", limit_damping, lo=0.0)
     friction_eps = _float("friction_eps", friction_eps, lo=0.0, lo_open=True)
+    if isinstance(outputs, str) or not set(outputs) <= set(OUTPUTS):
+        raise InputError(f"outputs: expected a subset of {OUTPUTS}, got {outputs!r}")
+    outputs = tuple(o for o in OUTPUTS if o in outputs)
     if error_estimate not in ("rerun", "local", "none"):
         raise InputError(f"error_estimate: expected 'rerun', 'local' or 'none', got {error_estimate!r}")
     if fixed:
@@ -403,6 +419,8 @@ def simulate(model, q0, v0, duration, *, torque=None, integrator="auto", rtol=1e
                              f"max_steps={max_steps}")
     out_t = _sample_times(duration, dt, sample_dt, fixed)
 
+    # a joint that moves no mass makes M singular: say which, now, rather than NaN in the first step
+    forward_dynamics(model, q0, v0, np.zeros(model.nv), gravity=g)
     ps = Passive(np.ascontiguousarray(model.damping, float), np.ascontiguousarray(model.friction, float),
                  friction_eps, 1 if limits == "spring" else 0, np.ascontiguousarray(model.lower, float),
                  np.ascontiguousarray(model.upper, float), _qpos_map(model), limit_stiffness, limit_damping,
@@ -423,7 +441,7 @@ def simulate(model, q0, v0, duration, *, torque=None, integrator="auto", rtol=1e
                                 f"(dt * spectral radius = {dt * rho:.3g} > {_STABILITY[integrator]}): expect "
                                 f"blow-up; use dt < {_STABILITY[integrator] / rho:.3g} or integrator='radau'")
         run = _one_run(model, ps, src, method, q0, v0, duration, dt, out_t, rtol, atol, dt if not fixed else 0,
-                       max_steps, blowup)
+                       max_steps, blowup, outputs)
         ist, fst = run["istats"], run["fstats"]
         status = I.STATUS_NAMES[ist[I.S_STATUS]]
         t_final = float(fst[I.FS_T]) if duration > 0 else 0.0
@@ -508,9 +526,14 @@ def simulate(model, q0, v0, duration, *, torque=None, integrator="auto", rtol=1e
         report.update({"error_estimate": est, "error_estimate_q": est_q, "error_estimate_v": est_v,
                        "error_estimate_method": method_note, "error_estimate_wall_time_s": est_wall})
 
-        # -- energy balance
-        K = np.empty(cnt)
-        U = np.empty(cnt)
+        # -- energy balance: at every sample when q and v were kept, else between the first and last states
+        per_sample = "q" in outputs and "v" in outputs
+        if not per_sample and cnt:
+            q = np.array([q0, run["qf"]])
+            v = np.array([v0, run["vf"]])
+            w = w[[0, cnt - 1]]
+        K = np.empty(len(q))
+        U = np.empty(len(q))
         _energies(model.tree, q, v, g, K, U)
         E = K + U
         W = w.sum(axis=1) if cnt else np.zeros(0)
@@ -520,6 +543,8 @@ def simulate(model, q0, v0, duration, *, torque=None, integrator="auto", rtol=1e
             drift, drift_max = float(resid[-1] / scale), float(resid.max() / scale)
         else:
             drift = drift_max = float("nan")
+        if not per_sample:
+            drift_max = None
         report.update({"energy_drift": drift, "energy_drift_max": drift_max,
                        "work_torque": float(w[-1, 0]) if cnt else 0.0,
                        "work_passive": float(w[-1, 1]) if cnt else 0.0,
@@ -527,7 +552,8 @@ def simulate(model, q0, v0, duration, *, torque=None, integrator="auto", rtol=1e
                        "energy_final": float(E[-1]) if cnt else float("nan")})
         report["warnings"] = warnings
         report = {k: (None if isinstance(x, float) and not math.isfinite(x) else x) for k, x in report.items()}
-        return Trajectory(t.copy(), q.copy(), v.copy(), tau.copy(), report)
+        kept = {"q": run["q"][:cnt], "v": run["v"][:cnt], "tau": run["tau"][:cnt]}
+        return Trajectory(t.copy(), kept["q"].copy(), kept["v"].copy(), kept["tau"].copy(), report)
     finally:
         if src.slot >= 0:
             release_callable(src.slot)
