@@ -241,6 +241,15 @@ def batch_of(Q, named):
     return Q, B
 
 
+def configurations_and_velocities(model, q, v):
+    """Check q and v together: (Q, V) with a common batch size, and whether the call was batched."""
+    check_model(model)
+    Q, bq = configurations(model, q)
+    V, bv = states("v", v, model.nv)
+    Q, V = broadcast((("q", Q), ("v", V)))
+    return Q, V, bq or bv
+
+
 def broadcast(named):
     """Give every (name, 2-D array) the common batch size; a single state is repeated, other sizes are an
     error naming the argument."""

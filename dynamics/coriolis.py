@@ -132,10 +132,7 @@ _coriolis_batch = _b.Kernel(coriolis_batch)
 
 def coriolis_matrix(model, q, v):
     """C(q, v), (nv, nv) or (B, nv, nv): C v + g(q) = bias_forces(q, v), dM/dt - 2C skew-symmetric."""
-    _b.check_model(model)
-    Q, bq = _b.configurations(model, q)
-    V, bv = _b.states("v", v, model.nv)
-    Q, V = _b.broadcast((("q", Q), ("v", V)))
+    Q, V, batched = _b.configurations_and_velocities(model, q, v)
     out = np.empty((Q.shape[0], model.nv, model.nv))
     _b.run_chunks(_coriolis_batch, model.tree, (Q, V), (), out)
-    return out if (bq or bv) else out[0]
+    return out if batched else out[0]

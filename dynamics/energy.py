@@ -79,14 +79,10 @@ _potential_energy_batch = _b.Kernel(potential_energy_batch)
 
 def kinetic_energy(model, q, v):
     """T = 1/2 v^T M(q) v (J): a float, or (B,) for a batch."""
-    _b.check_model(model)
-    Q, bq = _b.configurations(model, q)
-    V, bv = _b.states("v", v, model.nv)
-    Q, V = _b.broadcast((("q", Q), ("v", V)))
-    B = Q.shape[0]
-    out = np.empty(B)
+    Q, V, batched = _b.configurations_and_velocities(model, q, v)
+    out = np.empty(Q.shape[0])
     _b.run_chunks(_kinetic_energy_batch, model.tree, (Q, V), (), out)
-    return out if (bq or bv) else float(out[0])
+    return out if batched else float(out[0])
 
 
 def potential_energy(model, q, *, gravity=None):
