@@ -46,14 +46,51 @@ Statuses returned: ``OK``, ``NONFINITE`` (a NaN/inf appeared and step reduction 
 """
 
 import numpy as np
-from numba import njit
-from numba.extending import overload
+from numba import njit, types
+from numba.core import cgutils
+from numba.extending import intrinsic, overload
 
 _JIT = dict(cache=True, nogil=True, error_model="numpy")  # no ZeroDivisionError checks: they cost ~10x in hot loops
 # Functions generic over the problem type are not cached themselves: a cache index would pickle every problem
 # type it saw (a test's ODE class too) and fail to load where that module is not importable.  They are
 # compiled into their caller (e.g. dynamics.simulate._run), whose cache holds the whole machine code.
 _JIT_GENERIC = dict(nogil=True, error_model="numpy")
+
+
+# ---------------------------------------------------------------------------------------------------
+# borrowed arrays: no reference counting in the hot loops
+def _borrow_value(context, builder, ty, val):
+    if isinstance(ty, types.Array):
+        ary = context.make_array(ty)(context, builder, val)
+        ary.meminfo = cgutils.get_null_value(ary.meminfo.type)
+        ary.parent = cgutils.get_null_value(ary.parent.type)
+        return ary._getvalue()
+    if isinstance(ty, types.BaseTuple):
+        for i, t in enumerate(ty):
+            val = builder.insert_value(val, _borrow_value(context, builder, t, builder.extract_value(val, i)), i)
+    return val
+
+
+@intrinsic
+def borrowed(typingctx, x):
+    """``x`` (an array, or a tuple/namedtuple of arrays, nested) with every array's owner pointer (meminfo)
+    set to NULL: same type, same data, but NRT_incref/NRT_decref on it return at once.
+
+    Every array taken out of a tuple or passed to a function numba does not inline is reference counted with
+    an atomic operation; in the integration loop (tens of arrays per right-hand side: the model, the ABA
+    workspace, ...) those atomics cost ~3x the arithmetic of a small robot.  The caller must keep the owned
+    original alive (referenced) for as long as the borrowed copy is used, and the borrowed copy must not
+    outlive the call (never store or return it).
+    """
+    def codegen(context, builder, sig, args):
+        return _borrow_value(context, builder, sig.args[0], args[0])
+    return x(x), codegen
+
+
+@njit(**_JIT)
+def keep_alive(x):
+    """A use of ``x``: numba frees a variable after its last use, so this pins the owner of a borrowed value."""
+    return None
 
 
 # ---------------------------------------------------------------------------------------------------

@@ -71,6 +71,7 @@ from .torques import Passive, make_source, passive_torques, release_callable, to
 __all__ = ["simulate", "Trajectory", "INTEGRATORS"]
 
 _JIT = dict(cache=True, nogil=True, error_model="numpy")  # no ZeroDivisionError checks: they cost ~10x in hot loops
+_JIT_INLINE = dict(_JIT, inline="always")
 
 INTEGRATORS = ("euler", "rk4", "rk45", "radau", "auto", "dop853")
 _ORDER = {"euler": 1, "rk4": 4}
@@ -202,7 +203,15 @@ def _run(tree, ps, src, method, z, base, t0, t_end, dt, out_t, iopt, fopt, istat
          out_q, out_v, out_tau, out_w, count):
     """The compiled integration loop: picks the solver and runs it to t_end (one compiled entry point, so
     the right-hand side is compiled once per process and cached on disk)."""
-    p = _problem(tree, ps, src, base, out_t, out_q, out_v, out_tau, out_w, count)
+    owner = _problem(tree, ps, src, base, out_t, out_q, out_v, out_tau, out_w, count)
+    p = I.borrowed(owner)  # no reference counting per right-hand side (I.borrowed); owner is pinned below
+    status = _solve(p, method, z, t0, t_end, dt, out_t, iopt, fopt, istats, fstats, switch_log)
+    I.keep_alive(owner)
+    return status
+
+
+@njit(**_JIT_INLINE)
+def _solve(p, method, z, t0, t_end, dt, out_t, iopt, fopt, istats, fstats, switch_log):
     if method == SPECTRAL_RADIUS:
         n = z.shape[0]
         nv = (n - NQUAD) // 2
@@ -230,6 +239,7 @@ def _spectral_radius(model, ps, src, q0, v0):
 
 @njit(**_JIT)
 def _energies(tree, Q, V, gravity, K, U):
+    tree = I.borrowed(tree)  # the caller owns the model; one kernel call per sample without atomics
     for j in range(Q.shape[0]):
         K[j] = kinetic_energy_kernel(tree, Q[j], V[j])
         U[j] = potential_energy_kernel(tree, Q[j], gravity)
