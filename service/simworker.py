@@ -62,10 +62,12 @@ def main(fd: int) -> None:
 
     conn = Connection(fd)
     cache = ModelCache(16)
-    try:
-        warmup()  # before "ready": no request's time budget ever runs into a compilation
-    except Exception:  # noqa: BLE001 - the first job will report the real problem
-        traceback.print_exc()
+    for attempt in range(2):  # before "ready": no request's time budget ever runs into a compilation
+        try:
+            warmup()
+            break
+        except Exception:  # noqa: BLE001 - once more (e.g. a cache file being written by another process),
+            traceback.print_exc()  # then the first job reports the real problem
     try:
         conn.send("ready")
     except OSError:

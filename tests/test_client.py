@@ -10,7 +10,7 @@ import pytest
 
 import dynamics
 from service.client import Client, ServiceError, Trajectory
-from service_fixtures import ROBOTS, free_port, shared_server
+from service_fixtures import ROBOTS, free_port, shared_server, while_simulation_starts
 
 
 @pytest.fixture(scope="module")
@@ -73,18 +73,8 @@ def test_errors_are_typed(client, server):
         assert e.value.status == 0 and e.value.code == "unreachable"
 
 
-def _wait_for_simulation(client, robot, timeout=300.0):
-    """The server's simulation worker compiles the integrator when it starts: wait for it (503 until then)."""
-    end = time.monotonic() + timeout
-    while True:
-        try:
-            return robot.simulate([0.1, 0.2], [0.0, 0.0], 0.01)
-        except ServiceError as e:
-            if e.status == 501:
-                pytest.skip("this build of dynamics has no simulate()")
-            if e.status != 503 or time.monotonic() > end:
-                raise
-            time.sleep(1.0)
+def _wait_for_simulation(client, robot):
+    return while_simulation_starts(lambda: robot.simulate([0.1, 0.2], [0.0, 0.0], 0.01))
 
 
 def test_simulate(client):

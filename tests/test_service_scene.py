@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import io
 import json
-import time
 
 import numpy as np
 import pytest
@@ -22,7 +21,7 @@ from service.app import create_app
 from service.client import Client, ServiceError
 from service.settings import Settings
 from service.simjob import simulate_function
-from service_fixtures import ROBOTS, shared_server
+from service_fixtures import ROBOTS, shared_server, while_simulation_starts
 
 PUMA_LOCK = {"joint2": 0.3, "joint5": -0.2}
 
@@ -301,18 +300,8 @@ def test_client_passes_locked_and_gravity_and_keeps_the_scene(client, puma):
 
 def test_simulate_with_locked_joints(client, puma):
     robot = client.robot("puma560")
-    end = time.monotonic() + 300
-    while True:  # the server's simulation worker compiles the integrator when it starts (503 until then)
-        try:
-            traj = robot.simulate(np.zeros(4), np.zeros(4), 0.1, locked=PUMA_LOCK, gravity=[0.0, 0.0, 0.0],
-                                  sample_dt=0.05)
-            break
-        except ServiceError as e:
-            if e.status == 501:
-                pytest.skip("this build of dynamics has no simulate()")
-            if e.status != 503 or time.monotonic() > end:
-                raise
-            time.sleep(1.0)
+    traj = while_simulation_starts(lambda: robot.simulate(np.zeros(4), np.zeros(4), 0.1, locked=PUMA_LOCK,
+                                                          gravity=[0.0, 0.0, 0.0], sample_dt=0.05))
     assert traj.q.shape == (3, 4) and traj.tau.shape == (3, 4)
     assert np.array_equal(traj.q, np.zeros((3, 4)))  # no gravity, at rest: stays
     assert robot.last_scene == {"locked": PUMA_LOCK, "pruned": [], "merged_fixed_joints": 6,
