@@ -91,7 +91,7 @@ def rnea_terms(tree, q, v, a, gravity, f_ext, ws, tau, with_v, with_a):
             store3(fs, par, add(load3(fs, par), pf))
 
 
-@kernel
+@inline_kernel
 def gravity_into(tree, q, gravity, ws, tau):
     """g(q): RNEA at v = a = 0, where each body's force reduces to the weight of its subtree.
 
