@@ -151,6 +151,14 @@ def _first_zero_quaternion(Q, starts):
 _first_zero_quaternion_k = Kernel(_first_zero_quaternion)
 
 
+def vector(name, x, n):
+    """One real vector of length n, checked like every state: a fresh C-contiguous float64 array."""
+    X, batched = states(name, x, n)
+    if batched:
+        raise InputError(f"{name}: expected shape ({n},), got {np.shape(x)}")
+    return X[0].copy()
+
+
 def is_state(x, n):
     """True for a C-contiguous writable float64 vector of length n: the fast single-state path."""
     return (type(x) is np.ndarray and x.dtype == np.float64 and x.shape == (n,) and x.flags.c_contiguous

@@ -33,6 +33,7 @@ All kernels here are ``numba.njit`` and take the model's ``Tree``.
 import numpy as np
 from numba import njit
 
+from .batch import vector
 from .errors import InputError
 from .joints import JOINT_FREE
 
@@ -187,26 +188,14 @@ def integrate_q(tree, q, v, dt):
     return out
 
 
-def _vector(name, x, n):
-    try:
-        a = np.ascontiguousarray(x, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise InputError(f"{name}: expected a float array of shape ({n},), got {type(x).__name__}") from None
-    if a.shape != (n,):
-        raise InputError(f"{name}: expected shape ({n},), got {a.shape}")
-    if not np.all(np.isfinite(a)):
-        raise InputError(f"{name}: contains non-finite values")
-    return a
-
-
 def integrate(model, q, v, dt=1.0):
     """Configuration reached from ``q`` moving with the constant velocity ``v`` for ``dt`` seconds.
 
     Free-flyer quaternions are updated with the exponential map and stay unit length (module docstring).
     q: (nq,), v: (nv,), dt: finite float.  Returns a new (nq,) array.
     """
-    q = _vector("q", q, model.nq)
-    v = _vector("v", v, model.nv)
+    q = vector("q", q, model.nq)
+    v = vector("v", v, model.nv)
     try:
         dt = float(dt)
     except (TypeError, ValueError):

@@ -62,6 +62,7 @@ from . import integrators as I
 from .aba import aba_into, forward_dynamics
 from .aba import workspace as aba_workspace
 from .energy import kinetic_energy_kernel, potential_energy_kernel
+from .batch import vector
 from .errors import InputError
 from .integrate import chart_rate, difference, integrate_delta, retract
 from .joints import JOINT_FREE
@@ -281,20 +282,8 @@ def _float(name, x, *, lo=None, lo_open=False, hi=None, allow_none=False):
     return x
 
 
-def _vec(name, x, n):
-    try:
-        a = np.array(x, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise InputError(f"{name}: expected a float array of shape ({n},), got {type(x).__name__}") from None
-    if a.shape != (n,):
-        raise InputError(f"{name}: expected shape ({n},), got {a.shape}")
-    if not np.all(np.isfinite(a)):
-        raise InputError(f"{name}: contains non-finite values")
-    return np.ascontiguousarray(a)
-
-
 def _check_q(model, q0, warnings):
-    q = _vec("q0", q0, model.nq)
+    q = vector("q0", q0, model.nq)
     tree = model.tree
     for i, code in enumerate(tree.jtype):
         if code == JOINT_FREE:
@@ -399,7 +388,7 @@ def simulate(model, q0, v0, duration, *, torque=None, integrator="auto", rtol=1e
     if integrator not in INTEGRATORS:
         raise InputError(f"integrator: expected one of {INTEGRATORS}, got {integrator!r}")
     q0 = _check_q(model, q0, warnings)
-    v0 = _vec("v0", v0, model.nv)
+    v0 = vector("v0", v0, model.nv)
     duration = _float("duration", duration, lo=0.0)
     rtol = _float("rtol", rtol, lo=1e-14, hi=1.0)
     atol = _float("atol", atol, lo=0.0)
@@ -409,7 +398,7 @@ def simulate(model, q0, v0, duration, *, torque=None, integrator="auto", rtol=1e
         raise InputError(f"dt: required (> 0) for the fixed-step integrator {integrator!r}")
     sample_dt = _float("sample_dt", sample_dt, lo=0.0, lo_open=True, allow_none=True)
     g = model.gravity if gravity is None else gravity
-    g = _vec("gravity", g, 3)
+    g = vector("gravity", g, 3)
     if isinstance(max_steps, bool) or not isinstance(max_steps, (int, np.integer)) or max_steps < 1:
         raise InputError(f"max_steps: expected a positive int, got {max_steps!r}")
     if limits not in (None, "spring"):
