@@ -243,44 +243,6 @@ def spd_inverse(D, n, Dinv, i, A):
     return True
 
 
-# -- quaternions on arrays (configuration updates) ---------------------------------------------------
-
-@kernel
-def quat_to_rot(qx, qy, qz, qw, out):
-    """out (3x3 array) = rotation matrix of the quaternion (qx, qy, qz, qw), normalised first."""
-    R = quat_rotation(qx, qy, qz, qw)
-    for r in range(3):
-        for c in range(3):
-            out[r, c] = R[3 * r + c]
-
-
-@kernel
-def quat_multiply(a, b, out):
-    """out = a * b for quaternions stored (x, y, z, w)."""
-    ax, ay, az, aw = a[0], a[1], a[2], a[3]
-    bx, by, bz, bw = b[0], b[1], b[2], b[3]
-    out[0] = aw * bx + ax * bw + ay * bz - az * by
-    out[1] = aw * by - ax * bz + ay * bw + az * bx
-    out[2] = aw * bz + ax * by - ay * bx + az * bw
-    out[3] = aw * bw - ax * bx - ay * by - az * bz
-
-
-@kernel
-def exp_quat(w, out):
-    """Unit quaternion (x, y, z, w) of the rotation vector w (exp map of so(3)), accurate near zero."""
-    th = np.sqrt(w[0] * w[0] + w[1] * w[1] + w[2] * w[2])
-    if th < 1e-6:
-        s = 0.5 - th * th / 48.0  # sin(th/2)/th by its Taylor series
-        c = 1.0 - th * th / 8.0
-    else:
-        s = np.sin(0.5 * th) / th
-        c = np.cos(0.5 * th)
-    out[0] = s * w[0]
-    out[1] = s * w[1]
-    out[2] = s * w[2]
-    out[3] = c
-
-
 def rpy_to_matrix(rpy):
     """URDF roll-pitch-yaw to a rotation matrix: R = Rz(yaw) Ry(pitch) Rx(roll) (plain numpy, load time)."""
     r, p, y = rpy
