@@ -345,7 +345,7 @@ def machine_header(B, repeat) -> list[str]:
     except OSError:
         pass
     load = ", ".join(f"{x:.2f}" for x in os.getloadavg()) if hasattr(os, "getloadavg") else "n/a"
-    from dynamics.batch import num_threads
+    from dynamics.parallel import num_threads
 
     return [
         f"Machine: {cpu}, {os.cpu_count()} logical CPUs, load average at start {load}.  "

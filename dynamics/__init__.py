@@ -8,7 +8,7 @@ One module per algorithm: :mod:`~dynamics.rnea` (inverse dynamics), :mod:`~dynam
 :mod:`~dynamics.aba` (forward dynamics), :mod:`~dynamics.energy`, :mod:`~dynamics.coriolis`.
 """
 
-from .errors import DynamicsError, InputError, URDFError
+from .errors import DeadlineExceeded, DynamicsError, InputError, URDFError
 from .model import Model
 from .urdf import load_urdf
 from .rnea import bias_forces, gravity_torques, inverse_dynamics
@@ -18,16 +18,13 @@ from .energy import kinetic_energy, potential_energy
 from .coriolis import coriolis_matrix
 from .reduce import lock_joints
 
+from . import torques
+from .configuration import integrate
+from .simulate import Trajectory, simulate
+
 __all__ = [
-    "DynamicsError", "InputError", "URDFError", "Model", "load_urdf",
+    "DeadlineExceeded", "DynamicsError", "InputError", "URDFError", "Model", "load_urdf",
     "inverse_dynamics", "gravity_torques", "bias_forces", "mass_matrix", "forward_dynamics",
     "kinetic_energy", "potential_energy", "coriolis_matrix", "lock_joints",
+    "simulate", "Trajectory", "integrate", "torques",
 ]
-
-# --- simulation ---
-from . import torques  # noqa: E402  (torque sources: Table, PD, ComputedTorque)
-from .integrate import integrate  # noqa: E402
-from .simulate import Trajectory, simulate  # noqa: E402
-
-__all__ += ["simulate", "Trajectory", "integrate", "torques"]
-# --- end simulation ---

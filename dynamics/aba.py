@@ -16,8 +16,11 @@ carries no mass or inertia it could move) makes M singular: the kernel stops and
 
 import numpy as np
 
-from .jit import inline_kernel, kernel
+from . import checks
+from ._numba import Kernel, inline_kernel, kernel
+from .errors import InputError
 from .joints import joint_motion, joint_transform
+from .parallel import run_chunks
 from .spatial import (add, add_inertia6_to_parent, cross_force, cross_motion, force_to_parent, inertia_times,
                       load3, load33, motion_to_child, spd_inverse, store3, store33)
 
@@ -175,18 +178,6 @@ def aba_terms(tree, q, v, tau, gravity, f_ext, ws, qdd, with_v):
 
 
 @kernel
-def aba(tree, q, v, tau, gravity, f_ext):
-    """Joint accelerations for one state (allocates; callable from other kernels).  A singular joint gives
-    NaN accelerations."""
-    nb = tree.parents.shape[0]
-    nv = tree.S.shape[0]
-    qdd = np.empty(nv)
-    if aba_into(tree, q, v, tau, gravity, f_ext, workspace(nb, nv), qdd) >= 0:
-        qdd[:] = np.nan
-    return qdd
-
-
-@kernel
 def aba_batch(tree, Q, V, T, F, gravity, with_v, out, status):
     ws = workspace(tree.parents.shape[0], tree.S.shape[0])
     lf, lv, lt = F.shape[0] - 1, V.shape[0] - 1, T.shape[0] - 1
@@ -195,9 +186,7 @@ def aba_batch(tree, Q, V, T, F, gravity, with_v, out, status):
 
 
 # -- public entry point ----------------------------------------------------------------------------
-from . import batch as _b  # noqa: E402
-
-_aba_batch = _b.Kernel(aba_batch)
+_aba_batch = Kernel(aba_batch)
 
 
 def _aba_chunk(tree, Q, V, T, F, gravity, with_v, out):
@@ -219,19 +208,15 @@ def forward_dynamics(model, q, v, tau, *, gravity=None, f_ext=None):
     Shapes as :func:`dynamics.inverse_dynamics` with tau in place of a.  Raises InputError naming the
     joint when the mass matrix is singular (a joint that moves no mass or inertia).
     """
-    _b.check_model(model)
-    Q, bq = _b.configurations(model, q)
-    V, bv = _b.states("v", v, model.nv)
-    T, bt = _b.states("tau", tau, model.nv)
-    Q, B = _b.batch_of(Q, (("v", V), ("tau", T)))
+    Q, (V, T), B, batched = checks.state_batch(model, q, (("v", v, model.nv), ("tau", tau, model.nv)))
     out = np.empty((B, model.nv))
-    F = _b.external_forces(model, f_ext, B)
-    g = _b.gravity_vector(model, gravity)
+    F = checks.external_forces(model, f_ext, B)
+    g = checks.gravity_vector(model, gravity)
     try:
-        _b.run_chunks(_aba_chunk, model.tree, (Q, V, T, F), (g, bool(V.any())), out)
+        run_chunks(_aba_chunk, model.tree, (Q, V, T, F), (g, bool(V.any())), out)
     except _SingularJoint as e:
         name = model.joint_names[e.body]
-        raise _b.InputError(
+        raise InputError(
             f"forward dynamics: the mass matrix is singular at joint {name!r}: it moves no mass or inertia "
             f"(add mass below it, lock it with dynamics.lock_joints, or remove it)") from None
-    return out if (bq or bv or bt) else out[0]
+    return out if batched else out[0]

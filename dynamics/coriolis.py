@@ -15,7 +15,9 @@ Cost is O(n d^2) for depth d: it is meant for analysis and control design, not f
 """
 
 import numpy as np
-from .jit import kernel
+from . import checks
+from ._numba import Kernel, kernel
+from .parallel import run_chunks
 
 from .joints import joint_motion, joint_transform
 from .spatial import add, cross_motion, motion_to_child
@@ -125,14 +127,12 @@ def coriolis_batch(tree, Q, V, out):
 
 
 # -- public entry point ----------------------------------------------------------------------------
-from . import batch as _b  # noqa: E402
-
-_coriolis_batch = _b.Kernel(coriolis_batch)
+_coriolis_batch = Kernel(coriolis_batch)
 
 
 def coriolis_matrix(model, q, v):
     """C(q, v), (nv, nv) or (B, nv, nv): C v + g(q) = bias_forces(q, v), dM/dt - 2C skew-symmetric."""
-    Q, V, batched = _b.configurations_and_velocities(model, q, v)
-    out = np.empty((Q.shape[0], model.nv, model.nv))
-    _b.run_chunks(_coriolis_batch, model.tree, (Q, V), (), out)
+    Q, (V,), B, batched = checks.state_batch(model, q, (("v", v, model.nv),))
+    out = np.empty((B, model.nv, model.nv))
+    run_chunks(_coriolis_batch, model.tree, (Q, V), (), out)
     return out if batched else out[0]

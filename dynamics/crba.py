@@ -10,7 +10,9 @@ Only the lower triangle is computed; the upper one is its mirror.
 
 import numpy as np
 
-from .jit import kernel
+from . import checks
+from ._numba import Kernel, kernel
+from .parallel import run_chunks
 from .joints import joint_transform
 from .spatial import add, force_to_parent, inertia_times, inertia_to_parent, load3, load33, store3, store33
 
@@ -65,16 +67,6 @@ def add9(A, B):
 
 
 @kernel
-def crba(tree, q):
-    """Mass matrix for one state (allocates; callable from other kernels).  Entries of unrelated
-    branches are zero."""
-    nv = tree.S.shape[0]
-    M = np.zeros((nv, nv))
-    crba_into(tree, q, workspace(tree.parents.shape[0]), M)
-    return M
-
-
-@kernel
 def crba_batch(tree, Q, out):
     ws = workspace(tree.parents.shape[0])
     out[:] = 0.0
@@ -83,15 +75,13 @@ def crba_batch(tree, Q, out):
 
 
 # -- public entry point ----------------------------------------------------------------------------
-from . import batch as _b  # noqa: E402
-
-_crba_batch = _b.Kernel(crba_batch)
+_crba_batch = Kernel(crba_batch)
 
 
 def mass_matrix(model, q):
     """The joint-space mass matrix M(q) (CRBA), symmetric positive definite: (nv, nv) or (B, nv, nv)."""
-    _b.check_model(model)
-    Q, batched = _b.configurations(model, q)
+    checks.check_model(model)
+    Q, batched = checks.configurations(model, q)
     out = np.empty((Q.shape[0], model.nv, model.nv))
-    _b.run_chunks(_crba_batch, model.tree, (Q,), (), out)
+    run_chunks(_crba_batch, model.tree, (Q,), (), out)
     return out if batched else out[0]

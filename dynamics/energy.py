@@ -9,7 +9,9 @@ along g.
 
 import numpy as np
 
-from .jit import kernel
+from . import checks
+from ._numba import Kernel, kernel
+from .parallel import run_chunks
 from .joints import joint_motion, joint_transform
 from .spatial import add, dot, inertia_times, load3, load33, matmul, motion_to_child, rot, store3, store33
 
@@ -71,24 +73,22 @@ def potential_energy_batch(tree, Q, gravity, out):
 
 
 # -- public entry points ---------------------------------------------------------------------------
-from . import batch as _b  # noqa: E402
-
-_kinetic_energy_batch = _b.Kernel(kinetic_energy_batch)
-_potential_energy_batch = _b.Kernel(potential_energy_batch)
+_kinetic_energy_batch = Kernel(kinetic_energy_batch)
+_potential_energy_batch = Kernel(potential_energy_batch)
 
 
 def kinetic_energy(model, q, v):
     """T = 1/2 v^T M(q) v (J): a float, or (B,) for a batch."""
-    Q, V, batched = _b.configurations_and_velocities(model, q, v)
-    out = np.empty(Q.shape[0])
-    _b.run_chunks(_kinetic_energy_batch, model.tree, (Q, V), (), out)
+    Q, (V,), B, batched = checks.state_batch(model, q, (("v", v, model.nv),))
+    out = np.empty(B)
+    run_chunks(_kinetic_energy_batch, model.tree, (Q, V), (), out)
     return out if batched else float(out[0])
 
 
 def potential_energy(model, q, *, gravity=None):
     """U = -sum m_i g . c_i (J), zero reference at the world origin: a float, or (B,) for a batch."""
-    _b.check_model(model)
-    Q, bq = _b.configurations(model, q)
+    checks.check_model(model)
+    Q, bq = checks.configurations(model, q)
     out = np.empty(Q.shape[0])
-    _b.run_chunks(_potential_energy_batch, model.tree, (Q,), (_b.gravity_vector(model, gravity),), out)
+    run_chunks(_potential_energy_batch, model.tree, (Q,), (checks.gravity_vector(model, gravity),), out)
     return out if bq else float(out[0])

@@ -15,3 +15,13 @@ class URDFError(DynamicsError):
 
 class InputError(DynamicsError):
     """An argument has the wrong shape, type or value; the message names the argument and what was expected."""
+
+
+class DeadlineExceeded(TimeoutError):
+    """A batched call ran past the deadline set with :func:`dynamics.parallel.deadline` (not an input error).
+
+    ``done`` counts the states finished by the thread that noticed, ``total`` the batch size."""
+
+    def __init__(self, message, *, done=0, total=0):
+        super().__init__(message)
+        self.done, self.total = done, total

@@ -46,51 +46,9 @@ Statuses returned: ``OK``, ``NONFINITE`` (a NaN/inf appeared and step reduction 
 """
 
 import numpy as np
-from numba import njit, types
-from numba.core import cgutils
-from numba.extending import intrinsic, overload
+from numba.extending import overload
 
-_JIT = dict(cache=True, nogil=True, error_model="numpy")  # no ZeroDivisionError checks: they cost ~10x in hot loops
-# Functions generic over the problem type are not cached themselves: a cache index would pickle every problem
-# type it saw (a test's ODE class too) and fail to load where that module is not importable.  They are
-# compiled into their caller (e.g. dynamics.simulate._run), whose cache holds the whole machine code.
-_JIT_GENERIC = dict(nogil=True, error_model="numpy")
-
-
-# ---------------------------------------------------------------------------------------------------
-# borrowed arrays: no reference counting in the hot loops
-def _borrow_value(context, builder, ty, val):
-    if isinstance(ty, types.Array):
-        ary = context.make_array(ty)(context, builder, val)
-        ary.meminfo = cgutils.get_null_value(ary.meminfo.type)
-        ary.parent = cgutils.get_null_value(ary.parent.type)
-        return ary._getvalue()
-    if isinstance(ty, types.BaseTuple):
-        for i, t in enumerate(ty):
-            val = builder.insert_value(val, _borrow_value(context, builder, t, builder.extract_value(val, i)), i)
-    return val
-
-
-@intrinsic
-def borrowed(typingctx, x):
-    """``x`` (an array, or a tuple/namedtuple of arrays, nested) with every array's owner pointer (meminfo)
-    set to NULL: same type, same data, but NRT_incref/NRT_decref on it return at once.
-
-    Every array taken out of a tuple or passed to a function numba does not inline is reference counted with
-    an atomic operation; in the integration loop (tens of arrays per right-hand side: the model, the ABA
-    workspace, ...) those atomics cost ~3x the arithmetic of a small robot.  The caller must keep the owned
-    original alive (referenced) for as long as the borrowed copy is used, and the borrowed copy must not
-    outlive the call (never store or return it).
-    """
-    def codegen(context, builder, sig, args):
-        return _borrow_value(context, builder, sig.args[0], args[0])
-    return x(x), codegen
-
-
-@njit(**_JIT)
-def keep_alive(x):
-    """A use of ``x``: numba frees a variable after its last use, so this pins the owner of a borrowed value."""
-    return None
+from ._numba import GENERIC_OPTIONS, generic_kernel, kernel
 
 
 # ---------------------------------------------------------------------------------------------------
@@ -122,25 +80,25 @@ def _method(p, name):
     return fn
 
 
-@overload(problem_rhs, jit_options=_JIT_GENERIC)
+@overload(problem_rhs, jit_options=GENERIC_OPTIONS)
 def _ov_rhs(p, t, z, dz):
     fn = _method(p, "rhs")
     return lambda p, t, z, dz: fn(p, t, z, dz)
 
 
-@overload(problem_rebase, jit_options=_JIT_GENERIC)
+@overload(problem_rebase, jit_options=GENERIC_OPTIONS)
 def _ov_rebase(p, z, dz, mag):
     fn = _method(p, "rebase")
     return lambda p, z, dz, mag: fn(p, z, dz, mag)
 
 
-@overload(problem_euler_config, jit_options=_JIT_GENERIC)
+@overload(problem_euler_config, jit_options=GENERIC_OPTIONS)
 def _ov_euler_config(p, z, h):
     fn = _method(p, "euler_config")
     return lambda p, z, h: fn(p, z, h)
 
 
-@overload(problem_emit, jit_options=_JIT_GENERIC)
+@overload(problem_emit, jit_options=GENERIC_OPTIONS)
 def _ov_emit(p, j, t, z):
     fn = _method(p, "emit")
     return lambda p, j, t, z: fn(p, j, t, z)
@@ -240,7 +198,7 @@ NEWTON_MAXITER = 6
 
 # ---------------------------------------------------------------------------------------------------
 # small helpers
-@njit(**_JIT)
+@kernel
 def lu_factor(A, piv):
     """In-place LU with partial pivoting (real or complex A): P A = L U, L unit lower triangular."""
     n = A.shape[0]
@@ -268,7 +226,7 @@ def lu_factor(A, piv):
                     A[i, j] -= lik * A[k, j]
 
 
-@njit(**_JIT)
+@kernel
 def lu_solve(LU, piv, b):
     """Solve (P^T L U) x = b in place, given lu_factor's output."""
     n = LU.shape[0]
@@ -290,7 +248,7 @@ def lu_solve(LU, piv, b):
         b[i] = s / LU[i, i]
 
 
-@njit(**_JIT)
+@kernel
 def scaled_rms(e, z0, z1, mag, ne, rtol, atol):
     """RMS of e_i / (atol + rtol max(|z0_i| + mag_i, |z1_i| + mag_i)) over the first ne components."""
     s = 0.0
@@ -301,7 +259,7 @@ def scaled_rms(e, z0, z1, mag, ne, rtol, atol):
     return np.sqrt(s / max(ne, 1))
 
 
-@njit(**_JIT)
+@kernel
 def _max_abs(x, ne):
     m = 0.0
     for i in range(ne):
@@ -311,7 +269,7 @@ def _max_abs(x, ne):
     return m
 
 
-@njit(**_JIT)
+@kernel
 def _state_status(z, nc, nvel, blowup):
     """OK, NONFINITE or BLOWUP for a state (velocities above ``blowup`` count as a blow-up)."""
     for i in range(z.shape[0]):
@@ -323,7 +281,7 @@ def _state_status(z, nc, nvel, blowup):
     return OK
 
 
-@njit(**_JIT_GENERIC)
+@generic_kernel
 def initial_step(p, t, z, f0, order, rtol, atol, mag, ne, t_end, istats):
     """Hairer's starting step ([HNW] sec. II.4), as scipy's ``select_initial_step``."""
     n = z.shape[0]
@@ -363,7 +321,7 @@ def initial_step(p, t, z, f0, order, rtol, atol, mag, ne, t_end, istats):
     return min(100 * h0, h1, span)
 
 
-@njit(**_JIT_GENERIC)
+@generic_kernel
 def fd_jacobian(p, t, z, f0, mag, ne, J, istats):
     """Forward-difference Jacobian J = df/dz; columns of quadrature components (>= ne) are zero."""
     n = z.shape[0]
@@ -385,7 +343,7 @@ def fd_jacobian(p, t, z, f0, mag, ne, J, istats):
     istats[S_NJEV] += 1
 
 
-@njit(**_JIT)
+@kernel
 def spectral_radius(J, ne):
     """Estimate of max |lambda(J)| by 30 power iterations (geometric mean of the last 15 growth ratios;
     this also gives the modulus for a dominant complex pair)."""
@@ -418,7 +376,7 @@ def spectral_radius(J, ne):
 
 # ---------------------------------------------------------------------------------------------------
 # fixed-step solvers
-@njit(**_JIT_GENERIC)
+@generic_kernel
 def solve_fixed(p, method, z, t0, t_end, dt, out_t, iopt, fopt, istats, fstats):
     """Fixed steps of size dt from t0 to t_end (the last one shortened to land on t_end exactly).
 
@@ -525,7 +483,7 @@ def solve_fixed(p, method, z, t0, t_end, dt, out_t, iopt, fopt, istats, fstats):
 
 # ---------------------------------------------------------------------------------------------------
 # adaptive solvers: rk45, radau and the auto switch in one loop
-@njit(**_JIT_GENERIC)
+@generic_kernel
 def solve_adaptive(p, method, z, t0, t_end, out_t, iopt, fopt, istats, fstats, switch_log):
     """Integrate from t0 to t_end with error control; ``method`` is RK45, DOP853, RADAU or AUTO.
 

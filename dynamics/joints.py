@@ -16,7 +16,7 @@ velocity-product term (eq. 5.8).
 """
 
 import numpy as np
-from .jit import inline_kernel, kernel
+from ._numba import inline_kernel
 
 from .spatial import add, load3, load33, matmul, quat_rotation, rot, rotation_about_axis, scale
 

@@ -29,6 +29,8 @@ from typing import NamedTuple
 
 import numpy as np
 
+from .joints import JOINT_FREE, JOINT_NQ, JOINT_NV, URDF_JOINT_CODES, motion_subspace
+
 
 class Tree(NamedTuple):
     """The flat arrays the compiled kernels read (one tuple, so a kernel takes one argument)."""
@@ -104,7 +106,7 @@ class Model:
 
     @property
     def nq_joint(self):
-        return _frozen([7 if c == 2 else 1 for c in self.tree.jtype], np.int64)
+        return _frozen([7 if c == JOINT_FREE else 1 for c in self.tree.jtype], np.int64)
 
     @property
     def nv_joint(self):
@@ -157,7 +159,7 @@ class Model:
         """(k,) int64: index in q of each free joint's quaternion (qx)."""
         starts = self.__dict__.get("_quaternion_starts")
         if starts is None:
-            starts = _frozen([k + 3 for c, k in zip(self.tree.jtype, self.tree.q_idx) if c == 2], np.int64)
+            starts = _frozen([k + 3 for c, k in zip(self.tree.jtype, self.tree.q_idx) if c == JOINT_FREE], np.int64)
             object.__setattr__(self, "_quaternion_starts", starts)
         return starts
 
@@ -172,7 +174,7 @@ class Model:
         """The neutral configuration: zeros, identity quaternion for a free joint."""
         q = np.zeros(self.nq)
         for code, k in zip(self.tree.jtype, self.tree.q_idx):
-            if code == 2:
+            if code == JOINT_FREE:
                 q[k + 6] = 1.0
         return q
 
@@ -222,8 +224,6 @@ class BodySpec:
 def build_model(name, bodies, *, floating_base, gravity=(0.0, 0.0, -9.81), warnings=(), frames=None,
                 info=None) -> Model:
     """Assemble the flat arrays of a :class:`Model` from body specs ordered with parents first."""
-    from .joints import JOINT_NQ, JOINT_NV, URDF_JOINT_CODES, motion_subspace
-
     nb = len(bodies)
     codes = [URDF_JOINT_CODES[b.joint_type] for b in bodies]
     for i, b in enumerate(bodies):
@@ -240,7 +240,7 @@ def build_model(name, bodies, *, floating_base, gravity=(0.0, 0.0, -9.81), warni
     for c, b, n in zip(codes, bodies, nv_j):
         for k in per_dof:
             value = getattr(b, k)
-            if c == 2:  # the free joint has no URDF limits or damping
+            if c == JOINT_FREE:  # the free joint has no URDF limits or damping
                 value = {"lower": -np.inf, "upper": np.inf, "effort": np.inf, "velocity": np.inf}.get(k, 0.0)
             per_dof[k].extend([value] * n)
     P = np.array([b.placement for b in bodies]).reshape(nb, 4, 4)

@@ -14,8 +14,11 @@ Backward pass:  tau_i = S_i^T f_i ,  f_p += X_i^T f_i .
 
 import numpy as np
 
-from .batch import inputs_ok
-from .jit import inline_kernel, kernel
+from . import checks
+from ._numba import Kernel, inline_kernel, kernel
+from .checks import inputs_ok
+from .model import Model
+from .parallel import run_chunks
 from .joints import joint_motion, joint_transform, project_force
 from .spatial import (add, cross, cross_force, cross_motion, force_to_parent, inertia_times, load3, load33,
                       motion_to_child, rot, rotT, scale, store3, store33)
@@ -135,14 +138,6 @@ def rnea_into(tree, q, v, a, gravity, f_ext, ws, tau):
 
 
 @kernel
-def rnea(tree, q, v, a, gravity, f_ext):
-    """Joint torques for one state (allocates its own workspace; callable from other kernels)."""
-    tau = np.empty(tree.S.shape[0])
-    rnea_into(tree, q, v, a, gravity, f_ext, workspace(tree.parents.shape[0]), tau)
-    return tau
-
-
-@kernel
 def rnea_single(tree, q, v, a, gravity):
     """One state, inputs checked in the same compiled call: (tau, inputs were valid)."""
     tau = np.empty(tree.S.shape[0])
@@ -163,26 +158,19 @@ def rnea_batch(tree, Q, V, A, F, gravity, with_v, with_a, out):
 
 
 # -- public entry points ---------------------------------------------------------------------------
-from . import batch as _b  # noqa: E402
-from .model import Model  # noqa: E402
-
-_rnea_batch = _b.Kernel(rnea_batch)
-_rnea_single = _b.Kernel(rnea_single)
-_gravity_batch = _b.Kernel(gravity_batch)
+_rnea_batch = Kernel(rnea_batch)
+_rnea_single = Kernel(rnea_single)
+_gravity_batch = Kernel(gravity_batch)
 
 
 def _run(model, q, v, a, gravity, f_ext):
-    _b.check_model(model)
-    Q, bq = _b.configurations(model, q)
-    V, bv = _b.states("v", v, model.nv)
-    A, ba = _b.states("a", a, model.nv)
-    Q, B = _b.batch_of(Q, (("v", V), ("a", A)))
-    F = _b.external_forces(model, f_ext, B)
-    g = _b.gravity_vector(model, gravity)
+    Q, (V, A), B, batched = checks.state_batch(model, q, (("v", v, model.nv), ("a", a, model.nv)))
+    F = checks.external_forces(model, f_ext, B)
+    g = checks.gravity_vector(model, gravity)
     with_v, with_a = bool(V.any()), bool(A.any())  # zero terms are skipped, not computed
     out = np.empty((B, model.nv))
-    _b.run_chunks(_rnea_batch, model.tree, (Q, V, A, F), (g, with_v, with_a), out)
-    return out if (bq or bv or ba) else out[0]
+    run_chunks(_rnea_batch, model.tree, (Q, V, A, F), (g, with_v, with_a), out)
+    return out if batched else out[0]
 
 
 def skipped_terms(v=None, a=None, gravity=(0.0, 0.0, -9.81)):
@@ -204,8 +192,8 @@ def inverse_dynamics(model, q, v, a, *, gravity=None, f_ext=None):
     f_ext: (nbodies, 6) or (B, nbodies, 6), one [force, torque] per body in its body frame, torque about the
     body frame origin.  Returns tau of shape (nv,) or (B, nv).
     """
-    if (gravity is None and f_ext is None and type(model) is Model and _b.is_state(q, model.nq)
-            and _b.is_state(v, model.nv) and _b.is_state(a, model.nv)):
+    if (gravity is None and f_ext is None and type(model) is Model and checks.is_state(q, model.nq)
+            and checks.is_state(v, model.nv) and checks.is_state(a, model.nv)):
         tau, ok = _rnea_single(model.tree, q, v, a, model.gravity)
         if ok:
             return tau
@@ -214,10 +202,10 @@ def inverse_dynamics(model, q, v, a, *, gravity=None, f_ext=None):
 
 def gravity_torques(model, q, *, gravity=None):
     """g(q): the torques that hold the robot still against gravity, (nv,) or (B, nv)."""
-    _b.check_model(model)
-    Q, batched = _b.configurations(model, q)
+    checks.check_model(model)
+    Q, batched = checks.configurations(model, q)
     out = np.empty((Q.shape[0], model.nv))
-    _b.run_chunks(_gravity_batch, model.tree, (Q,), (_b.gravity_vector(model, gravity),), out)
+    run_chunks(_gravity_batch, model.tree, (Q,), (checks.gravity_vector(model, gravity),), out)
     return out if batched else out[0]
 
 

@@ -56,23 +56,21 @@ import time
 from typing import NamedTuple
 
 import numpy as np
-from numba import njit
 
 from . import integrators as I
 from .aba import aba_into, forward_dynamics
 from .aba import workspace as aba_workspace
 from .energy import kinetic_energy_kernel, potential_energy_kernel
-from .batch import vector
+from ._numba import borrowed, inline_kernel, keep_alive, kernel
+from .checks import real_number, vector
 from .errors import InputError
-from .integrate import chart_rate, difference, integrate_delta, retract
+from .configuration import chart_rate, difference, integrate_delta, retract
 from .joints import JOINT_FREE
 from .rnea import workspace as rnea_workspace
 from .torques import Passive, make_source, passive_torques, release_callable, torque_eval
 
 __all__ = ["simulate", "Trajectory", "INTEGRATORS"]
 
-_JIT = dict(cache=True, nogil=True, error_model="numpy")  # no ZeroDivisionError checks: they cost ~10x in hot loops
-_JIT_INLINE = dict(_JIT, inline="always")
 
 INTEGRATORS = ("euler", "rk4", "rk45", "radau", "auto", "dop853")
 _ORDER = {"euler": 1, "rk4": 4}
@@ -117,7 +115,7 @@ class RobotProblem(NamedTuple):
     count: np.ndarray  # (1,) samples written
 
 
-@njit(**_JIT)
+@kernel
 def _rhs(p, t, z, dz):
     tree, ps, src, base, qbuf, tau_s, tau_p, ws_aba, ws_src = p[0], p[1], p[2], p[3], p[4], p[5], p[6], p[7], p[8]
     nv = tau_s.shape[0]
@@ -139,7 +137,7 @@ def _rhs(p, t, z, dz):
     dz[2 * nv + 1] = pp_
 
 
-@njit(**_JIT)
+@kernel
 def _rebase(p, z, dz, mag):
     tree, base, qbuf = p[0], p[3], p[4]
     nv = p[5].shape[0]
@@ -157,13 +155,13 @@ def _rebase(p, z, dz, mag):
             mag[k] = abs(base[tree.q_idx[i]])
 
 
-@njit(**_JIT)
+@kernel
 def _euler_config(p, z, h):
     nv = p[5].shape[0]
     integrate_delta(p[0], p[3], z[nv:2 * nv], h, z[:nv])
 
 
-@njit(**_JIT)
+@kernel
 def _emit(p, j, t, z):
     """Write sample j.  An output the caller did not ask for has zero rows: it is neither kept nor, for the
     torques, computed."""
@@ -181,7 +179,7 @@ def _emit(p, j, t, z):
     count[0] = j + 1
 
 
-@njit(**_JIT)
+@kernel
 def _problem(tree, ps, src, base, out_t, out_q, out_v, out_tau, out_w, count):
     nv = out_v.shape[1]
     nb = tree.parents.shape[0]
@@ -199,19 +197,19 @@ RobotProblem.emit = _emit
 SPECTRAL_RADIUS = -1  # _run's "method" for: only estimate the spectral radius of the Jacobian at (t0, z)
 
 
-@njit(**_JIT)
+@kernel
 def _run(tree, ps, src, method, z, base, t0, t_end, dt, out_t, iopt, fopt, istats, fstats, switch_log,
          out_q, out_v, out_tau, out_w, count):
     """The compiled integration loop: picks the solver and runs it to t_end (one compiled entry point, so
     the right-hand side is compiled once per process and cached on disk)."""
     owner = _problem(tree, ps, src, base, out_t, out_q, out_v, out_tau, out_w, count)
-    p = I.borrowed(owner)  # no reference counting per right-hand side (I.borrowed); owner is pinned below
+    p = borrowed(owner)  # no reference counting per right-hand side (I.borrowed); owner is pinned below
     status = _solve(p, method, z, t0, t_end, dt, out_t, iopt, fopt, istats, fstats, switch_log)
-    I.keep_alive(owner)
+    keep_alive(owner)
     return status
 
 
-@njit(**_JIT_INLINE)
+@inline_kernel
 def _solve(p, method, z, t0, t_end, dt, out_t, iopt, fopt, istats, fstats, switch_log):
     if method == SPECTRAL_RADIUS:
         n = z.shape[0]
@@ -238,15 +236,15 @@ def _spectral_radius(model, ps, src, q0, v0):
     return float(fstats[0])
 
 
-@njit(**_JIT)
+@kernel
 def _energies(tree, Q, V, gravity, K, U):
-    tree = I.borrowed(tree)  # the caller owns the model; one kernel call per sample without atomics
+    tree = borrowed(tree)  # the caller owns the model; one kernel call per sample without atomics
     for j in range(Q.shape[0]):
         K[j] = kinetic_energy_kernel(tree, Q[j], V[j])
         U[j] = potential_energy_kernel(tree, Q[j], gravity)
 
 
-@njit(**_JIT)
+@kernel
 def _state_error(tree, q1, v1, q2, v2):
     d = np.empty(v1.shape[0])
     difference(tree, q2, q1, d)
@@ -266,22 +264,6 @@ def state_error(model, q1, v1, q2, v2):
 
 # ---------------------------------------------------------------------------------------------------
 # input checks
-def _float(name, x, *, lo=None, lo_open=False, hi=None, allow_none=False):
-    if x is None and allow_none:
-        return None
-    try:
-        x = float(x)
-    except (TypeError, ValueError):
-        raise InputError(f"{name}: expected a finite float, got {x!r}") from None
-    if not math.isfinite(x):
-        raise InputError(f"{name}: expected a finite float, got {x!r}")
-    if lo is not None and (x < lo or (lo_open and x == lo)):
-        raise InputError(f"{name}: expected a value {'>' if lo_open else '>='} {lo:g}, got {x!r}")
-    if hi is not None and x >= hi:
-        raise InputError(f"{name}: expected a value < {hi:g}, got {x!r}")
-    return x
-
-
 def _check_q(model, q0, warnings):
     q = vector("q0", q0, model.nq)
     tree = model.tree
@@ -389,23 +371,23 @@ def simulate(model, q0, v0, duration, *, torque=None, integrator="auto", rtol=1e
         raise InputError(f"integrator: expected one of {INTEGRATORS}, got {integrator!r}")
     q0 = _check_q(model, q0, warnings)
     v0 = vector("v0", v0, model.nv)
-    duration = _float("duration", duration, lo=0.0)
-    rtol = _float("rtol", rtol, lo=1e-14, hi=1.0)
-    atol = _float("atol", atol, lo=0.0)
+    duration = real_number("duration", duration, lo=0.0)
+    rtol = real_number("rtol", rtol, lo=1e-14, hi=1.0)
+    atol = real_number("atol", atol, lo=0.0)
     fixed = integrator in ("euler", "rk4")
-    dt = _float("dt", dt, lo=0.0, lo_open=True, allow_none=True)
+    dt = real_number("dt", dt, lo=0.0, lo_open=True, allow_none=True)
     if fixed and dt is None:
         raise InputError(f"dt: required (> 0) for the fixed-step integrator {integrator!r}")
-    sample_dt = _float("sample_dt", sample_dt, lo=0.0, lo_open=True, allow_none=True)
+    sample_dt = real_number("sample_dt", sample_dt, lo=0.0, lo_open=True, allow_none=True)
     g = model.gravity if gravity is None else gravity
     g = vector("gravity", g, 3)
     if isinstance(max_steps, bool) or not isinstance(max_steps, (int, np.integer)) or max_steps < 1:
         raise InputError(f"max_steps: expected a positive int, got {max_steps!r}")
     if limits not in (None, "spring"):
         raise InputError(f"limits: expected None or 'spring', got {limits!r}")
-    limit_stiffness = _float("limit_stiffness", limit_stiffness, lo=0.0)
-    limit_damping = _float("limit_damping", limit_damping, lo=0.0)
-    friction_eps = _float("friction_eps", friction_eps, lo=0.0, lo_open=True)
+    limit_stiffness = real_number("limit_stiffness", limit_stiffness, lo=0.0)
+    limit_damping = real_number("limit_damping", limit_damping, lo=0.0)
+    friction_eps = real_number("friction_eps", friction_eps, lo=0.0, lo_open=True)
     if isinstance(outputs, str) or not set(outputs) <= set(OUTPUTS):
         raise InputError(f"outputs: expected a subset of {OUTPUTS}, got {outputs!r}")
     outputs = tuple(o for o in OUTPUTS if o in outputs)

@@ -19,7 +19,7 @@ arithmetic here.  ``load3``/``store3`` move them between tuples and rows of the 
 
 import numpy as np
 
-from .jit import inline_kernel, kernel
+from ._numba import inline_kernel, kernel
 
 
 # -- moving values between arrays and tuples -------------------------------------------------------

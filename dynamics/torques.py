@@ -37,16 +37,15 @@ import warnings
 from typing import NamedTuple
 
 import numpy as np
-from numba import njit, objmode
+from numba import objmode
 from numba.core.errors import NumbaWarning
 
 from .errors import InputError
-from .integrate import difference
+from ._numba import gil_kernel, inline_kernel, kernel
+from .configuration import difference
 from .rnea import rnea_into
 
-_JIT = dict(cache=True, nogil=True, error_model="numpy")  # no ZeroDivisionError checks: they cost ~10x in hot loops
 
-_JIT_INLINE = dict(_JIT, inline="always")  # small helpers of the right-hand side: one function for LLVM
 
 # The objmode block for Python callables re-takes the GIL by design; numba warns about it at compile time.
 warnings.filterwarnings("ignore", message="Code running in object mode won't allow parallel execution",
@@ -140,7 +139,7 @@ def _call_torque(slot, t, q, v, out):
 
 # ---------------------------------------------------------------------------------------------------
 # compiled evaluation
-@njit(**_JIT)
+@kernel
 def _segment(times, t):
     """k with times[k] <= t < times[k+1], clipped to [0, N-2] (N >= 2)."""
     k = np.searchsorted(times, t, side="right") - 1
@@ -151,7 +150,7 @@ def _segment(times, t):
     return k
 
 
-@njit(**_JIT)
+@kernel
 def reference_at(times, table, nv, t, q, v, a):
     """Quintic Hermite interpolation of the reference [q, v, a] rows of ``table`` at time t (clamped)."""
     N = times.shape[0]
@@ -187,7 +186,7 @@ def reference_at(times, table, nv, t, q, v, a):
         a[i] = (DD[0] * c0 + DD[1] * c1 + DD[2] * c2 + DD[3] * c3 + DD[4] * c4 + DD[5] * c5) / (h * h)
 
 
-@njit(**_JIT_INLINE)
+@inline_kernel
 def passive_torques(ps, q, v, out):
     """out = damping + friction + limit-spring torques (module docstring)."""
     for k in range(v.shape[0]):
@@ -205,13 +204,13 @@ def passive_torques(ps, q, v, out):
         out[k] = tq
 
 
-@njit(cache=True, error_model="numpy")  # not nogil: the objmode block takes the GIL anyway
+@gil_kernel  # not nogil: the objmode block takes the GIL anyway
 def _torque_callable(slot, t, q, v, tau):
     with objmode():
         _call_torque(slot, t, q, v, tau)
 
 
-@njit(**_JIT_INLINE)
+@inline_kernel
 def torque_eval(src, tree, ps, t, q, v, ws, tau):
     """tau = the source's applied torques at (t, q, v).  ws: (rnea workspace, 4 scratch (nv,) rows)."""
     nv = v.shape[0]

@@ -9,7 +9,7 @@ import pytest
 from scipy.integrate import solve_ivp
 
 import dynamics
-from dynamics.integrate import integrate
+from dynamics.configuration import integrate
 from dynamics.simulate import simulate, state_error
 from dynamics.torques import PD, ComputedTorque, Table
 from robots import chain_urdf

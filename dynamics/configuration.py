@@ -31,17 +31,15 @@ All kernels here are ``numba.njit`` and take the model's ``Tree``.
 """
 
 import numpy as np
-from numba import njit
 
-from .batch import vector
+from ._numba import inline_kernel, kernel
+from .checks import vector
 from .errors import InputError
 from .joints import JOINT_FREE
 
-_JIT = dict(cache=True, nogil=True, error_model="numpy")  # no ZeroDivisionError checks: they cost ~10x in hot loops
-_JIT_INLINE = dict(_JIT, inline="always")  # called once per right-hand side: inlined into it
 
 
-@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+@inline_kernel
 def _qmul(ax, ay, az, aw, bx, by, bz, bw):
     """Hamilton product a * b of quaternions (x, y, z, w)."""
     return (aw * bx + ax * bw + ay * bz - az * by,
@@ -50,7 +48,7 @@ def _qmul(ax, ay, az, aw, bx, by, bz, bw):
             aw * bw - ax * bx - ay * by - az * bz)
 
 
-@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+@inline_kernel
 def _qexp(w0, w1, w2):
     """Unit quaternion of the rotation vector w (exp map), accurate near zero."""
     th2 = w0 * w0 + w1 * w1 + w2 * w2
@@ -64,7 +62,7 @@ def _qexp(w0, w1, w2):
     return s * w0, s * w1, s * w2, c
 
 
-@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+@inline_kernel
 def _qrot(x, y, z, w, a0, a1, a2):
     """R(quat) a for a unit quaternion (x, y, z, w)."""
     # a + 2 w (u x a) + 2 u x (u x a), u = (x, y, z)
@@ -76,7 +74,7 @@ def _qrot(x, y, z, w, a0, a1, a2):
             a2 + 2.0 * (w * c2 + x * c1 - y * c0))
 
 
-@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+@inline_kernel
 def _skew_poly(a, b, t0, t1, t2, x0, x1, x2):
     """(1 + a [t] + b [t]^2) x."""
     c0 = t1 * x2 - t2 * x1
@@ -88,7 +86,7 @@ def _skew_poly(a, b, t0, t1, t2, x0, x1, x2):
     return x0 + a * c0 + b * d0, x1 + a * c1 + b * d1, x2 + a * c2 + b * d2
 
 
-@njit(**_JIT)
+@kernel
 def integrate_delta(tree, q, v, dt, delta):
     """Chart coordinates (see the module docstring) of ``integrate_q(tree, q, v, dt)`` around q."""
     for i in range(tree.jtype.shape[0]):
@@ -113,7 +111,7 @@ def integrate_delta(tree, q, v, dt, delta):
             delta[k] = v[k] * dt
 
 
-@njit(**_JIT_INLINE)
+@inline_kernel
 def retract(tree, q0, delta, q):
     """q = q0 (+) delta in the stepper's chart: q0 + delta for 1-dof joints; p0 + delta_p and
     quat0 (x) exp(delta_theta), renormalised, for the free joint."""
@@ -131,7 +129,7 @@ def retract(tree, q0, delta, q):
             q[kq] = q0[kq] + delta[k]
 
 
-@njit(**_JIT_INLINE)
+@inline_kernel
 def chart_rate(tree, q, delta, v, out):
     """out = d(delta)/dt for velocity v, at the configuration q = retract(q0, delta).
 
@@ -156,7 +154,7 @@ def chart_rate(tree, q, delta, v, out):
             out[k] = v[k]
 
 
-@njit(**_JIT)
+@kernel
 def difference(tree, q0, q1, out):
     """Tangent vector ``d`` with ``retract(q0, d) == q1`` (the chart's inverse; used for error norms):
     q1 - q0 for 1-dof joints, (p1 - p0, log(quat0^-1 quat1)) for the free joint."""
@@ -178,7 +176,7 @@ def difference(tree, q0, q1, out):
             out[k] = q1[kq] - q0[kq]
 
 
-@njit(**_JIT)
+@kernel
 def integrate_q(tree, q, v, dt):
     """The configuration reached from q along the constant velocity v after dt (a new array)."""
     delta = np.empty(v.shape[0])

@@ -1,0 +1,217 @@
+"""Every input check of the public entry points, in one place.
+
+Public functions accept one state (q of shape (nq,)) or a batch (B, nq).  Arguments are checked here once
+(type, shape, finiteness, a free joint's quaternion) and turned into C-contiguous writable float64 2-D arrays
+(one compiled signature per kernel); the kernels never check.  Every error is an :class:`InputError` whose
+message starts with the argument's name and says what was expected.
+
+The single-state fast paths call :func:`inputs_ok` inside their compiled call instead: on False the public
+function takes the general path, which says exactly what is wrong.
+"""
+
+import math
+
+import numpy as np
+
+from ._numba import Kernel, kernel
+from .errors import InputError
+from .joints import JOINT_FREE
+from .model import Model
+
+#: a free joint's quaternion whose squared norm is below this is "zero" (it is normalised in the kernels)
+ZERO_QUATERNION_SQ = 1e-16
+
+
+@kernel
+def _first_nonfinite(X):
+    """Index of the first row of X holding a nan or inf, or -1."""
+    for b in range(X.shape[0]):
+        for k in range(X.shape[1]):
+            if not np.isfinite(X[b, k]):
+                return b
+    return -1
+
+
+@kernel
+def _quaternion_sq(q, k):
+    return q[k] * q[k] + q[k + 1] * q[k + 1] + q[k + 2] * q[k + 2] + q[k + 3] * q[k + 3]
+
+
+@kernel
+def _first_zero_quaternion(Q, starts):
+    """The q index of the first zero quaternion among ``starts`` in any row of Q, or -1."""
+    for b in range(Q.shape[0]):
+        for k in starts:
+            if _quaternion_sq(Q[b], k) < ZERO_QUATERNION_SQ:
+                return k
+    return -1
+
+
+_first_nonfinite_k = Kernel(_first_nonfinite)
+_first_zero_quaternion_k = Kernel(_first_zero_quaternion)
+
+
+@kernel
+def inputs_ok(tree, q, vecs):
+    """Whether q and every vector of ``vecs`` are finite and each free joint's quaternion is non-zero."""
+    for k in range(q.shape[0]):
+        if not np.isfinite(q[k]):
+            return False
+    for x in vecs:
+        for k in range(x.shape[0]):
+            if not np.isfinite(x[k]):
+                return False
+    for i in range(tree.jtype.shape[0]):
+        if tree.jtype[i] == JOINT_FREE and _quaternion_sq(q, tree.q_idx[i] + 3) < ZERO_QUATERNION_SQ:
+            return False
+    return True
+
+
+def check_model(model):
+    if not isinstance(model, Model):
+        raise InputError(f"model: expected a dynamics.Model (from load_urdf), got {type(model).__name__}")
+
+
+def is_state(x, n):
+    """True for a C-contiguous writable float64 vector of length n: the fast single-state path."""
+    return (type(x) is np.ndarray and x.dtype == np.float64 and x.shape == (n,) and x.flags.c_contiguous
+            and x.flags.writeable)
+
+
+def _real_array(name, x, expected):
+    try:
+        arr = np.asarray(x)
+        if arr.dtype.kind not in "fiu":  # complex, bool, strings, objects: not joint coordinates
+            raise TypeError
+        return arr.astype(np.float64, copy=False)
+    except (TypeError, ValueError):
+        raise InputError(f"{name}: expected an array of real numbers of shape {expected}") from None
+
+
+def states(name, x, n):
+    """Check one state (n,) or a batch (B, n); return (C-contiguous writable 2-D float64 array, batched)."""
+    if is_state(x, n):
+        arr2, batched = x.reshape(1, n), False
+    else:
+        arr = _real_array(name, x, f"({n},) or (B, {n})")
+        if arr.ndim == 1 and arr.shape[0] == n:
+            arr2, batched = arr[None, :], False
+        elif arr.ndim == 2 and arr.shape[1] == n:
+            arr2, batched = arr, True
+        else:
+            raise InputError(f"{name}: expected shape ({n},) or (B, {n}), got {arr.shape}")
+        arr2 = np.ascontiguousarray(arr2)
+        if not arr2.flags.writeable:  # one compiled signature: writable arrays only
+            arr2 = arr2.copy()
+    bad = _first_nonfinite_k(arr2)
+    if bad >= 0:
+        where = f" (state {bad})" if batched else ""
+        raise InputError(f"{name}: contains non-finite values (nan or inf){where}")
+    return arr2, batched
+
+
+def vector(name, x, n):
+    """One real vector of length n, checked like every state: a fresh C-contiguous float64 array."""
+    X, batched = states(name, x, n)
+    if batched:
+        raise InputError(f"{name}: expected shape ({n},), got {np.shape(x)}")
+    return X[0].copy()
+
+
+def configurations(model, q, name="q"):
+    """Check q; a free joint's quaternion must be non-zero (it is normalised inside the kernels)."""
+    Q, batched = states(name, q, model.nq)
+    if model.floating_base:
+        k = _first_zero_quaternion_k(Q, model.quaternion_starts)
+        if k >= 0:
+            raise InputError(f"{name}: the quaternion {name}[{k}:{k + 4}] of a floating joint is zero; "
+                             f"expected a unit quaternion in the order (qx, qy, qz, qw)")
+    return Q, batched
+
+
+def broadcast(named):
+    """Give every (name, 2-D array) the common batch size B: a one-row array is repeated, any other size is an
+    error naming the argument.  Returns (arrays, B)."""
+    B = next((X.shape[0] for _, X in named if X.shape[0] != 1), 1)  # the first batched argument sets B
+    out = []
+    for name, X in named:
+        if X.shape[0] == B:
+            out.append(X)
+        elif X.shape[0] == 1:
+            out.append(np.ascontiguousarray(np.broadcast_to(X, (B, X.shape[1]))))
+        else:
+            raise InputError(f"{name}: expected a batch of {B} (or one state), got {X.shape[0]}")
+    return out, B
+
+
+def state_batch(model, q, named):
+    """q and the (name, value, size) vectors of one call, checked and broadcast to a common batch.
+
+    Returns (Q, [X, ...], B, batched) where batched says whether any argument was a batch.
+    """
+    check_model(model)
+    Q, batched = configurations(model, q)
+    arrays = [("q", Q)]
+    for name, x, n in named:
+        X, b = states(name, x, n)
+        arrays.append((name, X))
+        batched = batched or b
+    out, B = broadcast(arrays)
+    return out[0], out[1:], B, batched
+
+
+def gravity_vector(model, gravity):
+    """The gravity of a call: model.gravity by default, else a finite (3,) vector (a fresh writable copy)."""
+    if gravity is None:
+        return np.array(model.gravity)
+    return vector("gravity", gravity, 3)
+
+
+_NO_FORCES = np.zeros((1, 0, 6))  # empty: the kernels never write it
+
+
+def external_forces(model, f_ext, B):
+    """f_ext: None, (nbodies, 6) shared by every state, or (B, nbodies, 6).  Returns (1 or B, nb or 0, 6)."""
+    nb = model.nbodies
+    if f_ext is None:
+        return _NO_FORCES
+    F = _real_array("f_ext", f_ext, f"({nb}, 6) or ({B}, {nb}, 6)")
+    if F.shape == (nb, 6):
+        F = F[None]
+    elif not (F.ndim == 3 and F.shape[1:] == (nb, 6) and F.shape[0] in (1, B)):
+        raise InputError(f"f_ext: expected shape ({nb}, 6) or ({B}, {nb}, 6) (one [force, torque] per body "
+                         f"in its body frame), got {F.shape}")
+    if not np.all(np.isfinite(F)):
+        raise InputError("f_ext: contains non-finite values (nan or inf)")
+    return np.array(F, order="C")
+
+
+def real_number(name, x, *, lo=None, lo_open=False, hi=None, allow_none=False):
+    """A finite float within [lo, hi) (or (lo, hi) with lo_open); None passes when allow_none."""
+    if x is None and allow_none:
+        return None
+    if isinstance(x, (bool, np.bool_)) or isinstance(x, (str, bytes)):
+        raise InputError(f"{name}: expected a finite real number, got {x!r}")
+    try:
+        x = float(x)
+    except (TypeError, ValueError, OverflowError):
+        raise InputError(f"{name}: expected a finite real number, got {x!r}") from None
+    if not math.isfinite(x):
+        raise InputError(f"{name}: expected a finite real number, got {x!r}")
+    if lo is not None and (x < lo or (lo_open and x == lo)):
+        raise InputError(f"{name}: expected a value {'>' if lo_open else '>='} {lo:g}, got {x!r}")
+    if hi is not None and x >= hi:
+        raise InputError(f"{name}: expected a value < {hi:g}, got {x!r}")
+    return x
+
+
+def array(name, x, shape, *, nonneg=False):
+    """A finite float64 array of exactly ``shape`` (a fresh C-contiguous copy)."""
+    a = _real_array(name, x, shape)
+    if a.shape != tuple(shape):
+        raise InputError(f"{name}: expected shape {tuple(shape)}, got {a.shape}")
+    if not np.all(np.isfinite(a)):
+        raise InputError(f"{name}: contains non-finite values (nan or inf)")
+    if nonneg and np.any(a < 0):
+        raise InputError(f"{name}: expected values >= 0")
+    return np.array(a, order="C")
