@@ -17,6 +17,7 @@ from .aba import forward_dynamics
 from .energy import kinetic_energy, potential_energy
 from .coriolis import coriolis_matrix
 from .reduce import lock_joints
+from .reorder import reorder
 
 from . import torques
 from .configuration import integrate
@@ -25,6 +26,6 @@ from .simulate import Trajectory, simulate
 __all__ = [
     "DeadlineExceeded", "DynamicsError", "InputError", "URDFError", "Model", "load_urdf",
     "inverse_dynamics", "gravity_torques", "bias_forces", "mass_matrix", "forward_dynamics",
-    "kinetic_energy", "potential_energy", "coriolis_matrix", "lock_joints",
+    "kinetic_energy", "potential_energy", "coriolis_matrix", "lock_joints", "reorder",
     "simulate", "Trajectory", "integrate", "torques",
 ]

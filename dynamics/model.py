@@ -29,6 +29,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from . import reorder
 from .joints import JOINT_FREE, JOINT_NQ, JOINT_NV, URDF_JOINT_CODES, motion_subspace
 
 
@@ -164,11 +165,16 @@ class Model:
         return starts
 
     def joint_index(self, name: str) -> int:
-        """Index of the joint (= body) named ``name``."""
-        try:
-            return self.joint_names.index(name)
-        except ValueError:
-            raise KeyError(f"no movable joint named {name!r}; joints are {list(self.joint_names)}") from None
+        """Index of the movable joint (= body) named ``name``; an unknown name lists the closest names."""
+        return reorder.joint_index(self, name)
+
+    def q_slice(self, name: str) -> slice:
+        """The coordinates of joint ``name`` in q: ``q[model.q_slice("elbow")]``."""
+        return reorder.q_slice(self, name)
+
+    def v_slice(self, name: str) -> slice:
+        """The coordinates of joint ``name`` in v, a and tau."""
+        return reorder.v_slice(self, name)
 
     def neutral(self) -> np.ndarray:
         """The neutral configuration: zeros, identity quaternion for a free joint."""
