@@ -19,7 +19,7 @@ from .coriolis import coriolis_matrix
 from .reduce import lock_joints
 from .reorder import reorder
 
-from . import robots, torques
+from . import plot, robots, torques
 from .configuration import integrate
 from .simulate import Trajectory, simulate
 
@@ -27,5 +27,5 @@ __all__ = [
     "DeadlineExceeded", "DynamicsError", "InputError", "URDFError", "Model", "load_urdf",
     "inverse_dynamics", "gravity_torques", "bias_forces", "mass_matrix", "forward_dynamics",
     "kinetic_energy", "potential_energy", "coriolis_matrix", "lock_joints", "reorder",
-    "simulate", "Trajectory", "integrate", "torques", "robots",
+    "simulate", "Trajectory", "integrate", "torques", "robots", "plot",
 ]
