@@ -22,10 +22,12 @@ from .reorder import reorder
 from . import plot, robots, torques
 from .configuration import integrate
 from .simulate import Trajectory, simulate
+from .sweeps import Trajectories, map_batches, simulate_many
 
 __all__ = [
     "DeadlineExceeded", "DynamicsError", "InputError", "URDFError", "Model", "load_urdf",
     "inverse_dynamics", "gravity_torques", "bias_forces", "mass_matrix", "forward_dynamics",
     "kinetic_energy", "potential_energy", "coriolis_matrix", "lock_joints", "reorder",
     "simulate", "Trajectory", "integrate", "torques", "robots", "plot",
+    "simulate_many", "Trajectories", "map_batches",
 ]

@@ -197,6 +197,16 @@ class Model:
         out["warnings"] = list(self.warnings)
         return out
 
+    def __setstate__(self, state):
+        """Unpickling (process pools, Ray) gives writable arrays; the kernels are compiled for read-only ones, so
+        a writable copy would compile every kernel again (a minute) in each worker: freeze them again."""
+        for key, value in state.items():
+            if isinstance(value, Tree):
+                value = Tree(*(_frozen(a, a.dtype) for a in value))
+            elif isinstance(value, np.ndarray):
+                value = _frozen(value, value.dtype)
+            object.__setattr__(self, key, value)
+
     def __repr__(self):
         return (f"Model({self.name!r}, nq={self.nq}, nv={self.nv}, bodies={self.nbodies}, "
                 f"floating_base={self.floating_base})")
