@@ -1,7 +1,7 @@
-"""HTTP service for the dynamics library: FastAPI app, robot store, Python client.
+"""HTTP service for the dynamics library: FastAPI app, robot store, simulation workers, Python client.
 
-Kept import-light: ``service.client`` and ``service.simworker`` must not pull in FastAPI or numba just by
-importing the package.
+Kept import-light: importing the package (or ``service.client``) pulls in neither FastAPI nor numba, and no
+module of the server imports the library at its top (see :mod:`service.library`).
 """
 
 __version__ = "0.1.0"

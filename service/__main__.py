@@ -1,9 +1,9 @@
 """``python -m service [--host 127.0.0.1] [--port 8000] [--store DIR] [--workers N]``: run the HTTP service.
 
 Options are written into the ``DYNAMICS_*`` environment variables before uvicorn starts, so that every worker
-process (``--workers N`` starts them from scratch) reads the same settings. ``--warmup`` compiles the numeric
-kernels on the bundled robots (and fills numba's on-disk cache, as the Docker image does at build time) and
-exits.
+process (``--workers N`` starts them from scratch) reads the same settings. ``--warmup`` runs the warm-up's
+stages in this process (compiling the kernels on the bundled robots and filling numba's on-disk cache, as the
+Docker image does at build time) and exits.
 """
 
 from __future__ import annotations
@@ -11,6 +11,16 @@ from __future__ import annotations
 import argparse
 import os
 import sys
+
+import uvicorn
+
+from .compute import compile_operations
+from .library import lib
+from .models import load_model
+from .settings import Settings, configure_logging
+from .sim import worker
+from .store import RobotStore
+from .warmup import Stage, Warmup
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -21,39 +31,29 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--store", default=None,
                    help="directory of uploaded robots (default $DYNAMICS_STORE or ./store)")
     p.add_argument("--workers", type=int, default=1, help="server processes (default 1)")
-    p.add_argument("--log-level", default="info")
+    p.add_argument("--log-level", default="info", help="uvicorn's and the service's (warm-up progress: info)")
     p.add_argument("--warmup", action="store_true", help="compile the kernels on the bundled robots and exit")
     return p
 
 
 def warmup() -> int:
-    """Call every endpoint's library function once per bundled robot (numba compiles and caches them)."""
-    import numpy as np
-
-    from .simjob import simulate_function
-    from .settings import Settings
-    from .store import RobotStore
-    from .compute import load_model, operations
-
+    """Every operation on every bundled robot, and the simulation worker's warm-up, in this process."""
     settings = Settings.from_env()
     store = RobotStore(settings.store_dir, settings.robots_dir)
-    done = 0
-    for rid in store.bundled_ids():
-        model = load_model(store.get(rid))
-        q = np.tile(model.neutral(), (2, 1))
-        v = np.zeros((2, model.nv))
-        for op in operations().values():
-            args = {"q": q, "v": v, "a": v, "tau": v}
-            op.func(model, *[args[s] for s in op.states])
-            op.func(model, *[args[s][0] for s in op.states])
-        simulate = simulate_function() if settings.sim_workers > 0 else None  # no simulation, no warming
-        if simulate is not None:
-            try:
-                simulate(model, q[0], v[0], 0.01, error_estimate="none")
-            except Exception as e:  # noqa: BLE001 - warming is best effort
-                print(f"warmup: simulate on {rid} failed: {e}", file=sys.stderr)
-        done += 1
-    print(f"warmup: compiled kernels on {done} bundled robots")
+    robots = store.bundled_ids()
+
+    def dynamics_kernels() -> None:
+        for rid in robots:
+            record = store.get(rid)
+            compile_operations(load_model(record.urdf, record.floating_base))
+
+    stages = [Stage("importing the library", lib), Stage(f"compiling dynamics kernels on {len(robots)} bundled "
+                                                         f"robots", dynamics_kernels)]
+    if settings.sim_workers > 0:  # no simulation, no warming
+        stages.append(Stage("compiling simulation kernels", worker.warm_up))
+    run = Warmup()
+    run.run(stages)
+    print(f"warmup: compiled kernels on {len(robots)} bundled robots in {run.seconds:.1f} s")
     return 0
 
 
@@ -63,11 +63,10 @@ def main(argv: list[str] | None = None) -> int:
         os.environ["DYNAMICS_STORE"] = os.path.abspath(args.store)
     elif "DYNAMICS_STORE" not in os.environ:
         os.environ["DYNAMICS_STORE"] = os.path.abspath("store")
+    os.environ["DYNAMICS_LOG_LEVEL"] = args.log_level
     if args.warmup:
+        configure_logging(args.log_level)
         return warmup()
-
-    import uvicorn
-
     uvicorn.run("service.app:create_app", factory=True, host=args.host, port=args.port,
                 workers=max(1, args.workers), log_level=args.log_level, access_log=False,
                 timeout_graceful_shutdown=5)

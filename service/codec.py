@@ -17,7 +17,7 @@ import numpy as np
 from starlette.requests import Request
 from starlette.responses import Response
 
-from .errors import ApiError, bad_input
+from .errors import BadRequest, InvalidInput, TooLarge, UnsupportedMediaType
 
 JSON = "application/json"
 NPZ = "application/x-npz"
@@ -35,7 +35,7 @@ async def read_body(request: Request, limit: int) -> bytes:
         try:
             n = int(declared)
         except ValueError:
-            raise ApiError(400, "Content-Length: not a number", code="bad_request", field="Content-Length")
+            raise BadRequest("Content-Length: not a number", "Content-Length") from None
         if n > limit:
             raise _too_large(limit)
     chunks: list[bytes] = []
@@ -48,9 +48,9 @@ async def read_body(request: Request, limit: int) -> bytes:
     return b"".join(chunks)
 
 
-def _too_large(limit: int) -> ApiError:
-    return ApiError(413, f"body: larger than the limit of {limit} bytes (DYNAMICS_MAX_BODY_BYTES)",
-                    code="too_large", field="body", headers={"Connection": "close"})
+def _too_large(limit: int) -> TooLarge:
+    return TooLarge(f"body: larger than the limit of {limit} bytes (DYNAMICS_MAX_BODY_BYTES)", "body",
+                    headers={"Connection": "close"})
 
 
 def decode(body: bytes, content_type: str | None, *, max_unpacked: int) -> dict[str, Any]:
@@ -59,19 +59,19 @@ def decode(body: bytes, content_type: str | None, *, max_unpacked: int) -> dict[
     if kind == NPZ:
         return decode_npz(body, max_unpacked=max_unpacked)
     if kind != JSON and not kind.endswith("+json"):
-        raise ApiError(415, f"Content-Type: {kind!r} is not accepted here; send {JSON} or {NPZ}",
-                       code="unsupported_media_type", field="Content-Type")
+        raise UnsupportedMediaType(f"Content-Type: {kind!r} is not accepted here; send {JSON} or {NPZ}",
+                                   "Content-Type")
     if not body:
-        raise bad_input("body: empty; expected a JSON object", "body")
+        raise InvalidInput("body: empty; expected a JSON object", "body")
     try:
-        # NaN/Infinity literals are let through here so that the finiteness check can name the field.
+        # NaN/Infinity literals are let through here so that the library's finiteness check names the field.
         payload = json.loads(body)
     except (UnicodeDecodeError, json.JSONDecodeError) as e:
-        raise bad_input(f"body: not valid JSON ({e})", "body") from None
+        raise InvalidInput(f"body: not valid JSON ({e})", "body") from None
     except RecursionError:
-        raise bad_input("body: JSON nested too deeply", "body") from None
+        raise InvalidInput("body: JSON nested too deeply", "body") from None
     if not isinstance(payload, dict):
-        raise bad_input(f"body: expected a JSON object, got {type(payload).__name__}", "body")
+        raise InvalidInput(f"body: expected a JSON object, got {type(payload).__name__}", "body")
     return payload
 
 
@@ -82,10 +82,10 @@ def decode_npz(body: bytes, *, max_unpacked: int) -> dict[str, Any]:
             infos = zf.infolist()
             total = sum(i.file_size for i in infos)
             if total > max_unpacked:
-                raise ApiError(413, f"body: the .npz archive unpacks to {total} bytes, over the limit of "
-                                    f"{max_unpacked}", code="too_large", field="body")
+                raise TooLarge(f"body: the .npz archive unpacks to {total} bytes, over the limit of "
+                               f"{max_unpacked}", "body")
     except zipfile.BadZipFile:
-        raise bad_input("body: not a valid .npz archive", "body") from None
+        raise InvalidInput("body: not a valid .npz archive", "body") from None
     out: dict[str, Any] = {}
     try:
         with np.load(buf, allow_pickle=False) as npz:
@@ -98,34 +98,32 @@ def decode_npz(body: bytes, *, max_unpacked: int) -> dict[str, Any]:
                 else:
                     out[name] = arr
     except ValueError as e:  # object arrays (pickles) and malformed members
-        raise bad_input(f"body: .npz member refused ({e}); only numeric arrays are accepted", "body") from None
+        raise InvalidInput(f"body: .npz member refused ({e}); only numeric arrays are accepted", "body") from None
     except (OSError, EOFError, zipfile.BadZipFile) as e:
-        raise bad_input(f"body: unreadable .npz archive ({e})", "body") from None
+        raise InvalidInput(f"body: unreadable .npz archive ({e})", "body") from None
     return out
 
 
-def to_array(value: Any, name: str, *, max_ndim: int = 2) -> np.ndarray:
-    """A JSON number / list / list of lists (or an array from .npz) -> float64 array, or a 422 naming ``name``."""
+def to_array(value: Any, name: str) -> np.ndarray:
+    """A JSON number / list / list of lists (or an array from .npz) -> float64 array, or a 422 naming ``name``.
+
+    Only what cannot become an array of numbers is refused here; shapes and finiteness are the library's to check.
+    """
     if isinstance(value, np.ndarray):
         arr = value
     else:
         if isinstance(value, (str, bytes, dict, bool)) or value is None:
-            raise bad_input(f"{name}: expected a number, a list of numbers or a list of lists, "
+            raise InvalidInput(f"{name}: expected a number, a list of numbers or a list of lists, "
                             f"got {_json_type(value)}", name)
         try:
             arr = np.asarray(value)
         except ValueError:
-            raise bad_input(f"{name}: rows of different lengths; expected a list of equal-length lists", name) \
+            raise InvalidInput(f"{name}: rows of different lengths; expected a list of equal-length lists", name) \
                 from None
     if arr.dtype.kind not in "fiu":
         what = "rows of different lengths" if arr.dtype.kind == "O" else f"elements of type {arr.dtype}"
-        raise bad_input(f"{name}: expected numbers, got {what}", name)
-    if arr.ndim > max_ndim:
-        raise bad_input(f"{name}: expected at most {max_ndim} dimensions, got shape {arr.shape}", name)
-    arr = np.asarray(arr, dtype=np.float64, order="C")  # (not ascontiguousarray: it makes 0-d arrays 1-d)
-    if not np.isfinite(arr).all():
-        raise bad_input(f"{name}: contains non-finite values", name)
-    return arr
+        raise InvalidInput(f"{name}: expected numbers, got {what}", name)
+    return np.asarray(arr, dtype=np.float64, order="C")  # (not ascontiguousarray: it makes 0-d arrays 1-d)
 
 
 def _json_type(value: Any) -> str:
@@ -149,15 +147,15 @@ def encode(result: Mapping[str, Any], accept: str | None, status: int = 200) -> 
             if isinstance(v, np.ndarray):
                 members[k] = v
             else:
-                members[k] = np.array(json.dumps(v, default=_jsonable))
+                members[k] = np.array(json.dumps(v, default=jsonable))
         np.savez(buf, **members)
         return Response(buf.getvalue(), status_code=status, media_type=NPZ)
     body = json.dumps({k: (v.tolist() if isinstance(v, np.ndarray) else v) for k, v in result.items()},
-                      default=_jsonable, allow_nan=False, separators=(",", ":"))
+                      default=jsonable, allow_nan=False, separators=(",", ":"))
     return Response(body.encode(), status_code=status, media_type=JSON)
 
 
-def _jsonable(obj: Any) -> Any:
+def jsonable(obj: Any) -> Any:
     if isinstance(obj, np.ndarray):
         return obj.tolist()
     if isinstance(obj, (np.floating, np.integer, np.bool_)):

@@ -1,14 +1,21 @@
-"""The one error type routes raise, and how every failure becomes a JSON answer.
+"""The service's own errors, and the one place where they and the library's become HTTP answers.
 
-Every answer that is not a success has the body ``{"detail": "<field>: <what was expected>", "code": ..., "field":
-...}``: ``detail`` is a sentence a person can act on, ``code`` a stable machine name, ``field`` the request field
-at fault (or null). Bad input is always a 4xx; only a bug in the service itself can give a 500.
+The modules of the service raise a :class:`Problem` subclass named for what went wrong (:class:`NotFound`,
+:class:`InvalidInput`, ...) and never an HTTP status; :data:`STATUS` below gives each its status. The library's
+input errors (``dynamics.DynamicsError``: ``InputError``, ``URDFError``; their message starts with the argument's
+name, "q: expected shape (2,) or (B, 2), got (1,)") are answered 422 naming that argument.
+
+Every answer that is not a success has the body ``{"detail": "<field>: <what was expected>", "code": ...,
+"field": ...}``: ``detail`` is a sentence a person can act on, ``code`` a stable machine name, ``field`` the
+request field at fault (or null). Bad input is always a 4xx; only a bug in the service itself gives a 500.
 """
 
 from __future__ import annotations
 
 import json
 import logging
+import sys
+from typing import Any
 
 from fastapi import FastAPI, Request
 from fastapi.exceptions import RequestValidationError
@@ -18,21 +25,79 @@ from starlette.responses import Response
 log = logging.getLogger("service")
 
 
-class ApiError(Exception):
-    """A failure with its HTTP status; ``detail`` should start with the field name when there is one."""
+class Problem(Exception):
+    """A request the service cannot answer as asked; ``detail`` starts with ``field`` when there is one."""
 
-    def __init__(self, status: int, detail: str, *, code: str = "invalid_input", field: str | None = None,
+    code = "error"
+
+    def __init__(self, detail: str, field: str | None = None, *, code: str | None = None,
                  headers: dict[str, str] | None = None):
         super().__init__(detail)
-        self.status = status
         self.detail = detail
-        self.code = code
         self.field = field
+        self.code = code or self.code
         self.headers = headers or {}
 
 
-def bad_input(detail: str, field: str | None = None) -> ApiError:
-    return ApiError(422, detail, code="invalid_input", field=field)
+class InvalidInput(Problem):
+    code = "invalid_input"
+
+
+class BadRequest(Problem):
+    code = "bad_request"
+
+
+class Unauthorized(Problem):
+    code = "unauthorized"
+
+
+class Forbidden(Problem):
+    code = "forbidden"
+
+
+class NotFound(Problem):
+    code = "not_found"
+
+
+class TooLarge(Problem):
+    code = "too_large"
+
+
+class UnsupportedMediaType(Problem):
+    code = "unsupported_media_type"
+
+
+class Failed(Problem):
+    """Not the caller's fault: a simulation worker crashed, or the library failed unexpectedly."""
+    code = "internal_error"
+
+
+class NotOffered(Problem):
+    code = "not_implemented"
+
+
+class Unavailable(Problem):
+    """Not now: the simulation workers are busy or still warming up; ``Retry-After`` says when to ask again."""
+    code = "busy"
+
+
+class BudgetExceeded(Problem):
+    code = "time_budget_exceeded"
+
+    def __init__(self, what: str, budget: float, hint: str):
+        super().__init__(f"time budget: {what} was stopped after {budget:g} s (DYNAMICS_TIME_BUDGET or "
+                         f"X-Time-Budget); {hint}")
+
+
+STATUS: dict[type[Problem], int] = {
+    BadRequest: 400, Unauthorized: 401, Forbidden: 403, NotFound: 404, TooLarge: 413, UnsupportedMediaType: 415,
+    InvalidInput: 422, Failed: 500, NotOffered: 501, Unavailable: 503, BudgetExceeded: 504,
+}
+
+# Starlette's own refusals (unknown path, wrong method) keep their status; this names them.
+_CODES = {400: "bad_request", 401: "unauthorized", 403: "forbidden", 404: "not_found", 405: "method_not_allowed",
+          406: "not_acceptable", 409: "conflict", 413: "too_large", 415: "unsupported_media_type",
+          422: "invalid_input", 504: "time_budget_exceeded"}
 
 
 def field_of(message: str) -> str | None:
@@ -49,29 +114,43 @@ def error_response(status: int, detail: str, code: str, field: str | None = None
     return Response(body, status_code=status, media_type="application/json", headers=headers)
 
 
-_STATUS_CODES = {400: "bad_request", 401: "unauthorized", 403: "forbidden", 404: "not_found",
-                 405: "method_not_allowed", 406: "not_acceptable", 409: "conflict", 413: "too_large",
-                 415: "unsupported_media_type", 422: "invalid_input", 504: "time_budget_exceeded"}
+def problem_response(problem: Problem) -> Response:
+    return error_response(STATUS[type(problem)], problem.detail, problem.code, problem.field, problem.headers)
 
 
-def install_handlers(app: FastAPI) -> None:
-    @app.exception_handler(ApiError)
-    async def _api_error(request: Request, exc: ApiError) -> Response:
-        return error_response(exc.status, exc.detail, exc.code, exc.field, exc.headers)
+def is_library_input_error(exc: BaseException) -> bool:
+    """True for ``dynamics.DynamicsError``. The library is looked up, not imported: the server imports it in the
+    background (see :mod:`service.warmup`), and an error raised before that cannot be the library's."""
+    dynamics = sys.modules.get("dynamics")
+    return dynamics is not None and isinstance(exc, dynamics.DynamicsError)
 
-    @app.exception_handler(StarletteHTTPException)
-    async def _http_error(request: Request, exc: StarletteHTTPException) -> Response:
-        code = _STATUS_CODES.get(exc.status_code, "error")
-        return error_response(exc.status_code, str(exc.detail), code, None, getattr(exc, "headers", None))
 
-    @app.exception_handler(RequestValidationError)
-    async def _validation_error(request: Request, exc: RequestValidationError) -> Response:
-        first = exc.errors()[0] if exc.errors() else {"loc": (), "msg": "invalid request"}
-        loc = [str(p) for p in first.get("loc", ()) if p not in ("body", "query", "path")]
-        name = ".".join(loc) or None
-        return error_response(422, f"{name or 'request'}: {first.get('msg')}", "invalid_input", name)
+def install(app: FastAPI) -> None:
+    """Register the mapping on ``app``: problems, the library's input errors, Starlette's and FastAPI's own."""
 
-    @app.exception_handler(Exception)
-    async def _unexpected(request: Request, exc: Exception) -> Response:  # pragma: no cover - a bug
+    async def problem(request: Request, exc: Problem) -> Response:
+        return problem_response(exc)
+
+    async def value_error(request: Request, exc: ValueError) -> Response:
+        if is_library_input_error(exc):
+            return error_response(422, str(exc), InvalidInput.code, field_of(str(exc)))
+        return await unexpected(request, exc)  # a ValueError of the service's own is a bug
+
+    async def http_error(request: Request, exc: StarletteHTTPException) -> Response:
+        return error_response(exc.status_code, str(exc.detail), _CODES.get(exc.status_code, "error"), None,
+                              getattr(exc, "headers", None))
+
+    async def validation_error(request: Request, exc: RequestValidationError) -> Response:
+        first: dict[str, Any] = exc.errors()[0] if exc.errors() else {"loc": (), "msg": "invalid request"}
+        name = ".".join(str(p) for p in first.get("loc", ()) if p not in ("body", "query", "path")) or None
+        return error_response(422, f"{name or 'request'}: {first.get('msg')}", InvalidInput.code, name)
+
+    async def unexpected(request: Request, exc: Exception) -> Response:  # pragma: no cover - a bug
         log.exception("unexpected error on %s %s", request.method, request.url.path)
-        return error_response(500, f"internal error: {type(exc).__name__}", "internal_error")
+        return error_response(500, f"internal error: {type(exc).__name__}", Failed.code)
+
+    app.add_exception_handler(Problem, problem)
+    app.add_exception_handler(ValueError, value_error)
+    app.add_exception_handler(StarletteHTTPException, http_error)
+    app.add_exception_handler(RequestValidationError, validation_error)
+    app.add_exception_handler(Exception, unexpected)

@@ -1,24 +1,27 @@
-"""Request and answer schemas of the HTTP API, in one place.
+"""Request and answer schemas of the HTTP API, in one place, and :func:`validate` (a decoded body -> a request).
 
 State arguments are typed :data:`Array`: one state (a list of nq or nv numbers) or a batch (a list of such
-lists); they are turned into float64 arrays in one ``np.asarray`` call, never walked in Python, and the
-shape check against the robot is the library's (its messages name the argument and the expected shape).
-Unknown fields are refused (``extra="forbid"``) so that a typo is a 422, not a silently ignored option; new
-optional fields (``locked``; the ``scene`` object of answers) are added without breaking a caller.
+lists); they are turned into float64 arrays in one ``np.asarray`` call, never walked in Python. Their shapes and
+finiteness are the library's to check (its messages name the argument and the expected shape); here only what
+cannot become an array of numbers is refused. Unknown fields are refused (``extra="forbid"``) so that a typo is
+a 422, not a silently ignored option; new optional fields (``locked``; the ``scene`` object of answers) are
+added without breaking a caller.
 
 ``locked`` ({joint name: value}) selects a reduced model (``dynamics.lock_joints``): the request's states are then
 those of the reduced model. Here only its form is checked (names are strings, values numbers or lists of
-numbers); joint names and value counts are the library's to check, its messages name the joint.
+numbers); joint names, value counts and values are the library's to check, its messages name the joint.
 """
 
 from __future__ import annotations
 
+import json
 from typing import Annotated, Any, Literal, Optional, Union
 
 import numpy as np
-from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, ValidationInfo, WithJsonSchema
+from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, ValidationError, ValidationInfo, WithJsonSchema
 
 from .codec import to_array
+from .errors import InvalidInput
 
 _NUMBERS = {"type": "array", "items": {"type": "number"}}
 _STATE_SCHEMA = {"anyOf": [_NUMBERS, {"type": "array", "items": _NUMBERS}],
@@ -29,68 +32,62 @@ def _array(value: Any, info: ValidationInfo) -> np.ndarray:
     return to_array(value, info.field_name or "value")
 
 
-def _array3(value: Any, info: ValidationInfo) -> np.ndarray:
-    return to_array(value, info.field_name or "value", max_ndim=3)
-
-
-def _vec3(value: Any, info: ValidationInfo) -> np.ndarray:
-    from .errors import bad_input
-
-    arr = to_array(value, info.field_name or "value", max_ndim=1)
-    if arr.shape != (3,):
-        raise bad_input(f"{info.field_name}: expected shape (3,), got {arr.shape}", info.field_name)
-    return arr
-
-
-def _gains(value: Any, info: ValidationInfo) -> np.ndarray:
-    return to_array(value, info.field_name or "value", max_ndim=1)
-
-
-def _locked(value: Any) -> dict[str, Any]:
+def _locked(value: Any) -> Optional[dict[str, Any]]:
     """{joint: number | [numbers]} (in .npz: that object as a JSON string) -> a dict of floats / float lists."""
-    import json
-
-    from .errors import bad_input
-
     if value is None:
         return None
     if isinstance(value, str):  # .npz carries objects as JSON strings, like the simulation's torque spec
         try:
             value = json.loads(value)
         except json.JSONDecodeError:
-            raise bad_input("locked: not a JSON object {joint name: value}", "locked") from None
+            raise InvalidInput("locked: not a JSON object {joint name: value}", "locked") from None
     if not isinstance(value, dict):
-        raise bad_input(f"locked: expected an object {{joint name: value}}, got {type(value).__name__}", "locked")
+        raise InvalidInput(f"locked: expected an object {{joint name: value}}, got {type(value).__name__}", "locked")
     out: dict[str, Any] = {}
     for name, v in value.items():
-        where = f"locked[{name!r}]"
         if isinstance(v, (int, float)) and not isinstance(v, bool):
             out[name] = float(v)
         elif isinstance(v, (list, np.ndarray)) and all(
                 isinstance(x, (int, float, np.floating, np.integer)) and not isinstance(x, (bool, np.bool_))
                 for x in (v.tolist() if isinstance(v, np.ndarray) else v)):
             out[name] = [float(x) for x in v]
-            # (dynamics.lock_joints checks counts and finiteness, but a zero quaternion gives a NaN model)
-            if len(out[name]) == 7 and not any(out[name][3:]):
-                raise bad_input(f"{where}: the quaternion (qx, qy, qz, qw) is zero; the identity is [0, 0, 0, 1]",
-                                where)
         else:
-            raise bad_input(f"{where}: expected a number (1-dof joint) or a list of numbers (7 for a floating "
-                            f"joint: x, y, z, qx, qy, qz, qw), got {v!r:.60}", where)
+            where = f"locked[{name!r}]"
+            raise InvalidInput(f"{where}: expected a number (1-dof joint) or a list of numbers (7 for a floating "
+                               f"joint: x, y, z, qx, qy, qz, qw), got {v!r:.60}", where)
     return out
 
 
+def validate(schema: type[BaseModel], payload: dict[str, Any]) -> BaseModel:
+    """A decoded body -> the schema, or an InvalidInput whose message starts with the field at fault."""
+    try:
+        return schema.model_validate(payload)
+    except ValidationError as e:
+        err = e.errors(include_url=False)[0]
+        name = ".".join(str(p) for p in err["loc"]) or "body"
+        if err["type"] == "extra_forbidden":
+            allowed = ", ".join(schema.model_fields)
+            raise InvalidInput(f"{name}: unknown field; expected one of {allowed}", name) from None
+        if err["type"] == "union_tag_invalid":
+            ctx = err.get("ctx", {})
+            raise InvalidInput(f"{name}.type: {ctx.get('tag')!r} is not one of {ctx.get('expected_tags')}",
+                               f"{name}.type") from None
+        if err["type"] == "missing":
+            raise InvalidInput(f"{name}: missing (required)", name) from None
+        raise InvalidInput(f"{name}: {err['msg']}", name) from None
+
+
 Array = Annotated[Any, BeforeValidator(_array), WithJsonSchema(_STATE_SCHEMA)]
-Array3 = Annotated[Any, BeforeValidator(_array3), WithJsonSchema(
+Array3 = Annotated[Any, BeforeValidator(_array), WithJsonSchema(
     {"type": "array", "description": "(nbodies, 6) or (B, nbodies, 6): [force, torque] per body, body frame"})]
-Vec3 = Annotated[Any, BeforeValidator(_vec3), WithJsonSchema(
+Vec3 = Annotated[Any, BeforeValidator(_array), WithJsonSchema(
     {"type": "array", "items": {"type": "number"}, "minItems": 3, "maxItems": 3})]
 Locked = Annotated[Optional[dict[str, Any]], BeforeValidator(_locked), WithJsonSchema({
     "type": "object", "additionalProperties": {"anyOf": [{"type": "number"}, _NUMBERS]},
     "description": "joints held still at these positions (a number for a 1-dof joint, [x, y, z, qx, qy, qz, qw] "
                    "for a floating one); the other arrays are then those of the reduced model (its nq, nv and "
                    "joint order: GET the robot and drop the locked joints)"})]
-Gains = Annotated[Any, BeforeValidator(_gains), WithJsonSchema(
+Gains = Annotated[Any, BeforeValidator(_array), WithJsonSchema(
     {"anyOf": [{"type": "number"}, _NUMBERS], "description": "a number, or one per velocity coordinate"})]
 
 
@@ -310,3 +307,8 @@ class ErrorAnswer(BaseModel):
     detail: str = Field(description="what was wrong, starting with the field name: 'q: expected shape ...'")
     code: str
     field: Optional[str] = None
+
+
+class ReadyAnswer(BaseModel):
+    status: Literal["ready"]
+    warmup_seconds: float = Field(description="how long this process's warm-up took")

@@ -7,7 +7,9 @@ starts uvicorn. Defaults are safe for a public deployment on a small machine.
 
 from __future__ import annotations
 
+import logging
 import os
+import sys
 from dataclasses import dataclass, field, fields
 from pathlib import Path
 
@@ -63,6 +65,8 @@ class Settings:
     sim_workers: int = field(default_factory=lambda: max(1, min(2, os.cpu_count() or 1)))
     # API keys; empty = no authentication.
     api_keys: tuple[str, ...] = ()
+    # Level of the service's own log (logger "service", on stderr): the warm-up's progress is logged at "info".
+    log_level: str = "info"
 
     @classmethod
     def from_env(cls) -> "Settings":
@@ -84,6 +88,7 @@ class Settings:
             compute_threads=int(_env("COMPUTE_THREADS", str(defaults.compute_threads))),
             sim_workers=int(_env("SIM_WORKERS", str(defaults.sim_workers))),
             api_keys=keys,
+            log_level=_env("LOG_LEVEL", defaults.log_level),
         )
 
     @staticmethod
@@ -91,3 +96,14 @@ class Settings:
         """Field name -> environment variable, for the docs and ``--help``."""
         special = {"store_dir": "STORE", "robots_dir": "ROBOTS_DIR"}
         return {f.name: ENV_PREFIX + special.get(f.name, f.name.upper()) for f in fields(Settings)}
+
+
+def configure_logging(level: str) -> None:
+    """The service's log (logger ``service``) on stderr at ``level``, beside uvicorn's own; idempotent."""
+    logger = logging.getLogger("service")
+    if not logger.handlers:
+        handler = logging.StreamHandler(sys.stderr)
+        handler.setFormatter(logging.Formatter("%(asctime)s %(levelname)s %(name)s: %(message)s"))
+        logger.addHandler(handler)
+    number = logging.getLevelName(level.upper())  # uvicorn's "trace" is no logging level: debug then
+    logger.setLevel(number if isinstance(number, int) else logging.DEBUG)

@@ -1,4 +1,4 @@
-"""The robot store (durable, on disk) and the compiled-model cache (bounded, in memory).
+"""The robot store: uploaded robots durable on disk, bundled robots read-only.
 
 Store layout: one JSON file per uploaded robot, ``<store>/<id>.json``, holding the URDF text, the options it was
 loaded with, a hash of the uploader's key and a summary of the model. A file is written to a temporary name,
@@ -19,10 +19,9 @@ import re
 import tempfile
 import threading
 import time
-from collections import OrderedDict
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Callable, Hashable
+from typing import Any
 
 ID_PATTERN = re.compile(r"^[a-z0-9][a-z0-9._-]{0,63}$")
 _RECORD_VERSION = 1
@@ -160,48 +159,3 @@ class RobotStore:
             return False
         _fsync_dir(self.dir)
         return True
-
-
-class ModelCache:
-    """A bounded least-recently-used map of compiled models, shared by the threads of one process.
-
-    Keys are ``(robot id, locked joints)``: ``()`` for the robot as uploaded, the canonical locked set of a
-    request (:func:`service.compute.locked_key`) for a reduced model, so each locked set is built once and
-    evicted like any robot. Loading happens outside the lock: two threads missing the same key at
-    once both load (harmless: models are immutable) rather than one waiting on the other's lock.
-    """
-
-    def __init__(self, size: int):
-        self.size = max(1, int(size))
-        self._items: OrderedDict[Hashable, Any] = OrderedDict()
-        self._lock = threading.Lock()
-        self.hits = 0
-        self.misses = 0
-
-    def get_or_load(self, key: Hashable, load: Callable[[], Any]) -> Any:
-        with self._lock:
-            if key in self._items:
-                self._items.move_to_end(key)
-                self.hits += 1
-                return self._items[key]
-            self.misses += 1
-        value = load()
-        with self._lock:
-            self._items[key] = value
-            self._items.move_to_end(key)
-            while len(self._items) > self.size:
-                self._items.popitem(last=False)
-        return value
-
-    def peek(self, key: Hashable) -> Any:
-        """The cached value or None, without loading and without touching the recency order."""
-        with self._lock:
-            return self._items.get(key)
-
-    def discard(self, robot: str) -> None:
-        with self._lock:
-            for key in [k for k in self._items if (k[0] if isinstance(k, tuple) else k) == robot]:
-                del self._items[key]
-
-    def __len__(self) -> int:
-        return len(self._items)

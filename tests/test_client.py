@@ -10,7 +10,7 @@ import pytest
 
 import dynamics
 from service.client import Client, ServiceError, Trajectory
-from service_fixtures import ROBOTS, free_port, shared_server, while_simulation_starts
+from support.server import ROBOTS, free_port, shared_server, while_simulation_starts
 
 
 @pytest.fixture(scope="module")
@@ -146,7 +146,7 @@ def _worker_pids(parent: int) -> list[int]:
                     cmd = f.read()
             except OSError:
                 continue
-            if int(fields[1]) == parent and b"service.simworker" in cmd:
+            if int(fields[1]) == parent and b"service.sim.worker" in cmd:
                 pids.append(int(entry))
     return pids
 

@@ -15,6 +15,7 @@ import shutil
 import subprocess
 import sys
 import sysconfig
+import time
 from pathlib import Path
 
 import httpx
@@ -22,7 +23,7 @@ import numpy as np
 import pytest
 
 import dynamics
-from service_fixtures import REPO, Server
+from support.server import REPO, Server
 
 DOCKERFILE = REPO / "Dockerfile"
 
@@ -123,8 +124,6 @@ def test_image_steps_in_a_fresh_venv(tmp_path):
 
 
 def _wait_healthy(server: Server, timeout: float = 120.0) -> None:
-    import time
-
     end = time.monotonic() + timeout
     while time.monotonic() < end:
         if server.proc.poll() is not None:

@@ -20,8 +20,7 @@ import dynamics
 from service.app import create_app
 from service.client import Client, ServiceError
 from service.settings import Settings
-from service.simjob import simulate_function
-from service_fixtures import ROBOTS, shared_server, while_simulation_starts
+from support.server import ROBOTS, shared_server, while_simulation_starts
 
 PUMA_LOCK = {"joint2": 0.3, "joint5": -0.2}
 
@@ -243,7 +242,7 @@ def test_reduced_models_are_built_once_per_locked_set(app_client, monkeypatch):
         return real(model, values)
 
     monkeypatch.setattr(dynamics, "lock_joints", counting)
-    cache = app_client.app.state.services.compute.cache
+    cache = app_client.app.state.deps.models.cache
     body = {"q": [0.1] * 4, "v": [0.2] * 4, "a": [0.3] * 4}
     # the same set twice, written differently (order, number or 1-list, -0.0): one lock_joints call
     for locked in ({"joint3": 0.7, "joint4": -0.0}, {"joint4": [0.0], "joint3": 0.7}):
@@ -309,11 +308,10 @@ def test_simulate_with_locked_joints(client, puma):
     q0 = np.array([0.1, 0.2, -0.3, 0.4])
     traj = robot.simulate(q0, np.zeros(4), 0.2, locked=PUMA_LOCK, sample_dt=0.1)
     assert robot.last_scene["skipped"] == [] and traj.report["status"] == "ok"
-    simulate = simulate_function()
-    if simulate is not None:  # the worker ran the library on the same reduced model
-        local = simulate(dynamics.lock_joints(puma, PUMA_LOCK), q0, np.zeros(4), 0.2, sample_dt=0.1,
-                         max_steps=1_000_000)
-        assert np.array_equal(traj.q, local.q)
+    # the worker ran the library on the same reduced model
+    local = dynamics.simulate(dynamics.lock_joints(puma, PUMA_LOCK), q0, np.zeros(4), 0.2, sample_dt=0.1,
+                              max_steps=1_000_000)
+    assert np.array_equal(traj.q, local.q)
     for locked, field in [({"joint9": 0.0}, "locked"), ({"joint2": [1, 2]}, "locked['joint2']")]:
         with pytest.raises(ServiceError) as e:
             robot.simulate(np.zeros(4), np.zeros(4), 0.1, locked=locked)

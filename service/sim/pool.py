@@ -1,14 +1,15 @@
 """A small pool of simulation worker processes that can be killed when a request runs out of time.
 
 ``concurrent.futures.ProcessPoolExecutor`` cannot stop one running task, so each worker here is a plain child
-process (``python -m service.simworker``) talking over a socket pair with :mod:`multiprocessing.connection`.
+process (``python -m service.sim.worker``) talking over a socket pair with :mod:`multiprocessing.connection`.
 A request takes an idle worker, sends its job and waits at most until its deadline; past it the worker is
 killed (SIGKILL: the simulation holds no resource worth a clean exit) and a fresh one is started in its place,
 so a runaway simulation never keeps a core busy after its answer (504) has left.
 
 A new worker imports the library and runs one tiny simulation (numba compiles the integrator, or loads it
 from its on-disk cache) before it says "ready"; only ready workers take jobs. So a request budget never kills
-a compilation (which would then never finish), and while no worker is ready the answer is a quick 503.
+a compilation (which would then never finish). :attr:`SimPool.ready` is set once the first worker is ready:
+the end of the service's warm-up (see :mod:`service.warmup`).
 
 Plain ``subprocess`` rather than ``multiprocessing.Process``: no re-import of ``__main__``, no fork of a process
 that runs an event loop and threads, and it works inside uvicorn's own worker processes.
@@ -41,11 +42,7 @@ class PoolTimeout(Exception):
 
 
 class PoolBusy(Exception):
-    """No worker became free (or ready, when ``starting``) before the deadline."""
-
-    def __init__(self, message: str, starting: bool):
-        super().__init__(message)
-        self.starting = starting
+    """No worker became free before the deadline."""
 
 
 class _Worker:
@@ -53,13 +50,14 @@ class _Worker:
         parent, child = socket.socketpair()
         try:
             self.proc = subprocess.Popen(
-                [sys.executable, "-m", "service.simworker", str(child.fileno())],
+                [sys.executable, "-m", "service.sim.worker", str(child.fileno())],
                 pass_fds=(child.fileno(),), stdin=subprocess.DEVNULL, close_fds=True,
             )
         finally:
             child.close()
         self.conn = Connection(parent.detach())
         self.jobs = 0
+        self.started = time.monotonic()
 
     def kill(self) -> None:
         try:
@@ -81,7 +79,7 @@ class SimPool:
         self._all: set[_Worker] = set()
         self._lock = threading.Lock()
         self._closed = False
-        self.ready_once = False
+        self.ready = threading.Event()  # set when the first worker is ready, and stays set
         self.killed = 0
         for _ in range(self.size):
             self._spawn()
@@ -100,7 +98,8 @@ class SimPool:
         except (EOFError, OSError):
             ok = False
         if ok and not self._closed:
-            self.ready_once = True
+            log.debug("simulation worker %s ready after %.1f s", w.proc.pid, time.monotonic() - w.started)
+            self.ready.set()
             self._idle.put(w)
             return
         if not self._closed:
@@ -119,6 +118,10 @@ class SimPool:
         self._retire(w)
         self._spawn()
 
+    def wait_ready(self, timeout: float | None = None) -> bool:
+        """Wait until a worker was ready once (at most ``timeout`` seconds); whether one was."""
+        return self.ready.wait(timeout)
+
     def pids(self) -> list[int]:
         with self._lock:
             return [w.proc.pid for w in self._all]
@@ -128,9 +131,7 @@ class SimPool:
             try:
                 w = self._idle.get(timeout=max(0.0, deadline - time.monotonic()))
             except queue.Empty:
-                if not self.ready_once:
-                    raise PoolBusy("the simulation workers are still starting (compiling)", True) from None
-                raise PoolBusy("every simulation worker stayed busy until the deadline", False) from None
+                raise PoolBusy("every simulation worker stayed busy until the deadline") from None
             if w.proc.poll() is None:
                 break
             self._replace(w)  # died while idle (killed from outside, out of memory): take another

@@ -2,6 +2,8 @@
 
 Not a conftest: the test modules import what they need. One default server is shared by every module of the
 session (:func:`shared_server`), because each start imports numba and loads the compiled kernels (seconds).
+:meth:`Server.start` returns once the server's warm-up is over (``/v1/ready``), so that no test races the
+compilation (a test of the warm-up itself passes ``ready=False``).
 """
 
 from __future__ import annotations
@@ -16,8 +18,11 @@ import time
 from pathlib import Path
 
 import httpx
+import pytest
 
-REPO = Path(__file__).resolve().parent.parent
+from service.client import ServiceError
+
+REPO = Path(__file__).resolve().parents[2]
 ROBOTS = REPO / "robots"
 PYTHON = sys.executable
 
@@ -44,7 +49,8 @@ class Server:
         self.proc: subprocess.Popen | None = None
         self.log = self.cwd / f"server-{self.port}.log"
 
-    def start(self, timeout: float = 120.0) -> "Server":
+    def start(self, timeout: float = 600.0, ready: bool = True) -> "Server":
+        """Start the process; return once it answers ``/v1/ready`` (``ready``) or ``/v1/health`` with 200."""
         self.cwd.mkdir(parents=True, exist_ok=True)
         with open(self.log, "ab") as log:
             self.proc = subprocess.Popen(
@@ -56,7 +62,7 @@ class Server:
             if self.proc.poll() is not None:
                 raise RuntimeError(f"server exited with {self.proc.returncode}:\n{self.log.read_text()[-3000:]}")
             try:
-                if httpx.get(self.url + "/v1/health", timeout=1.0).status_code == 200:
+                if httpx.get(self.url + ("/v1/ready" if ready else "/v1/health"), timeout=1.0).status_code == 200:
                     return self
             except httpx.TransportError:
                 pass
@@ -104,16 +110,13 @@ def shared_server(tmp_root: Path) -> Server:
 
 
 def while_simulation_starts(call, timeout: float = 300.0):
-    """Run ``call()`` (a simulate request) until the server's simulation worker has started.
+    """Run ``call()`` (a simulate request) until a simulation worker is there to take it.
 
-    The worker compiles the integrator when it starts (503 until then), and a request's time budget counts
-    its wait for a worker too, so the request queued while the worker finishes compiling can still run out
-    of budget (504) once it gets it: both are retried.  501 (no simulate in this build) skips the test.
+    A worker killed past a budget is replaced by one that loads the compiled integrator before it takes jobs
+    (503 until then), and a request's time budget counts its wait for a worker too, so a request queued
+    meanwhile can still run out of budget (504) once it gets one: both are retried.  501 (simulation off on
+    this server) skips the test.
     """
-    import pytest
-
-    from service.client import ServiceError
-
     end = time.monotonic() + timeout
     while True:
         try:

@@ -1,0 +1,26 @@
+"""The server's one door to the ``dynamics`` library, which it imports in the background.
+
+The server must answer ``/v1/health`` the moment it starts, but importing the library (numba, and on an empty
+numba cache compiling its checks) takes seconds. So no module of the server imports ``dynamics`` at its top:
+they call :func:`lib` where they use it. The warm-up imports the library first, in a thread (stage 1, see
+:mod:`service.warmup`); a request that needs it earlier waits in its worker thread on Python's import lock,
+never on the event loop. Attributes are looked up at each call (``lib().lock_joints``), so a test may replace
+one with ``monkeypatch``.
+
+Only the public API is used: ``dynamics.*``, ``dynamics.torques``, ``dynamics.parallel.deadline``.
+"""
+
+from __future__ import annotations
+
+import importlib
+from types import ModuleType
+
+
+def lib() -> ModuleType:
+    """The ``dynamics`` package (imported on first use; a dictionary look-up afterwards)."""
+    return importlib.import_module("dynamics")
+
+
+def parallel() -> ModuleType:
+    """``dynamics.parallel``: batches over threads, and the deadline their chunks check."""
+    return importlib.import_module("dynamics.parallel")

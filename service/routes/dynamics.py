@@ -1,0 +1,62 @@
+"""The five dynamics operations: ``POST /v1/robots/{id}/<operation>`` with one state or a batch.
+
+Request bodies are read by :func:`service.codec.read_body` (size limit enforced while reading) and decoded in a
+compute thread together with the computation, so that neither parsing megabytes of JSON nor the numbers block
+the event loop; a tiny request whose kernel is compiled and model cached runs on the loop (a thread hop would
+cost more than the work).
+"""
+
+from __future__ import annotations
+
+from typing import Optional
+
+from fastapi import APIRouter, Request
+from pydantic import BaseModel
+from starlette.responses import Response
+
+from .. import schemas
+from ..codec import decode, encode, read_body
+from ..compute import INLINE_BYTES, OPERATIONS, Budget, Operation
+from ..deps import Deps, budget
+from . import ERRORS, body_doc
+
+#: URL segment -> (request schema, answer schema, summary); the operation itself is service.compute.OPERATIONS'
+ROUTES: dict[str, tuple[type[BaseModel], type[BaseModel], str]] = {
+    "inverse-dynamics": (schemas.InverseDynamicsRequest, schemas.TauAnswer, "tau = ID(q, v, a) by RNEA"),
+    "forward-dynamics": (schemas.ForwardDynamicsRequest, schemas.AccelerationAnswer, "a = FD(q, v, tau) by ABA"),
+    "mass-matrix": (schemas.MassMatrixRequest, schemas.MassMatrixAnswer, "M(q) by CRBA"),
+    "gravity-torques": (schemas.GravityTorquesRequest, schemas.TauAnswer, "g(q) = ID(q, 0, 0)"),
+    "bias-forces": (schemas.BiasForcesRequest, schemas.TauAnswer, "h(q, v) = ID(q, v, 0)"),
+}
+
+router = APIRouter(prefix="/v1")
+
+
+def _route(op: Operation, schema: type[BaseModel]):
+    async def route(robot_id: str, request: Request) -> Response:
+        d: Deps = request.app.state.deps  # (not Depends: it costs ~50 us on the hottest path)
+        within = budget(request)
+        body = await read_body(request, d.settings.max_body_bytes)
+        content_type, accept = request.headers.get("content-type"), request.headers.get("accept")
+        if len(body) <= INLINE_BYTES:
+            args = dict(schemas.validate(schema, decode(body, content_type, max_unpacked=INLINE_BYTES)))
+            if d.compute.can_inline(op, robot_id, args):
+                return encode(d.compute.dynamics(op, robot_id, args, within), accept)
+            return encode(await d.compute.run(d.compute.dynamics, op, robot_id, args, within), accept)
+        return await d.compute.run(_answer, d, op, schema, robot_id, body, content_type, accept, within)
+
+    route.__name__ = op.function
+    return route
+
+
+def _answer(d: Deps, op: Operation, schema: type[BaseModel], robot_id: str, body: bytes,
+            content_type: Optional[str], accept: Optional[str], within: Budget) -> Response:
+    """In a compute thread: decode, compute (within the budget), encode."""
+    args = dict(schemas.validate(schema, decode(body, content_type, max_unpacked=8 * d.settings.max_body_bytes)))
+    return encode(d.compute.dynamics(op, robot_id, args, within), accept)
+
+
+for _segment, (_schema, _answer_schema, _summary) in ROUTES.items():
+    router.add_api_route(f"/robots/{{robot_id}}/{_segment}", _route(OPERATIONS[_segment], _schema), methods=["POST"],
+                         response_model=_answer_schema, responses=ERRORS, openapi_extra=body_doc(_schema),
+                         summary=_summary)

@@ -1,0 +1,43 @@
+"""``POST /v1/robots/{id}/simulate``: a trajectory from (q0, v0), computed in a worker process within the budget."""
+
+from __future__ import annotations
+
+import json
+from typing import Any, Optional
+
+from fastapi import APIRouter, Depends, Request
+from starlette.responses import Response
+
+from .. import schemas
+from ..codec import decode, encode, read_body
+from ..compute import Budget
+from ..deps import Deps, budget, deps
+from ..errors import InvalidInput
+from ..sim.job import Job
+from . import ERRORS, body_doc
+
+router = APIRouter(prefix="/v1")
+
+
+@router.post("/robots/{robot_id}/simulate", response_model=schemas.TrajectoryAnswer,
+             responses={**ERRORS, 501: {"model": schemas.ErrorAnswer}, 503: {"model": schemas.ErrorAnswer}},
+             openapi_extra=body_doc(schemas.SimulateRequest),
+             summary="simulate from (q0, v0) for a duration under a torque law; runs in a worker process")
+async def simulate(robot_id: str, request: Request, d: Deps = Depends(deps),
+                   within: Budget = Depends(budget)) -> Response:
+    body = await read_body(request, d.settings.max_body_bytes)
+    job, scene = await d.compute.run(_job, d, robot_id, body, request.headers.get("content-type"))
+    trajectory = await d.compute.simulate(job, within)
+    return await d.compute.run(encode, {**trajectory, "scene": scene}, request.headers.get("accept"))
+
+
+def _job(d: Deps, robot_id: str, body: bytes, content_type: Optional[str]) -> tuple[Job, dict[str, Any]]:
+    """In a compute thread: decode the request, then the job and the scene of its answer."""
+    d.compute.require_simulation()
+    payload = decode(body, content_type, max_unpacked=8 * d.settings.max_body_bytes)
+    if isinstance(payload.get("torque"), str):  # in .npz the torque spec travels as a JSON string
+        try:
+            payload["torque"] = json.loads(payload["torque"])
+        except json.JSONDecodeError:
+            raise InvalidInput("torque: not a JSON object", "torque") from None
+    return d.compute.simulation_job(robot_id, schemas.validate(schemas.SimulateRequest, payload))

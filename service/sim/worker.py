@@ -1,0 +1,130 @@
+"""The simulation worker process: ``python -m service.sim.worker FD`` (started by :mod:`service.sim.pool`).
+
+It compiles the simulation kernels first (:func:`warm_up`: a tiny simulation per torque kind), says "ready", then
+reads :class:`~service.sim.job.Job` records from the connection on file descriptor FD, runs ``dynamics.simulate``
+and sends an :class:`~service.sim.job.Outcome` back. Models are cached per worker by robot id and locked set, as
+in the server. A library error becomes ``input_error`` (the server answers 422 naming the field); the process
+only ends when its connection closes or the server kills it.
+
+The HTTP torque spec (``{"type": "zero" | "constant" | "table" | "pd" | "computed_torque", ...}``) is turned into
+the library's torque objects here (:func:`build_torque`), so that the server needs no numeric code for it.
+"""
+
+from __future__ import annotations
+
+import math
+import sys
+import traceback
+from multiprocessing.connection import Connection
+from typing import Any
+
+import numpy as np
+
+from ..errors import InvalidInput
+from ..library import lib
+from ..models import ModelCache, load_model, reduce_model
+from ..warmup import WARMUP_URDF
+from .job import Job, Outcome
+
+
+def build_torque(spec: dict[str, Any] | None):
+    """The HTTP torque spec -> the ``torque=`` argument of dynamics.simulate (see dynamics.torques).
+
+    The library checks shapes and signs and names the field ("torque.kp: expected shape (6,), got (5,)").
+    """
+    torques = lib().torques
+    kind = None if spec is None else spec["type"]
+    if kind is None or kind == "zero":
+        return None
+    if kind == "constant":
+        return spec["tau"]
+    if kind == "table":
+        return torques.Table(spec["t"], spec["tau"], hold=spec.get("hold", "linear"))
+    if kind == "pd":
+        return torques.PD(spec["q_target"], spec["kp"], spec["kd"], v_target=spec.get("v_target"),
+                          tau_ff=spec.get("tau_ff"))
+    if kind == "computed_torque":
+        return torques.ComputedTorque(spec["t"], spec["q"], spec["v"], spec["a"], spec["kp"], spec["kd"])
+    raise InvalidInput(f"torque.type: unknown torque type {kind!r}", "torque.type")
+
+
+def finite_report(obj: Any) -> Any:
+    """JSON has no NaN or infinity: such numbers in the report become null."""
+    if isinstance(obj, dict):
+        return {str(k): finite_report(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [finite_report(v) for v in obj]
+    if isinstance(obj, np.ndarray):
+        return finite_report(obj.tolist())
+    if isinstance(obj, (np.floating, float)):
+        return float(obj) if math.isfinite(obj) else None
+    if isinstance(obj, np.integer):
+        return int(obj)
+    if isinstance(obj, np.bool_):
+        return bool(obj)
+    if obj is None or isinstance(obj, (str, int, bool)):
+        return obj
+    return str(obj)
+
+
+def simulate(model, job: Job) -> dict[str, Any]:
+    options = dict(job.options)
+    torque = build_torque(job.torque)
+    if torque is not None:
+        options["torque"] = torque
+    # The step budget is the service's: a runaway adaptive run ends in a clear "max_steps: ..." 422 rather than
+    # in the time budget's 504.
+    traj = lib().simulate(model, job.q0, job.v0, job.duration, max_steps=job.max_steps, **options)
+    out = {name: np.asarray(getattr(traj, name)) for name in ("t", "q", "v", "tau")}
+    out["report"] = finite_report(dict(traj.report or {}))
+    return out
+
+
+def handle(job: Job, cache: ModelCache) -> Outcome:
+    try:
+        model = cache.get_or_load((job.robot_id, ()), lambda: load_model(job.urdf, job.floating_base))
+        if job.locked:
+            full = model
+            model = cache.get_or_load((job.robot_id, job.locked), lambda: reduce_model(full, job.locked))
+        return Outcome(trajectory=simulate(model, job))
+    except InvalidInput as e:  # our own reading of the request (a URDF refused, an unknown torque type)
+        return Outcome(input_error=e.detail)
+    except ValueError as e:  # the library's InputError, URDFError, DynamicsError: the message names the field
+        return Outcome(input_error=str(e))
+    except Exception as e:  # noqa: BLE001 - reported to the server, which answers 500
+        traceback.print_exc()
+        return Outcome(error=f"{type(e).__name__}: {e}")
+
+
+def warm_up() -> None:
+    """One tiny simulation per torque kind: numba compiles the integration loop (or loads it from its cache)."""
+    model = load_model(WARMUP_URDF, floating_base=False)
+    for spec in ({"type": "zero"}, {"type": "pd", "q_target": np.zeros(1), "kp": 1.0, "kd": 1.0}):
+        lib().simulate(model, np.array([0.1]), np.zeros(1), 0.01, torque=build_torque(spec))
+
+
+def main(fd: int) -> None:
+    conn = Connection(fd)
+    cache = ModelCache(16)
+    for attempt in range(2):  # before "ready": no request's time budget ever runs into a compilation
+        try:
+            warm_up()
+            break
+        except Exception:  # noqa: BLE001 - once more (e.g. a cache file being written by another process),
+            traceback.print_exc()  # then the first job reports the real problem
+    try:
+        conn.send("ready")
+    except OSError:
+        return
+    while True:
+        try:
+            job = conn.recv()
+        except (EOFError, OSError):
+            return
+        if job is None:
+            return
+        conn.send(handle(job, cache))
+
+
+if __name__ == "__main__":
+    main(int(sys.argv[1]))
