@@ -173,9 +173,18 @@ class Compute:
         return batch
 
     # -- simulation ------------------------------------------------------------------------------------------
-    def require_simulation(self) -> None:
+    async def await_workers(self, budget: Budget) -> None:
+        """Return once a simulation worker has compiled (at once after the warm-up); if none has within
+        ``budget``, a 503 saying how long the warm-up has run and should still take. Before the request is
+        decoded: during the warm-up, nothing else of it would wait for less."""
         if self.pool is None:
             raise NotOffered("simulate: not available on this server (DYNAMICS_SIM_WORKERS=0)")
+        if self.pool.ready.is_set():
+            return
+        loop = asyncio.get_running_loop()
+        if not await loop.run_in_executor(self.waiters, self.pool.wait_ready, budget.left()):
+            raise Unavailable(f"simulate: {self.warmup.status()}; retry then", code="starting",
+                              headers={"Retry-After": str(self.warmup.retry_after())})
 
     def simulation_job(self, rid: str, req: SimulateRequest) -> tuple[Job, dict[str, Any]]:
         """The job for a simulation worker, and the scene of its answer. An unknown robot (404) and a bad locked
@@ -190,9 +199,6 @@ class Compute:
         return await asyncio.get_running_loop().run_in_executor(self.waiters, self._simulate, job, budget)
 
     def _simulate(self, job: Job, budget: Budget) -> dict[str, Any]:
-        if not self.pool.wait_ready(budget.left()):
-            raise Unavailable(f"simulate: {self.warmup.status()}; retry then", code="starting",
-                              headers={"Retry-After": str(self.warmup.retry_after())})
         try:
             outcome = self.pool.run(job, budget.deadline)
         except PoolTimeout:

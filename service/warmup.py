@@ -121,22 +121,24 @@ class Warmup:
         """One sentence for a 503: the stage, the seconds so far, the seconds left and where that estimate comes
         from."""
         if self.done:
-            return f"the service finished warming up in {self.seconds:.0f} s"
-        elapsed = self.elapsed()
+            return f"the service finished warming up in {_seconds(self.seconds)} s"
         stage = f"{self.stages[self.current].name} ({self._stage_number()})" if self.stages else "starting"
-        basis = (f"the last start took {self.expected:.0f} s" if self.expected is not None else
+        basis = (f"the last start took {_seconds(self.expected)} s" if self.expected is not None else
                  "a guess: no earlier start is recorded here")
+        so_far = f"the service has been warming up for {_seconds(self.elapsed())} s, now {stage}"
         left = self.remaining()
         if left <= 0:
-            return (f"the service has been warming up for {elapsed:.0f} s, now {stage}; this is longer than "
-                    f"expected ({basis}), it should be ready shortly")
-        return (f"the service has been warming up for {elapsed:.0f} s, now {stage}; it should be ready in about "
-                f"{left:.0f} s ({basis})")
+            return f"{so_far}; this is longer than expected ({basis}), it should be ready shortly"
+        return f"{so_far}; it should be ready in about {_seconds(left)} s ({basis})"
 
     def retry_after(self) -> int:
         """Seconds for a Retry-After header: the estimate, within [1, 60], or 5 once past it."""
         left = self.remaining()
         return 5 if left <= 0 else int(min(60, max(1, math.ceil(left))))
+
+
+def _seconds(x: float) -> str:
+    return f"{x:.1f}" if x < 10 else f"{x:.0f}"
 
 
 def _read_seconds(path: Optional[Path]) -> Optional[float]:

@@ -26,6 +26,7 @@ router = APIRouter(prefix="/v1")
 async def simulate(robot_id: str, request: Request, d: Deps = Depends(deps),
                    within: Budget = Depends(budget)) -> Response:
     body = await read_body(request, d.settings.max_body_bytes)
+    await d.compute.await_workers(within)
     job, scene = await d.compute.run(_job, d, robot_id, body, request.headers.get("content-type"))
     trajectory = await d.compute.simulate(job, within)
     return await d.compute.run(encode, {**trajectory, "scene": scene}, request.headers.get("accept"))
@@ -33,7 +34,6 @@ async def simulate(robot_id: str, request: Request, d: Deps = Depends(deps),
 
 def _job(d: Deps, robot_id: str, body: bytes, content_type: Optional[str]) -> tuple[Job, dict[str, Any]]:
     """In a compute thread: decode the request, then the job and the scene of its answer."""
-    d.compute.require_simulation()
     payload = decode(body, content_type, max_unpacked=8 * d.settings.max_body_bytes)
     if isinstance(payload.get("torque"), str):  # in .npz the torque spec travels as a JSON string
         try:

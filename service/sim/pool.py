@@ -135,6 +135,9 @@ class SimPool:
             if w.proc.poll() is None:
                 break
             self._replace(w)  # died while idle (killed from outside, out of memory): take another
+        if time.monotonic() > deadline:  # no time left for the job: the worker stays, idle
+            self._idle.put(w)
+            raise PoolTimeout("the deadline passed before the simulation could start")
         try:
             w.conn.send(job)
             if not w.conn.poll(max(0.0, deadline - time.monotonic())):
