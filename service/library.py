@@ -15,10 +15,15 @@ from __future__ import annotations
 import importlib
 from types import ModuleType
 
+_dynamics: ModuleType | None = None  # set once the import has completed (a module being imported is not)
+
 
 def lib() -> ModuleType:
-    """The ``dynamics`` package (imported on first use; a dictionary look-up afterwards)."""
-    return importlib.import_module("dynamics")
+    """The ``dynamics`` package: imported on first use (waiting for an import under way in another thread)."""
+    global _dynamics
+    if _dynamics is None:
+        _dynamics = importlib.import_module("dynamics")
+    return _dynamics
 
 
 def parallel() -> ModuleType:
