@@ -10,6 +10,11 @@ that the load of a shared machine falls on both alike:
   answer into a numpy array), in JSON and in `.npz`, as ratios to the library call on the same batch and to
   the trivial endpoint.
 
+Then (issue 8) the start of a server with one simulation worker: seconds until the first `/v1/health` answer,
+until the warm-up is over (`/v1/ready`), and until a simulate request sent right after the first health answer
+is answered (it waits for the warm-up within its budget, set to 600 s here). On the numba cache as it is, and
+with `--cold` also on an empty one (a fresh `NUMBA_CACHE_DIR`: minutes of compilation).
+
 Targets (issue 4): single-state p50 at most 1.5x the trivial endpoint's; the 10,000-state `.npz` batch at most
 2x the library time + 10 ms. Batch timings are the best of --repeat runs (the machine is shared: the minimum
 is the least disturbed run); latencies are percentiles over --n sequential requests after a warm-up. The
@@ -27,10 +32,13 @@ import subprocess
 import sys
 import tempfile
 import time
+from dataclasses import dataclass
 from pathlib import Path
 
 import httpx
 import numpy as np
+
+import dynamics
 
 REPO = Path(__file__).resolve().parent.parent
 NPZ = "application/x-npz"
@@ -42,23 +50,43 @@ def free_port() -> int:
         return s.getsockname()[1]
 
 
-def start_server(store: Path) -> tuple[subprocess.Popen, str]:
+@dataclass
+class Started:
+    proc: subprocess.Popen
+    url: str
+    t0: float          # time.monotonic() when the process was started
+    health: float      # seconds from t0 to the first /v1/health answer
+
+
+def start_server(store: Path, env: dict[str, str]) -> Started:
     port = free_port()
-    env = {**os.environ, "DYNAMICS_SIM_WORKERS": "0"}
+    env = {**os.environ, **env}
     if "DYNAMICS_ROBOTS_DIR" not in env and (REPO / "robots").is_dir():
         env["DYNAMICS_ROBOTS_DIR"] = str(REPO / "robots")
+    t0 = time.monotonic()
     proc = subprocess.Popen([sys.executable, "-m", "service", "--host", "127.0.0.1", "--port", str(port),
                              "--store", str(store), "--log-level", "warning"], env=env, start_new_session=True)
     url = f"http://127.0.0.1:{port}"
-    end = time.monotonic() + 120
-    while time.monotonic() < end:
-        try:
-            if httpx.get(url + "/v1/health", timeout=1).status_code == 200:
-                return proc, url
-        except httpx.TransportError:
-            time.sleep(0.1)
+    if wait_for(url + "/v1/health", t0 + 120):
+        return Started(proc, url, t0, time.monotonic() - t0)
     proc.kill()
     raise SystemExit("the service did not start")
+
+
+def wait_for(url: str, deadline: float) -> bool:
+    while time.monotonic() < deadline:
+        try:
+            if httpx.get(url, timeout=1).status_code == 200:
+                return True
+        except httpx.TransportError:
+            pass
+        time.sleep(0.05)
+    return False
+
+
+def stop(server: Started) -> None:
+    server.proc.terminate()
+    server.proc.wait(15)
 
 
 def latencies(fn, n: int) -> np.ndarray:
@@ -85,90 +113,87 @@ def npz_bytes(**arrays) -> bytes:
     return buf.getvalue()
 
 
-def main(argv=None) -> int:
-    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    p.add_argument("--robot", default="puma560", help="bundled robot (default puma560)")
-    p.add_argument("--n", type=int, default=2000, help="single-state requests per endpoint")
-    p.add_argument("--batch", type=int, default=10_000)
-    p.add_argument("--repeat", type=int, default=7)
-    args = p.parse_args(argv)
+def ms(x: float) -> str:
+    return f"{x * 1e3:.3f}"
 
-    import dynamics
 
-    model = dynamics.load_urdf(str(REPO / "robots" / f"{args.robot.replace('-', '_')}.urdf"))
-    rid = args.robot.replace("_", "-")
+def start_row(label: str, cache_dir: Path | None) -> str:
+    """Start a server with one simulation worker (``cache_dir``: a fresh numba cache); its start-up times."""
+    env = {"DYNAMICS_SIM_WORKERS": "1", "DYNAMICS_TIME_BUDGET": "600"}
+    if cache_dir is not None:
+        env["NUMBA_CACHE_DIR"] = str(cache_dir)
+    with tempfile.TemporaryDirectory() as tmp:
+        server = start_server(Path(tmp) / "store", env)
+        try:
+            r = httpx.post(server.url + "/v1/robots/planar-2r/simulate", timeout=900,
+                           json={"q0": [0.3, -0.2], "v0": [0.0, 0.0], "duration": 0.1})
+            assert r.status_code == 200, r.text
+            simulated = time.monotonic() - server.t0
+            assert wait_for(server.url + "/v1/ready", time.monotonic() + 900)
+            ready = httpx.get(server.url + "/v1/ready").json()["warmup_seconds"]
+        finally:
+            stop(server)
+    return f"| {label} | {server.health:.2f} | {ready:.1f} | {simulated:.1f} |"
+
+
+def request_rows(args, model, rid: str, url: str) -> list[str]:
+    """Single-state and batched inverse dynamics through HTTP, next to the trivial endpoint and the library."""
     rng = np.random.default_rng(0)
     q1, v1, a1 = rng.uniform(-1, 1, (3, model.nq))
     qb, vb, ab = rng.uniform(-1, 1, (3, args.batch, model.nq))
+    path = f"/v1/robots/{rid}/inverse-dynamics"
+    with httpx.Client(base_url=url, timeout=120) as http:
+        single_body = json.dumps({"q": q1.tolist(), "v": v1.tolist(), "a": a1.tolist()}).encode()
+        headers = {"Content-Type": "application/json"}
 
-    with tempfile.TemporaryDirectory() as tmp:
-        proc, url = start_server(Path(tmp) / "store")
-        try:
-            with httpx.Client(base_url=url, timeout=120) as http:
-                single_body = json.dumps({"q": q1.tolist(), "v": v1.tolist(), "a": a1.tolist()}).encode()
-                headers = {"Content-Type": "application/json"}
-                path = f"/v1/robots/{rid}/inverse-dynamics"
+        def trivial():
+            assert http.get("/v1/health").status_code == 200
 
-                def trivial():
-                    r = http.get("/v1/health")
-                    assert r.status_code == 200
+        def single():
+            r = http.post(path, content=single_body, headers=headers)
+            assert r.status_code == 200, r.text
+            return np.asarray(r.json()["tau"])
 
-                def single():
-                    r = http.post(path, content=single_body, headers=headers)
-                    assert r.status_code == 200, r.text
-                    return np.asarray(r.json()["tau"])
+        def batch_json():
+            body = json.dumps({"q": qb.tolist(), "v": vb.tolist(), "a": ab.tolist()}).encode()
+            r = http.post(path, content=body, headers=headers)
+            assert r.status_code == 200, r.text
+            return np.asarray(r.json()["tau"])
 
-                assert np.array_equal(single(), dynamics.inverse_dynamics(model, q1, v1, a1))
+        def batch_npz():
+            r = http.post(path, content=npz_bytes(q=qb, v=vb, a=ab), headers={"Content-Type": NPZ, "Accept": NPZ})
+            assert r.status_code == 200, r.text
+            with np.load(io.BytesIO(r.content), allow_pickle=False) as z:
+                return z["tau"]
 
-                def batch_json():
-                    body = json.dumps({"q": qb.tolist(), "v": vb.tolist(), "a": ab.tolist()}).encode()
-                    r = http.post(path, content=body, headers=headers)
-                    assert r.status_code == 200, r.text
-                    return np.asarray(r.json()["tau"])
-
-                def batch_npz():
-                    r = http.post(path, content=npz_bytes(q=qb, v=vb, a=ab),
-                                  headers={"Content-Type": NPZ, "Accept": NPZ})
-                    assert r.status_code == 200, r.text
-                    with np.load(io.BytesIO(r.content), allow_pickle=False) as z:
-                        return z["tau"]
-
-                ref = dynamics.inverse_dynamics(model, qb, vb, ab)
-                assert np.array_equal(batch_json(), ref) and np.array_equal(batch_npz(), ref)
-
-                for fn in (trivial, single):  # warm the connection, the cache and the code paths
-                    latencies(fn, 200)
-                # interleaved, so that the load of a shared machine falls on both alike
-                lat_trivial, lat_single = np.empty(args.n), np.empty(args.n)
-                for i in range(args.n):
-                    lat_trivial[i] = latencies(trivial, 1)[0]
-                    lat_single[i] = latencies(single, 1)[0]
-                lat_lib = latencies(lambda: dynamics.inverse_dynamics(model, q1, v1, a1), args.n)
-                t_lib = best(lambda: dynamics.inverse_dynamics(model, qb, vb, ab), args.repeat)
-                t_json = best(batch_json, args.repeat)
-                t_npz = best(batch_npz, args.repeat)
-                t_triv = float(np.min(lat_trivial))
-        finally:
-            proc.terminate()
-            proc.wait(15)
-
-    def ms(x):
-        return f"{x * 1e3:.3f}"
-
-    p50 = {k: float(np.percentile(v, 50)) for k, v in
-           {"trivial": lat_trivial, "single": lat_single, "lib": lat_lib}.items()}
-    p99 = {k: float(np.percentile(v, 99)) for k, v in
-           {"trivial": lat_trivial, "single": lat_single, "lib": lat_lib}.items()}
+        assert np.array_equal(single(), dynamics.inverse_dynamics(model, q1, v1, a1))
+        ref = dynamics.inverse_dynamics(model, qb, vb, ab)
+        assert np.array_equal(batch_json(), ref) and np.array_equal(batch_npz(), ref)
+        for fn in (trivial, single):  # warm the connection, the cache and the code paths
+            latencies(fn, 200)
+        # interleaved, so that the load of a shared machine falls on both alike
+        lat = {"trivial": np.empty(args.n), "single": np.empty(args.n)}
+        for i in range(args.n):
+            lat["trivial"][i] = latencies(trivial, 1)[0]
+            lat["single"][i] = latencies(single, 1)[0]
+        lat["lib"] = latencies(lambda: dynamics.inverse_dynamics(model, q1, v1, a1), args.n)
+        t_lib = best(lambda: dynamics.inverse_dynamics(model, qb, vb, ab), args.repeat)
+        t_json = best(batch_json, args.repeat)
+        t_npz = best(batch_npz, args.repeat)
+    t_triv = float(np.min(lat["trivial"]))
+    p50 = {k: float(np.percentile(v, 50)) for k, v in lat.items()}
+    p99 = {k: float(np.percentile(v, 99)) for k, v in lat.items()}
+    rate = {k: 1 / np.mean(v) for k, v in lat.items()}
     single_ratio = p50["single"] / p50["trivial"]
     npz_limit = 2 * t_lib + 0.010
-    rows = [
+    return [
         "| measurement | req/s | p50 ms | p99 ms | ratio to library | ratio to trivial endpoint | target |",
         "|---|---:|---:|---:|---:|---:|---|",
-        f"| trivial endpoint GET /v1/health | {1 / np.mean(lat_trivial):.0f} | {ms(p50['trivial'])} | "
+        f"| trivial endpoint GET /v1/health | {rate['trivial']:.0f} | {ms(p50['trivial'])} | "
         f"{ms(p99['trivial'])} | | 1.00 | |",
-        f"| library inverse_dynamics, 1 state (in process) | {1 / np.mean(lat_lib):.0f} | {ms(p50['lib'])} | "
+        f"| library inverse_dynamics, 1 state (in process) | {rate['lib']:.0f} | {ms(p50['lib'])} | "
         f"{ms(p99['lib'])} | 1.00 | | |",
-        f"| POST inverse-dynamics, 1 state, JSON | {1 / np.mean(lat_single):.0f} | {ms(p50['single'])} | "
+        f"| POST inverse-dynamics, 1 state, JSON | {rate['single']:.0f} | {ms(p50['single'])} | "
         f"{ms(p99['single'])} | {p50['single'] / p50['lib']:.1f} | {single_ratio:.2f} | "
         f"<= 1.5x trivial: {'met' if single_ratio <= 1.5 else 'MISSED'} |",
         f"| library inverse_dynamics, {args.batch} states | | {ms(t_lib)} | | 1.00 | {t_lib / t_triv:.1f} | |",
@@ -178,10 +203,34 @@ def main(argv=None) -> int:
         f"{t_npz / t_triv:.1f} | <= 2x library + 10 ms = {ms(npz_limit)} ms: "
         f"{'met' if t_npz <= npz_limit else 'MISSED'} |",
     ]
+
+
+def main(argv=None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p.add_argument("--robot", default="puma560", help="bundled robot (default puma560)")
+    p.add_argument("--n", type=int, default=2000, help="single-state requests per endpoint")
+    p.add_argument("--batch", type=int, default=10_000)
+    p.add_argument("--repeat", type=int, default=7)
+    p.add_argument("--cold", action="store_true", help="also time a start on an empty numba cache (minutes)")
+    args = p.parse_args(argv)
+    model = dynamics.load_urdf(str(REPO / "robots" / f"{args.robot.replace('-', '_')}.urdf"))
+    with tempfile.TemporaryDirectory() as tmp:
+        server = start_server(Path(tmp) / "store", {"DYNAMICS_SIM_WORKERS": "0"})
+        try:
+            assert wait_for(server.url + "/v1/ready", time.monotonic() + 600)  # no warm-up under the timings
+            rows = request_rows(args, model, args.robot.replace("_", "-"), server.url)
+        finally:
+            stop(server)
+    starts = ["| start of `python -m service` (1 simulation worker) | first /v1/health (s) | warm-up over "
+              "(/v1/ready, s) | first simulate answered (s) |", "|---|---:|---:|---:|",
+              start_row("numba cache warm", None)]
+    if args.cold:
+        with tempfile.TemporaryDirectory() as cache:
+            starts.append(start_row("numba cache empty (`NUMBA_CACHE_DIR` new)", Path(cache)))
     header = (f"Robot {args.robot} (nq={model.nq}), {args.n} sequential single-state requests per endpoint over one "
               f"keep-alive connection, batches best of {args.repeat}; {os.cpu_count()} CPUs, Python "
               f"{sys.version.split()[0]}, uvicorn (h11) with one server process.")
-    table = header + "\n\n" + "\n".join(rows) + "\n"
+    table = header + "\n\n" + "\n".join(rows) + "\n\n" + "\n".join(starts) + "\n"
     print(table)
     out = REPO / "benchmarks" / "out"
     out.mkdir(exist_ok=True)
