@@ -26,72 +26,72 @@ log = logging.getLogger("service")
 
 
 class Problem(Exception):
-    """A request the service cannot answer as asked; ``detail`` starts with ``field`` when there is one."""
-
-    code = "error"
+    """A request the service cannot answer as asked; ``detail`` starts with ``field`` when there is one, ``code``
+    (a stable machine name) defaults to the class's in :data:`STATUS`."""
 
     def __init__(self, detail: str, field: str | None = None, *, code: str | None = None,
                  headers: dict[str, str] | None = None):
         super().__init__(detail)
         self.detail = detail
         self.field = field
-        self.code = code or self.code
+        self.code = code
         self.headers = headers or {}
 
 
-class InvalidInput(Problem):
-    code = "invalid_input"
-
-
 class BadRequest(Problem):
-    code = "bad_request"
+    """The request cannot even be read (a malformed header)."""
 
 
 class Unauthorized(Problem):
-    code = "unauthorized"
+    """No valid API key."""
 
 
 class Forbidden(Problem):
-    code = "forbidden"
+    """The key may not do this (delete a bundled robot, or another key's)."""
 
 
 class NotFound(Problem):
-    code = "not_found"
+    """No such robot."""
 
 
 class TooLarge(Problem):
-    code = "too_large"
+    """A body, an unpacked archive or a URDF over its limit."""
 
 
 class UnsupportedMediaType(Problem):
-    code = "unsupported_media_type"
+    """A Content-Type the route does not read."""
+
+
+class InvalidInput(Problem):
+    """The content is wrong: the detail names the field and says what was expected."""
 
 
 class Failed(Problem):
     """Not the caller's fault: a simulation worker crashed, or the library failed unexpectedly."""
-    code = "internal_error"
 
 
 class NotOffered(Problem):
-    code = "not_implemented"
+    """This server does not offer the operation (simulation turned off)."""
 
 
 class Unavailable(Problem):
     """Not now: the simulation workers are busy or still warming up; ``Retry-After`` says when to ask again."""
-    code = "busy"
 
 
 class BudgetExceeded(Problem):
-    code = "time_budget_exceeded"
+    """The work ran past the request's time budget and was stopped."""
 
     def __init__(self, what: str, budget: float, hint: str):
         super().__init__(f"time budget: {what} was stopped after {budget:g} s (DYNAMICS_TIME_BUDGET or "
                          f"X-Time-Budget); {hint}")
 
 
-STATUS: dict[type[Problem], int] = {
-    BadRequest: 400, Unauthorized: 401, Forbidden: 403, NotFound: 404, TooLarge: 413, UnsupportedMediaType: 415,
-    InvalidInput: 422, Failed: 500, NotOffered: 501, Unavailable: 503, BudgetExceeded: 504,
+#: each problem's HTTP status and default code
+STATUS: dict[type[Problem], tuple[int, str]] = {
+    BadRequest: (400, "bad_request"), Unauthorized: (401, "unauthorized"), Forbidden: (403, "forbidden"),
+    NotFound: (404, "not_found"), TooLarge: (413, "too_large"), UnsupportedMediaType: (415, "unsupported_media_type"),
+    InvalidInput: (422, "invalid_input"), Failed: (500, "internal_error"), NotOffered: (501, "not_implemented"),
+    Unavailable: (503, "busy"), BudgetExceeded: (504, "time_budget_exceeded"),
 }
 
 # Starlette's own refusals (unknown path, wrong method) keep their status; this names them.
@@ -115,7 +115,8 @@ def error_response(status: int, detail: str, code: str, field: str | None = None
 
 
 def problem_response(problem: Problem) -> Response:
-    return error_response(STATUS[type(problem)], problem.detail, problem.code, problem.field, problem.headers)
+    status, code = STATUS[type(problem)]
+    return error_response(status, problem.detail, problem.code or code, problem.field, problem.headers)
 
 
 def is_library_input_error(exc: BaseException) -> bool:
@@ -133,7 +134,7 @@ def install(app: FastAPI) -> None:
 
     async def value_error(request: Request, exc: ValueError) -> Response:
         if is_library_input_error(exc):
-            return error_response(422, str(exc), InvalidInput.code, field_of(str(exc)))
+            return problem_response(InvalidInput(str(exc), field_of(str(exc))))
         return await unexpected(request, exc)  # a ValueError of the service's own is a bug
 
     async def http_error(request: Request, exc: StarletteHTTPException) -> Response:
@@ -143,11 +144,11 @@ def install(app: FastAPI) -> None:
     async def validation_error(request: Request, exc: RequestValidationError) -> Response:
         first: dict[str, Any] = exc.errors()[0] if exc.errors() else {"loc": (), "msg": "invalid request"}
         name = ".".join(str(p) for p in first.get("loc", ()) if p not in ("body", "query", "path")) or None
-        return error_response(422, f"{name or 'request'}: {first.get('msg')}", InvalidInput.code, name)
+        return problem_response(InvalidInput(f"{name or 'request'}: {first.get('msg')}", name))
 
     async def unexpected(request: Request, exc: Exception) -> Response:  # pragma: no cover - a bug
         log.exception("unexpected error on %s %s", request.method, request.url.path)
-        return error_response(500, f"internal error: {type(exc).__name__}", Failed.code)
+        return problem_response(Failed(f"internal error: {type(exc).__name__}"))
 
     app.add_exception_handler(Problem, problem)
     app.add_exception_handler(ValueError, value_error)
