@@ -94,16 +94,15 @@ def layout(op: Operation, args: dict[str, Any]) -> tuple:
 
 
 def compile_operations(model) -> list[tuple]:
-    """Call every operation once with one state and with a batch of two: numba compiles (or loads from its disk
-    cache) each kernel now rather than in a request. Returns the layouts run."""
+    """Call every operation once with one state, then each with a batch of two: numba compiles (or loads from its
+    disk cache) each kernel now rather than in a request. Returns the layouts run."""
     q = np.tile(model.neutral(), (2, 1))
     v = np.zeros((2, model.nv))
     done = []
-    for op in OPERATIONS.values():
-        function = getattr(lib(), op.function)
-        for batch in ({"q": q, "v": v, "a": v, "tau": v}, {"q": q[0], "v": v[0], "a": v[0], "tau": v[0]}):
-            function(model, *[batch[s] for s in op.states])
-            done.append(layout(op, batch))
+    for args in ({"q": q[0], "v": v[0], "a": v[0], "tau": v[0]}, {"q": q, "v": v, "a": v, "tau": v}):
+        for op in OPERATIONS.values():
+            getattr(lib(), op.function)(model, *[args[s] for s in op.states])
+            done.append(layout(op, args))
     return done
 
 

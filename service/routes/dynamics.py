@@ -35,25 +35,25 @@ router = APIRouter(prefix="/v1")
 def _route(op: Operation, schema: type[BaseModel]):
     async def route(robot_id: str, request: Request) -> Response:
         d: Deps = request.app.state.deps  # (not Depends: it costs ~50 us on the hottest path)
-        within = budget(request)
+        time_budget = budget(request)
         body = await read_body(request, d.settings.max_body_bytes)
         content_type, accept = request.headers.get("content-type"), request.headers.get("accept")
         if len(body) <= INLINE_BYTES:
             args = dict(schemas.validate(schema, decode(body, content_type, max_unpacked=INLINE_BYTES)))
             if d.compute.can_inline(op, robot_id, args):
-                return encode(d.compute.dynamics(op, robot_id, args, within), accept)
-            return encode(await d.compute.run(d.compute.dynamics, op, robot_id, args, within), accept)
-        return await d.compute.run(_answer, d, op, schema, robot_id, body, content_type, accept, within)
+                return encode(d.compute.dynamics(op, robot_id, args, time_budget), accept)
+            return encode(await d.compute.run(d.compute.dynamics, op, robot_id, args, time_budget), accept)
+        return await d.compute.run(_answer, d, op, schema, robot_id, body, content_type, accept, time_budget)
 
     route.__name__ = op.function
     return route
 
 
 def _answer(d: Deps, op: Operation, schema: type[BaseModel], robot_id: str, body: bytes,
-            content_type: Optional[str], accept: Optional[str], within: Budget) -> Response:
+            content_type: Optional[str], accept: Optional[str], time_budget: Budget) -> Response:
     """In a compute thread: decode, compute (within the budget), encode."""
     args = dict(schemas.validate(schema, decode(body, content_type, max_unpacked=8 * d.settings.max_body_bytes)))
-    return encode(d.compute.dynamics(op, robot_id, args, within), accept)
+    return encode(d.compute.dynamics(op, robot_id, args, time_budget), accept)
 
 
 for _segment, (_schema, _answer_schema, _summary) in ROUTES.items():

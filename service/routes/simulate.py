@@ -24,11 +24,11 @@ router = APIRouter(prefix="/v1")
              openapi_extra=body_doc(schemas.SimulateRequest),
              summary="simulate from (q0, v0) for a duration under a torque law; runs in a worker process")
 async def simulate(robot_id: str, request: Request, d: Deps = Depends(deps),
-                   within: Budget = Depends(budget)) -> Response:
+                   time_budget: Budget = Depends(budget)) -> Response:
     body = await read_body(request, d.settings.max_body_bytes)
-    await d.compute.await_workers(within)
+    await d.compute.await_workers(time_budget)
     job, scene = await d.compute.run(_job, d, robot_id, body, request.headers.get("content-type"))
-    trajectory = await d.compute.simulate(job, within)
+    trajectory = await d.compute.simulate(job, time_budget)
     return await d.compute.run(encode, {**trajectory, "scene": scene}, request.headers.get("accept"))
 
 
