@@ -10,7 +10,7 @@ import pytest
 
 import dynamics
 from service.client import Client, ServiceError, Trajectory
-from support.server import ROBOTS, free_port, shared_server, while_simulation_starts
+from service_fixtures import ROBOTS, free_port, shared_server, while_simulation_starts
 
 
 @pytest.fixture(scope="module")

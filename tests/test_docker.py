@@ -23,7 +23,7 @@ import numpy as np
 import pytest
 
 import dynamics
-from support.server import REPO, Server
+from service_fixtures import REPO, Server
 
 DOCKERFILE = REPO / "Dockerfile"
 

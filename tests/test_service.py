@@ -19,7 +19,7 @@ import numpy as np
 import pytest
 
 import dynamics
-from support.server import ROBOTS, shared_server
+from service_fixtures import ROBOTS, shared_server
 
 NPZ = "application/x-npz"
 JSON_H = {"Content-Type": "application/json"}

@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 import dynamics
-from support.server import ROBOTS, Server
+from service_fixtures import ROBOTS, Server
 
 KEY_A, KEY_B = "key-a-0123456789", "key-b-9876543210"
 BUDGET = 0.25

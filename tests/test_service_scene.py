@@ -20,7 +20,7 @@ import dynamics
 from service.app import create_app
 from service.client import Client, ServiceError
 from service.settings import Settings
-from support.server import ROBOTS, shared_server, while_simulation_starts
+from service_fixtures import ROBOTS, shared_server, while_simulation_starts
 
 PUMA_LOCK = {"joint2": 0.3, "joint5": -0.2}
 

@@ -18,7 +18,7 @@ import pytest
 
 import dynamics
 from service.warmup import FIRST_START_GUESS, Stage, Warmup
-from support.server import ROBOTS, Server
+from service_fixtures import ROBOTS, Server
 
 SIM = {"q0": [0.3, -0.2], "v0": [0.0, 0.5], "duration": 0.2, "sample_dt": 0.1}
 

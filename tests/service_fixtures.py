@@ -22,7 +22,7 @@ import pytest
 
 from service.client import ServiceError
 
-REPO = Path(__file__).resolve().parents[2]
+REPO = Path(__file__).resolve().parent.parent
 ROBOTS = REPO / "robots"
 PYTHON = sys.executable
 
