@@ -17,6 +17,10 @@ from .aba import forward_dynamics
 from .energy import kinetic_energy, potential_energy
 from .coriolis import coriolis_matrix
 from .reduce import lock_joints
+from .kinematics import (forward_kinematics, frame_acceleration, frame_bias_acceleration, frame_placement,
+                         frame_velocity)
+from .jacobians import frame_jacobian
+from .com import center_of_mass, center_of_mass_velocity, com_jacobian
 
 from . import torques
 from .configuration import integrate
@@ -27,4 +31,6 @@ __all__ = [
     "inverse_dynamics", "gravity_torques", "bias_forces", "mass_matrix", "forward_dynamics",
     "kinetic_energy", "potential_energy", "coriolis_matrix", "lock_joints",
     "simulate", "Trajectory", "integrate", "torques",
+    "forward_kinematics", "frame_placement", "frame_velocity", "frame_acceleration", "frame_bias_acceleration",
+    "frame_jacobian", "center_of_mass", "center_of_mass_velocity", "com_jacobian",
 ]

@@ -215,3 +215,28 @@ def array(name, x, shape, *, nonneg=False):
     if nonneg and np.any(a < 0):
         raise InputError(f"{name}: expected values >= 0")
     return np.array(a, order="C")
+
+
+# -- frames and task-space arguments ----------------------------------------------------------------------
+
+#: the ``reference`` argument's values and their kernel codes (Pinocchio's WORLD, LOCAL, LOCAL_WORLD_ALIGNED)
+REFERENCES = {"world": 0, "local": 1, "local_world_aligned": 2}
+
+
+def frame(model, f):
+    """A frame given by name (``model.frame_names``) or index: its index (unknown names list the closest)."""
+    if isinstance(f, (int, np.integer)) and not isinstance(f, (bool, np.bool_)):
+        if not 0 <= f < len(model.frames):
+            raise InputError(f"frame: index {f} out of range [0, {len(model.frames)})")
+        return int(f)
+    if not isinstance(f, str):
+        raise InputError(f"frame: expected a frame name (str) or index (int), got {type(f).__name__}")
+    return model.frame_index(f)
+
+
+def reference(ref):
+    """The kernel code of a ``reference`` name."""
+    code = REFERENCES.get(ref) if isinstance(ref, str) else None
+    if code is None:
+        raise InputError(f"reference: expected one of {list(REFERENCES)}, got {ref!r}")
+    return code
