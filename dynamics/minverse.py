@@ -1,0 +1,183 @@
+"""The inverse of the mass matrix, computed directly in O(n^2) by the articulated-body approach (Carpentier &
+Mansard, "Analytical derivatives of rigid body dynamics algorithms", RSS 2018; Pinocchio's computeMinverse).
+
+Column c of M^-1 is the ABA's answer (:mod:`dynamics.aba`) to tau = e_c at v = 0 without gravity; all columns
+are run at once.  Everything is expressed in the world frame (motion axes S_i = oX_i S_i^body, inertias about
+the world origin), so no per-column spatial transform is needed.  F_i (6 x nv) is the articulated bias force
+of the subtree of i (the ABA's p^A), nonzero only in the subtree's columns; A_i (6 x nv) the acceleration:
+
+    backward (leaves in):  U_i = I^A_i S_i,  D_i = S_i^T U_i,
+                           M^-1[i, sub(i)] = D_i^-1 (E_i - S_i^T F_i)           (E_i: the identity at i's dofs)
+                           I^A_p += I^A_i - U_i D_i^-1 U_i^T,   F_p += F_i + U_i M^-1[i, sub(i)]
+    forward (root out):    M^-1[i, c] -= (U_i D_i^-1)^T A_p[:, c],   A_i = A_p + S_i M^-1[i, c]   (c >= i)
+
+sub(i) are the velocity coordinates of the subtree of i, contiguous from i's own (depth-first order).  The
+forward pass computes the upper triangle (columns c >= i's first coordinate), the lower is its mirror.
+Cost: O(n d) backward (d the depth) and O(n^2) forward.  A joint whose D_i is not positive (it moves no
+mass or inertia) makes M singular: the kernel returns that body's index.
+"""
+
+import numpy as np
+
+from . import checks
+from ._numba import Kernel, kernel
+from .errors import InputError
+from .joints import joint_transform
+from .parallel import run_chunks
+from .spatial import add, cross, inertia_to_parent, load3, load33, matmul, rot, spd_inverse, store3, store33
+
+
+@kernel
+def workspace(nb, nv):
+    return (np.empty((nb, 3, 3)), np.empty((nb, 3)), np.empty((nb, 6, 6)),  # world poses, I^A (world)
+            np.empty((nv, 6)), np.empty((nv, 6)), np.empty((nv, 6)),  # S (world), U, U D^-1
+            np.empty((nb, 6, 6)), np.empty((nb, 6, nv)),  # D^-1, F then A
+            np.empty(nb, np.int64), np.empty((6, 6)), np.empty((6, 6)))  # subtree sizes, D, scratch
+
+
+@kernel
+def minverse_into(tree, q, ws, Minv):
+    """M^-1 (nv, nv) at q into Minv.  Returns -1, or the index of a body whose joint's D is not positive."""
+    parents, mass, hs, Ios, S, v_idx, nv_j = tree.parents, tree.mass, tree.h, tree.Io, tree.S, tree.v_idx, tree.nv_j
+    oR, op, IA, Sw, U, UD, Dinv, F, nsub, D, scratch = ws
+    nb, nv = parents.shape[0], S.shape[0]
+    for i in range(nb):  # world poses, motion axes and inertias
+        R, p = joint_transform(tree, i, q)
+        par = parents[i]
+        if par >= 0:
+            Rp = load33(oR, par)
+            R, p = matmul(Rp, R), add(rot(Rp, p), load3(op, par))
+        store33(oR, i, R)
+        store3(op, i, p)
+        for k in range(v_idx[i], v_idx[i] + nv_j[i]):
+            w = rot(R, (S[k, 0], S[k, 1], S[k, 2]))
+            v = add(rot(R, (S[k, 3], S[k, 4], S[k, 5])), cross(p, w))
+            Sw[k, 0], Sw[k, 1], Sw[k, 2], Sw[k, 3], Sw[k, 4], Sw[k, 5] = w[0], w[1], w[2], v[0], v[1], v[2]
+        m = mass[i]
+        h, Io = inertia_to_parent(R, p, m, load3(hs, i), load33(Ios, i))
+        for r in range(3):  # I = [[Io, [h]x], [[h]x^T, m 1]] about the world origin
+            for c in range(3):
+                IA[i, r, c] = Io[3 * r + c]
+                IA[i, 3 + r, 3 + c] = m if r == c else 0.0
+        IA[i, 0, 3], IA[i, 0, 4], IA[i, 0, 5] = 0.0, -h[2], h[1]
+        IA[i, 1, 3], IA[i, 1, 4], IA[i, 1, 5] = h[2], 0.0, -h[0]
+        IA[i, 2, 3], IA[i, 2, 4], IA[i, 2, 5] = -h[1], h[0], 0.0
+        for r in range(3):
+            for c in range(3):
+                IA[i, 3 + c, r] = IA[i, r, 3 + c]
+        nsub[i] = nv_j[i]
+    for i in range(nb - 1, -1, -1):
+        if parents[i] >= 0:
+            nsub[parents[i]] += nsub[i]
+    for i in range(nb):
+        for r in range(6):
+            for c in range(v_idx[i], v_idx[i] + nsub[i]):
+                F[i, r, c] = 0.0
+
+    for i in range(nb - 1, -1, -1):  # backward pass
+        k0, nj, ns, par = v_idx[i], nv_j[i], nsub[i], parents[i]
+        for a in range(nj):
+            for r in range(6):
+                x = 0.0
+                for c in range(6):
+                    x += IA[i, r, c] * Sw[k0 + a, c]
+                U[k0 + a, r] = x
+        for a in range(nj):
+            for b in range(nj):
+                x = 0.0
+                for r in range(6):
+                    x += Sw[k0 + a, r] * U[k0 + b, r]
+                D[a, b] = x
+        if not spd_inverse(D, nj, Dinv, i, scratch):
+            return i
+        for a in range(nj):
+            for r in range(6):
+                x = 0.0
+                for b in range(nj):
+                    x += U[k0 + b, r] * Dinv[i, b, a]
+                UD[k0 + a, r] = x
+        for c in range(k0, k0 + ns):  # M^-1[i, sub(i)] = D^-1 (E - S^T F)
+            for b in range(nj):
+                x = 1.0 if c == k0 + b else 0.0
+                for r in range(6):
+                    x -= Sw[k0 + b, r] * F[i, r, c]
+                scratch[0, b] = x
+            for a in range(nj):
+                x = 0.0
+                for b in range(nj):
+                    x += Dinv[i, a, b] * scratch[0, b]
+                Minv[k0 + a, c] = x
+        if par < 0:
+            continue
+        for r in range(6):  # I^A_p += I^A - U D^-1 U^T
+            for c in range(6):
+                x = IA[i, r, c]
+                for a in range(nj):
+                    x -= UD[k0 + a, r] * U[k0 + a, c]
+                IA[par, r, c] += x
+        for c in range(k0, k0 + ns):  # F_p += F + U M^-1[i, sub(i)]
+            for r in range(6):
+                x = F[i, r, c]
+                for a in range(nj):
+                    x += U[k0 + a, r] * Minv[k0 + a, c]
+                F[par, r, c] += x
+
+    A = F  # F is spent: its memory holds the accelerations A_i
+    for i in range(nb):  # forward pass, columns c >= k0
+        k0, nj, ns, par = v_idx[i], nv_j[i], nsub[i], parents[i]
+        for c in range(k0, nv):
+            for a in range(nj):
+                x = Minv[k0 + a, c] if c < k0 + ns else 0.0
+                if par >= 0:
+                    for r in range(6):
+                        x -= UD[k0 + a, r] * A[par, r, c]
+                Minv[k0 + a, c] = x
+            if ns > nj:  # i has children: they need A_i
+                for r in range(6):
+                    x = A[par, r, c] if par >= 0 else 0.0
+                    for a in range(nj):
+                        x += Sw[k0 + a, r] * Minv[k0 + a, c]
+                    A[i, r, c] = x
+    for r in range(nv):
+        for c in range(r + 1, nv):
+            Minv[c, r] = Minv[r, c]
+    return -1
+
+
+@kernel
+def minverse_batch(tree, Q, out, status):
+    ws = workspace(tree.parents.shape[0], tree.S.shape[0])
+    for b in range(Q.shape[0]):
+        status[b] = minverse_into(tree, Q[b], ws, out[b])
+
+
+# -- public entry point ----------------------------------------------------------------------------
+_minverse_batch = Kernel(minverse_batch)
+
+
+class _SingularJoint(Exception):
+    def __init__(self, body):
+        self.body = body
+
+
+def _minverse_chunk(tree, Q, out):
+    status = np.empty(Q.shape[0], np.int64)
+    _minverse_batch(tree, Q, out, status)
+    bad = status[status >= 0]
+    if bad.size:
+        raise _SingularJoint(int(bad[0]))
+
+
+def inverse_mass_matrix(model, q):
+    """M(q)^-1, (nv, nv) or (B, nv, nv), computed directly in O(n^2) (not by inverting M; module docstring).
+
+    Raises InputError naming the joint when M is singular (a joint that moves no mass or inertia)."""
+    checks.check_model(model)
+    Q, batched = checks.configurations(model, q)
+    out = np.empty((Q.shape[0], model.nv, model.nv))
+    try:
+        run_chunks(_minverse_chunk, model.tree, (Q,), (), out)
+    except _SingularJoint as e:
+        raise InputError(f"inverse mass matrix: the mass matrix is singular at joint {model.joint_names[e.body]!r}: "
+                         f"it moves no mass or inertia") from None
+    return out if batched else out[0]
