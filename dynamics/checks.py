@@ -240,3 +240,21 @@ def reference(ref):
     if code is None:
         raise InputError(f"reference: expected one of {list(REFERENCES)}, got {ref!r}")
     return code
+
+
+def rows(r):
+    """Rows of a 6-row [linear; angular] quantity: None (all), a slice, or distinct indices in [0, 6)."""
+    if r is None:
+        return np.arange(6)
+    if isinstance(r, slice):
+        out = np.arange(6)[r]
+    else:
+        try:
+            out = np.asarray(r)
+        except Exception:
+            out = np.zeros(0, object)
+        if out.ndim != 1 or out.dtype.kind not in "iu":
+            raise InputError(f"rows: expected None, a slice or a list of indices in [0, 6), got {r!r}")
+    if out.size == 0 or out.min() < 0 or out.max() > 5 or np.unique(out).size != out.size:
+        raise InputError(f"rows: expected distinct indices in [0, 6) (0-2 linear, 3-5 angular), got {r!r}")
+    return np.ascontiguousarray(out, dtype=np.int64)

@@ -146,26 +146,43 @@ def minverse_into(tree, q, ws, Minv):
 
 @kernel
 def minverse_batch(tree, Q, out, status):
+    """out[b] = M^-1 at Q[b]; status[b] = -1 or a body whose joint makes M singular."""
     ws = workspace(tree.parents.shape[0], tree.S.shape[0])
     for b in range(Q.shape[0]):
         status[b] = minverse_into(tree, Q[b], ws, out[b])
 
 
 # -- public entry point ----------------------------------------------------------------------------
-_minverse_batch = Kernel(minverse_batch)
-
-
 class _SingularJoint(Exception):
     def __init__(self, body):
         self.body = body
 
 
-def _minverse_chunk(tree, Q, out):
-    status = np.empty(Q.shape[0], np.int64)
-    _minverse_batch(tree, Q, out, status)
-    bad = status[status >= 0]
-    if bad.size:
-        raise _SingularJoint(int(bad[0]))
+class Checked:
+    """A batch kernel ``kernel(tree, *rows, *shared, out, status)`` that reports, per state, -1 or a body whose
+    joint makes M singular, wrapped for :func:`~dynamics.parallel.run_chunks` (status is its own per chunk)."""
+
+    def __init__(self, kernel):
+        self.kernel = Kernel(kernel)
+
+    def __call__(self, tree, *args):
+        status = np.empty(args[-1].shape[0], np.int64)
+        self.kernel(tree, *args, status)
+        bad = status[status >= 0]
+        if bad.size:
+            raise _SingularJoint(int(bad[0]))
+
+
+def run_checked(model, kernel, batched, shared, out, what):
+    """run_chunks over a :class:`Checked` kernel; a singular M is an InputError naming the joint."""
+    try:
+        run_chunks(kernel, model.tree, batched, shared, out)
+    except _SingularJoint as e:
+        raise InputError(f"{what}: the mass matrix is singular at joint {model.joint_names[e.body]!r}: it moves "
+                         f"no mass or inertia (lock it with dynamics.lock_joints, or add mass below it)") from None
+
+
+_minverse_batch = Checked(minverse_batch)
 
 
 def inverse_mass_matrix(model, q):
@@ -175,9 +192,5 @@ def inverse_mass_matrix(model, q):
     checks.check_model(model)
     Q, batched = checks.configurations(model, q)
     out = np.empty((Q.shape[0], model.nv, model.nv))
-    try:
-        run_chunks(_minverse_chunk, model.tree, (Q,), (), out)
-    except _SingularJoint as e:
-        raise InputError(f"inverse mass matrix: the mass matrix is singular at joint {model.joint_names[e.body]!r}: "
-                         f"it moves no mass or inertia") from None
+    run_checked(model, _minverse_batch, (Q,), (), out, "inverse mass matrix")
     return out if batched else out[0]
