@@ -23,6 +23,7 @@ from .jacobians import frame_jacobian
 from .com import center_of_mass, center_of_mass_velocity, com_jacobian
 from .minverse import inverse_mass_matrix
 from .task_space import operational_space_inertia
+from .inverse_kinematics import inverse_kinematics
 
 from . import torques
 from .configuration import integrate
@@ -35,5 +36,5 @@ __all__ = [
     "simulate", "Trajectory", "integrate", "torques",
     "forward_kinematics", "frame_placement", "frame_velocity", "frame_acceleration", "frame_bias_acceleration",
     "frame_jacobian", "center_of_mass", "center_of_mass_velocity", "com_jacobian",
-    "inverse_mass_matrix", "operational_space_inertia",
+    "inverse_mass_matrix", "operational_space_inertia", "inverse_kinematics",
 ]

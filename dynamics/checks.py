@@ -258,3 +258,31 @@ def rows(r):
     if out.size == 0 or out.min() < 0 or out.max() > 5 or np.unique(out).size != out.size:
         raise InputError(f"rows: expected distinct indices in [0, 6) (0-2 linear, 3-5 angular), got {r!r}")
     return np.ascontiguousarray(out, dtype=np.int64)
+
+
+def poses(name, x, position_only=False):
+    """Homogeneous poses: (4, 4) or (B, 4, 4) with a rotation part; with position_only also positions (3,) or
+    (B, 3) (made poses with the identity rotation).  Returns ((n, 4, 4) array, batched)."""
+    want = "(4, 4) or (B, 4, 4)" + (", or a position (3,) or (B, 3)" if position_only else "")
+    T = _real_array(name, x, want)
+    if not np.all(np.isfinite(T)):
+        raise InputError(f"{name}: contains non-finite values (nan or inf)")
+    if position_only and T.ndim in (1, 2) and T.shape[-1] == 3:
+        P = T.reshape(-1, 3)
+        out = np.zeros((P.shape[0], 4, 4))
+        out[:, :3, :3] = np.eye(3)
+        out[:, :3, 3] = P
+        out[:, 3, 3] = 1.0
+        return out, T.ndim == 2
+    if T.ndim not in (2, 3) or T.shape[-2:] != (4, 4):
+        raise InputError(f"{name}: expected shape {want}, got {T.shape}")
+    batched = T.ndim == 3
+    T = np.array(T.reshape(-1, 4, 4), order="C")
+    if not position_only:
+        R = T[:, :3, :3]
+        dev = np.abs(R @ R.transpose(0, 2, 1) - np.eye(3)).max(axis=(1, 2))
+        bad = np.flatnonzero((dev > 1e-6) | (np.linalg.det(R) < 0))
+        if bad.size:
+            where = f" (pose {bad[0]})" if batched else ""
+            raise InputError(f"{name}: the rotation part{where} is not a rotation matrix (R R^T != 1 or det R < 0)")
+    return T, batched

@@ -217,6 +217,30 @@ def quat_rotation(qx, qy, qz, qw):
             2.0 * (x * z - y * w), 2.0 * (y * z + x * w), 1.0 - 2.0 * (x * x + y * y))
 
 
+@kernel
+def rotation_log(R):
+    """The rotation vector theta * axis of R (9-tuple), log: SO(3) -> R^3, accurate near 0 and near pi."""
+    w = (0.5 * (R[7] - R[5]), 0.5 * (R[2] - R[6]), 0.5 * (R[3] - R[1]))  # sin(theta) axis
+    c = min(1.0, max(-1.0, 0.5 * (R[0] + R[4] + R[8] - 1.0)))  # cos(theta)
+    s = np.sqrt(dot(w, w))
+    theta = np.arctan2(s, c)
+    if c > -0.99:  # theta / sin(theta) is well conditioned (series near 0)
+        f = 1.0 + s * s / 6.0 if s < 1e-8 else theta / s
+        return scale(f, w)
+    # near pi: the axis from R + R^T = 2 c 1 + 2 (1 - c) a a^T, its largest diagonal entry first
+    k = 0
+    if R[4] > R[3 * k + k]:
+        k = 1
+    if R[8] > R[3 * k + k]:
+        k = 2
+    a = ((R[k] + R[3 * k]) * 0.5, (R[3 + k] + R[3 * k + 1]) * 0.5, (R[6 + k] + R[3 * k + 2]) * 0.5)
+    a = (a[0] - (c if k == 0 else 0.0), a[1] - (c if k == 1 else 0.0), a[2] - (c if k == 2 else 0.0))
+    n = np.sqrt(dot(a, a))
+    if dot(a, w) < 0.0:
+        n = -n
+    return scale(theta / n, a)
+
+
 @inline_kernel
 def spd_inverse(D, n, Dinv, i, A):
     """Dinv[i, :n, :n] = inverse of the symmetric positive definite D[:n, :n] (Gauss-Jordan without
