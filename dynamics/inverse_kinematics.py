@@ -7,8 +7,9 @@ The error of frame f at q towards the target pose (R_d, p_d), in the local_world
     e = [p_d - p(q);  log(R_d R(q)^T)]       (only the first 3 rows with position_only)
 
 Each iteration solves (J J^T + mu 1) y = e, steps dq = J^T y along the configuration manifold
-(:func:`dynamics.integrate`, so a free-flyer's quaternion stays unit) and, when asked, clamps joints into their
-limits (a projected step).  A step that does not reduce |e| is refused and mu grows tenfold; an accepted one
+(:func:`dynamics.integrate`, so a free-flyer's quaternion stays unit) and, when asked, keeps joints within their
+limits: a joint at a limit that the step would push further out is frozen (its column of J dropped) and the
+step solved again; what still overshoots is clamped (a projected step).  A step that does not reduce |e| is refused and mu grows tenfold; an accepted one
 lowers mu tenfold, never below damping^2.  Near the solution the log's Jacobian is 1 + O(|e|), so the
 iteration converges fast; far from it, or near a singularity, the damping keeps steps bounded.
 
@@ -53,6 +54,45 @@ def _clamp(tree, lower, upper, q):
 
 
 @kernel
+def _dls_step(J, free, e, r, mu, A, Ainv, scratch, y, dq):
+    """dq = F J^T (J F J^T + mu 1)^-1 e over the first r rows, F = diag(free).  False if not solvable."""
+    nv = J.shape[1]
+    for a in range(r):
+        for c in range(a, r):
+            x = mu if a == c else 0.0
+            for k in range(nv):
+                x += J[a, k] * free[k] * J[c, k]
+            A[a, c] = x
+            A[c, a] = x
+    if not spd_inverse(A, r, Ainv, 0, scratch):
+        return False
+    for a in range(r):
+        x = 0.0
+        for c in range(r):
+            x += Ainv[0, a, c] * e[c]
+        y[a] = x
+    for k in range(nv):
+        x = 0.0
+        for a in range(r):
+            x += J[a, k] * y[a]
+        dq[k] = free[k] * x
+    return True
+
+
+@kernel
+def _freeze_blocked(tree, lower, upper, q, dq, free):
+    """Freeze (free = 0) each 1-dof joint at a limit that dq pushes further out; True if any was frozen."""
+    frozen = False
+    for i in range(tree.jtype.shape[0]):
+        if tree.jtype[i] != JOINT_FREE:
+            k, kq = tree.v_idx[i], tree.q_idx[i]
+            if free[k] != 0.0 and ((q[kq] <= lower[k] and dq[k] < 0.0) or (q[kq] >= upper[k] and dq[k] > 0.0)):
+                free[k] = 0.0
+                frozen = True
+    return frozen
+
+
+@kernel
 def ik_batch(tree, Q0, T, frames, f, r, tol, max_iter, damping, limits, lower, upper, out):
     """out[b] = (q solving the IK from Q0[b] towards T[b], status, iterations, residual, position error,
     orientation error); T has B rows or one."""
@@ -61,7 +101,7 @@ def ik_batch(tree, Q0, T, frames, f, r, tol, max_iter, damping, limits, lower, u
     J, Jt = np.zeros((6, nv)), np.zeros((6, nv))
     e, et, y = np.empty(6), np.empty(6), np.empty(6)
     A, Ainv, scratch = np.empty((6, 6)), np.empty((1, 6, 6)), np.empty((6, 6))
-    dq = np.empty(nv)
+    dq, free = np.empty(nv), np.ones(nv)
     zero = (0.0, 0.0, 0.0)
     lt = T.shape[0] - 1
     for b in range(Q0.shape[0]):
@@ -86,26 +126,15 @@ def ik_batch(tree, Q0, T, frames, f, r, tol, max_iter, damping, limits, lower, u
                 status = STALLED
                 break
             it += 1
-            for a in range(r):  # A = J J^T + mu 1
-                for c in range(a, r):
-                    x = mu if a == c else 0.0
-                    for k in range(nv):
-                        x += J[a, k] * J[c, k]
-                    A[a, c] = x
-                    A[c, a] = x
-            if not spd_inverse(A, r, Ainv, 0, scratch):
+            free[:] = 1.0
+            solved = True
+            for _ in range(nv + 1):  # with limits: re-solve without the joints a step would push out of them
+                solved = _dls_step(J, free, e, r, mu, A, Ainv, scratch, y, dq)
+                if not (solved and limits and _freeze_blocked(tree, lower, upper, q, dq, free)):
+                    break
+            if not solved:
                 mu = max(10.0 * mu, 1e-12)
                 continue
-            for a in range(r):
-                x = 0.0
-                for c in range(r):
-                    x += Ainv[0, a, c] * e[c]
-                y[a] = x
-            for k in range(nv):  # dq = J^T y
-                x = 0.0
-                for a in range(r):
-                    x += J[a, k] * y[a]
-                dq[k] = x
             qt = integrate_q(tree, q, dq, 1.0)
             if limits:
                 _clamp(tree, lower, upper, qt)
