@@ -18,9 +18,10 @@ import numpy as np
 
 from . import checks
 from ._numba import Kernel, kernel
-from .joints import joint_motion, joint_transform
+from .joints import joint_motion
+from .kinematics import world_pose
 from .parallel import run_chunks
-from .spatial import add, cross, load3, load33, matmul, motion_to_child, rot, scale, store3, store33
+from .spatial import add, cross, load3, load33, motion_to_child, rot, scale, store3
 
 COM, VELOCITY, JACOBIAN = 0, 1, 2
 
@@ -42,16 +43,11 @@ def com_batch(tree, Q, V, what, out):
         q, v = Q[b], V[min(b, lv)]
         c = zero
         for i in range(nb):
-            Rl, pl = joint_transform(tree, i, q)
+            Rl, pl, R, p = world_pose(tree, i, q, oR, op)
             par = parents[i]
-            R, p, w, vl = Rl, pl, zero, zero
-            if par >= 0:
-                Rp = load33(oR, par)
-                R, p = matmul(Rp, Rl), add(rot(Rp, pl), load3(op, par))
-                if what == VELOCITY:
-                    w, vl = motion_to_child(Rl, pl, load3(ws, par), load3(vs, par))
-            store33(oR, i, R)
-            store3(op, i, p)
+            w, vl = zero, zero
+            if par >= 0 and what == VELOCITY:
+                w, vl = motion_to_child(Rl, pl, load3(ws, par), load3(vs, par))
             h = load3(hs, i)
             Hi = add(rot(R, h), scale(mass[i], p))  # the body's world first moment
             if what == COM:

@@ -50,18 +50,25 @@ def support(parents, body, path):
 
 
 @inline_kernel
+def world_pose(tree, i, q, oR, op):
+    """oR[i], op[i] = body i's world pose from its parent's (already there); returns its joint transform
+    (R, p) in the parent and its world pose (oR_i, op_i)."""
+    R, p = joint_transform(tree, i, q)
+    par = tree.parents[i]
+    oRi, opi = R, p
+    if par >= 0:
+        Rp = load33(oR, par)
+        oRi, opi = matmul(Rp, R), add(rot(Rp, p), load3(op, par))
+    store33(oR, i, oRi)
+    store3(op, i, opi)
+    return R, p, oRi, opi
+
+
+@inline_kernel
 def world_poses(tree, q, path, n, oR, op):
     """oR[i], op[i] = world pose of each body i in path[:n] (parents before children)."""
-    parents = tree.parents
     for t in range(n):
-        i = path[t]
-        R, p = joint_transform(tree, i, q)
-        par = parents[i]
-        if par >= 0:
-            Rp = load33(oR, par)
-            R, p = matmul(Rp, R), add(rot(Rp, p), load3(op, par))
-        store33(oR, i, R)
-        store3(op, i, p)
+        world_pose(tree, path[t], q, oR, op)
 
 
 @inline_kernel
@@ -145,15 +152,7 @@ def motion_batch(tree, Q, V, A, frames, f, ref, what, classical, out):
         w, vl, aw, al = zero, zero, zero, zero  # the parent's motion, then body i's
         for t in range(n):
             i = path[t]
-            R, p = joint_transform(tree, i, q)
-            par = parents[i]
-            if par >= 0:
-                Rp = load33(oR, par)
-                store33(oR, i, matmul(Rp, R))
-                store3(op, i, add(rot(Rp, p), load3(op, par)))
-            else:
-                store33(oR, i, R)
-                store3(op, i, p)
+            R, p, _, _ = world_pose(tree, i, q, oR, op)
             w, vl = motion_to_child(R, p, w, vl)
             wJ, vJ = joint_motion(tree, i, v)
             w, vl = add(w, wJ), add(vl, vJ)

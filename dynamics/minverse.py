@@ -22,16 +22,16 @@ import numpy as np
 from . import checks
 from ._numba import Kernel, kernel
 from .errors import InputError
-from .joints import joint_transform
+from .kinematics import world_pose
 from .parallel import run_chunks
-from .spatial import add, cross, inertia_to_parent, load3, load33, matmul, rot, spd_inverse, store3, store33
+from .spatial import add, cross, inertia_to_parent, load3, load33, rot, spd_inverse, store_inertia6
 
 
 @kernel
 def workspace(nb, nv):
     return (np.empty((nb, 3, 3)), np.empty((nb, 3)), np.empty((nb, 6, 6)),  # world poses, I^A (world)
             np.empty((nv, 6)), np.empty((nv, 6)), np.empty((nv, 6)),  # S (world), U, U D^-1
-            np.empty((nb, 6, 6)), np.empty((nb, 6, nv)),  # D^-1, F then A
+            np.empty((nb, 6, 6)), np.empty((nb, nv, 6)),  # D^-1, F then A (per column a 6-vector)
             np.empty(nb, np.int64), np.empty((6, 6)), np.empty((6, 6)))  # subtree sizes, D, scratch
 
 
@@ -42,37 +42,22 @@ def minverse_into(tree, q, ws, Minv):
     oR, op, IA, Sw, U, UD, Dinv, F, nsub, D, scratch = ws
     nb, nv = parents.shape[0], S.shape[0]
     for i in range(nb):  # world poses, motion axes and inertias
-        R, p = joint_transform(tree, i, q)
-        par = parents[i]
-        if par >= 0:
-            Rp = load33(oR, par)
-            R, p = matmul(Rp, R), add(rot(Rp, p), load3(op, par))
-        store33(oR, i, R)
-        store3(op, i, p)
+        _, _, R, p = world_pose(tree, i, q, oR, op)
         for k in range(v_idx[i], v_idx[i] + nv_j[i]):
             w = rot(R, (S[k, 0], S[k, 1], S[k, 2]))
             v = add(rot(R, (S[k, 3], S[k, 4], S[k, 5])), cross(p, w))
             Sw[k, 0], Sw[k, 1], Sw[k, 2], Sw[k, 3], Sw[k, 4], Sw[k, 5] = w[0], w[1], w[2], v[0], v[1], v[2]
         m = mass[i]
         h, Io = inertia_to_parent(R, p, m, load3(hs, i), load33(Ios, i))
-        for r in range(3):  # I = [[Io, [h]x], [[h]x^T, m 1]] about the world origin
-            for c in range(3):
-                IA[i, r, c] = Io[3 * r + c]
-                IA[i, 3 + r, 3 + c] = m if r == c else 0.0
-        IA[i, 0, 3], IA[i, 0, 4], IA[i, 0, 5] = 0.0, -h[2], h[1]
-        IA[i, 1, 3], IA[i, 1, 4], IA[i, 1, 5] = h[2], 0.0, -h[0]
-        IA[i, 2, 3], IA[i, 2, 4], IA[i, 2, 5] = -h[1], h[0], 0.0
-        for r in range(3):
-            for c in range(3):
-                IA[i, 3 + c, r] = IA[i, r, 3 + c]
+        store_inertia6(IA, i, m, h, Io)  # about the world origin
         nsub[i] = nv_j[i]
     for i in range(nb - 1, -1, -1):
         if parents[i] >= 0:
             nsub[parents[i]] += nsub[i]
     for i in range(nb):
-        for r in range(6):
-            for c in range(v_idx[i], v_idx[i] + nsub[i]):
-                F[i, r, c] = 0.0
+        for c in range(v_idx[i], v_idx[i] + nsub[i]):
+            for r in range(6):
+                F[i, c, r] = 0.0
 
     for i in range(nb - 1, -1, -1):  # backward pass
         k0, nj, ns, par = v_idx[i], nv_j[i], nsub[i], parents[i]
@@ -100,7 +85,7 @@ def minverse_into(tree, q, ws, Minv):
             for b in range(nj):
                 x = 1.0 if c == k0 + b else 0.0
                 for r in range(6):
-                    x -= Sw[k0 + b, r] * F[i, r, c]
+                    x -= Sw[k0 + b, r] * F[i, c, r]
                 scratch[0, b] = x
             for a in range(nj):
                 x = 0.0
@@ -117,10 +102,10 @@ def minverse_into(tree, q, ws, Minv):
                 IA[par, r, c] += x
         for c in range(k0, k0 + ns):  # F_p += F + U M^-1[i, sub(i)]
             for r in range(6):
-                x = F[i, r, c]
+                x = F[i, c, r]
                 for a in range(nj):
                     x += U[k0 + a, r] * Minv[k0 + a, c]
-                F[par, r, c] += x
+                F[par, c, r] += x
 
     A = F  # F is spent: its memory holds the accelerations A_i
     for i in range(nb):  # forward pass, columns c >= k0
@@ -130,14 +115,14 @@ def minverse_into(tree, q, ws, Minv):
                 x = Minv[k0 + a, c] if c < k0 + ns else 0.0
                 if par >= 0:
                     for r in range(6):
-                        x -= UD[k0 + a, r] * A[par, r, c]
+                        x -= UD[k0 + a, r] * A[par, c, r]
                 Minv[k0 + a, c] = x
             if ns > nj:  # i has children: they need A_i
                 for r in range(6):
-                    x = A[par, r, c] if par >= 0 else 0.0
+                    x = A[par, c, r] if par >= 0 else 0.0
                     for a in range(nj):
                         x += Sw[k0 + a, r] * Minv[k0 + a, c]
-                    A[i, r, c] = x
+                    A[i, c, r] = x
     for r in range(nv):
         for c in range(r + 1, nv):
             Minv[c, r] = Minv[r, c]

@@ -195,6 +195,21 @@ def add_inertia6_to_parent(R, p, I, IA, par):
             IA[par, 3 + r, 3 + c] += C[3 * r + c]
 
 
+@inline_kernel
+def store_inertia6(I, i, m, h, Io):
+    """I[i] = the 6x6 rigid-body inertia [[Io, [h]x], [[h]x^T, m 1]] (angular first, eq. 2.63)."""
+    for r in range(3):
+        for c in range(3):
+            I[i, r, c] = Io[3 * r + c]
+            I[i, 3 + r, 3 + c] = m if r == c else 0.0
+    I[i, 0, 3], I[i, 0, 4], I[i, 0, 5] = 0.0, -h[2], h[1]
+    I[i, 1, 3], I[i, 1, 4], I[i, 1, 5] = h[2], 0.0, -h[0]
+    I[i, 2, 3], I[i, 2, 4], I[i, 2, 5] = -h[1], h[0], 0.0
+    for r in range(3):
+        for c in range(3):
+            I[i, 3 + c, r] = I[i, r, 3 + c]
+
+
 @kernel
 def rotation_about_axis(axis, angle):
     """Rodrigues' formula: exp([axis]x angle) for a unit axis, as a 9-tuple."""

@@ -112,22 +112,9 @@ def test_batches_equal_single_calls_on_talos():
     rng = np.random.default_rng(5)
     Q, V, A = (np.array(x) for x in zip(*(random_state(model, rng) for _ in range(200))))
     f = "gripper_left_base_link"
-    batched = {
-        "fk": dynamics.forward_kinematics(model, Q),
-        "placement": dynamics.frame_placement(model, Q, f),
-        "J": dynamics.frame_jacobian(model, Q, f, reference="local", point=[0.1, 0, 0]),
-        "vel": dynamics.frame_velocity(model, Q, V, f),
-        "acc": dynamics.frame_acceleration(model, Q, V, A, f, classical=False),
-        "bias": dynamics.frame_bias_acceleration(model, Q, V, f),
-        "com": dynamics.center_of_mass(model, Q),
-        "vcom": dynamics.center_of_mass_velocity(model, Q, V),
-        "Jcom": dynamics.com_jacobian(model, Q),
-        "Minv": dynamics.inverse_mass_matrix(model, Q),
-        "Lambda": dynamics.operational_space_inertia(model, Q, f, rows=slice(0, 3)),
-    }
-    for k in (0, 99, 199):
-        q, v, a = Q[k], V[k], A[k]
-        single = {
+
+    def everything(q, v, a):
+        return {
             "fk": dynamics.forward_kinematics(model, q),
             "placement": dynamics.frame_placement(model, q, f),
             "J": dynamics.frame_jacobian(model, q, f, reference="local", point=[0.1, 0, 0]),
@@ -140,7 +127,10 @@ def test_batches_equal_single_calls_on_talos():
             "Minv": dynamics.inverse_mass_matrix(model, q),
             "Lambda": dynamics.operational_space_inertia(model, q, f, rows=slice(0, 3)),
         }
-        for name, x in single.items():
+
+    batched = everything(Q, V, A)
+    for k in (0, 99, 199):
+        for name, x in everything(Q[k], V[k], A[k]).items():
             assert x.shape == batched[name].shape[1:], name
             np.testing.assert_array_equal(x, batched[name][k], err_msg=name)
     # one state against many velocities: q is broadcast
