@@ -20,7 +20,7 @@ mass or inertia) makes M singular: the kernel returns that body's index.
 import numpy as np
 
 from . import checks
-from ._numba import Kernel, kernel
+from ._numba import Kernel, inline_kernel, kernel
 from .errors import InputError
 from .kinematics import world_pose
 from .parallel import run_chunks
@@ -81,17 +81,10 @@ def minverse_into(tree, q, ws, Minv):
                 for b in range(nj):
                     x += U[k0 + b, r] * Dinv[i, b, a]
                 UD[k0 + a, r] = x
-        for c in range(k0, k0 + ns):  # M^-1[i, sub(i)] = D^-1 (E - S^T F)
-            for b in range(nj):
-                x = 1.0 if c == k0 + b else 0.0
-                for r in range(6):
-                    x -= Sw[k0 + b, r] * F[i, c, r]
-                scratch[0, b] = x
-            for a in range(nj):
-                x = 0.0
-                for b in range(nj):
-                    x += Dinv[i, a, b] * scratch[0, b]
-                Minv[k0 + a, c] = x
+        if nj == 1:  # the common joint: its 6-vectors in registers (see _backward_1dof)
+            _backward_1dof(Sw, U, Dinv[i, 0, 0], F, Minv, i, k0, ns, par)
+        else:
+            _backward_columns(Sw, U, Dinv, F, Minv, scratch, i, k0, nj, ns, par)
         if par < 0:
             continue
         for r in range(6):  # I^A_p += I^A - U D^-1 U^T
@@ -100,16 +93,13 @@ def minverse_into(tree, q, ws, Minv):
                 for a in range(nj):
                     x -= UD[k0 + a, r] * U[k0 + a, c]
                 IA[par, r, c] += x
-        for c in range(k0, k0 + ns):  # F_p += F + U M^-1[i, sub(i)]
-            for r in range(6):
-                x = F[i, c, r]
-                for a in range(nj):
-                    x += U[k0 + a, r] * Minv[k0 + a, c]
-                F[par, c, r] += x
 
     A = F  # F is spent: its memory holds the accelerations A_i
     for i in range(nb):  # forward pass, columns c >= k0
         k0, nj, ns, par = v_idx[i], nv_j[i], nsub[i], parents[i]
+        if nj == 1:
+            _forward_1dof(Sw, UD, A, Minv, i, k0, ns, par, nv)
+            continue
         for c in range(k0, nv):
             for a in range(nj):
                 x = Minv[k0 + a, c] if c < k0 + ns else 0.0
@@ -127,6 +117,73 @@ def minverse_into(tree, q, ws, Minv):
         for c in range(r + 1, nv):
             Minv[c, r] = Minv[r, c]
     return -1
+
+
+@inline_kernel
+def _backward_columns(Sw, U, Dinv, F, Minv, scratch, i, k0, nj, ns, par):
+    """M^-1[i, sub(i)] = D^-1 (E - S^T F_i), then F_p += F_i + U M^-1[i, sub(i)] (any joint)."""
+    for c in range(k0, k0 + ns):
+        for b in range(nj):
+            x = 1.0 if c == k0 + b else 0.0
+            for r in range(6):
+                x -= Sw[k0 + b, r] * F[i, c, r]
+            scratch[0, b] = x
+        for a in range(nj):
+            x = 0.0
+            for b in range(nj):
+                x += Dinv[i, a, b] * scratch[0, b]
+            Minv[k0 + a, c] = x
+    if par >= 0:
+        for c in range(k0, k0 + ns):
+            for r in range(6):
+                x = F[i, c, r]
+                for a in range(nj):
+                    x += U[k0 + a, r] * Minv[k0 + a, c]
+                F[par, c, r] += x
+
+
+@inline_kernel
+def _vec6(A, k):
+    return A[k, 0], A[k, 1], A[k, 2], A[k, 3], A[k, 4], A[k, 5]
+
+
+@inline_kernel
+def _backward_1dof(Sw, U, dinv, F, Minv, i, k0, ns, par):
+    """_backward_columns for a 1-dof joint, with S and U held in locals (no reloads through aliasing arrays)."""
+    s0, s1, s2, s3, s4, s5 = _vec6(Sw, k0)
+    Minv[k0, k0] = dinv
+    for c in range(k0 + 1, k0 + ns):
+        Minv[k0, c] = -dinv * (s0 * F[i, c, 0] + s1 * F[i, c, 1] + s2 * F[i, c, 2] + s3 * F[i, c, 3]
+                               + s4 * F[i, c, 4] + s5 * F[i, c, 5])
+    if par >= 0:
+        u0, u1, u2, u3, u4, u5 = _vec6(U, k0)
+        for c in range(k0, k0 + ns):
+            x = Minv[k0, c]
+            F[par, c, 0] += F[i, c, 0] + u0 * x
+            F[par, c, 1] += F[i, c, 1] + u1 * x
+            F[par, c, 2] += F[i, c, 2] + u2 * x
+            F[par, c, 3] += F[i, c, 3] + u3 * x
+            F[par, c, 4] += F[i, c, 4] + u4 * x
+            F[par, c, 5] += F[i, c, 5] + u5 * x
+
+
+@inline_kernel
+def _forward_1dof(Sw, UD, A, Minv, i, k0, ns, par, nv):
+    """The forward pass's row of a 1-dof joint: M^-1[i, c] -= (U/D) . A_p[c], A_i[c] = A_p[c] + S M^-1[i, c]."""
+    s0, s1, s2, s3, s4, s5 = _vec6(Sw, k0)
+    d0, d1, d2, d3, d4, d5 = _vec6(UD, k0)
+    children = ns > 1
+    for c in range(k0, nv):
+        x = Minv[k0, c] if c < k0 + ns else 0.0
+        if par >= 0:
+            a0, a1, a2, a3, a4, a5 = A[par, c, 0], A[par, c, 1], A[par, c, 2], A[par, c, 3], A[par, c, 4], A[par, c, 5]
+            x -= d0 * a0 + d1 * a1 + d2 * a2 + d3 * a3 + d4 * a4 + d5 * a5
+        else:
+            a0 = a1 = a2 = a3 = a4 = a5 = 0.0
+        Minv[k0, c] = x
+        if children:  # they need A_i
+            A[i, c, 0], A[i, c, 1], A[i, c, 2] = a0 + s0 * x, a1 + s1 * x, a2 + s2 * x
+            A[i, c, 3], A[i, c, 4], A[i, c, 5] = a3 + s3 * x, a4 + s4 * x, a5 + s5 * x
 
 
 @kernel
