@@ -17,6 +17,7 @@ from .aba import forward_dynamics
 from .energy import kinetic_energy, potential_energy
 from .coriolis import coriolis_matrix
 from .reduce import lock_joints
+from .reorder import reorder
 from .kinematics import (forward_kinematics, frame_acceleration, frame_bias_acceleration, frame_placement,
                          frame_velocity)
 from .jacobians import frame_jacobian
@@ -25,15 +26,17 @@ from .minverse import inverse_mass_matrix
 from .task_space import operational_space_inertia
 from .inverse_kinematics import inverse_kinematics
 
-from . import torques
+from . import plot, robots, torques
 from .configuration import integrate
 from .simulate import Trajectory, simulate
+from .sweeps import Trajectories, map_batches, simulate_many
 
 __all__ = [
     "DeadlineExceeded", "DynamicsError", "InputError", "URDFError", "Model", "load_urdf",
     "inverse_dynamics", "gravity_torques", "bias_forces", "mass_matrix", "forward_dynamics",
-    "kinetic_energy", "potential_energy", "coriolis_matrix", "lock_joints",
-    "simulate", "Trajectory", "integrate", "torques",
+    "kinetic_energy", "potential_energy", "coriolis_matrix", "lock_joints", "reorder",
+    "simulate", "Trajectory", "integrate", "torques", "robots", "plot",
+    "simulate_many", "Trajectories", "map_batches",
     "forward_kinematics", "frame_placement", "frame_velocity", "frame_acceleration", "frame_bias_acceleration",
     "frame_jacobian", "center_of_mass", "center_of_mass_velocity", "com_jacobian",
     "inverse_mass_matrix", "operational_space_inertia", "inverse_kinematics",

@@ -78,18 +78,42 @@ def is_state(x, n):
             and x.flags.writeable)
 
 
+_KIND_NAMES = {"U": "strings", "S": "bytes", "c": "complex numbers", "b": "booleans", "O": "Python objects",
+               "M": "dates", "m": "time spans", "V": "records"}
+
+
 def _real_array(name, x, expected):
     try:
         arr = np.asarray(x)
-        if arr.dtype.kind not in "fiu":  # complex, bool, strings, objects: not joint coordinates
-            raise TypeError
-        return arr.astype(np.float64, copy=False)
-    except (TypeError, ValueError):
-        raise InputError(f"{name}: expected an array of real numbers of shape {expected}") from None
+    except (TypeError, ValueError):  # ragged nested lists
+        raise InputError(f"{name}: expected an array of real numbers of shape {expected}, got a ragged "
+                         f"or mixed sequence") from None
+    if arr.dtype.kind not in "fiu":  # complex, bool, strings, objects: not joint coordinates
+        got = _KIND_NAMES.get(arr.dtype.kind, str(arr.dtype))
+        raise InputError(f"{name}: expected an array of real numbers of shape {expected}, got {got}")
+    return arr.astype(np.float64, copy=False)
 
 
-def states(name, x, n):
-    """Check one state (n,) or a batch (B, n); return (C-contiguous writable 2-D float64 array, batched)."""
+def _length_hint(model, name, length, kind):
+    """Why a vector of this length may have been passed: the usual mistakes, in words."""
+    if model is None:
+        return ""
+    n = model.nq if kind == "q" else model.nv
+    free = 7 if kind == "q" else 6
+    if not model.floating_base and length == n + free:
+        return f"; did you mean load_urdf(..., floating_base=True)? ({length} = {n} + {free} free-flyer coordinates)"
+    locked = model.info.get("locked_joints") or {}
+    if locked:
+        n_locked = sum(np.size(value) for value in locked.values())
+        if length == n + (n_locked if kind == "q" else n_locked - sum(np.size(x) == 7 for x in locked.values())):
+            return (f"; this model has the joints {sorted(locked)[:8]} locked (dynamics.lock_joints): pass only "
+                    f"the {n} coordinates of the others, in model.joint_names order")
+    return ""
+
+
+def states(name, x, n, model=None, kind="v"):
+    """Check one state (n,) or a batch (B, n); return (C-contiguous writable 2-D float64 array, batched).
+    With ``model``, a wrong length gets a hint at the likely mistake (``kind``: "q" or "v")."""
     if is_state(x, n):
         arr2, batched = x.reshape(1, n), False
     else:
@@ -99,7 +123,8 @@ def states(name, x, n):
         elif arr.ndim == 2 and arr.shape[1] == n:
             arr2, batched = arr, True
         else:
-            raise InputError(f"{name}: expected shape ({n},) or (B, {n}), got {arr.shape}")
+            raise InputError(f"{name}: expected shape ({n},) or (B, {n}), got {arr.shape}"
+                             + _length_hint(model, name, arr.shape[-1] if arr.ndim else 0, kind))
         arr2 = np.ascontiguousarray(arr2)
         if not arr2.flags.writeable:  # one compiled signature: writable arrays only
             arr2 = arr2.copy()
@@ -120,12 +145,13 @@ def vector(name, x, n):
 
 def configurations(model, q, name="q"):
     """Check q; a free joint's quaternion must be non-zero (it is normalised inside the kernels)."""
-    Q, batched = states(name, q, model.nq)
+    Q, batched = states(name, q, model.nq, model, "q")
     if model.floating_base:
         k = _first_zero_quaternion_k(Q, model.quaternion_starts)
         if k >= 0:
             raise InputError(f"{name}: the quaternion {name}[{k}:{k + 4}] of a floating joint is zero; "
-                             f"expected a unit quaternion in the order (qx, qy, qz, qw)")
+                             f"expected a unit quaternion in the order (x, y, z, w), scalar last: the identity "
+                             f"is [0, 0, 0, 1]")
     return Q, batched
 
 
@@ -153,7 +179,7 @@ def state_batch(model, q, named):
     Q, batched = configurations(model, q)
     arrays = [("q", Q)]
     for name, x, n in named:
-        X, b = states(name, x, n)
+        X, b = states(name, x, n, model)
         arrays.append((name, X))
         batched = batched or b
     out, B = broadcast(arrays)

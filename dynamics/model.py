@@ -24,13 +24,12 @@ Io                 (nb,3,3)         rotational inertia about the body frame orig
 =================  ===============  =====================================================================
 """
 
-import difflib
 from dataclasses import dataclass, field
 from typing import NamedTuple
 
 import numpy as np
 
-from .errors import InputError
+from . import reorder
 from .joints import JOINT_FREE, JOINT_NQ, JOINT_NV, URDF_JOINT_CODES, motion_subspace
 
 
@@ -201,9 +200,7 @@ class Model:
             object.__setattr__(self, "_frame_index", index)
         k = index.get(name) if isinstance(name, str) else None
         if k is None:
-            close = difflib.get_close_matches(str(name), list(index), n=5, cutoff=0.5)
-            hint = f"; closest: {close}" if close else f"; frames are {list(index)[:20]}"
-            raise InputError(f"frame: no frame named {name!r} in {self.name!r}{hint}")
+            raise reorder.closest(name, list(index), "frame")
         return k
 
     @property
@@ -212,11 +209,16 @@ class Model:
         return float(np.sum(self.tree.mass))
 
     def joint_index(self, name: str) -> int:
-        """Index of the joint (= body) named ``name``."""
-        try:
-            return self.joint_names.index(name)
-        except ValueError:
-            raise KeyError(f"no movable joint named {name!r}; joints are {list(self.joint_names)}") from None
+        """Index of the movable joint (= body) named ``name``; an unknown name lists the closest names."""
+        return reorder.joint_index(self, name)
+
+    def q_slice(self, name: str) -> slice:
+        """The coordinates of joint ``name`` in q: ``q[model.q_slice("elbow")]``."""
+        return reorder.q_slice(self, name)
+
+    def v_slice(self, name: str) -> slice:
+        """The coordinates of joint ``name`` in v, a and tau."""
+        return reorder.v_slice(self, name)
 
     def neutral(self) -> np.ndarray:
         """The neutral configuration: zeros, identity quaternion for a free joint."""
@@ -238,6 +240,16 @@ class Model:
         out.update(self.info)
         out["warnings"] = list(self.warnings)
         return out
+
+    def __setstate__(self, state):
+        """Unpickling (process pools, Ray) gives writable arrays; the kernels are compiled for read-only ones, so
+        a writable copy would compile every kernel again (a minute) in each worker: freeze them again."""
+        for key, value in state.items():
+            if isinstance(value, Tree):
+                value = Tree(*(_frozen(a, a.dtype) for a in value))
+            elif isinstance(value, np.ndarray):
+                value = _frozen(value, value.dtype)
+            object.__setattr__(self, key, value)
 
     def __repr__(self):
         return (f"Model({self.name!r}, nq={self.nq}, nv={self.nv}, bodies={self.nbodies}, "

@@ -86,7 +86,7 @@ def lock_joints(model: Model, values: dict) -> Model:
         if qi is None or qi.shape != (nq,) or not np.all(np.isfinite(qi)):
             raise InputError(f"locked[{name!r}]: expected {nq} finite number{'s' if nq > 1 else ''}, got {value!r}")
         if nq == 7 and np.linalg.norm(qi[3:7]) < 1e-8:
-            raise InputError(f"locked[{name!r}]: the quaternion (qx, qy, qz, qw) is zero; expected a unit quaternion")
+            raise InputError(f"locked[{name!r}]: the quaternion is zero; expected a unit quaternion in the order (x, y, z, w), scalar last")
         locked[i] = qi
 
     # new_of[i] = (body it now belongs to or -1, pose of body i's frame in that body)

@@ -9,7 +9,9 @@ Fixed joints are merged: a link welded to its parent adds its mass, centre of ma
 parent body exactly (parallel-axis theorem, :func:`dynamics.spatial.inertia_to_parent`).
 """
 
+import difflib
 import os
+import re
 
 import numpy as np
 from lxml import etree
@@ -28,6 +30,25 @@ INERTIA_WARN = 1e-9
 INERTIA_REFUSE = 1e-2
 #: violations smaller than this (kg m^2) are round-off in any real robot and pass silently
 INERTIA_ABS_TOL = 1e-12
+
+#: a URDF with more links or joints than this is refused while parsing (a robot has tens to a few hundred)
+MAX_LINKS = 10_000
+#: robot, link and joint names longer than this are refused
+MAX_NAME = 256
+
+#: elements and attributes a URDF may use where the dynamics reads it; anything else there is a typo that would
+#: silently change the numbers (``<mass valu="1"/>`` would be a massless link), so it gets a warning
+_KNOWN_CHILDREN = {
+    "link": {"inertial", "visual", "collision"},
+    "inertial": {"origin", "mass", "inertia"},
+    "joint": {"origin", "parent", "child", "axis", "calibration", "dynamics", "limit", "mimic",
+              "safety_controller"},
+}
+_KNOWN_ATTRIBUTES = {
+    "mass": {"value"}, "inertia": {"ixx", "ixy", "ixz", "iyy", "iyz", "izz"}, "origin": {"xyz", "rpy"},
+    "axis": {"xyz"}, "limit": {"lower", "upper", "effort", "velocity"}, "dynamics": {"damping", "friction"},
+    "mimic": {"joint", "multiplier", "offset"}, "parent": {"link"}, "child": {"link"},
+}
 
 _MOVABLE = ("revolute", "continuous", "prismatic", "floating")
 _KNOWN = _MOVABLE + ("fixed", "planar")
@@ -56,10 +77,32 @@ def _read_source(source) -> bytes:
     raise URDFError(f"URDF source: expected a path, str or bytes, got {type(source).__name__}")
 
 
+_DECLARATION = re.compile(rb"^\s*(<\?xml\s[^>]*?\?>)", re.S)
+_VERSION = re.compile(rb"""version\s*=\s*(["'])[^"']*\1""")
+
+
+def _normalise_declaration(data: bytes) -> bytes:
+    """Read what urdfdom reads: whitespace before the XML declaration is dropped and the declared XML version
+    (some published URDFs say "0.0") is ignored, as TinyXML does; the encoding it names is kept."""
+    m = _DECLARATION.match(data)
+    if m is None:
+        return data
+    decl = _VERSION.sub(b'version="1.0"', m.group(1), count=1)
+    return decl + data[m.end():]
+
+
+def _names(names, k=8):
+    """At most k names for an error message (a hostile URDF may have a million)."""
+    names = list(names)
+    shown = ", ".join(repr(n[:40] + "..." if len(n) > 40 else n) for n in names[:k])
+    return f"[{shown}{f', ... ({len(names)} in all)' if len(names) > k else ''}]"
+
+
 def parse_xml(data: bytes):
     """Parse untrusted URDF bytes into an lxml element, refusing DTDs, entities and broken XML."""
     if len(data) > MAX_URDF_BYTES:
         raise URDFError(f"URDF is larger than {MAX_URDF_BYTES} bytes")
+    data = _normalise_declaration(data)
     head = data[:4096].lower()
     if b"<!doctype" in head or b"<!entity" in data.lower():
         raise URDFError("URDF: DOCTYPE and ENTITY declarations are not allowed")
@@ -70,8 +113,44 @@ def parse_xml(data: bytes):
     if root.getroottree().docinfo.doctype:
         raise URDFError("URDF: DOCTYPE declarations are not allowed")
     if root.tag != "robot":
-        raise URDFError(f"URDF root element is <{root.tag}>, expected <robot>")
+        raise URDFError(f"URDF root element is <{str(root.tag)[:40]}>, expected <robot>")
+    n_links, n_joints = len(root.findall("link")), len(root.findall("joint"))
+    if max(n_links, n_joints) > MAX_LINKS:
+        raise URDFError(f"URDF has {n_links} links and {n_joints} joints; at most {MAX_LINKS} of each are "
+                        f"accepted")
     return root
+
+
+def _check_name(kind, name):
+    if len(name) > MAX_NAME:
+        raise URDFError(f"{kind} name {name[:40]!r}... has {len(name)} characters; at most {MAX_NAME} are accepted")
+
+
+def _likely_typo(name, known, strict):
+    """Inside <inertial> (no extension uses it) every unknown name is a typo; elsewhere URDFs carry simulator
+    extensions (<contact>, limit 'current', dynamics 'K'), so only names close to a known one are."""
+    return strict or bool(difflib.get_close_matches(name, known, n=1, cutoff=0.8))
+
+
+def _unknown_parts(el, where, warnings):
+    """Warn about children and attributes that look like typos of what the dynamics reads (``<inertai>``,
+    ``<mass valu=...>``, ``<limit lowr=...>``): each would silently change the numbers."""
+    strict = el.tag == "inertial"
+    known = _KNOWN_CHILDREN.get(el.tag, set())
+    for child in el:
+        tag = child.tag if isinstance(child.tag, str) else None
+        if tag is None:
+            continue
+        if tag not in known and _likely_typo(tag, known, strict):
+            warnings.append(f"{where}: unknown element <{tag[:40]}> in <{el.tag}> (ignored; expected one of "
+                            f"{sorted(known)})")
+        attrs = _KNOWN_ATTRIBUTES.get(tag, set())
+        for a in child.attrib if tag in _KNOWN_ATTRIBUTES else ():
+            if a not in attrs and _likely_typo(a, attrs, strict):
+                warnings.append(f"{where}: unknown attribute {a[:40]!r} of <{tag}> (ignored; expected "
+                                f"{sorted(attrs)})")
+        if tag == "inertial":
+            _unknown_parts(child, where, warnings)
 
 
 def _finite(what, *values):
@@ -121,14 +200,20 @@ def load_urdf(source, *, floating_base: bool = False, strict_inertia: bool = Tru
     root = parse_xml(_read_source(source))
     warnings = []
     name = root.get("name") or "robot"
+    _check_name("robot", name)
 
     links, joints = {}, []
     for el in root.findall("link"):
         lname = el.get("name")
         if not lname:
             raise URDFError("a <link> has no name attribute")
+        _check_name("link", lname)
         if lname in links:
             raise URDFError(f"link {lname!r} is defined twice")
+        _unknown_parts(el, f"link {lname!r}", warnings)
+        mass = el.find("inertial/mass")
+        if mass is not None and mass.get("value") is None:
+            raise URDFError(f"link {lname!r}: <mass> has no value attribute (expected <mass value=\"...\"/>)")
         inertia = el.find("inertial/inertia")
         if inertia is not None:
             missing = [k for k in ("ixx", "ixy", "ixz", "iyy", "iyz", "izz") if inertia.get(k) is None]
@@ -146,12 +231,14 @@ def load_urdf(source, *, floating_base: bool = False, strict_inertia: bool = Tru
         jname = el.get("name")
         if not jname:
             raise URDFError("a <joint> has no name attribute")
+        _check_name("joint", jname)
         if jname in seen:
             raise URDFError(f"joint {jname!r} is defined twice")
         seen.add(jname)
+        _unknown_parts(el, f"joint {jname!r}", warnings)
         jtype = el.get("type")
         if jtype not in _KNOWN:
-            raise URDFError(f"joint {jname!r}: unknown type {jtype!r}, expected one of {list(_KNOWN)}")
+            raise URDFError(f"joint {jname!r}: unknown type {str(jtype)[:40]!r}, expected one of {list(_KNOWN)}")
         for tag in ("parent", "child"):
             sub = el.find(tag)
             if sub is None or not sub.get("link"):
@@ -179,7 +266,7 @@ def load_urdf(source, *, floating_base: bool = False, strict_inertia: bool = Tru
     if not roots:
         raise URDFError("URDF kinematic graph has a cycle: every link has a parent")
     if len(roots) > 1:
-        raise URDFError(f"URDF has more than one root link: {roots}; expected one tree")
+        raise URDFError(f"URDF has more than one root link: {_names(roots)}; expected one tree")
     root_link = roots[0]
 
     # --- walk the tree depth first, merging fixed joints ------------------------------------------
@@ -197,7 +284,7 @@ def load_urdf(source, *, floating_base: bool = False, strict_inertia: bool = Tru
         lname, j, body, T = stack.pop()
         visited += 1
         if j is not None and j.type != "fixed":
-            bodies.append(_movable_body(j, body, T))
+            bodies.append(_movable_body(j, body, T, warnings))
             body, T = len(bodies) - 1, np.eye(4)
         if j is not None:  # a joint's frame is its child link's frame (URDF)
             frames[_joint_frame(j.name, links)] = (body, T)
@@ -216,7 +303,7 @@ def load_urdf(source, *, floating_base: bool = False, strict_inertia: bool = Tru
             stack.append((j.child, j, body, T @ J))
     if visited != len(links):
         lost = sorted(set(links) - set(frames))
-        raise URDFError(f"URDF kinematic graph has a cycle through links {lost}")
+        raise URDFError(f"URDF kinematic graph has a cycle through links {_names(lost)}")
     for b in bodies:
         if b.mass == 0.0:
             massless.append(b.name)
@@ -250,26 +337,30 @@ def _massless(link):
     return i is None or (not i.mass and (i.inertia is None or not np.any(np.asarray(i.inertia, dtype=float))))
 
 
-def _movable_body(j, parent_body, placement):
+def _movable_body(j, parent_body, placement, warnings):
     what = f"joint {j.name!r}"
     axis = np.asarray(j.axis if j.axis is not None else (1.0, 0.0, 0.0), float)
     if axis.shape != (3,):
         raise URDFError(f"{what}: axis must have 3 numbers, got {axis.size}")
     _finite(what + " axis", axis)
-    n = np.linalg.norm(axis)
     if j.type != "floating":
-        if n < 1e-12:
+        big = np.max(np.abs(axis))
+        if big < 1e-12:
             raise URDFError(f"{what}: joint axis is zero")
-        axis = axis / n
+        axis = axis / big  # scaled first: (1e300, 1e300, 1e300) would overflow the norm to inf
+        axis = axis / np.linalg.norm(axis)
     spec = BodySpec(name=j.child, joint_name=j.name, joint_type=j.type, parent=parent_body,
                     placement=placement, axis=axis)
     if j.type in ("revolute", "prismatic") and j.limit is not None:
-        lo = -np.inf if j.limit.lower is None else j.limit.lower
-        hi = np.inf if j.limit.upper is None else j.limit.upper
-        _finite(what + " limit", lo if np.isfinite(lo) else 0.0, hi if np.isfinite(hi) else 0.0)
-        if lo > hi:
-            raise URDFError(f"{what}: lower limit {lo} is above upper limit {hi}")
-        spec.lower, spec.upper = float(lo), float(hi)
+        lo = -np.inf if j.limit.lower is None else float(j.limit.lower)
+        hi = np.inf if j.limit.upper is None else float(j.limit.upper)
+        if np.isnan(lo) or np.isnan(hi):
+            raise URDFError(f"{what}: limit lower/upper is not a number (got {lo}, {hi})")
+        if lo > hi:  # urdfdom loads these; published URDFs use them to mean "no limit"
+            warnings.append(f"{what}: lower limit {lo} is above upper limit {hi}; the joint is treated as "
+                            f"unlimited")
+            lo, hi = -np.inf, np.inf
+        spec.lower, spec.upper = lo, hi
     if j.type != "floating" and j.limit is not None:
         for attr in ("effort", "velocity"):
             val = getattr(j.limit, attr)

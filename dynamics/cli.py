@@ -1,0 +1,198 @@
+"""The ``dynamics`` command line (also ``python -m dynamics``).
+
+    dynamics info ROBOT [--floating-base] [--json]       what the model holds: joints with q/v slices, frames
+    dynamics check ROBOT [--floating-base]               every warning and refusal; exit 0 if it loads, 1 if not
+    dynamics simulate ROBOT --duration 2 [--q0 ...] [--torque pd:kp=50,kd=5] [--plot out.png] [--json]
+    dynamics serve [--host ...] [--port ...]             the HTTP service (same as python -m service)
+
+ROBOT is a URDF path or the name of a bundled robot (``dynamics.robots.names()``).
+"""
+
+import argparse
+import importlib
+import json
+import sys
+
+import numpy as np
+
+from . import plot, robots
+from .errors import DynamicsError
+from .simulate import simulate
+from .torques import PD
+from .urdf import load_urdf
+
+INTEGRATORS = ("auto", "rk45", "dop853", "radau", "rk4", "euler")
+TORQUE_HELP = ("torque source: 'zero' (default), 'constant:TAU' (one number per joint, comma separated), or "
+               "'pd:kp=K,kd=D[,target=Q]' (PD towards target, default q0; K and D scalars)")
+
+
+def _robot_source(robot):
+    if robot.lower().endswith(".urdf") or "/" in robot or robot.lstrip().startswith("<"):
+        return robot
+    try:
+        return robots.path(robot)
+    except FileNotFoundError:
+        return robot  # load_urdf says it is neither a file nor URDF text
+
+
+def _load(args, strict=True):
+    return load_urdf(_robot_source(args.robot), floating_base=args.floating_base, strict_inertia=strict)
+
+
+def _numbers(text, what):
+    try:
+        return np.array([float(x) for x in text.replace(",", " ").split()])
+    except ValueError:
+        raise DynamicsError(f"{what}: expected numbers separated by commas, got {text!r}") from None
+
+
+def _torque(spec, model, q0):
+    """Parse --torque into what dynamics.simulate takes."""
+    kind, _, rest = spec.partition(":")
+    if kind == "zero":
+        return None
+    if kind == "constant":
+        return _numbers(rest, "--torque constant")
+    if kind == "pd":
+        fields = {}
+        for part in rest.replace(";", ",").split(","):
+            key, eq, value = part.partition("=")
+            if eq:
+                fields[key.strip()] = value.strip()
+            elif part.strip() and "target" in fields:  # target=0.1,0.2: the numbers after the first
+                fields["target"] += " " + part.strip()
+        unknown = set(fields) - {"kp", "kd", "target"}
+        if unknown or not {"kp", "kd"} <= set(fields):
+            raise DynamicsError(f"--torque: expected pd:kp=K,kd=D[,target=Q], got {spec!r}")
+        target = _numbers(fields["target"], "--torque target") if "target" in fields else q0
+        return PD(target, float(fields["kp"]), float(fields["kd"]))
+    raise DynamicsError(f"--torque: unknown kind {kind!r}; {TORQUE_HELP}")
+
+
+def info(args):
+    model = _load(args, strict=not args.lenient)
+    joints = [{"name": n, "type": t, "q": [model.q_slice(n).start, model.q_slice(n).stop],
+               "v": [model.v_slice(n).start, model.v_slice(n).stop],
+               "lower": _plain(model.lower[model.v_slice(n)][0]), "upper": _plain(model.upper[model.v_slice(n)][0])}
+              for n, t in zip(model.joint_names, model.joint_types)]
+    out = dict(model.summary(), joints=joints, frames=sorted(model.frames))
+    if args.json:
+        print(json.dumps(out, indent=2))
+        return 0
+    print(f"{model.name}: nq={model.nq} nv={model.nv}, {model.nbodies} bodies, "
+          f"floating base: {'yes' if model.floating_base else 'no'}")
+    print(f"{'joint':<28} {'type':<11} {'q':>9} {'v':>9}  limits")
+    for j in joints:
+        print(f"{j['name']:<28} {j['type']:<11} {'%d:%d' % tuple(j['q']):>9} {'%d:%d' % tuple(j['v']):>9}  "
+              f"[{_fmt(j['lower'])}, {_fmt(j['upper'])}]")
+    print(f"frames ({len(out['frames'])}): {', '.join(out['frames'][:20])}{' ...' if len(out['frames']) > 20 else ''}")
+    for key in ("fixed_joints_merged", "links_pruned"):
+        print(f"{key}: {len(out.get(key, []))}")
+    for w in model.warnings:
+        print(f"warning: {w}")
+    return 0
+
+
+def _fmt(x):
+    return "-" if x is None else f"{x:.4g}"
+
+
+def _plain(x):
+    x = float(x)
+    return x if np.isfinite(x) else None
+
+
+def check(args):
+    try:
+        model = _load(args)
+    except DynamicsError as e:
+        try:
+            lenient = _load(args, strict=False)
+        except DynamicsError:
+            lenient = None
+        print(f"refused: {e}")
+        if lenient is not None:
+            print("(it loads with strict_inertia=False / --lenient, with warnings:)")
+            for w in lenient.warnings:
+                print(f"warning: {w}")
+        return 1
+    for w in model.warnings:
+        print(f"warning: {w}")
+    print(f"ok: {model.name} loads (nq={model.nq}, nv={model.nv}, {len(model.warnings)} warnings)")
+    return 0
+
+
+def simulate_command(args):
+    model = _load(args, strict=not args.lenient)
+    q0 = _numbers(args.q0, "--q0") if args.q0 else model.neutral()
+    v0 = _numbers(args.v0, "--v0") if args.v0 else np.zeros(model.nv)
+    options = {k: getattr(args, k) for k in ("integrator", "rtol", "atol", "dt", "sample_dt")
+               if getattr(args, k) is not None}
+    traj = simulate(model, q0, v0, args.duration, torque=_torque(args.torque, model, q0), **options)
+    if args.out:
+        np.savez(args.out, t=traj.t, q=traj.q, v=traj.v, tau=traj.tau, report=json.dumps(traj.report))
+    if args.plot:
+        plot.trajectory(traj, args.plot, joint_names=model.joint_names)
+    if args.json:
+        print(json.dumps(traj.report, indent=2, default=str))
+    else:
+        print(plot.report_title(traj.report))
+        for w in traj.report.get("warnings", []):
+            print(f"warning: {w}")
+        print(f"final q: {np.array2string(traj.q[-1], precision=6)}")
+    return 0 if traj.report.get("status") == "ok" else 2
+
+
+def serve(argv):
+    """Hand every argument to ``python -m service`` (its own --help lists them)."""
+    try:
+        service_main = importlib.import_module("service.__main__").main  # the optional web layer
+    except ImportError as e:
+        raise SystemExit(f"dynamics serve: the service is not installed ({e})") from None
+    return service_main(list(argv))
+
+
+def parser():
+    p = argparse.ArgumentParser(prog="dynamics", description=__doc__.split("\n\n")[0],
+                                epilog="Run 'dynamics COMMAND --help' for a command's options.")
+    sub = p.add_subparsers(dest="command", required=True, metavar="COMMAND")
+
+    def robot_command(name, fn, help_):
+        c = sub.add_parser(name, help=help_, description=help_)
+        c.add_argument("robot", help="a URDF path or a bundled robot name (%s)" % ", ".join(robots.names()))
+        c.add_argument("--floating-base", action="store_true", help="give the root link a free joint")
+        c.set_defaults(fn=fn)
+        return c
+
+    c = robot_command("info", info, "summarise a robot: joints with their q/v slices, frames, warnings")
+    c.add_argument("--json", action="store_true", help="print JSON")
+    c.add_argument("--lenient", action="store_true", help="accept inertias that break the triangle inequality")
+    robot_command("check", check, "print every warning and refusal; exit 0 if the robot loads, 1 if not")
+    c = robot_command("simulate", simulate_command, "simulate and print the report (exit 2 if not ok)")
+    c.add_argument("--duration", type=float, required=True, help="seconds")
+    c.add_argument("--q0", help="initial q, comma separated (default: neutral)")
+    c.add_argument("--v0", help="initial v, comma separated (default: zero)")
+    c.add_argument("--torque", default="zero", help=TORQUE_HELP)
+    c.add_argument("--integrator", choices=INTEGRATORS)
+    c.add_argument("--rtol", type=float)
+    c.add_argument("--atol", type=float)
+    c.add_argument("--dt", type=float, help="step of the fixed-step integrators")
+    c.add_argument("--sample-dt", dest="sample_dt", type=float, help="output sample spacing")
+    c.add_argument("--plot", metavar="FILE", help="save a figure of q, v, tau (png, pdf, svg)")
+    c.add_argument("--out", metavar="FILE.npz", help="save t, q, v, tau and the report")
+    c.add_argument("--json", action="store_true", help="print the report as JSON")
+    c.add_argument("--lenient", action="store_true", help="accept inertias that break the triangle inequality")
+    sub.add_parser("serve", help="run the HTTP service (options: dynamics serve --help)")
+    return p
+
+
+def main(argv=None):
+    argv = sys.argv[1:] if argv is None else list(argv)
+    if argv[:1] == ["serve"]:
+        return serve(argv[1:])
+    args = parser().parse_args(argv)
+    try:
+        return args.fn(args)
+    except (DynamicsError, FileNotFoundError) as e:
+        print(f"dynamics {args.command}: {e}", file=sys.stderr)
+        return 1

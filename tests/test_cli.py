@@ -1,0 +1,72 @@
+"""The command line (`python -m dynamics`, installed as `dynamics`): real subprocesses, compared with the
+library's own answers."""
+
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+import dynamics
+from dynamics.torques import PD
+
+
+def run(*args, check=None):
+    proc = subprocess.run([sys.executable, "-m", "dynamics", *args], capture_output=True, text=True, timeout=300)
+    if check is not None:
+        assert proc.returncode == check, proc.stdout + proc.stderr
+    return proc
+
+
+def test_info_json_lists_joints_with_slices_and_frames():
+    out = json.loads(run("info", "puma560", "--json", check=0).stdout)
+    model = dynamics.load_urdf(dynamics.robots.path("puma560"))
+    assert [j["name"] for j in out["joints"]] == list(model.joint_names)
+    assert out["joints"][2]["q"] == [2, 3] and out["nv"] == model.nv
+    assert set(out["frames"]) == set(model.frames)
+
+
+def test_info_text_and_help():
+    text = run("info", dynamics.robots.path("planar_2r"), check=0).stdout
+    assert "nq=2 nv=2" in text and "joint" in text
+    assert "simulate" in run("--help", check=0).stdout
+    assert "--torque" in run("simulate", "--help", check=0).stdout
+
+
+def test_check_exit_codes(tmp_path):
+    assert "ok:" in run("check", "rp_arm", check=0).stdout
+    bad = tmp_path / "bad.urdf"
+    bad.write_text('<robot name="r"><link name="a"/><link name="b"><inertial><mass value="-1"/>'
+                   '<inertia ixx="1" ixy="0" ixz="0" iyy="1" iyz="0" izz="1"/></inertial></link>'
+                   '<joint name="j" type="revolute"><parent link="a"/><child link="b"/></joint></robot>')
+    out = run("check", str(bad), check=1).stdout
+    assert "refused" in out and "negative mass" in out
+
+
+def test_simulate_matches_the_library(tmp_path):
+    npz, png = tmp_path / "run.npz", tmp_path / "run.png"
+    out = run("simulate", "planar_2r", "--duration", "0.5", "--q0", "0.5,0.2", "--torque",
+              "pd:kp=400,kd=40,target=0.1,0.2", "--out", str(npz), "--plot", str(png), "--json", check=0)
+    report = json.loads(out.stdout)
+    model = dynamics.load_urdf(dynamics.robots.path("planar_2r"))
+    ref = dynamics.simulate(model, [0.5, 0.2], [0, 0], 0.5, torque=PD(np.array([0.1, 0.2]), 400.0, 40.0))
+    saved = np.load(npz)
+    np.testing.assert_array_equal(saved["q"], ref.q)
+    assert report["status"] == "ok" and report["steps"] == ref.report["steps"]
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+@pytest.mark.parametrize("args, words", [
+    (("simulate", "planar_2r", "--duration", "1", "--torque", "magic"), "unknown kind 'magic'"),
+    (("simulate", "planar_2r", "--duration", "1", "--q0", "1,x"), "--q0: expected numbers"),
+    (("simulate", "planar_2r", "--duration", "1", "--q0", "1,2,3"), "q0: expected shape (2,)"),
+    (("info", "no_such_robot"), "neither URDF text nor an existing file"),
+])
+def test_bad_arguments_are_one_clear_line(args, words):
+    proc = run(*args, check=1)
+    assert words in proc.stderr and "Traceback" not in proc.stderr
+
+
+def test_serve_forwards_to_the_service():
+    assert "--port" in run("serve", "--help", check=0).stdout
