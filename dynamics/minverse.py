@@ -61,6 +61,10 @@ def minverse_into(tree, q, ws, Minv):
 
     for i in range(nb - 1, -1, -1):  # backward pass
         k0, nj, ns, par = v_idx[i], nv_j[i], nsub[i], parents[i]
+        if nj == 1:  # the common joint, with its 6-vectors in locals
+            if not _backward_1dof_body(IA, Sw, U, UD, Dinv, F, Minv, i, k0, ns, par):
+                return i
+            continue
         for a in range(nj):
             for r in range(6):
                 x = 0.0
@@ -81,10 +85,7 @@ def minverse_into(tree, q, ws, Minv):
                 for b in range(nj):
                     x += U[k0 + b, r] * Dinv[i, b, a]
                 UD[k0 + a, r] = x
-        if nj == 1:  # the common joint: its 6-vectors in registers (see _backward_1dof)
-            _backward_1dof(Sw, U, Dinv[i, 0, 0], F, Minv, i, k0, ns, par)
-        else:
-            _backward_columns(Sw, U, Dinv, F, Minv, scratch, i, k0, nj, ns, par)
+        _backward_columns(Sw, U, Dinv, F, Minv, scratch, i, k0, nj, ns, par)
         if par < 0:
             continue
         for r in range(6):  # I^A_p += I^A - U D^-1 U^T
@@ -145,6 +146,35 @@ def _backward_columns(Sw, U, Dinv, F, Minv, scratch, i, k0, nj, ns, par):
 @inline_kernel
 def _vec6(A, k):
     return A[k, 0], A[k, 1], A[k, 2], A[k, 3], A[k, 4], A[k, 5]
+
+
+@inline_kernel
+def _backward_1dof_body(IA, Sw, U, UD, Dinv, F, Minv, i, k0, ns, par):
+    """The backward pass at a 1-dof joint: U = I^A s, D = s . U, its row of M^-1, F_p and I^A_p.  False when D
+    is not positive."""
+    s0, s1, s2, s3, s4, s5 = _vec6(Sw, k0)
+    for r in range(6):
+        U[k0, r] = (IA[i, r, 0] * s0 + IA[i, r, 1] * s1 + IA[i, r, 2] * s2 + IA[i, r, 3] * s3
+                    + IA[i, r, 4] * s4 + IA[i, r, 5] * s5)
+    u0, u1, u2, u3, u4, u5 = _vec6(U, k0)
+    d = s0 * u0 + s1 * u1 + s2 * u2 + s3 * u3 + s4 * u4 + s5 * u5
+    if not d > 0.0:
+        return False
+    dinv = 1.0 / d
+    Dinv[i, 0, 0] = dinv
+    UD[k0, 0], UD[k0, 1], UD[k0, 2] = u0 * dinv, u1 * dinv, u2 * dinv
+    UD[k0, 3], UD[k0, 4], UD[k0, 5] = u3 * dinv, u4 * dinv, u5 * dinv
+    _backward_1dof(Sw, U, dinv, F, Minv, i, k0, ns, par)
+    if par >= 0:  # I^A_p += I^A - U U^T / D
+        for r in range(6):
+            x = UD[k0, r]
+            IA[par, r, 0] += IA[i, r, 0] - x * u0
+            IA[par, r, 1] += IA[i, r, 1] - x * u1
+            IA[par, r, 2] += IA[i, r, 2] - x * u2
+            IA[par, r, 3] += IA[i, r, 3] - x * u3
+            IA[par, r, 4] += IA[i, r, 4] - x * u4
+            IA[par, r, 5] += IA[i, r, 5] - x * u5
+    return True
 
 
 @inline_kernel
