@@ -3,8 +3,9 @@ Mansard, "Analytical derivatives of rigid body dynamics algorithms", RSS 2018; P
 
 Column c of M^-1 is the ABA's answer (:mod:`dynamics.aba`) to tau = e_c at v = 0 without gravity; all columns
 are run at once.  Everything is expressed in the world frame (motion axes S_i = oX_i S_i^body, inertias about
-the world origin), so no per-column spatial transform is needed.  F_i (6 x nv) is the articulated bias force
-of the subtree of i (the ABA's p^A), nonzero only in the subtree's columns; A_i (6 x nv) the acceleration:
+the world origin), so no per-column spatial transform is needed.  F_i (6 x nv, kept as one 6-vector per
+column) is the articulated bias force of the subtree of i (the ABA's p^A), nonzero only in the subtree's
+columns; A_i (6 x nv, same storage) the acceleration:
 
     backward (leaves in):  U_i = I^A_i S_i,  D_i = S_i^T U_i,
                            M^-1[i, sub(i)] = D_i^-1 (E_i - S_i^T F_i)           (E_i: the identity at i's dofs)
@@ -14,7 +15,8 @@ of the subtree of i (the ABA's p^A), nonzero only in the subtree's columns; A_i 
 sub(i) are the velocity coordinates of the subtree of i, contiguous from i's own (depth-first order).  The
 forward pass computes the upper triangle (columns c >= i's first coordinate), the lower is its mirror.
 Cost: O(n d) backward (d the depth) and O(n^2) forward.  A joint whose D_i is not positive (it moves no
-mass or inertia) makes M singular: the kernel returns that body's index.
+mass or inertia) makes M singular: the kernel returns that body's index.  1-dof joints (nearly all) take
+loops specialised with their 6-vectors in locals; the free joint the generic ones.
 """
 
 import numpy as np
