@@ -26,7 +26,7 @@ from ._numba import Kernel, inline_kernel, kernel
 from .errors import InputError
 from .kinematics import world_pose
 from .parallel import run_chunks
-from .spatial import add, cross, inertia_to_parent, load3, load33, rot, spd_inverse, store_inertia6
+from .spatial import add, cross, inertia_to_parent, joint_gram, load3, load33, rot, spd_inverse, store_inertia6
 
 
 @kernel
@@ -73,12 +73,7 @@ def minverse_into(tree, q, ws, Minv):
                 for c in range(6):
                     x += IA[i, r, c] * Sw[k0 + a, c]
                 U[k0 + a, r] = x
-        for a in range(nj):
-            for b in range(nj):
-                x = 0.0
-                for r in range(6):
-                    x += Sw[k0 + a, r] * U[k0 + b, r]
-                D[a, b] = x
+        joint_gram(Sw, U, k0, nj, D)  # D = S^T U
         if not spd_inverse(D, nj, Dinv, i, scratch):
             return i
         for a in range(nj):

@@ -210,6 +210,17 @@ def store_inertia6(I, i, m, h, Io):
             I[i, 3 + c, r] = I[i, r, 3 + c]
 
 
+@inline_kernel
+def joint_gram(S, U, k0, nj, D):
+    """D[:nj, :nj] = S^T U over a joint's rows k0 .. k0 + nj of S and U (6-vectors per row): D_i = S_i^T I^A S_i."""
+    for a in range(nj):
+        for b in range(nj):
+            x = 0.0
+            for r in range(6):
+                x += S[k0 + a, r] * U[k0 + b, r]
+            D[a, b] = x
+
+
 @kernel
 def rotation_about_axis(axis, angle):
     """Rodrigues' formula: exp([axis]x angle) for a unit axis, as a 9-tuple."""
