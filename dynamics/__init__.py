@@ -18,6 +18,13 @@ from .energy import kinetic_energy, potential_energy
 from .coriolis import coriolis_matrix
 from .reduce import lock_joints
 from .reorder import reorder
+from .kinematics import (forward_kinematics, frame_acceleration, frame_bias_acceleration, frame_placement,
+                         frame_velocity)
+from .jacobians import frame_jacobian
+from .com import center_of_mass, center_of_mass_velocity, com_jacobian
+from .minverse import inverse_mass_matrix
+from .task_space import operational_space_inertia
+from .inverse_kinematics import inverse_kinematics
 
 from . import plot, robots, torques
 from .configuration import integrate
@@ -30,4 +37,7 @@ __all__ = [
     "kinetic_energy", "potential_energy", "coriolis_matrix", "lock_joints", "reorder",
     "simulate", "Trajectory", "integrate", "torques", "robots", "plot",
     "simulate_many", "Trajectories", "map_batches",
+    "forward_kinematics", "frame_placement", "frame_velocity", "frame_acceleration", "frame_bias_acceleration",
+    "frame_jacobian", "center_of_mass", "center_of_mass_velocity", "com_jacobian",
+    "inverse_mass_matrix", "operational_space_inertia", "inverse_kinematics",
 ]

@@ -22,7 +22,7 @@ from .errors import InputError
 from .joints import joint_motion, joint_transform
 from .parallel import run_chunks
 from .spatial import (add, add_inertia6_to_parent, cross_force, cross_motion, force_to_parent, inertia_times,
-                      load3, load33, motion_to_child, spd_inverse, store3, store33)
+                      joint_gram, load3, load33, motion_to_child, spd_inverse, store3, store33, store_inertia6)
 
 
 @kernel
@@ -82,16 +82,7 @@ def aba_terms(tree, q, v, tau, gravity, f_ext, ws, qdd, with_v):
         else:
             _set6(c, i, zero, zero)
             bn, bf = zero, zero
-        for r in range(3):  # I^A = [[Io, [h]x], [[h]x^T, m 1]]
-            for k in range(3):
-                IA[i, r, k] = Io[3 * r + k]
-                IA[i, 3 + r, 3 + k] = m if r == k else 0.0
-        IA[i, 0, 3], IA[i, 0, 4], IA[i, 0, 5] = 0.0, -h[2], h[1]
-        IA[i, 1, 3], IA[i, 1, 4], IA[i, 1, 5] = h[2], 0.0, -h[0]
-        IA[i, 2, 3], IA[i, 2, 4], IA[i, 2, 5] = -h[1], h[0], 0.0
-        for r in range(3):
-            for k in range(3):
-                IA[i, 3 + k, r] = IA[i, r, 3 + k]
+        store_inertia6(IA, i, m, h, Io)  # I^A = I_i
         if f_ext.shape[0] > 0:
             bn = (bn[0] - f_ext[i, 3], bn[1] - f_ext[i, 4], bn[2] - f_ext[i, 5])
             bf = (bf[0] - f_ext[i, 0], bf[1] - f_ext[i, 1], bf[2] - f_ext[i, 2])
@@ -111,12 +102,7 @@ def aba_terms(tree, q, v, tau, gravity, f_ext, ws, qdd, with_v):
             for r in range(6):
                 x -= S[k, r] * pA[i, r]
             u[k] = x
-        for a_ in range(nj):  # D = S^T U
-            for b_ in range(nj):
-                x = 0.0
-                for r in range(6):
-                    x += S[k0 + a_, r] * U[k0 + b_, r]
-                D[a_, b_] = x
+        joint_gram(S, U, k0, nj, D)  # D = S^T U
         if not spd_inverse(D, nj, Dinv, i, Ia):
             return i
         par = parents[i]

@@ -241,3 +241,74 @@ def array(name, x, shape, *, nonneg=False):
     if nonneg and np.any(a < 0):
         raise InputError(f"{name}: expected values >= 0")
     return np.array(a, order="C")
+
+
+# -- frames and task-space arguments ----------------------------------------------------------------------
+
+#: the ``reference`` argument's values and their kernel codes (Pinocchio's WORLD, LOCAL, LOCAL_WORLD_ALIGNED)
+REFERENCES = {"world": 0, "local": 1, "local_world_aligned": 2}
+
+
+def frame(model, f):
+    """A frame given by name (``model.frame_names``) or index: its index (unknown names list the closest)."""
+    if isinstance(f, (int, np.integer)) and not isinstance(f, (bool, np.bool_)):
+        if not 0 <= f < len(model.frames):
+            raise InputError(f"frame: index {f} out of range [0, {len(model.frames)})")
+        return int(f)
+    if not isinstance(f, str):
+        raise InputError(f"frame: expected a frame name (str) or index (int), got {type(f).__name__}")
+    return model.frame_index(f)
+
+
+def reference(ref):
+    """The kernel code of a ``reference`` name."""
+    code = REFERENCES.get(ref) if isinstance(ref, str) else None
+    if code is None:
+        raise InputError(f"reference: expected one of {list(REFERENCES)}, got {ref!r}")
+    return code
+
+
+def rows(r):
+    """Rows of a 6-row [linear; angular] quantity: None (all), a slice, or distinct indices in [0, 6)."""
+    if r is None:
+        return np.arange(6)
+    if isinstance(r, slice):
+        out = np.arange(6)[r]
+    else:
+        try:
+            out = np.asarray(r)
+        except Exception:
+            out = np.zeros(0, object)
+        if out.ndim != 1 or out.dtype.kind not in "iu":
+            raise InputError(f"rows: expected None, a slice or a list of indices in [0, 6), got {r!r}")
+    if out.size == 0 or out.min() < 0 or out.max() > 5 or np.unique(out).size != out.size:
+        raise InputError(f"rows: expected distinct indices in [0, 6) (0-2 linear, 3-5 angular), got {r!r}")
+    return np.ascontiguousarray(out, dtype=np.int64)
+
+
+def poses(name, x, position_only=False):
+    """Homogeneous poses: (4, 4) or (B, 4, 4) with a rotation part; with position_only also positions (3,) or
+    (B, 3) (made poses with the identity rotation).  Returns ((n, 4, 4) array, batched)."""
+    want = "(4, 4) or (B, 4, 4)" + (", or a position (3,) or (B, 3)" if position_only else "")
+    T = _real_array(name, x, want)
+    if not np.all(np.isfinite(T)):
+        raise InputError(f"{name}: contains non-finite values (nan or inf)")
+    if position_only and T.ndim in (1, 2) and T.shape[-1] == 3:
+        P = T.reshape(-1, 3)
+        out = np.zeros((P.shape[0], 4, 4))
+        out[:, :3, :3] = np.eye(3)
+        out[:, :3, 3] = P
+        out[:, 3, 3] = 1.0
+        return out, T.ndim == 2
+    if T.ndim not in (2, 3) or T.shape[-2:] != (4, 4):
+        raise InputError(f"{name}: expected shape {want}, got {T.shape}")
+    batched = T.ndim == 3
+    T = np.array(T.reshape(-1, 4, 4), order="C")
+    if not position_only:
+        R = T[:, :3, :3]
+        dev = np.abs(R @ R.transpose(0, 2, 1) - np.eye(3)).max(axis=(1, 2))
+        bad = np.flatnonzero((dev > 1e-6) | (np.linalg.det(R) < 0))
+        if bad.size:
+            where = f" (pose {bad[0]})" if batched else ""
+            raise InputError(f"{name}: the rotation part{where} is not a rotation matrix (R R^T != 1 or det R < 0)")
+    return T, batched

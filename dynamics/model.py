@@ -50,6 +50,14 @@ class Tree(NamedTuple):
     Io: np.ndarray
 
 
+class Frames(NamedTuple):
+    """Every frame as flat arrays for the kernels (nf = number of frames, in ``model.frame_names`` order)."""
+
+    body: np.ndarray  # (nf,) int64: the body the frame is fixed to, -1 for the world
+    R: np.ndarray  # (nf, 3, 3): the frame's axes in that body's frame
+    p: np.ndarray  # (nf, 3): the frame's origin in that body's frame
+
+
 def _frozen(a, dtype=np.float64):
     a = np.ascontiguousarray(a, dtype=dtype)
     a.flags.writeable = False
@@ -82,7 +90,8 @@ class Model:
     friction: np.ndarray
     gravity: np.ndarray
     warnings: tuple = ()
-    #: every URDF link: name -> (body index or -1 for the world, 4x4 pose of the link frame in that body frame)
+    #: every frame, in a fixed order (see :attr:`frame_names`): name -> (body index or -1 for the world, 4x4 pose
+    #: of the frame in that body frame).  Every URDF link and every URDF joint is a frame.
     frames: dict = field(default_factory=dict)
     #: what the model builder merged or left out, as counts and names (see :meth:`summary`)
     info: dict = field(default_factory=dict)
@@ -163,6 +172,41 @@ class Model:
             starts = _frozen([k + 3 for c, k in zip(self.tree.jtype, self.tree.q_idx) if c == JOINT_FREE], np.int64)
             object.__setattr__(self, "_quaternion_starts", starts)
         return starts
+
+    @property
+    def frame_names(self) -> tuple:
+        """Names of every frame: URDF links and joints, depth first from the root link, each joint just before
+        its child link (whose frame it shares), a floating base's ``root_joint`` first.  A joint named like a
+        link is listed as ``joint:NAME`` (the plain name is the link's, as in Pinocchio's getFrameId)."""
+        return tuple(self.frames)
+
+    @property
+    def frame_arrays(self) -> Frames:
+        """The frames as flat arrays for the kernels (built once)."""
+        arrays = self.__dict__.get("_frame_arrays")
+        if arrays is None:
+            T = np.array([T for _, T in self.frames.values()], float).reshape(-1, 4, 4)
+            arrays = Frames(_frozen([b for b, _ in self.frames.values()], np.int64), _frozen(T[:, :3, :3]),
+                            _frozen(T[:, :3, 3]))
+            object.__setattr__(self, "_frame_arrays", arrays)
+        return arrays
+
+    def frame_index(self, name: str) -> int:
+        """Index of the frame named ``name`` in :attr:`frame_names`; an unknown name is an
+        :class:`~dynamics.InputError` listing the closest names."""
+        index = self.__dict__.get("_frame_index")
+        if index is None:
+            index = {n: k for k, n in enumerate(self.frames)}
+            object.__setattr__(self, "_frame_index", index)
+        k = index.get(name) if isinstance(name, str) else None
+        if k is None:
+            raise reorder.closest(name, list(index), "frame")
+        return k
+
+    @property
+    def total_mass(self) -> float:
+        """Mass of all bodies (kg); links welded to the world (a fixed base's root) are not bodies."""
+        return float(np.sum(self.tree.mass))
 
     def joint_index(self, name: str) -> int:
         """Index of the movable joint (= body) named ``name``; an unknown name lists the closest names."""

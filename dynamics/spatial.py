@@ -195,6 +195,32 @@ def add_inertia6_to_parent(R, p, I, IA, par):
             IA[par, 3 + r, 3 + c] += C[3 * r + c]
 
 
+@inline_kernel
+def store_inertia6(I, i, m, h, Io):
+    """I[i] = the 6x6 rigid-body inertia [[Io, [h]x], [[h]x^T, m 1]] (angular first, eq. 2.63)."""
+    for r in range(3):
+        for c in range(3):
+            I[i, r, c] = Io[3 * r + c]
+            I[i, 3 + r, 3 + c] = m if r == c else 0.0
+    I[i, 0, 3], I[i, 0, 4], I[i, 0, 5] = 0.0, -h[2], h[1]
+    I[i, 1, 3], I[i, 1, 4], I[i, 1, 5] = h[2], 0.0, -h[0]
+    I[i, 2, 3], I[i, 2, 4], I[i, 2, 5] = -h[1], h[0], 0.0
+    for r in range(3):
+        for c in range(3):
+            I[i, 3 + c, r] = I[i, r, 3 + c]
+
+
+@inline_kernel
+def joint_gram(S, U, k0, nj, D):
+    """D[:nj, :nj] = S^T U over a joint's rows k0 .. k0 + nj of S and U (6-vectors per row): D_i = S_i^T I^A S_i."""
+    for a in range(nj):
+        for b in range(nj):
+            x = 0.0
+            for r in range(6):
+                x += S[k0 + a, r] * U[k0 + b, r]
+            D[a, b] = x
+
+
 @kernel
 def rotation_about_axis(axis, angle):
     """Rodrigues' formula: exp([axis]x angle) for a unit axis, as a 9-tuple."""
@@ -215,6 +241,30 @@ def quat_rotation(qx, qy, qz, qw):
     return (1.0 - 2.0 * (y * y + z * z), 2.0 * (x * y - z * w), 2.0 * (x * z + y * w),
             2.0 * (x * y + z * w), 1.0 - 2.0 * (x * x + z * z), 2.0 * (y * z - x * w),
             2.0 * (x * z - y * w), 2.0 * (y * z + x * w), 1.0 - 2.0 * (x * x + y * y))
+
+
+@kernel
+def rotation_log(R):
+    """The rotation vector theta * axis of R (9-tuple), log: SO(3) -> R^3, accurate near 0 and near pi."""
+    w = (0.5 * (R[7] - R[5]), 0.5 * (R[2] - R[6]), 0.5 * (R[3] - R[1]))  # sin(theta) axis
+    c = min(1.0, max(-1.0, 0.5 * (R[0] + R[4] + R[8] - 1.0)))  # cos(theta)
+    s = np.sqrt(dot(w, w))
+    theta = np.arctan2(s, c)
+    if c > -0.99:  # theta / sin(theta) is well conditioned (series near 0)
+        f = 1.0 + s * s / 6.0 if s < 1e-8 else theta / s
+        return scale(f, w)
+    # near pi: the axis from R + R^T = 2 c 1 + 2 (1 - c) a a^T, its largest diagonal entry first
+    k = 0
+    if R[4] > R[3 * k + k]:
+        k = 1
+    if R[8] > R[3 * k + k]:
+        k = 2
+    a = ((R[k] + R[3 * k]) * 0.5, (R[3 + k] + R[3 * k + 1]) * 0.5, (R[6 + k] + R[3 * k + 2]) * 0.5)
+    a = (a[0] - (c if k == 0 else 0.0), a[1] - (c if k == 1 else 0.0), a[2] - (c if k == 2 else 0.0))
+    n = np.sqrt(dot(a, a))
+    if dot(a, w) < 0.0:
+        n = -n
+    return scale(theta / n, a)
 
 
 @inline_kernel

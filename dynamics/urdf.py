@@ -275,6 +275,7 @@ def load_urdf(source, *, floating_base: bool = False, strict_inertia: bool = Tru
     if floating_base:
         bodies.append(BodySpec(name=root_link, joint_name="root_joint", joint_type="floating", parent=-1,
                                placement=np.eye(4), axis=np.zeros(3)))
+        frames[_joint_frame("root_joint", links)] = (0, np.eye(4))
     root_body = 0 if floating_base else -1
     # stack of (link, joint into it or None, body of the joint's parent link, joint pose in that body)
     stack = [(root_link, None, root_body, np.eye(4))]
@@ -285,6 +286,8 @@ def load_urdf(source, *, floating_base: bool = False, strict_inertia: bool = Tru
         if j is not None and j.type != "fixed":
             bodies.append(_movable_body(j, body, T, warnings))
             body, T = len(bodies) - 1, np.eye(4)
+        if j is not None:  # a joint's frame is its child link's frame (URDF)
+            frames[_joint_frame(j.name, links)] = (body, T)
         frames[lname] = (body, T)
         _add_link_inertia(links[lname], body, T, bodies, warnings, strict_inertia)
         for j in reversed(children[lname]):  # reversed: the first child is popped first
@@ -306,9 +309,9 @@ def load_urdf(source, *, floating_base: bool = False, strict_inertia: bool = Tru
             massless.append(b.name)
     # links that carry no mass and have no moving joint below them are dropped (merged as bare frames)
     moving_below = {}
-    for lname in reversed(list(frames)):  # frames is in depth-first order: children after parents
+    for lname in reversed([n for n in frames if n in links]):  # depth-first order: children after parents
         moving_below[lname] = any(j.type != "fixed" or moving_below[j.child] for j in children[lname])
-    pruned = [n for n in frames if n != root_link and parent_joint[n].type == "fixed"
+    pruned = [n for n in frames if n in links and n != root_link and parent_joint[n].type == "fixed"
               and not moving_below[n] and _massless(links[n])]
 
     info = {
@@ -322,6 +325,11 @@ def load_urdf(source, *, floating_base: bool = False, strict_inertia: bool = Tru
     }
     return build_model(name, bodies, floating_base=floating_base or any(
         b.joint_type == "floating" for b in bodies), warnings=warnings, frames=frames, info=info)
+
+
+def _joint_frame(name, links):
+    """A joint's frame name: its own, or ``joint:NAME`` when a link has that name (the link keeps it)."""
+    return "joint:" + name if name in links else name
 
 
 def _massless(link):

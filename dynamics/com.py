@@ -1,0 +1,110 @@
+"""The robot's centre of mass, its velocity and its Jacobian (Pinocchio's centerOfMass and
+jacobianCenterOfMass), world frame.
+
+With body i at world pose (oR_i, op_i), mass m_i and first moment h_i = m_i c_i (body frame), the total mass
+m = sum m_i and
+
+    com  = sum_i (oR_i h_i + m_i op_i) / m
+    vcom = sum_i oR_i (m_i v_i + w_i x h_i) / m            (body velocities (w_i, v_i) in body frames)
+    Jcom[:, k] = (m_s v_k + w_k x H_s) / m                  (k a velocity coordinate of joint i)
+
+where (w_k, v_k) is column k of the spatial world Jacobian (the motion axis at the world origin,
+:mod:`dynamics.jacobians`) and m_s, H_s = sum (oR_j h_j + m_j op_j) are the mass and world first moment of
+the subtree of i, accumulated from the leaves in (O(n)).  Links welded to the world are not bodies and do not
+count.
+"""
+
+import numpy as np
+
+from . import checks
+from ._numba import Kernel, kernel
+from .joints import joint_motion
+from .kinematics import world_pose
+from .parallel import run_chunks
+from .spatial import add, cross, load3, load33, motion_to_child, rot, scale, store3
+
+COM, VELOCITY, JACOBIAN = 0, 1, 2
+
+
+@kernel
+def com_batch(tree, Q, V, what, out):
+    """Per state into out[b] (3, 1 or nv): com, vcom (what = VELOCITY) or Jcom (what = JACOBIAN)."""
+    parents, mass, hs, S, v_idx, nv_j = tree.parents, tree.mass, tree.h, tree.S, tree.v_idx, tree.nv_j
+    nb = parents.shape[0]
+    oR, op, H, ms = np.empty((nb, 3, 3)), np.empty((nb, 3)), np.empty((nb, 3)), np.empty(nb)
+    ws, vs = np.empty((nb, 3)), np.empty((nb, 3))
+    m = 0.0
+    for i in range(nb):
+        m += mass[i]
+    inv_m = 1.0 / m if m > 0.0 else 0.0
+    zero = (0.0, 0.0, 0.0)
+    lv = V.shape[0] - 1
+    for b in range(Q.shape[0]):
+        q, v = Q[b], V[min(b, lv)]
+        c = zero
+        for i in range(nb):
+            Rl, pl, R, p = world_pose(tree, i, q, oR, op)
+            par = parents[i]
+            w, vl = zero, zero
+            if par >= 0 and what == VELOCITY:
+                w, vl = motion_to_child(Rl, pl, load3(ws, par), load3(vs, par))
+            h = load3(hs, i)
+            Hi = add(rot(R, h), scale(mass[i], p))  # the body's world first moment
+            if what == COM:
+                c = add(c, Hi)
+            elif what == VELOCITY:  # momentum oR (m v + w x h)
+                wJ, vJ = joint_motion(tree, i, v)
+                w, vl = add(w, wJ), add(vl, vJ)
+                store3(ws, i, w)
+                store3(vs, i, vl)
+                c = add(c, rot(R, add(scale(mass[i], vl), cross(w, h))))
+            store3(H, i, Hi)
+            ms[i] = mass[i]
+        if what != JACOBIAN:
+            out[b, 0, 0], out[b, 1, 0], out[b, 2, 0] = scale(inv_m, c)
+            continue
+        for i in range(nb - 1, -1, -1):  # subtree masses and world first moments
+            par = parents[i]
+            if par >= 0:
+                ms[par] += ms[i]
+                store3(H, par, add(load3(H, par), load3(H, i)))
+        J = out[b]
+        for i in range(nb):
+            R, p, Hs = load33(oR, i), load3(op, i), load3(H, i)
+            for k in range(v_idx[i], v_idx[i] + nv_j[i]):
+                w = rot(R, (S[k, 0], S[k, 1], S[k, 2]))
+                vk = add(rot(R, (S[k, 3], S[k, 4], S[k, 5])), cross(p, w))
+                J[0, k], J[1, k], J[2, k] = scale(inv_m, add(scale(ms[i], vk), cross(w, Hs)))
+
+
+# -- public entry points ---------------------------------------------------------------------------
+_com_batch = Kernel(com_batch)
+
+
+def _run(model, q, v, what):
+    if v is None:
+        checks.check_model(model)
+        Q, batched = checks.configurations(model, q)
+        V, B = Q[:1, :0], Q.shape[0]
+    else:
+        Q, (V,), B, batched = checks.state_batch(model, q, (("v", v, model.nv),))
+    out = np.empty((B, 3, model.nv if what == JACOBIAN else 1))
+    run_chunks(_com_batch, model.tree, (Q, V), (what,), out)
+    if what != JACOBIAN:
+        out = out[:, :, 0]
+    return out if batched else out[0]
+
+
+def center_of_mass(model, q):
+    """The robot's centre of mass in the world, (3,) or (B, 3) (``model.total_mass`` is its mass)."""
+    return _run(model, q, None, COM)
+
+
+def center_of_mass_velocity(model, q, v):
+    """The velocity of the centre of mass in the world, (3,) or (B, 3)."""
+    return _run(model, q, v, VELOCITY)
+
+
+def com_jacobian(model, q):
+    """Jcom (3, nv) or (B, 3, nv), world frame: center_of_mass_velocity = Jcom v."""
+    return _run(model, q, None, JACOBIAN)

@@ -1,0 +1,77 @@
+"""Frame Jacobians (Featherstone 2008, sec. 4.3; Pinocchio's computeFrameJacobian).
+
+J maps joint velocities to the frame's velocity, frame_velocity = J(q) v, with rows [linear; angular].  Column
+k (a velocity coordinate of joint i on the frame's support; every other column is zero) is the motion
+subspace S_k of body i carried to the world:
+
+    w_k = oR_i S_k^w,    v_k(x) = oR_i S_k^v + w_k x (x - op_i)    (the velocity of the world point x)
+
+then expressed in the reference (:mod:`dynamics.kinematics`): "world" takes x = 0 (the spatial column at the
+world origin); "local_world_aligned" takes x = o, the frame origin moved by ``point`` (given in the frame's
+axes: a point fixed on the frame's body); "local" rotates that column into the frame's axes, oR_f^T.
+A point does not change the "world" Jacobian: the spatial velocity of a body is the same at all its points.
+"""
+
+import numpy as np
+
+from . import checks
+from ._numba import Kernel, kernel
+from .kinematics import LOCAL, WORLD, frame_pose, support, world_poses
+from .parallel import run_chunks
+from .spatial import add, cross, load3, load33, rot, rotT
+
+
+@kernel
+def jacobian_into(tree, frames, q, f, ref, point, path, oR, op, J):
+    """J (6, nv) of frame f at q in reference ``ref``, at ``point`` (frame axes) from the frame origin.
+    Only the support's columns are written: J must be zero elsewhere.  Returns the frame's world pose."""
+    S, v_idx, nv_j = tree.S, tree.v_idx, tree.nv_j
+    n = support(tree.parents, frames.body[f], path)
+    world_poses(tree, q, path, n, oR, op)
+    Rf, pf = frame_pose(frames, f, oR, op)
+    o = add(pf, rot(Rf, point))
+    for t in range(n):
+        i = path[t]
+        R, p = load33(oR, i), load3(op, i)
+        x = (-p[0], -p[1], -p[2]) if ref == WORLD else (o[0] - p[0], o[1] - p[1], o[2] - p[2])
+        for k in range(v_idx[i], v_idx[i] + nv_j[i]):
+            w = rot(R, (S[k, 0], S[k, 1], S[k, 2]))
+            v = add(rot(R, (S[k, 3], S[k, 4], S[k, 5])), cross(w, x))
+            if ref == LOCAL:
+                w, v = rotT(Rf, w), rotT(Rf, v)
+            J[0, k], J[1, k], J[2, k] = v
+            J[3, k], J[4, k], J[5, k] = w
+    return Rf, pf
+
+
+@kernel
+def jacobian_batch(tree, Q, frames, f, ref, point, out):
+    nb = tree.parents.shape[0]
+    path, oR, op = np.empty(nb, np.int64), np.empty((nb, 3, 3)), np.empty((nb, 3))
+    out[:] = 0.0
+    pt = (point[0], point[1], point[2])
+    for b in range(Q.shape[0]):
+        jacobian_into(tree, frames, Q[b], f, ref, pt, path, oR, op, out[b])
+
+
+# -- public entry point ----------------------------------------------------------------------------
+_jacobian_batch = Kernel(jacobian_batch)
+_ORIGIN = np.zeros(3)
+
+
+def frame_jacobian(model, q, frame, *, reference="local_world_aligned", point=None):
+    """The frame's Jacobian (6, nv), or (B, 6, nv) for a batch of q: rows [linear; angular].
+
+    ``reference``: "local_world_aligned" (the frame origin's velocity and the angular velocity, world axes),
+    "local" (the same in the frame's axes) or "world" (the spatial Jacobian at the world origin): Pinocchio's
+    three, same meaning.  ``point``: (3,) offset of a point fixed on the frame, in the frame's axes; the
+    linear rows are then that point's velocity (the "world" Jacobian does not depend on it).
+    """
+    checks.check_model(model)
+    f = checks.frame(model, frame)
+    ref = checks.reference(reference)
+    pt = _ORIGIN if point is None else checks.vector("point", point, 3)
+    Q, batched = checks.configurations(model, q)
+    out = np.empty((Q.shape[0], 6, model.nv))
+    run_chunks(_jacobian_batch, model.tree, (Q,), (model.frame_arrays, f, ref, pt), out)
+    return out if batched else out[0]
