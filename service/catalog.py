@@ -9,6 +9,7 @@ from __future__ import annotations
 import json
 from typing import Any, Optional
 
+import numpy as np
 from lxml import etree
 
 from .codec import finite_or_none, jsonable
@@ -79,6 +80,14 @@ def _joint(model, i: int) -> dict[str, Any]:
     }
 
 
+def _inertial(model) -> dict[str, Any]:
+    """The bodies' masses, centres of mass and inertias (the library's names and frames), and every frame."""
+    frames = [{"name": name, "body": model.body_names[b] if b >= 0 else None, "placement": np.asarray(T).tolist()}
+              for name, (b, T) in model.frames.items()]
+    return {"total_mass": model.total_mass, "masses": model.masses.tolist(), "coms": model.coms.tolist(),
+            "inertias": model.inertias.tolist(), "frames": frames}
+
+
 class Catalog:
     def __init__(self, settings: Settings, store: RobotStore, models: Models):
         self.settings = settings
@@ -123,6 +132,7 @@ class Catalog:
         info = _public(rec.id, rec.name, rec.bundled, rec.floating_base, _stored_summary(model))
         info["joints"] = [_joint(model, i) for i in range(len(model.joint_names))]
         info["gravity"] = [float(x) for x in model.gravity]
+        info.update(_inertial(model))
         info["summary"] = model_summary(model)
         return info
 

@@ -210,6 +210,80 @@ class Robot:
         return self._call("bias-forces", {"q": _as_array(q), "v": _as_array(v), "gravity": self._opt(gravity),
                                           "locked": self._locked(locked)})["tau"]
 
+    def coriolis_matrix(self, q, v, *, locked=None) -> np.ndarray:
+        return self._call("coriolis-matrix", {"q": _as_array(q), "v": _as_array(v),
+                                              "locked": self._locked(locked)})["coriolis_matrix"]
+
+    def kinetic_energy(self, q, v, *, locked=None):
+        """A float, or (B,) for a batch."""
+        return self._call("kinetic-energy", {"q": _as_array(q), "v": _as_array(v),
+                                             "locked": self._locked(locked)})["kinetic_energy"]
+
+    def potential_energy(self, q, *, gravity=None, locked=None):
+        """A float, or (B,) for a batch."""
+        return self._call("potential-energy", {"q": _as_array(q), "gravity": self._opt(gravity),
+                                               "locked": self._locked(locked)})["potential_energy"]
+
+    # -- kinematics and task space ---------------------------------------------------------------------------
+    @property
+    def frame_names(self) -> tuple[str, ...]:
+        """Every frame (URDF links and joints), in the order of forward_kinematics' answer."""
+        if "frames" not in self.info:  # an upload's answer does not list them
+            self.info = {**self.info, **self.client.request("GET", f"/v1/robots/{self.id}").json()}
+        return tuple(f["name"] for f in self.info["frames"])
+
+    def forward_kinematics(self, q, *, frames=None, locked=None) -> np.ndarray:
+        """World placements (nframes, 4, 4) or (B, nframes, 4, 4): every frame (``frame_names`` order) or those of
+        ``frames``, in that order."""
+        return self._call("kinematics", {"q": _as_array(q), "frames": None if frames is None else list(frames),
+                                         "locked": self._locked(locked)})["placements"]
+
+    def frame_placement(self, q, frame: str, *, locked=None) -> np.ndarray:
+        """World placement (4, 4) of one frame, (B, 4, 4) for a batch."""
+        return self.forward_kinematics(q, frames=[frame], locked=locked)[..., 0, :, :]
+
+    def frame_jacobian(self, q, frame, *, reference: str = "local_world_aligned", point=None,
+                       locked=None) -> np.ndarray:
+        return self._call("jacobian", {"q": _as_array(q), "frame": frame, "reference": reference,
+                                       "point": self._opt(point), "locked": self._locked(locked)})["jacobian"]
+
+    def center_of_mass(self, q, *, locked=None) -> np.ndarray:
+        return self._call("center-of-mass", {"q": _as_array(q), "locked": self._locked(locked)})["center_of_mass"]
+
+    def center_of_mass_velocity(self, q, v, *, locked=None) -> np.ndarray:
+        return self._call("center-of-mass", {"q": _as_array(q), "v": _as_array(v),
+                                             "locked": self._locked(locked)})["center_of_mass_velocity"]
+
+    def com_jacobian(self, q, *, locked=None) -> np.ndarray:
+        return self._call("center-of-mass", {"q": _as_array(q), "locked": self._locked(locked)})["com_jacobian"]
+
+    def inverse_mass_matrix(self, q, *, locked=None) -> np.ndarray:
+        return self._call("inverse-mass-matrix", {"q": _as_array(q),
+                                                  "locked": self._locked(locked)})["inverse_mass_matrix"]
+
+    def operational_space_inertia(self, q, frame, *, reference: str = "local_world_aligned", rows=None,
+                                  damping: float = 0.0, locked=None) -> np.ndarray:
+        """``rows``: None (all 6), a slice (``slice(0, 3)``: position only) or indices of [linear; angular]."""
+        if isinstance(rows, slice):
+            rows = list(range(6))[rows]
+        return self._call("operational-space-inertia", {
+            "q": _as_array(q), "frame": frame, "reference": reference,
+            "rows": None if rows is None else [int(r) for r in rows], "damping": float(damping),
+            "locked": self._locked(locked)})["operational_space_inertia"]
+
+    def inverse_kinematics(self, frame, target, q0, *, position_only: bool = False, tol: Optional[float] = None,
+                           max_iter: Optional[int] = None, damping: Optional[float] = None,
+                           respect_limits: bool = False, locked=None) -> tuple[np.ndarray, dict[str, Any]]:
+        """(q, report) as ``dynamics.inverse_kinematics``: the report's values are numbers, or arrays of B."""
+        ans = self._call("inverse-kinematics", {
+            "frame": frame, "target": _as_array(target), "q0": _as_array(q0), "position_only": position_only,
+            "tol": tol, "max_iter": max_iter, "damping": damping, "respect_limits": respect_limits,
+            "locked": self._locked(locked)})
+        report = ans["report"]
+        if isinstance(report, str):
+            report = json.loads(report)
+        return ans["q"], {k: (np.asarray(v) if isinstance(v, list) else v) for k, v in report.items()}
+
     def simulate(self, q0, v0, duration: float, *, torque: Optional[Mapping[str, Any]] = None,
                  integrator: Optional[str] = None, rtol: Optional[float] = None, atol: Optional[float] = None,
                  dt: Optional[float] = None, sample_dt: Optional[float] = None, gravity=None,
@@ -236,8 +310,13 @@ def decode_answer(r: httpx.Response) -> dict[str, Any]:
                 a = npz[k]
                 out[k] = json.loads(str(a)) if a.ndim == 0 and a.dtype.kind == "U" else a
         return out
-    body = r.json()
-    return {k: (np.asarray(v, dtype=np.float64) if isinstance(v, list) else v) for k, v in body.items()}
+    return {k: (_numbers(v) if isinstance(v, list) else v) for k, v in r.json().items()}
+
+
+def _numbers(v: list) -> Any:
+    """A JSON list of numbers -> a float64 array; a list of names (frames) stays a list."""
+    a = np.asarray(v)
+    return a.astype(np.float64) if a.dtype.kind in "fiub" else v
 
 
 def _plain(obj: Any) -> Any:

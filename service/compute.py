@@ -71,6 +71,16 @@ class Operation:
     keywords: tuple[str, ...]  # optional keyword arguments (gravity, f_ext)
     answer: str                # key of the answer: "tau", "a", "mass_matrix"
     terms: Optional[Terms] = None  # where v and a come from, for the scene's "skipped" (service.scene)
+    #: an answer of several parts (kinematics, centre of mass, inverse kinematics): ``call(model, args)`` returns
+    #: them by key, in place of ``{answer: function(model, *states, **keywords)}`` (see service.kinematics)
+    call: Optional[Callable[[Any, dict[str, Any]], dict[str, Any]]] = None
+    #: numbers of the answer per state, ``per_state(model, args)``: a batch whose answer would be larger than
+    #: DYNAMICS_MAX_ANSWER_NUMBERS is refused before it is computed (None: small answers, not checked)
+    per_state: Optional[Callable[[Any, dict[str, Any]], int]] = None
+    #: arguments that may carry a batch besides the states, with the dimensions of one item ({"target": 2})
+    batched: tuple[tuple[str, int], ...] = ()
+    #: iterative work whose cost the request sets (inverse kinematics): run within the budget even for one state
+    iterative: bool = False
 
 
 #: the dynamics endpoints, by URL segment
@@ -84,12 +94,16 @@ OPERATIONS: dict[str, Operation] = {
                                  {"v": "zero", "a": "zero"}),
     "bias-forces": Operation("bias forces", "bias_forces", ("q", "v"), ("gravity",), "tau",
                              {"v": "state", "a": "zero"}),
+    "coriolis-matrix": Operation("Coriolis matrix", "coriolis_matrix", ("q", "v"), (), "coriolis_matrix",
+                                 per_state=lambda model, args: model.nv * model.nv),
+    "kinetic-energy": Operation("kinetic energy", "kinetic_energy", ("q", "v"), (), "kinetic_energy"),
+    "potential-energy": Operation("potential energy", "potential_energy", ("q",), ("gravity",), "potential_energy"),
 }
 
 
 def layout(op: Operation, args: dict[str, Any]) -> tuple:
     """What selects a compiled specialisation of a call: the dimensions of the states, the keywords given."""
-    return (op.function, tuple(args[s].ndim for s in op.states),
+    return (op.function, tuple(getattr(args[s], "ndim", None) for s in op.states),
             tuple(k for k in op.keywords if args.get(k) is not None))
 
 
@@ -134,35 +148,50 @@ class Compute:
     # -- dynamics --------------------------------------------------------------------------------------------
     def can_inline(self, op: Operation, rid: str, args: dict[str, Any]) -> bool:
         """True when this call is compiled and its model in memory: microseconds of work, fit for the event loop."""
-        return layout(op, args) in self._warm and self.models.is_cached(rid, locked_key(args.get("locked")))
+        return (not op.iterative and layout(op, args) in self._warm
+                and self.models.is_cached(rid, locked_key(args.get("locked"))))
 
     def dynamics(self, op: Operation, rid: str, args: dict[str, Any], budget: Budget) -> dict[str, Any]:
         """Run ``op`` on one state or a batch of robot ``rid``; a batch within ``budget``."""
         entry = self.models.loaded(rid, locked_key(args.get("locked")))
-        function = getattr(lib(), op.function)
-        states = [args[name] for name in op.states]
-        kwargs = {k: args[k] for k in op.keywords if args.get(k) is not None}
         batch = self._batch_size(op, args)
-        if batch is None:  # one state cannot overrun a budget, and the deadline costs ~2 us
-            out = function(entry.model, *states, **kwargs)
+        if batch is not None and op.per_state is not None:
+            self._check_answer_size(op, batch * op.per_state(entry.model, args))
+        if batch is None and not op.iterative:  # one state cannot overrun a budget, and the deadline costs ~2 us
+            result = self._call(op, entry.model, args)
         else:
-            with within(budget, f"{op.name} of {batch} states"):
-                out = function(entry.model, *states, **kwargs)
-        if not np.isfinite(out).all():
-            raise InvalidInput(f"{op.answer}: the result is not finite (is a movable joint carrying no mass, or are "
-                               f"the inputs extreme?)", op.answer)
+            with within(budget, f"{op.name} of {batch or 1} state{'s' if batch else ''}"):
+                result = self._call(op, entry.model, args)
+        for key, out in result.items():
+            if isinstance(out, (np.ndarray, float)) and np.asarray(out).dtype.kind == "f" and not np.isfinite(out).all():
+                raise InvalidInput(f"{key}: the result is not finite (is a movable joint carrying no mass, or are "
+                                   f"the inputs extreme?)", key)
         self._warm.add(layout(op, args))
-        return {op.answer: out, "scene": entry.scene.answer(skipped(op.terms, args, entry.model.gravity))}
+        return {**result, "scene": entry.scene.answer(skipped(op.terms, args, entry.model.gravity))}
+
+    @staticmethod
+    def _call(op: Operation, model, args: dict[str, Any]) -> dict[str, Any]:
+        if op.call is not None:
+            return op.call(model, args)
+        kwargs = {k: args[k] for k in op.keywords if args.get(k) is not None}
+        return {op.answer: getattr(lib(), op.function)(model, *[args[s] for s in op.states], **kwargs)}
+
+    def _check_answer_size(self, op: Operation, numbers: int) -> None:
+        if numbers > self.settings.max_answer_numbers:
+            raise InvalidInput(f"{op.states[0]}: the answer would hold {numbers} numbers, over the limit of "
+                               f"{self.settings.max_answer_numbers} (DYNAMICS_MAX_ANSWER_NUMBERS); send smaller "
+                               f"batches", op.states[0])
 
     def _batch_size(self, op: Operation, args: dict[str, Any]) -> Optional[int]:
         """The largest batch among the arguments (None: one state), within the service's DYNAMICS_MAX_BATCH.
 
         Only this policy limit is checked here: shapes, finiteness and matching batch sizes are the library's.
         """
-        sizes = [(args[name].shape[0], name) for name in op.states if args[name].ndim == 2]
-        f_ext = args.get("f_ext")
-        if f_ext is not None and f_ext.ndim == 3:
-            sizes.append((f_ext.shape[0], "f_ext"))
+        sizes = [(args[name].shape[0], name) for name in op.states if args[name] is not None and args[name].ndim == 2]
+        for name, ndim in (("f_ext", 2), *op.batched):
+            x = args.get(name)
+            if isinstance(x, np.ndarray) and x.ndim > ndim:
+                sizes.append((x.shape[0], name))
         if not sizes:
             return None
         batch, name = max(sizes)

@@ -293,9 +293,22 @@ class JointInfo(BaseModel):
     friction: list[float]
 
 
+class FrameInfo(BaseModel):
+    name: str
+    body: Optional[str] = Field(description="the body the frame is fixed to, null for the world")
+    placement: list[list[float]] = Field(description="(4, 4) pose of the frame in that body's frame (or the world)")
+
+
 class RobotInfo(RobotSummary):
     joints: list[JointInfo]
     gravity: list[float]
+    total_mass: float = Field(description="kg, all bodies (links welded to a fixed base's world are not bodies)")
+    masses: list[float] = Field(description="(nbodies,) kg, in the order of bodies (dynamics.Model.masses)")
+    coms: list[list[float]] = Field(description="(nbodies, 3) centre of mass of each body in its body frame, m")
+    inertias: list[list[list[float]]] = Field(description="(nbodies, 3, 3) rotational inertia of each body about "
+                                                          "its centre of mass, body frame, kg m^2")
+    frames: list[FrameInfo] = Field(description="every frame (URDF links and joints), in the order of the "
+                                                "kinematics answers")
     summary: ModelSummary
 
 
@@ -312,3 +325,194 @@ class ErrorAnswer(BaseModel):
 class ReadyAnswer(BaseModel):
     status: Literal["ready"]
     warmup_seconds: float = Field(description="how long this process's warm-up took")
+
+
+# -- kinematics and task space (issue 9), the Coriolis matrix and the energies (issue 13) -----------------------
+#: the most iterations an inverse-kinematics request may ask (one state cannot be stopped by the time budget)
+MAX_IK_ITER = 10_000
+
+
+def _json_list(value: Any) -> Any:
+    """A list of names or indices; in .npz a JSON string or an array, as the client sends it."""
+    if isinstance(value, str) and value.lstrip().startswith("["):
+        try:
+            return json.loads(value)
+        except json.JSONDecodeError:
+            return value
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    return value
+
+
+def _matrices(rank: int, what: str) -> dict[str, Any]:
+    """The JSON schema of one answer of ``rank`` dimensions (0: a number) or a batch of them."""
+    def nested(r: int) -> dict[str, Any]:
+        return {"type": "number"} if r == 0 else {"type": "array", "items": nested(r - 1)}
+    return {"anyOf": [nested(rank), nested(rank + 1)], "description": f"{what}; a batch adds a leading axis B"}
+
+
+def Answer(rank: int, what: str) -> Any:  # noqa: N802 - a type, named like one
+    """An array field of an answer, typed for OpenAPI (the routes write answers directly, not through pydantic)."""
+    return Annotated[Any, WithJsonSchema(_matrices(rank, what))]
+
+
+Frame = Annotated[Union[str, int], Field(description="a frame name (GET /v1/robots/{id}: frames) or its index; "
+                                                     "every URDF link and joint is a frame")]
+Reference = Optional[Literal["local_world_aligned", "local", "world"]]
+_REFERENCE = ("'local_world_aligned' (default: the frame origin, world axes), 'local' (the frame's axes) or 'world' "
+              "(spatial, at the world origin), as in Pinocchio")
+Names = Annotated[Optional[list[str]], BeforeValidator(_json_list)]
+Rows = Annotated[Optional[list[int]], BeforeValidator(_json_list)]
+Pose = Annotated[Any, BeforeValidator(_array), WithJsonSchema(
+    {"type": "array", "description": "a (4, 4) world pose [[R, p], [0, 0, 0, 1]], or a batch (B, 4, 4); with "
+                                     "position_only a position (3,) or (B, 3)"})]
+
+
+def _example(**fields: Any) -> ConfigDict:
+    """Requests carry one example each (OpenAPI), on the bundled robot planar-2r unless said otherwise."""
+    return ConfigDict(extra="forbid", arbitrary_types_allowed=True, json_schema_extra={"examples": [fields]})
+
+
+class KinematicsRequest(_Request):
+    """The world placement (4, 4) of each asked frame (dynamics.forward_kinematics)."""
+    model_config = _example(q=[0.3, -0.5], frames=["link2", "tip"])
+    locked: Locked = None
+    q: Array
+    frames: Names = Field(None, description="frame names, default all (in the robot's frame order)")
+
+
+class JacobianRequest(_Request):
+    """The frame's Jacobian (6, nv), rows [linear; angular] (dynamics.frame_jacobian)."""
+    model_config = _example(q=[0.3, -0.5], frame="tip", reference="local_world_aligned")
+    locked: Locked = None
+    q: Array
+    frame: Frame
+    reference: Reference = Field(None, description=_REFERENCE)
+    point: Optional[Vec3] = Field(None, description="a point fixed on the frame, in the frame's axes: the linear "
+                                                    "rows are its velocity")
+
+
+class CenterOfMassRequest(_Request):
+    """The centre of mass, its Jacobian and (given v) its velocity (dynamics.center_of_mass, com_jacobian,
+    center_of_mass_velocity)."""
+    model_config = _example(q=[0.3, -0.5], v=[1.0, 0.0])
+    locked: Locked = None
+    q: Array
+    v: Optional[Array] = Field(None, description="velocities: the answer then has center_of_mass_velocity")
+
+
+class InverseMassMatrixRequest(_Request):
+    """M(q)^-1 computed directly in O(n^2) (dynamics.inverse_mass_matrix)."""
+    model_config = _example(q=[0.3, -0.5])
+    locked: Locked = None
+    q: Array
+
+
+class OperationalSpaceInertiaRequest(_Request):
+    """Lambda = (J M^-1 J^T)^-1 for the frame's Jacobian rows (dynamics.operational_space_inertia)."""
+    model_config = _example(q=[0.3, -0.5], frame="tip", rows=[0, 2])
+    locked: Locked = None
+    q: Array
+    frame: Frame
+    reference: Reference = Field(None, description=_REFERENCE)
+    rows: Rows = Field(None, description="rows of [linear; angular] kept (0-2 linear, 3-5 angular), default all 6")
+    damping: Optional[float] = Field(None, ge=0, description="d > 0 gives (J M^-1 J^T + d 1)^-1; default 0, and a "
+                                                             "singular J M^-1 J^T is a 422")
+
+
+class InverseKinematicsRequest(_Request):
+    """A configuration placing the frame at the target, by damped least squares from q0
+    (dynamics.inverse_kinematics). An unreachable target is reported (report.converged false), not refused."""
+    model_config = _example(frame="tip", target=[1.2, 0.0, 0.8], q0=[0.1, 0.1], position_only=True)
+    locked: Locked = None
+    frame: Frame
+    target: Pose
+    q0: Array
+    position_only: Optional[bool] = Field(None, description="only the position (3 rows); default false")
+    tol: Optional[float] = Field(None, gt=0, description="on |e| (m and rad), default 1e-10")
+    max_iter: Optional[int] = Field(None, ge=0, le=MAX_IK_ITER, description="default 100")
+    damping: Optional[float] = Field(None, ge=0, description="smallest damping lambda (mu >= lambda^2), default 1e-6")
+    respect_limits: Optional[bool] = Field(None, description="keep 1-dof joints within their URDF limits")
+
+
+class CoriolisMatrixRequest(_Request):
+    """C(q, v) with C v + g(q) = h(q, v) and dM/dt - 2 C skew-symmetric (dynamics.coriolis_matrix)."""
+    model_config = _example(q=[0.3, -0.5], v=[1.0, 2.0])
+    locked: Locked = None
+    q: Array
+    v: Array
+
+
+class KineticEnergyRequest(_Request):
+    """T = 1/2 v^T M(q) v (dynamics.kinetic_energy)."""
+    model_config = _example(q=[0.3, -0.5], v=[1.0, 2.0])
+    locked: Locked = None
+    q: Array
+    v: Array
+
+
+class PotentialEnergyRequest(_Dynamics):
+    """U = -sum m_i g . c_i, zero at the world origin (dynamics.potential_energy)."""
+    model_config = _example(q=[0.3, -0.5])
+    q: Array
+
+
+class KinematicsAnswer(BaseModel):
+    placements: Answer(3, "(nframes, 4, 4) world placements [[R, p], [0, 0, 0, 1]], in the order of frames")
+    frames: list[str] = Field(description="the frames of placements, in order")
+    scene: Scene
+
+
+class JacobianAnswer(BaseModel):
+    jacobian: Answer(2, "(6, nv), rows [linear; angular] in the asked reference")
+    scene: Scene
+
+
+class CenterOfMassAnswer(BaseModel):
+    center_of_mass: Answer(1, "(3,) world position of the centre of mass, m")
+    com_jacobian: Answer(2, "(3, nv): center_of_mass_velocity = com_jacobian v")
+    center_of_mass_velocity: Optional[Answer(1, "(3,) m/s, when v was given")] = None
+    total_mass: float = Field(description="kg")
+    scene: Scene
+
+
+class InverseMassMatrixAnswer(BaseModel):
+    inverse_mass_matrix: Answer(2, "(nv, nv)")
+    scene: Scene
+
+
+class OperationalSpaceInertiaAnswer(BaseModel):
+    operational_space_inertia: Answer(2, "(r, r) for the r asked rows")
+    scene: Scene
+
+
+class InverseKinematicsReport(BaseModel):
+    """One value per field, or a list of B for a batch."""
+    converged: Union[bool, list[bool]]
+    status: Union[Literal["converged", "max_iter", "stalled"], list[str]] = Field(
+        description="'stalled': no step reduces the error any more (e.g. an unreachable target)")
+    iterations: Union[int, list[int]]
+    residual: Union[float, list[float]] = Field(description="|e| at q (m and rad; position only: m)")
+    position_error: Union[float, list[float]] = Field(description="m")
+    orientation_error: Union[float, list[float]] = Field(description="rad")
+
+
+class InverseKinematicsAnswer(BaseModel):
+    q: Answer(1, "(nq,) the best configuration found (also when not converged)")
+    report: InverseKinematicsReport
+    scene: Scene
+
+
+class CoriolisMatrixAnswer(BaseModel):
+    coriolis_matrix: Answer(2, "(nv, nv)")
+    scene: Scene
+
+
+class KineticEnergyAnswer(BaseModel):
+    kinetic_energy: Answer(0, "J")
+    scene: Scene
+
+
+class PotentialEnergyAnswer(BaseModel):
+    potential_energy: Answer(0, "J")
+    scene: Scene

@@ -52,6 +52,9 @@ class Settings:
     # Largest model (velocity coordinates) and largest batch (states per request).
     max_dof: int = 128
     max_batch: int = 200_000
+    # Largest answer of a batched kinematics or Coriolis request, in numbers (all frames of a big robot for many
+    # states would otherwise take gigabytes).
+    max_answer_numbers: int = 32 * 1024 * 1024
     # Simulation limits: integrator steps (duration / dt for fixed-step integrators) and stored samples.
     max_sim_steps: int = 1_000_000
     max_samples: int = 100_000
@@ -81,6 +84,7 @@ class Settings:
             max_xml_depth=int(_env("MAX_XML_DEPTH", str(defaults.max_xml_depth))),
             max_dof=int(_env("MAX_DOF", str(defaults.max_dof))),
             max_batch=int(_env("MAX_BATCH", str(defaults.max_batch))),
+            max_answer_numbers=int(_env("MAX_ANSWER_NUMBERS", str(defaults.max_answer_numbers))),
             max_sim_steps=int(_env("MAX_SIM_STEPS", str(defaults.max_sim_steps))),
             max_samples=int(_env("MAX_SAMPLES", str(defaults.max_samples))),
             time_budget=float(_env("TIME_BUDGET", str(defaults.time_budget))),

@@ -1,4 +1,4 @@
-"""The five dynamics operations: ``POST /v1/robots/{id}/<operation>`` with one state or a batch.
+"""The dynamics operations (RNEA, ABA, CRBA, gravity, bias, Coriolis, energies): ``POST /v1/robots/{id}/<operation>`` with one state or a batch.
 
 Request bodies are read by :func:`service.codec.read_body` (size limit enforced while reading) and decoded in a
 compute thread together with the computation, so that neither parsing megabytes of JSON nor the numbers block
@@ -27,6 +27,11 @@ ROUTES: dict[str, tuple[type[BaseModel], type[BaseModel], str]] = {
     "mass-matrix": (schemas.MassMatrixRequest, schemas.MassMatrixAnswer, "M(q) by CRBA"),
     "gravity-torques": (schemas.GravityTorquesRequest, schemas.TauAnswer, "g(q) = ID(q, 0, 0)"),
     "bias-forces": (schemas.BiasForcesRequest, schemas.TauAnswer, "h(q, v) = ID(q, v, 0)"),
+    "coriolis-matrix": (schemas.CoriolisMatrixRequest, schemas.CoriolisMatrixAnswer,
+                        "C(q, v): C v + g = h, dM/dt - 2C skew-symmetric"),
+    "kinetic-energy": (schemas.KineticEnergyRequest, schemas.KineticEnergyAnswer, "T = 1/2 v^T M(q) v"),
+    "potential-energy": (schemas.PotentialEnergyRequest, schemas.PotentialEnergyAnswer,
+                         "U(q) = -sum m_i g . c_i"),
 }
 
 router = APIRouter(prefix="/v1")
@@ -56,7 +61,13 @@ def _answer(d: Deps, op: Operation, schema: type[BaseModel], robot_id: str, body
     return encode(d.compute.dynamics(op, robot_id, args, time_budget), accept)
 
 
-for _segment, (_schema, _answer_schema, _summary) in ROUTES.items():
-    router.add_api_route(f"/robots/{{robot_id}}/{_segment}", _route(OPERATIONS[_segment], _schema), methods=["POST"],
-                         response_model=_answer_schema, responses=ERRORS, openapi_extra=body_doc(_schema),
-                         summary=_summary)
+def add_routes(router: APIRouter, routes: dict[str, tuple[type[BaseModel], type[BaseModel], str]],
+               operations: dict[str, Operation]) -> None:
+    """``POST /v1/robots/{id}/<segment>`` for each of ``routes``, answered by ``operations[segment]``."""
+    for segment, (schema, answer_schema, summary) in routes.items():
+        router.add_api_route(f"/robots/{{robot_id}}/{segment}", _route(operations[segment], schema),
+                             methods=["POST"], response_model=answer_schema, responses=ERRORS,
+                             openapi_extra=body_doc(schema), summary=summary)
+
+
+add_routes(router, ROUTES, OPERATIONS)
