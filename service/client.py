@@ -18,6 +18,7 @@ from __future__ import annotations
 import io
 import json
 import os
+import sys
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Mapping, Optional, Union
@@ -284,13 +285,15 @@ class Robot:
             report = json.loads(report)
         return ans["q"], {k: (np.asarray(v) if isinstance(v, list) else v) for k, v in report.items()}
 
-    def simulate(self, q0, v0, duration: float, *, torque: Optional[Mapping[str, Any]] = None,
+    def simulate(self, q0, v0, duration: float, *, torque: Any = None,
                  integrator: Optional[str] = None, rtol: Optional[float] = None, atol: Optional[float] = None,
                  dt: Optional[float] = None, sample_dt: Optional[float] = None, gravity=None,
                  locked=None) -> Trajectory:
-        """``torque``: {"type": "zero" | "constant" | "table" | "pd" | "computed_torque", ...} (see the API docs)."""
+        """``torque``: what ``dynamics.simulate`` takes (``dynamics.torques.PD``, ``Table``, ``ComputedTorque``,
+        a constant tau, None) or the HTTP form {"type": "zero" | "constant" | "table" | "pd" | "computed_torque",
+        ...} (see the API docs)."""
         payload = {"q0": _as_array(q0), "v0": _as_array(v0), "duration": float(duration),
-                   "torque": _plain_tree(torque) if torque is not None else None, "integrator": integrator,
+                   "torque": torque_spec(torque), "integrator": integrator,
                    "rtol": rtol, "atol": atol, "dt": dt, "sample_dt": sample_dt, "gravity": self._opt(gravity),
                    "locked": self._locked(locked)}
         ans = self._call("simulate", payload, npz_answer=True)
@@ -298,6 +301,32 @@ class Robot:
         if isinstance(report, str):
             report = json.loads(report)
         return Trajectory(t=ans["t"], q=ans["q"], v=ans["v"], tau=ans["tau"], report=report)
+
+
+#: the library's torque classes (dynamics.torques) the service knows: class name -> (HTTP type, attributes sent)
+TORQUE_CLASSES: dict[str, tuple[str, tuple[str, ...]]] = {
+    "PD": ("pd", ("q_target", "kp", "kd", "v_target", "tau_ff")),
+    "Table": ("table", ("t", "tau", "hold")),
+    "ComputedTorque": ("computed_torque", ("t", "q", "v", "a", "kp", "kd")),
+}
+
+
+def torque_spec(torque: Any) -> Optional[dict[str, Any]]:
+    """The ``torque=`` of ``dynamics.simulate`` (a torque object of ``dynamics.torques``, a constant tau, None) or
+    an HTTP spec (a mapping) -> the HTTP spec, plain lists inside. The library is not imported for this: an
+    object of it can only exist once the caller imported it."""
+    if torque is None or isinstance(torque, Mapping):
+        return None if torque is None else _plain_tree(dict(torque))
+    torques = sys.modules.get("dynamics.torques")
+    cls = type(torque)
+    if torques is not None and getattr(torques, cls.__name__, None) is cls and cls.__name__ in TORQUE_CLASSES:
+        kind, attributes = TORQUE_CLASSES[cls.__name__]
+        spec = {name: getattr(torque, name) for name in attributes if getattr(torque, name) is not None}
+        return _plain_tree({"type": kind, **spec})
+    if isinstance(torque, (list, tuple, np.ndarray)):
+        return {"type": "constant", "tau": _plain_tree(torque)}
+    raise TypeError(f"torque: expected a dynamics.torques object ({', '.join(TORQUE_CLASSES)}), a constant tau, None "
+                    f"or a mapping {{'type': ...}}, got {cls.__name__}")
 
 
 def decode_answer(r: httpx.Response) -> dict[str, Any]:

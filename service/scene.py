@@ -1,11 +1,12 @@
 """The ``scene`` of every answer: what the model that answered left out, and which terms were not computed.
 
-    "scene": {"locked": {"joint2": 0.3}, "pruned": ["imu_link"], "merged_fixed_joints": 6,
+    "scene": {"locked": {"joint2": 0.3}, "links_pruned": ["imu_link"], "fixed_joints_merged": ["imu_joint", ...],
               "skipped": ["velocity products", "joint accelerations"], "nq": 5, "nv": 5}
 
 The model's part (locked, pruned, merged, sizes) is computed once per cached model (:class:`ModelScene`); the
 request's part (``skipped``) from which of v, a and gravity are zero, in the library's words
-(``dynamics.rnea.skipped_terms``).
+(``dynamics.rnea.skipped_terms``). ``links_pruned`` and ``fixed_joints_merged`` are named and valued as in the
+library's ``Model.summary()`` (and so in robot info's ``summary``).
 """
 
 from __future__ import annotations
@@ -26,8 +27,8 @@ Terms = dict[str, str]
 @dataclass(frozen=True)
 class ModelScene:
     locked: dict[str, Any]
-    pruned: list[str]
-    merged_fixed_joints: int
+    links_pruned: list[str]
+    fixed_joints_merged: list[str]
     nq: int
     nv: int
 
@@ -35,10 +36,10 @@ class ModelScene:
     def of(cls, model) -> "ModelScene":
         info = model.summary()
         return cls(info.get("locked_joints", {}), list(info.get("links_pruned", [])),
-                   len(info.get("fixed_joints_merged", ())), int(model.nq), int(model.nv))
+                   list(info.get("fixed_joints_merged", ())), int(model.nq), int(model.nv))
 
     def answer(self, skipped: tuple[str, ...]) -> dict[str, Any]:
-        return {"locked": self.locked, "pruned": self.pruned, "merged_fixed_joints": self.merged_fixed_joints,
+        return {"locked": self.locked, "links_pruned": self.links_pruned, "fixed_joints_merged": self.fixed_joints_merged,
                 "skipped": list(skipped), "nq": self.nq, "nv": self.nv}
 
 

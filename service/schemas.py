@@ -15,7 +15,7 @@ numbers); joint names, value counts and values are the library's to check, its m
 from __future__ import annotations
 
 import json
-from typing import Annotated, Any, Literal, Optional, Union
+from typing import Annotated, Any, Literal, Optional, Union, get_args
 
 import numpy as np
 from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, ValidationError, ValidationInfo, WithJsonSchema
@@ -66,7 +66,7 @@ def validate(schema: type[BaseModel], payload: dict[str, Any]) -> BaseModel:
         err = e.errors(include_url=False)[0]
         name = ".".join(str(p) for p in err["loc"]) or "body"
         if err["type"] == "extra_forbidden":
-            allowed = ", ".join(schema.model_fields)
+            allowed = ", ".join(_fields_at(schema, err["loc"][:-1]))
             raise InvalidInput(f"{name}: unknown field; expected one of {allowed}", name) from None
         if err["type"] == "union_tag_invalid":
             ctx = err.get("ctx", {})
@@ -75,6 +75,29 @@ def validate(schema: type[BaseModel], payload: dict[str, Any]) -> BaseModel:
         if err["type"] == "missing":
             raise InvalidInput(f"{name}: missing (required)", name) from None
         raise InvalidInput(f"{name}: {err['msg']}", name) from None
+
+
+def _fields_at(schema: type[BaseModel], loc: tuple) -> list[str]:
+    """The fields of the object at ``loc`` in ``schema`` (("torque", "pd") -> PDTorque's), following optional
+    fields and tagged unions (whose tag is a step of pydantic's error location); the top level's if not found."""
+    current: list[Any] = [schema]
+    for part in loc:
+        step = []
+        for model in (m for t in current for m in _models(t)):
+            if part in model.model_fields:
+                step.append(model.model_fields[part].annotation)
+            elif "type" in model.model_fields and part in get_args(model.model_fields["type"].annotation):
+                step.append(model)  # the variant of a tagged union that the tag names
+        current = step
+    models = [m for t in current for m in _models(t)]
+    return list(models[0].model_fields) if models else list(schema.model_fields)
+
+
+def _models(annotation: Any) -> list[type[BaseModel]]:
+    """The pydantic models inside a field's annotation (through Optional, Annotated and unions)."""
+    if isinstance(annotation, type) and issubclass(annotation, BaseModel):
+        return [annotation]
+    return [m for arg in get_args(annotation) for m in _models(arg)]
 
 
 Array = Annotated[Any, BeforeValidator(_array), WithJsonSchema(_STATE_SCHEMA)]
@@ -178,8 +201,9 @@ class SimulateRequest(_Request):
     v0: Array
     duration: float = Field(gt=0, description="seconds of simulated time")
     torque: Optional[TorqueSpec] = None
-    integrator: Optional[Literal["euler", "rk4", "rk45", "radau", "auto"]] = Field(
-        None, description="default 'auto' (adaptive, switches to radau when stiff); euler and rk4 need dt")
+    integrator: Optional[Literal["euler", "rk4", "rk45", "dop853", "radau", "auto"]] = Field(
+        None, description="default 'auto' (adaptive, switches to radau when stiff); dop853: Hairer's order 8, for "
+                          "tight tolerances; euler and rk4 need dt")
     rtol: Optional[float] = Field(None, gt=0, description="adaptive methods, default 1e-6")
     atol: Optional[float] = Field(None, ge=0, description="adaptive methods, default 1e-8")
     dt: Optional[float] = Field(None, gt=0, description="step of fixed-step integrators (first step otherwise), s")
@@ -209,9 +233,10 @@ class Scene(BaseModel):
     """What the answer's model left out (in .npz answers: a member holding this object as a JSON string)."""
     locked: dict[str, Any] = Field(description="joints held still: {name: position} (a number, or 7 for a floating "
                                                "joint), as the reduced model records them")
-    pruned: list[str] = Field(description="URDF links dropped when the model was built (no mass, nothing "
-                                          "moving below them)")
-    merged_fixed_joints: int = Field(description="URDF fixed joints whose links were merged into their parent")
+    links_pruned: list[str] = Field(description="URDF links dropped when the model was built (no mass, nothing "
+                                                "moving below them), as in the model summary")
+    fixed_joints_merged: list[str] = Field(description="URDF fixed joints whose links were merged into their parent, "
+                                                       "as in the model summary")
     skipped: list[str] = Field(description="terms not computed for this request's inputs: 'velocity products' "
                                            "(v = 0), 'joint accelerations' (a = 0), 'gravity' (gravity = 0)")
     nq: int = Field(description="configuration size of the model that answered (the reduced one when locked)")

@@ -57,6 +57,8 @@ LEG = """
     <origin xyz="0 0 -0.2"/></joint>"""
 SENSOR_BOT = SENSOR_BOT.replace("{legs}", LEG.format(s="left", y=0.1) + LEG.format(s="right", y=-0.1))
 PRUNED = {"imu_link", "camera_link", "camera_optical_frame", "left_foot", "right_foot"}
+FIXED_JOINTS = {"battery_joint", "imu_joint", "camera_joint", "camera_optical_joint", "left_foot_joint",
+                "right_foot_joint"}
 BASE_POSE = [0.1, -0.2, 0.5, 0.0, 0.0, float(np.sin(0.2)), float(np.cos(0.2))]  # x y z qx qy qz qw
 
 
@@ -212,11 +214,17 @@ def test_scene_reports_locked_pruned_and_skipped(app_client, sensor_bot):
     ]
     for op, extra, skipped in cases:
         _, scene = ask(app_client, rid, op, q=q, locked=locked, **extra)
-        assert scene == {"locked": locked, "pruned": scene["pruned"], "merged_fixed_joints": 6,
-                         "skipped": skipped, "nq": 10, "nv": 9}, (op, extra)
-        assert set(scene["pruned"]) == PRUNED
+        assert scene == {"locked": locked, "links_pruned": scene["links_pruned"],
+                         "fixed_joints_merged": scene["fixed_joints_merged"], "skipped": skipped, "nq": 10,
+                         "nv": 9}, (op, extra)
+        assert set(scene["links_pruned"]) == PRUNED
+        assert set(scene["fixed_joints_merged"]) == FIXED_JOINTS
     _, scene = ask(app_client, "puma560", "gravity-torques", q=[0.0] * 6)
-    assert scene["locked"] == {} and scene["pruned"] == [] and scene["nv"] == 6
+    assert scene["locked"] == {} and scene["links_pruned"] == [] and scene["nv"] == 6
+    # the scene's names and values are the model summary's (robot info)
+    summary = app_client.get("/v1/robots/puma560").json()["summary"]
+    assert scene["fixed_joints_merged"] == summary["fixed_joints_merged"] and len(summary["fixed_joints_merged"]) == 6
+    assert scene["links_pruned"] == summary["links_pruned"]
 
 
 def test_upload_and_info_carry_the_model_summary(app_client, sensor_bot):
@@ -303,7 +311,8 @@ def test_simulate_with_locked_joints(client, puma):
                                                           gravity=[0.0, 0.0, 0.0], sample_dt=0.05))
     assert traj.q.shape == (3, 4) and traj.tau.shape == (3, 4)
     assert np.array_equal(traj.q, np.zeros((3, 4)))  # no gravity, at rest: stays
-    assert robot.last_scene == {"locked": PUMA_LOCK, "pruned": [], "merged_fixed_joints": 6,
+    assert robot.last_scene == {"locked": PUMA_LOCK, "links_pruned": [],
+                                "fixed_joints_merged": puma.summary()["fixed_joints_merged"],
                                 "skipped": ["gravity"], "nq": 4, "nv": 4}
     q0 = np.array([0.1, 0.2, -0.3, 0.4])
     traj = robot.simulate(q0, np.zeros(4), 0.2, locked=PUMA_LOCK, sample_dt=0.1)
