@@ -13,6 +13,7 @@ from typing import Any, Optional
 
 from fastapi import FastAPI
 from fastapi.openapi.utils import get_openapi
+from fastapi_offline import FastAPIOffline
 
 from . import __version__, errors, schemas
 from .auth import ApiKeys
@@ -20,8 +21,10 @@ from .deps import Deps
 from .routes import dynamics, health, kinematics, robots, simulate
 from .settings import Settings, configure_logging
 
-DESCRIPTION = ("Rigid-body dynamics of URDF robots: inverse and forward dynamics, mass matrix, simulation. "
-               "Errors are JSON {detail, code, field}.")
+DESCRIPTION = ("Rigid-body dynamics of URDF robots: inverse and forward dynamics, mass matrix, Coriolis matrix, "
+               "energies, kinematics and task space (frames, Jacobians, centre of mass, M^-1, operational-space "
+               "inertia, inverse kinematics), simulation. Every array argument takes one state or a batch; bodies "
+               "and answers are JSON or .npz (application/x-npz). Errors are JSON {detail, code, field}.")
 
 
 def _openapi(app: FastAPI):
@@ -57,7 +60,9 @@ def create_app(settings: Optional[Settings] = None) -> FastAPI:
         finally:
             app.state.deps.close()
 
-    app = FastAPI(title="dynamics", version=__version__, lifespan=lifespan, description=DESCRIPTION)
+    # /docs (Swagger UI) and /redoc load their scripts and styles from the installed fastapi-offline package, under
+    # /static-offline-docs: they work without internet access (FastAPI's own pages load them from a CDN)
+    app = FastAPIOffline(title="dynamics", version=__version__, lifespan=lifespan, description=DESCRIPTION)
     errors.install(app)
     for module in (health, robots, dynamics, kinematics, simulate):
         app.include_router(module.router)

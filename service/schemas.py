@@ -101,8 +101,10 @@ def _models(annotation: Any) -> list[type[BaseModel]]:
 
 
 Array = Annotated[Any, BeforeValidator(_array), WithJsonSchema(_STATE_SCHEMA)]
+_MATRIX = {"type": "array", "items": _NUMBERS}
 Array3 = Annotated[Any, BeforeValidator(_array), WithJsonSchema(
-    {"type": "array", "description": "(nbodies, 6) or (B, nbodies, 6): [force, torque] per body, body frame"})]
+    {"anyOf": [_MATRIX, {"type": "array", "items": _MATRIX}],
+     "description": "(nbodies, 6) or (B, nbodies, 6): [force, torque] per body, body frame"})]
 Vec3 = Annotated[Any, BeforeValidator(_array), WithJsonSchema(
     {"type": "array", "items": {"type": "number"}, "minItems": 3, "maxItems": 3})]
 Locked = Annotated[Optional[dict[str, Any]], BeforeValidator(_locked), WithJsonSchema({
@@ -112,6 +114,23 @@ Locked = Annotated[Optional[dict[str, Any]], BeforeValidator(_locked), WithJsonS
                    "joint order: GET the robot and drop the locked joints)"})]
 Gains = Annotated[Any, BeforeValidator(_array), WithJsonSchema(
     {"anyOf": [{"type": "number"}, _NUMBERS], "description": "a number, or one per velocity coordinate"})]
+
+
+def _matrices(rank: int, what: str) -> dict[str, Any]:
+    """The JSON schema of one answer of ``rank`` dimensions (0: a number) or a batch of them."""
+    def nested(r: int) -> dict[str, Any]:
+        return {"type": "number"} if r == 0 else {"type": "array", "items": nested(r - 1)}
+    return {"anyOf": [nested(rank), nested(rank + 1)], "description": f"{what}; a batch adds a leading axis B"}
+
+
+def Answer(rank: int, what: str) -> Any:  # noqa: N802 - a type, named like one
+    """An array field of an answer, typed for OpenAPI (the routes write answers directly, not through pydantic)."""
+    return Annotated[Any, WithJsonSchema(_matrices(rank, what))]
+
+
+def _example(**fields: Any) -> ConfigDict:
+    """Requests carry one example each (OpenAPI), on the bundled robot planar-2r unless said otherwise."""
+    return ConfigDict(extra="forbid", arbitrary_types_allowed=True, json_schema_extra={"examples": [fields]})
 
 
 class _Request(BaseModel):
@@ -124,6 +143,7 @@ class _Dynamics(_Request):
 
 
 class InverseDynamicsRequest(_Dynamics):
+    model_config = _example(q=[0.3, -0.5], v=[1.0, 2.0], a=[0.5, -1.0])
     q: Array
     v: Array
     a: Array
@@ -131,6 +151,7 @@ class InverseDynamicsRequest(_Dynamics):
 
 
 class ForwardDynamicsRequest(_Dynamics):
+    model_config = _example(q=[0.3, -0.5], v=[1.0, 2.0], tau=[10.0, 2.0])
     q: Array
     v: Array
     tau: Array
@@ -138,15 +159,18 @@ class ForwardDynamicsRequest(_Dynamics):
 
 
 class MassMatrixRequest(_Request):  # no gravity: M(q) does not depend on it
+    model_config = _example(q=[[0.3, -0.5], [0.0, 1.0]])  # a batch of two states
     locked: Locked = None
     q: Array
 
 
 class GravityTorquesRequest(_Dynamics):
+    model_config = _example(q=[0.3, -0.5], gravity=[0.0, 0.0, -9.81])
     q: Array
 
 
 class BiasForcesRequest(_Dynamics):
+    model_config = _example(q=[0.3, -0.5], v=[1.0, 2.0])
     q: Array
     v: Array
 
@@ -196,6 +220,8 @@ TorqueSpec = Annotated[Union[ZeroTorque, ConstantTorque, TableTorque, PDTorque, 
 
 
 class SimulateRequest(_Request):
+    model_config = _example(q0=[0.3, -0.2], v0=[0.0, 0.5], duration=1.0, sample_dt=0.01, integrator="auto",
+                            torque={"type": "pd", "q_target": [0.5, 0.5], "kp": 50.0, "kd": 4.0})
     locked: Locked = None
     q0: Array
     v0: Array
@@ -223,6 +249,11 @@ SIMULATE_OPTIONS = ("integrator", "rtol", "atol", "dt", "sample_dt", "gravity", 
 
 
 class UploadRequest(_Request):
+    model_config = _example(name="pendulum", floating_base=False, urdf=(
+        '<robot name="pendulum"><link name="base"/><link name="bob"><inertial><origin xyz="0 0 -1"/>'
+        '<mass value="1"/><inertia ixx="0.01" iyy="0.01" izz="0.01" ixy="0" ixz="0" iyz="0"/></inertial></link>'
+        '<joint name="swing" type="revolute"><parent link="base"/><child link="bob"/><axis xyz="0 1 0"/>'
+        '<limit lower="-3" upper="3" effort="10" velocity="10"/></joint></robot>'))
     urdf: str = Field(description="the URDF document")
     name: Optional[str] = Field(None, max_length=128)
     floating_base: bool = False
@@ -244,26 +275,27 @@ class Scene(BaseModel):
 
 
 class TauAnswer(BaseModel):
-    tau: list  # (nv,) or (B, nv)
+    tau: Answer(1, "(nv,) joint torques (N m or N)")
     scene: Scene
 
 
 class AccelerationAnswer(BaseModel):
-    a: list
+    a: Answer(1, "(nv,) joint accelerations")
     scene: Scene
 
 
 class MassMatrixAnswer(BaseModel):
-    mass_matrix: list  # (nv, nv) or (B, nv, nv)
+    mass_matrix: Answer(2, "(nv, nv)")
     scene: Scene
 
 
 class TrajectoryAnswer(BaseModel):
-    t: list
-    q: list
-    v: list
-    tau: list
-    report: dict
+    t: list[float] = Field(description="(K,) sample times, s")
+    q: list[list[float]] = Field(description="(K, nq) configurations at the samples")
+    v: list[list[float]] = Field(description="(K, nv) velocities")
+    tau: list[list[float]] = Field(description="(K, nv) applied joint torques")
+    report: dict[str, Any] = Field(description="dynamics.Trajectory.report: status, integrator, steps, "
+                                               "error_estimate, energy_drift, warnings, wall time, ...")
     scene: Scene
 
 
@@ -347,6 +379,10 @@ class ErrorAnswer(BaseModel):
     field: Optional[str] = None
 
 
+class HealthAnswer(BaseModel):
+    status: Literal["ok"]
+
+
 class ReadyAnswer(BaseModel):
     status: Literal["ready"]
     warmup_seconds: float = Field(description="how long this process's warm-up took")
@@ -369,18 +405,6 @@ def _json_list(value: Any) -> Any:
     return value
 
 
-def _matrices(rank: int, what: str) -> dict[str, Any]:
-    """The JSON schema of one answer of ``rank`` dimensions (0: a number) or a batch of them."""
-    def nested(r: int) -> dict[str, Any]:
-        return {"type": "number"} if r == 0 else {"type": "array", "items": nested(r - 1)}
-    return {"anyOf": [nested(rank), nested(rank + 1)], "description": f"{what}; a batch adds a leading axis B"}
-
-
-def Answer(rank: int, what: str) -> Any:  # noqa: N802 - a type, named like one
-    """An array field of an answer, typed for OpenAPI (the routes write answers directly, not through pydantic)."""
-    return Annotated[Any, WithJsonSchema(_matrices(rank, what))]
-
-
 Frame = Annotated[Union[str, int], Field(description="a frame name (GET /v1/robots/{id}: frames) or its index; "
                                                      "every URDF link and joint is a frame")]
 Reference = Optional[Literal["local_world_aligned", "local", "world"]]
@@ -389,13 +413,9 @@ _REFERENCE = ("'local_world_aligned' (default: the frame origin, world axes), 'l
 Names = Annotated[Optional[list[str]], BeforeValidator(_json_list)]
 Rows = Annotated[Optional[list[int]], BeforeValidator(_json_list)]
 Pose = Annotated[Any, BeforeValidator(_array), WithJsonSchema(
-    {"type": "array", "description": "a (4, 4) world pose [[R, p], [0, 0, 0, 1]], or a batch (B, 4, 4); with "
-                                     "position_only a position (3,) or (B, 3)"})]
-
-
-def _example(**fields: Any) -> ConfigDict:
-    """Requests carry one example each (OpenAPI), on the bundled robot planar-2r unless said otherwise."""
-    return ConfigDict(extra="forbid", arbitrary_types_allowed=True, json_schema_extra={"examples": [fields]})
+    {"anyOf": [_MATRIX, {"type": "array", "items": _MATRIX}, _NUMBERS],
+     "description": "a (4, 4) world pose [[R, p], [0, 0, 0, 1]], or a batch (B, 4, 4); with position_only a "
+                    "position (3,) or (B, 3)"})]
 
 
 class KinematicsRequest(_Request):

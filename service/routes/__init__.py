@@ -21,7 +21,10 @@ ERRORS: dict[int | str, dict[str, Any]] = {status: {"model": schemas.ErrorAnswer
 def body_doc(schema: type[BaseModel], npz: bool = True) -> dict[str, Any]:
     """The OpenAPI request body of a route that reads its body itself: the schema in JSON, or an .npz archive."""
     ref = {"$ref": f"#/components/schemas/{schema.__name__}"}
-    content = {JSON: {"schema": ref}}
+    content: dict[str, Any] = {JSON: {"schema": ref}}
+    examples = (schema.model_config.get("json_schema_extra") or {}).get("examples")
+    if examples:  # at the media type too: what Swagger UI fills the "Try it out" body with
+        content[JSON]["example"] = examples[0]
     if npz:
         content[NPZ] = {"schema": {"type": "string", "format": "binary",
                                    "description": "numpy .npz archive, one member per field (no pickles)"}}

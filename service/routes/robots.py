@@ -17,9 +17,10 @@ from . import ERRORS
 
 router = APIRouter(prefix="/v1")
 
+_EXAMPLE = schemas.UploadRequest.model_config["json_schema_extra"]["examples"][0]
 _UPLOAD_BODY = {"requestBody": {"required": True, "content": {
-    "application/xml": {"schema": {"type": "string", "description": "the URDF document"}},
-    JSON: {"schema": {"$ref": "#/components/schemas/UploadRequest"}}}}}
+    "application/xml": {"schema": {"type": "string", "description": "the URDF document"}, "example": _EXAMPLE["urdf"]},
+    JSON: {"schema": {"$ref": "#/components/schemas/UploadRequest"}, "example": _EXAMPLE}}}}
 
 
 @router.post("/robots", status_code=201, response_model=schemas.UploadAnswer, responses=ERRORS,
