@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
+import math
 import time
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
@@ -120,6 +121,13 @@ def compile_operations(model) -> list[tuple]:
     return done
 
 
+def _finite(out: Any) -> bool:
+    """False for an array of floats or a float holding nan or inf; True for anything else (names, reports)."""
+    if isinstance(out, np.ndarray):
+        return out.dtype.kind != "f" or bool(np.isfinite(out).all())
+    return not isinstance(out, float) or math.isfinite(out)
+
+
 class Compute:
     """The thread pools, the simulation workers and the deadline logic, shared by all requests of one process."""
 
@@ -163,7 +171,7 @@ class Compute:
             with within(budget, f"{op.name} of {batch or 1} state{'s' if batch else ''}"):
                 result = self._call(op, entry.model, args)
         for key, out in result.items():
-            if isinstance(out, (np.ndarray, float)) and np.asarray(out).dtype.kind == "f" and not np.isfinite(out).all():
+            if not _finite(out):
                 raise InvalidInput(f"{key}: the result is not finite (is a movable joint carrying no mass, or are "
                                    f"the inputs extreme?)", key)
         self._warm.add(layout(op, args))
@@ -187,7 +195,8 @@ class Compute:
 
         Only this policy limit is checked here: shapes, finiteness and matching batch sizes are the library's.
         """
-        sizes = [(args[name].shape[0], name) for name in op.states if args[name] is not None and args[name].ndim == 2]
+        sizes = [(args[name].shape[0], name) for name in op.states
+                 if args[name] is not None and args[name].ndim == 2]
         for name, ndim in (("f_ext", 2), *op.batched):
             x = args.get(name)
             if isinstance(x, np.ndarray) and x.ndim > ndim:

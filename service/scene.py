@@ -39,8 +39,8 @@ class ModelScene:
                    list(info.get("fixed_joints_merged", ())), int(model.nq), int(model.nv))
 
     def answer(self, skipped: tuple[str, ...]) -> dict[str, Any]:
-        return {"locked": self.locked, "links_pruned": self.links_pruned, "fixed_joints_merged": self.fixed_joints_merged,
-                "skipped": list(skipped), "nq": self.nq, "nv": self.nv}
+        return {"locked": self.locked, "links_pruned": self.links_pruned,
+                "fixed_joints_merged": self.fixed_joints_merged, "skipped": list(skipped), "nq": self.nq, "nv": self.nv}
 
 
 @functools.lru_cache(maxsize=None)

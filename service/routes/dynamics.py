@@ -1,4 +1,5 @@
-"""The dynamics operations (RNEA, ABA, CRBA, gravity, bias, Coriolis, energies): ``POST /v1/robots/{id}/<operation>`` with one state or a batch.
+"""The dynamics operations (RNEA, ABA, CRBA, gravity and bias forces, Coriolis matrix, energies):
+``POST /v1/robots/{id}/<operation>`` with one state or a batch.
 
 Request bodies are read by :func:`service.codec.read_body` (size limit enforced while reading) and decoded in a
 compute thread together with the computation, so that neither parsing megabytes of JSON nor the numbers block

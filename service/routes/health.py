@@ -23,7 +23,8 @@ OPEN_PATHS = (HEALTH_PATH, READY_PATH)
 router = APIRouter()
 
 
-@router.get(HEALTH_PATH, response_model=schemas.HealthAnswer, summary="liveness: 200 when the server answers (at once, also while it warms up)")
+@router.get(HEALTH_PATH, response_model=schemas.HealthAnswer,
+            summary="liveness: 200 when the server answers (at once, also while it warms up)")
 async def health() -> Response:
     return Response(b'{"status":"ok"}', media_type=JSON)
 
