@@ -9,6 +9,7 @@ compilation (a test of the warm-up itself passes ``ready=False``).
 from __future__ import annotations
 
 import atexit
+import contextlib
 import os
 import signal
 import socket
@@ -19,12 +20,25 @@ from pathlib import Path
 
 import httpx
 import pytest
+from fastapi.testclient import TestClient
 
+from service.app import create_app
 from service.client import ServiceError
+from service.settings import Settings
 
 REPO = Path(__file__).resolve().parent.parent
 ROBOTS = REPO / "robots"
 PYTHON = sys.executable
+
+
+@contextlib.contextmanager
+def in_process_app(store: Path, **settings):
+    """The app in this process behind FastAPI's TestClient: the bundled robots, no simulation workers (simulate
+    answers 501), one compute thread; ``settings`` override the rest."""
+    config = Settings(**{"store_dir": store, "robots_dir": ROBOTS, "sim_workers": 0, "compute_threads": 1,
+                         **settings})
+    with TestClient(create_app(config)) as client:
+        yield client
 
 
 def free_port() -> int:

@@ -9,16 +9,13 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from fastapi.testclient import TestClient
 
 import dynamics
 from dynamics import torques
 from service import schemas
-from service.app import create_app
 from service.client import Client, ServiceError, torque_spec
 from service.errors import InvalidInput
-from service.settings import Settings
-from service_fixtures import ROBOTS, shared_server, while_simulation_starts
+from service_fixtures import ROBOTS, in_process_app, shared_server, while_simulation_starts
 
 
 @pytest.fixture(scope="module")
@@ -101,9 +98,7 @@ def test_nested_unknown_field_over_http(client):
 # -- item 9: the API documents ----------------------------------------------------------------------------------
 @pytest.fixture(scope="module")
 def app_client(tmp_path_factory):
-    settings = Settings(store_dir=tmp_path_factory.mktemp("api-store"), robots_dir=ROBOTS, sim_workers=0,
-                        compute_threads=1)
-    with TestClient(create_app(settings)) as c:
+    with in_process_app(tmp_path_factory.mktemp("api-store")) as c:
         yield c
 
 

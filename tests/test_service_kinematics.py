@@ -13,22 +13,17 @@ import io
 
 import numpy as np
 import pytest
-from fastapi.testclient import TestClient
 
 import dynamics
-from service.app import create_app
 from service.client import Client, ServiceError
-from service.settings import Settings
-from service_fixtures import ROBOTS, shared_server
+from service_fixtures import ROBOTS, in_process_app, shared_server
 
 PUMA_LOCK = {"joint2": 0.3, "joint5": -0.2}
 
 
 @pytest.fixture(scope="module")
 def app_client(tmp_path_factory):
-    settings = Settings(store_dir=tmp_path_factory.mktemp("kin-store"), robots_dir=ROBOTS, sim_workers=0,
-                        compute_threads=1, max_answer_numbers=100_000)
-    with TestClient(create_app(settings)) as c:
+    with in_process_app(tmp_path_factory.mktemp("kin-store"), max_answer_numbers=100_000) as c:
         yield c
 
 
