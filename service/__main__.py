@@ -15,6 +15,7 @@ import sys
 import uvicorn
 
 from .compute import compile_operations
+from .kinematics import OPERATIONS as KINEMATICS
 from .library import lib
 from .models import load_model
 from .settings import Settings, configure_logging
@@ -45,7 +46,9 @@ def warmup() -> int:
     def dynamics_kernels() -> None:
         for rid in robots:
             record = store.get(rid)
-            compile_operations(load_model(record.urdf, record.floating_base))
+            model = load_model(record.urdf, record.floating_base)
+            compile_operations(model)
+            compile_operations(model, KINEMATICS)
 
     stages = [Stage("importing the library", lib), Stage(f"compiling dynamics kernels on {len(robots)} bundled "
                                                          f"robots", dynamics_kernels)]

@@ -82,6 +82,8 @@ class Operation:
     batched: tuple[tuple[str, int], ...] = ()
     #: iterative work whose cost the request sets (inverse kinematics): run within the budget even for one state
     iterative: bool = False
+    #: the arguments besides q, v, a and tau of the warm-up's call, ``sample(model, args)`` (a frame, a target)
+    sample: Optional[Callable[[Any, dict[str, Any]], dict[str, Any]]] = None
 
 
 #: the dynamics endpoints, by URL segment
@@ -108,17 +110,27 @@ def layout(op: Operation, args: dict[str, Any]) -> tuple:
             tuple(k for k in op.keywords if args.get(k) is not None))
 
 
-def compile_operations(model) -> list[tuple]:
-    """Call every operation once with one state, then each with a batch of two: numba compiles (or loads from its
-    disk cache) each kernel now rather than in a request. Returns the layouts run."""
+def compile_operations(model, operations: Optional[dict[str, Operation]] = None) -> list[tuple]:
+    """Call every operation (of ``operations``, default :data:`OPERATIONS`) once with one state, then each with a
+    batch of two: numba compiles (or loads from its disk cache) each kernel now rather than in a request. Returns
+    the layouts run."""
     q = np.tile(model.neutral(), (2, 1))
     v = np.zeros((2, model.nv))
     done = []
-    for args in ({"q": q[0], "v": v[0], "a": v[0], "tau": v[0]}, {"q": q, "v": v, "a": v, "tau": v}):
-        for op in OPERATIONS.values():
-            getattr(lib(), op.function)(model, *[args[s] for s in op.states])
+    for states in ({"q": q[0], "v": v[0], "a": v[0], "tau": v[0]}, {"q": q, "v": v, "a": v, "tau": v}):
+        for op in (OPERATIONS if operations is None else operations).values():
+            args = states if op.sample is None else {**states, **op.sample(model, states)}
+            call(op, model, args)
             done.append(layout(op, args))
     return done
+
+
+def call(op: Operation, model, args: dict[str, Any]) -> dict[str, Any]:
+    """The library's answer to ``op`` on ``args``, by key (arguments not given, None, are left to its defaults)."""
+    if op.call is not None:
+        return op.call(model, args)
+    kwargs = {k: args[k] for k in op.keywords if args.get(k) is not None}
+    return {op.answer: getattr(lib(), op.function)(model, *[args[s] for s in op.states], **kwargs)}
 
 
 def _finite(out: Any) -> bool:
@@ -131,8 +143,11 @@ def _finite(out: Any) -> bool:
 class Compute:
     """The thread pools, the simulation workers and the deadline logic, shared by all requests of one process."""
 
-    def __init__(self, settings: Settings, models: Models, pool: Optional[SimPool], warmup: Warmup):
+    def __init__(self, settings: Settings, models: Models, pool: Optional[SimPool], warmup: Warmup,
+                 operations: tuple[dict[str, Operation], ...] = (OPERATIONS,)):
+        """``operations``: the tables of operations the warm-up compiles (service.kinematics adds its own)."""
         self.settings = settings
+        self.operations = operations
         self.models = models
         self.pool = pool
         self.warmup = warmup
@@ -151,7 +166,9 @@ class Compute:
     def warm_kernels(self) -> None:
         """Warm-up stage: compile every operation on a tiny robot, fixed and floating (quaternion checks)."""
         for floating_base in (False, True):
-            self._warm.update(compile_operations(load_model(WARMUP_URDF, floating_base)))
+            model = load_model(WARMUP_URDF, floating_base)
+            for operations in self.operations:
+                self._warm.update(compile_operations(model, operations))
 
     # -- dynamics --------------------------------------------------------------------------------------------
     def can_inline(self, op: Operation, rid: str, args: dict[str, Any]) -> bool:
@@ -166,23 +183,16 @@ class Compute:
         if batch is not None and op.per_state is not None:
             self._check_answer_size(op, batch * op.per_state(entry.model, args))
         if batch is None and not op.iterative:  # one state cannot overrun a budget, and the deadline costs ~2 us
-            result = self._call(op, entry.model, args)
+            result = call(op, entry.model, args)
         else:
             with within(budget, f"{op.name} of {batch or 1} state{'s' if batch else ''}"):
-                result = self._call(op, entry.model, args)
+                result = call(op, entry.model, args)
         for key, out in result.items():
             if not _finite(out):
                 raise InvalidInput(f"{key}: the result is not finite (is a movable joint carrying no mass, or are "
                                    f"the inputs extreme?)", key)
         self._warm.add(layout(op, args))
         return {**result, "scene": entry.scene.answer(skipped(op.terms, args, entry.model.gravity))}
-
-    @staticmethod
-    def _call(op: Operation, model, args: dict[str, Any]) -> dict[str, Any]:
-        if op.call is not None:
-            return op.call(model, args)
-        kwargs = {k: args[k] for k in op.keywords if args.get(k) is not None}
-        return {op.answer: getattr(lib(), op.function)(model, *[args[s] for s in op.states], **kwargs)}
 
     def _check_answer_size(self, op: Operation, numbers: int) -> None:
         if numbers > self.settings.max_answer_numbers:

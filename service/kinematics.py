@@ -47,6 +47,13 @@ def inverse_kinematics(model, args: dict[str, Any]) -> dict[str, Any]:
     return {"q": q, "report": report}
 
 
+def sample(model, args: dict[str, Any]) -> dict[str, Any]:
+    """The warm-up's arguments (service.compute.compile_operations): the last frame, its own placement as the
+    target (reached at once), damping (a 1-dof robot's 6-row J M^-1 J^T is singular)."""
+    return {"frame": model.frame_names[-1], "q0": args["q"], "damping": 1.0,
+            "target": lib().forward_kinematics(model, args["q"])[..., -1, :, :]}
+
+
 def _frames_asked(model, args: dict[str, Any]) -> int:
     return len(model.frame_names) if args.get("frames") is None else len(args["frames"])
 
@@ -60,14 +67,15 @@ OPERATIONS: dict[str, Operation] = {
     "kinematics": Operation("forward kinematics", "forward_kinematics", ("q",), ("frames",), "placements",
                             call=placements, per_state=lambda model, args: 16 * _frames_asked(model, args)),
     "jacobian": Operation("frame Jacobian", "frame_jacobian", ("q",), ("frame", "reference", "point"), "jacobian",
-                          per_state=lambda model, args: 6 * model.nv),
+                          per_state=lambda model, args: 6 * model.nv, sample=sample),
     "center-of-mass": Operation("centre of mass", "center_of_mass", ("q", "v"), (), "center_of_mass",
                                 call=center_of_mass, per_state=lambda model, args: 6 + 3 * model.nv),
     "inverse-mass-matrix": Operation("inverse mass matrix", "inverse_mass_matrix", ("q",), (), "inverse_mass_matrix",
                                      per_state=lambda model, args: model.nv * model.nv),
     "operational-space-inertia": Operation("operational space inertia", "operational_space_inertia", ("q",),
                                            ("frame", "reference", "rows", "damping"), "operational_space_inertia",
-                                           per_state=lambda model, args: _rows(args) ** 2),
+                                           per_state=lambda model, args: _rows(args) ** 2, sample=sample),
     "inverse-kinematics": Operation("inverse kinematics", "inverse_kinematics", ("q0",), ("frame",) + IK_OPTIONS,
-                                    "q", call=inverse_kinematics, batched=(("target", 2),), iterative=True),
+                                    "q", call=inverse_kinematics, batched=(("target", 2),), iterative=True,
+                                    sample=sample),
 }
