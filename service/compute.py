@@ -180,8 +180,8 @@ class Compute:
         """Run ``op`` on one state or a batch of robot ``rid``; a batch within ``budget``."""
         entry = self.models.loaded(rid, locked_key(args.get("locked")))
         batch = self._batch_size(op, args)
-        if batch is not None and op.per_state is not None:
-            self._check_answer_size(op, batch * op.per_state(entry.model, args))
+        if op.per_state is not None:  # (one state too: a request may name every frame many times)
+            self._check_answer_size(op, (batch or 1) * op.per_state(entry.model, args))
         if batch is None and not op.iterative:  # one state cannot overrun a budget, and the deadline costs ~2 us
             result = call(op, entry.model, args)
         else:

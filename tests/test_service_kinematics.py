@@ -169,6 +169,7 @@ def test_npz_both_ways(app_client, puma):
     ("center-of-mass", {"v": [0.0] * 2}, "v", ["(6,)"]),
     ("kinematics", {"frame": "link6"}, "frame", ["unknown field", "frames"]),
     ("kinematics", {"q": [[0.0] * 6] * 400}, "q", ["DYNAMICS_MAX_ANSWER_NUMBERS"]),
+    ("kinematics", {"frames": ["link6"] * 7000}, "q", ["DYNAMICS_MAX_ANSWER_NUMBERS"]),
 ])
 def test_bad_input_is_a_422_naming_the_field(app_client, op, payload, field, words):
     body = {"q": [0.1] * 6, **payload} if op != "inverse-kinematics" else payload
