@@ -4,7 +4,8 @@
     >>> with Client("http://127.0.0.1:8000") as client:
     ...     robot = client.robot("planar-2r")             # or client.upload("my_arm.urdf")
     ...     tau = robot.inverse_dynamics(q, v, a)         # numpy in, numpy out; (nq,) or (B, nq)
-    ...     traj = robot.simulate(q0, v0, 1.0, torque={"type": "zero"})
+    ...     J = robot.frame_jacobian(q, "tip", reference="world")  # kinematics: the library's names too
+    ...     traj = robot.simulate(q0, v0, 1.0, torque=dynamics.torques.PD(q_target, 50.0, 5.0))  # or a dict
     ...     tau1 = robot.inverse_dynamics(q[:1], v[:1], a[:1], locked={"joint2": 0.3})  # joint1 moves alone
     ...     robot.last_scene                    # {"locked": {"joint2": 0.3}, "skipped": [...], "nv": 1, ...}
 
