@@ -1,0 +1,363 @@
+"""Constrained forward and inverse dynamics: the KKT system of a closed-loop or coupled mechanism.
+
+With the constraint rows of :mod:`dynamics.constraints` (phi, Phi_q = J, gamma = Phi_q_dot v) the lectures'
+equations of a parallel mechanism are
+
+    M a + C v + g = tau + J^T lambda,        J a + gamma = -(2 alpha J v + beta^2 phi)
+
+(the right-hand side: Baumgarte's stabilisation phi_dd + 2 alpha phi_d + beta^2 phi = 0, zero without it).
+Eliminating a with f = tau - C v - g (the lectures' formula):
+
+    K = J M^-1 J^T (the Delassus matrix),   K lambda = -(J M^-1 f + gamma + 2 alpha J v + beta^2 phi),
+    a = M^-1 (f + J^T lambda).
+
+M^-1 comes from the O(n^2) articulated-body kernel (:mod:`dynamics.minverse`, no M is formed or factored) and
+C v + g from the RNEA at a = 0.  Redundant rows are normal (a planar loop closed by a 3-D point or hinge
+closure): K is then singular, a stays unique, and lambda is the minimum-norm multiplier, lambda = K^+ rhs,
+with K^+ from K's eigen-decomposition keeping eigenvalues above :data:`RANK_RTOL` times the largest (the
+discarded ones are round-off of exactly dependent rows, ~1e-16 relative).  lambda's rows and frames are those
+of :mod:`dynamics.constraints` (world axes, force on body a at its anchor, torques, coupling forces).
+"""
+
+import numpy as np
+
+from . import checks
+from ._numba import Kernel, kernel
+from .constraints import arrays, constraint_terms
+from .constraints import workspace as terms_workspace
+from .errors import InputError
+from .minverse import minverse_into
+from .minverse import workspace as minverse_workspace
+from .parallel import run_chunks
+from .rnea import rnea_terms
+from .rnea import workspace as rnea_workspace
+
+#: eigenvalues of K (and singular values in the inverse dynamics) below this times the largest are dependent rows
+RANK_RTOL = 1e-12
+#: default Baumgarte gains of a simulation (1/s): a critically damped phi_dd + 2 alpha phi_d + beta^2 phi = 0
+DEFAULT_BAUMGARTE = (10.0, 10.0)
+
+
+@kernel
+def workspace(nb, nv, m):
+    """Scratch of one state: kinematics, M^-1, RNEA, then M^-1 (nv, nv), J (m, nv), phi, gamma (m,), f (nv,),
+    M^-1 J^T (nv, m), K (m, m), rhs (m,), an empty f_ext."""
+    return (terms_workspace(nb, nv), minverse_workspace(nb, nv), rnea_workspace(nb), np.empty((nv, nv)),
+            np.empty((m, nv)), np.empty(m), np.empty(m), np.empty(nv), np.empty((nv, m)), np.empty((m, m)),
+            np.empty(m), np.zeros((0, 6)))
+
+
+@kernel
+def pinv_solve(K, rhs, rtol, x):
+    """x = K^+ rhs for a symmetric positive semidefinite K (minimum-norm least squares); returns the rank."""
+    m = K.shape[0]
+    if m == 0:
+        return 0
+    w, E = np.linalg.eigh(K)
+    cut = rtol * max(w[m - 1], 0.0)
+    x[:] = 0.0
+    rank = 0
+    for k in range(m):
+        if w[k] > cut and w[k] > 0.0:
+            rank += 1
+            c = 0.0
+            for r in range(m):
+                c += E[r, k] * rhs[r]
+            c /= w[k]
+            for r in range(m):
+                x[r] += c * E[r, k]
+    return rank
+
+
+@kernel
+def constrained_accel_kernel(tree, C, gravity, q, v, tau, alpha, beta, ws, a_out, lam_out):
+    """One state: a_out (nv,) and lam_out (m,) of the KKT system (module docstring) with Baumgarte gains alpha,
+    beta (1/s; 0, 0 for none).  ws = workspace(nb, nv, m), reused across calls of one thread.  Returns -1, or
+    the index of a body whose joint makes M singular (then the outputs are not valid).  The single-state entry
+    for a simulation's right-hand side: it allocates only inside the m x m eigen-decomposition."""
+    tws, mws, rws, Minv, J, phi, gamma, f, MJt, K, rhs, no_forces = ws
+    nv, m = f.shape[0], phi.shape[0]
+    status = minverse_into(tree, q, mws, Minv)
+    if status >= 0:
+        return status
+    rnea_terms(tree, q, v, v, gravity, no_forces, rws, f, True, False)  # f = C v + g
+    for k in range(nv):
+        f[k] = tau[k] - f[k]
+    constraint_terms(tree, C, q, v, True, True, tws, phi, J, gamma)
+    for k in range(nv):  # a0 = M^-1 f
+        x = 0.0
+        for c in range(nv):
+            x += Minv[k, c] * f[c]
+        a_out[k] = x
+    for k in range(nv):  # M^-1 J^T
+        for r in range(m):
+            x = 0.0
+            for c in range(nv):
+                x += Minv[k, c] * J[r, c]
+            MJt[k, r] = x
+    for r in range(m):
+        x = gamma[r] + beta * beta * phi[r]
+        for c in range(nv):
+            x += J[r, c] * (a_out[c] + 2.0 * alpha * v[c])
+        rhs[r] = -x
+        for s in range(r, m):
+            y = 0.0
+            for c in range(nv):
+                y += J[r, c] * MJt[c, s]
+            K[r, s] = y
+            K[s, r] = y
+    pinv_solve(K, rhs, RANK_RTOL, lam_out)
+    for k in range(nv):
+        x = a_out[k]
+        for r in range(m):
+            x += MJt[k, r] * lam_out[r]
+        a_out[k] = x
+    return -1
+
+
+@kernel
+def constrained_fd_batch(tree, Q, V, T, C, gravity, alpha, beta, out, status):
+    """out[b] = [a; lambda] of state b (V and T may have one row)."""
+    nb, nv, m = tree.parents.shape[0], tree.S.shape[0], out.shape[1] - tree.S.shape[0]
+    ws = workspace(nb, nv, m)
+    lv, lt = V.shape[0] - 1, T.shape[0] - 1
+    for b in range(Q.shape[0]):
+        status[b] = constrained_accel_kernel(tree, C, gravity, Q[b], V[min(b, lv)], T[min(b, lt)], alpha, beta,
+                                             ws, out[b, :nv], out[b, nv:])
+
+
+@kernel
+def drift_kernel(tree, C, q, v, ws):
+    """(max |phi(q)|, max |Phi_q v|): the position and velocity residuals of one state (ws = workspace)."""
+    tws, _, _, _, J, phi, gamma, _, _, _, _, _ = ws
+    constraint_terms(tree, C, q, v, True, False, tws, phi, J, gamma)
+    pos, vel = 0.0, 0.0
+    for r in range(phi.shape[0]):
+        pos = max(pos, abs(phi[r]))
+        x = 0.0
+        for c in range(v.shape[0]):
+            x += J[r, c] * v[c]
+        vel = max(vel, abs(x))
+    return pos, vel
+
+
+@kernel
+def project_velocity_kernel(tree, C, q, v, ws, v_out):
+    """v_out = v - M^-1 J^T K^+ J v: the velocity closest to v in the kinetic-energy metric with J v_out = 0
+    (what an impulse along the constraints does).  Returns -1 or a body whose joint makes M singular."""
+    tws, mws, _, Minv, J, phi, gamma, _, MJt, K, rhs, _ = ws
+    nv, m = v.shape[0], phi.shape[0]
+    status = minverse_into(tree, q, mws, Minv)
+    if status >= 0:
+        return status
+    constraint_terms(tree, C, q, v, True, False, tws, phi, J, gamma)
+    for k in range(nv):
+        for r in range(m):
+            x = 0.0
+            for c in range(nv):
+                x += Minv[k, c] * J[r, c]
+            MJt[k, r] = x
+    for r in range(m):
+        x = 0.0
+        for c in range(nv):
+            x += J[r, c] * v[c]
+        rhs[r] = -x
+        for s in range(r, m):
+            y = 0.0
+            for c in range(nv):
+                y += J[r, c] * MJt[c, s]
+            K[r, s] = y
+            K[s, r] = y
+    pinv_solve(K, rhs, RANK_RTOL, gamma)
+    for k in range(nv):
+        x = v[k]
+        for r in range(m):
+            x += MJt[k, r] * gamma[r]
+        v_out[k] = x
+    return -1
+
+
+@kernel
+def project_batch(tree, Q, V, C, out, status):
+    nb, nv, m = tree.parents.shape[0], tree.S.shape[0], tree.S.shape[0]
+    ws = workspace(nb, nv, C_rows(C))
+    lv = V.shape[0] - 1
+    for b in range(Q.shape[0]):
+        status[b] = project_velocity_kernel(tree, C, Q[b], V[min(b, lv)], ws, out[b])
+
+
+@kernel
+def C_rows(C):
+    """m, the number of constraint rows."""
+    n = C.kind.shape[0]
+    if n == 0:
+        return 0
+    k = C.kind[n - 1]
+    return C.row[n - 1] + (3 if k == 0 else 6 if k == 1 else 5 if k == 2 else 1)
+
+
+# -- inverse dynamics --------------------------------------------------------------------------------------------
+
+@kernel
+def constrained_id_kernel(tree, C, gravity, q, v, a, actuated, ws, tau_out):
+    """tau_out (nv,) with zeros at passive coordinates such that M a + C v + g = tau + J^T lambda for some
+    lambda.  ``actuated`` (nv,) is 1.0 at actuated coordinates.  Returns 0 (done), 1 (a violates the
+    constraints: J a + gamma != 0) or 2 (the actuated coordinates cannot produce this motion)."""
+    tws, _, rws, _, J, phi, gamma, f, _, _, _, no_forces = ws
+    nv, m = f.shape[0], phi.shape[0]
+    rnea_terms(tree, q, v, a, gravity, no_forces, rws, f, True, True)  # f = M a + C v + g
+    constraint_terms(tree, C, q, v, True, True, tws, phi, J, gamma)
+    scale = 1.0
+    for r in range(m):
+        x = gamma[r]
+        s = abs(gamma[r])
+        for c in range(nv):
+            x += J[r, c] * a[c]
+            s += abs(J[r, c] * a[c])
+        if abs(x) > 1e-8 * max(s, 1e-3):
+            return 1
+    # N^T: the null space of J (the motions the loops allow); N^T (S_act tau) = N^T f decides tau
+    NT = np.eye(nv)
+    if m > 0:
+        _, sv, Vt = np.linalg.svd(J)
+        rank = 0
+        for k in range(sv.shape[0]):
+            if sv[k] > 1e-9 * sv[0]:
+                rank += 1
+        NT = np.ascontiguousarray(Vt[rank:, :])
+    A = NT * actuated.reshape(1, nv)  # N^T S_act (k, nv), passive columns zero
+    rhs = NT @ f
+    tau = np.zeros(nv)
+    if A.shape[0] > 0:
+        tau = np.linalg.lstsq(A, rhs)[0]
+    res, s = 0.0, 0.0
+    Af = A @ tau
+    for k in range(rhs.shape[0]):
+        res = max(res, abs(Af[k] - rhs[k]))
+        s = max(s, abs(rhs[k]))
+    for c in range(nv):
+        tau_out[c] = tau[c] * actuated[c]
+        s = max(s, abs(f[c]))
+    if res > 1e-8 * max(s, 1e-6):
+        return 2
+    return 0
+
+
+@kernel
+def constrained_id_batch(tree, Q, V, A, C, gravity, actuated, out, status):
+    nb, nv = tree.parents.shape[0], tree.S.shape[0]
+    ws = workspace(nb, nv, C_rows(C))
+    lv, la = V.shape[0] - 1, A.shape[0] - 1
+    for b in range(Q.shape[0]):
+        status[b] = constrained_id_kernel(tree, C, gravity, Q[b], V[min(b, lv)], A[min(b, la)], actuated, ws,
+                                          out[b])
+
+
+# -- public entry points -----------------------------------------------------------------------------------------
+class _Failed(Exception):
+    def __init__(self, state, code):
+        self.state, self.code = state, code
+
+
+class _Checked:
+    """A batch kernel whose last argument is a per-state status (-1 or 0: fine), for run_chunks."""
+
+    def __init__(self, kernel, ok):
+        self.kernel, self.ok = Kernel(kernel), ok
+
+    def __call__(self, tree, *args):
+        status = np.empty(args[-1].shape[0], np.int64)
+        self.kernel(tree, *args, status)
+        bad = np.flatnonzero(status != self.ok)
+        if bad.size:
+            raise _Failed(int(bad[0]), int(status[bad[0]]))
+
+
+_fd_batch = _Checked(constrained_fd_batch, -1)
+_project_batch = _Checked(project_batch, -1)
+_id_batch = _Checked(constrained_id_batch, 0)
+
+
+def _singular(model, what, e):
+    return InputError(f"{what}: the mass matrix is singular at joint {model.joint_names[e.code]!r}: it moves no "
+                      f"mass or inertia (lock it with dynamics.lock_joints, or add mass below it)")
+
+
+def baumgarte_gains(baumgarte):
+    """(alpha, beta) from None (no stabilisation) or a pair of finite numbers >= 0 (1/s)."""
+    if baumgarte is None:
+        return 0.0, 0.0
+    try:
+        alpha, beta = baumgarte
+    except (TypeError, ValueError):
+        raise InputError(f"baumgarte: expected None or (alpha, beta) in 1/s, got {baumgarte!r}") from None
+    return (checks.real_number("baumgarte alpha", alpha, lo=0.0), checks.real_number("baumgarte beta", beta, lo=0.0))
+
+
+def constrained_forward_dynamics(model, q, v, tau, *, baumgarte=None, gravity=None):
+    """Accelerations and multipliers of a constrained model: (a, lam), (nv,) and (m,), or (B, nv) and (B, m).
+
+    Solves M a + C v + g = tau + Phi_q^T lam with Phi_q a + Phi_q_dot v = -(2 alpha Phi_q v + beta^2 phi)
+    (``baumgarte=(alpha, beta)`` in 1/s; None: no stabilisation).  lam: minimum-norm multipliers in physical
+    units, the rows and frames of :mod:`dynamics.constraints` (world axes; force on frame_a's body at its
+    anchor [N], torques [N m], coupling generalised forces).  A model without constraints gives the ABA's a.
+    """
+    Q, (V, T), B, batched = checks.state_batch(model, q, (("v", v, model.nv), ("tau", tau, model.nv)))
+    alpha, beta = baumgarte_gains(baumgarte)
+    C, m = arrays(model)
+    out = np.empty((B, model.nv + m))
+    try:
+        run_chunks(_fd_batch, model.tree, (Q, V, T), (C, checks.gravity_vector(model, gravity), alpha, beta), out)
+    except _Failed as e:
+        raise _singular(model, "constrained forward dynamics", e) from None
+    a, lam = out[:, :model.nv], out[:, model.nv:]
+    return (a, lam) if batched else (a[0], lam[0])
+
+
+def project_velocity(model, q, v):
+    """The velocity closest to v (kinetic-energy metric) that satisfies Phi_q v = 0: (nv,) or (B, nv)."""
+    Q, (V,), B, batched = checks.state_batch(model, q, (("v", v, model.nv),))
+    C, _ = arrays(model)
+    out = np.empty((B, model.nv))
+    try:
+        run_chunks(_project_batch, model.tree, (Q, V), (C,), out)
+    except _Failed as e:
+        raise _singular(model, "project_velocity", e) from None
+    return out if batched else out[0]
+
+
+def _actuated_mask(model, actuated):
+    if isinstance(actuated, str) or not hasattr(actuated, "__iter__"):
+        raise InputError(f"actuated: expected a list of joint names, got {actuated!r}")
+    mask = np.zeros(model.nv)
+    for name in actuated:
+        if not isinstance(name, str):
+            raise InputError(f"actuated: expected joint names (str), got {name!r}")
+        mask[model.v_slice(name)] = 1.0
+    return mask
+
+
+def constrained_inverse_dynamics(model, q, v, a, *, actuated, gravity=None):
+    """Torques of the ``actuated`` joints (names) that produce the motion (q, v, a) of a constrained model: tau
+    (nv,) or (B, nv), zero at passive joints, with M a + C v + g = tau + Phi_q^T lam for some lam.
+
+    With more actuators than the mechanism's mobility, tau is the minimum-norm choice.  Raises InputError when
+    a violates the constraints (Phi_q a + Phi_q_dot v != 0) or when the actuated joints cannot produce it (too
+    few, or placed where the loops take their torque), naming the state.
+    """
+    Q, (V, A), B, batched = checks.state_batch(model, q, (("v", v, model.nv), ("a", a, model.nv)))
+    mask = _actuated_mask(model, actuated)
+    C, _ = arrays(model)
+    out = np.empty((B, model.nv))
+    try:
+        run_chunks(_id_batch, model.tree, (Q, V, A), (C, checks.gravity_vector(model, gravity), mask), out)
+    except _Failed as e:
+        where = f" (state {e.state})" if batched else ""
+        if e.code == 1:
+            raise InputError(f"a{where}: violates the constraints (Phi_q a + Phi_q_dot v != 0); constrained "
+                             f"motions satisfy them, e.g. the a of constrained_forward_dynamics") from None
+        names = [model.joint_names[i] for i in range(model.nbodies) if mask[model.v_index[i]]]
+        raise InputError(f"actuated{where}: the joints {names} cannot produce this motion of the constrained "
+                         f"mechanism (too few actuators for its {model.info.get('constraints', {}).get('mobility', '?')}"
+                         f" degrees of freedom, or torques the loops absorb); actuate other joints") from None
+    return out if batched else out[0]
