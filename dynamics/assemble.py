@@ -12,12 +12,8 @@ never meet, fixed values out of reach): an :class:`~dynamics.InputError` with th
 import numpy as np
 
 from . import checks
-from .configuration import integrate_q
-from .constraints import arrays, jacobian_batch, residual_batch
+from .constraints import arrays, close_loops
 from .errors import InputError
-
-_ZERO_V = np.zeros((1, 0))
-
 
 def _fixed_mask(model, q, fixed):
     """(q with fixed values set, (nv,) 1.0 at free coordinates)."""
@@ -35,35 +31,6 @@ def _fixed_mask(model, q, fixed):
     return q, free
 
 
-def _assemble_one(model, C, m, q, free, tol, max_iter):
-    tree = model.tree
-    V = np.zeros((1, model.nv))
-    phi, J = np.empty((1, m)), np.empty((1, m, model.nv))
-
-    def residual(x):
-        residual_batch(tree, x[None], V, C, phi)
-        return phi[0].copy()
-
-    r = residual(q)
-    err = np.abs(r).max()
-    for _ in range(max_iter):
-        if err <= tol:
-            return q, err
-        jacobian_batch(tree, q[None], V, C, J)
-        dq = -np.linalg.lstsq(J[0] * free, r, rcond=1e-12)[0] * free
-        step = 1.0
-        while step > 1e-6:
-            q_new = integrate_q(tree, q, dq, step)
-            r_new = residual(q_new)
-            if np.abs(r_new).max() < err:
-                break
-            step *= 0.5
-        else:
-            break  # no step reduces |phi|: a least-squares minimum with phi != 0
-        q, r, err = q_new, r_new, np.abs(r_new).max()
-    return q, err
-
-
 def assemble(model, q_guess, *, fixed=None, tol=1e-12, max_iter=100):
     """A configuration q (nq,) (or (B, nq) for a batch of guesses) with every constraint satisfied,
     max |phi(q)| <= tol, reached from ``q_guess`` by Gauss-Newton with minimum-norm steps.
@@ -79,7 +46,7 @@ def assemble(model, q_guess, *, fixed=None, tol=1e-12, max_iter=100):
     out = np.array(Q)
     for b in range(Q.shape[0]):
         q, free = _fixed_mask(model, out[b].copy(), fixed)
-        q, err = _assemble_one(model, C, m, q, free, tol, int(max_iter)) if m else (q, 0.0)
+        q, err = close_loops(model, C, m, q, free, tol, int(max_iter)) if m else (q, 0.0)
         if err > tol:
             where = f" (guess {b})" if batched else ""
             raise InputError(f"assemble{where}: the loops cannot close from this guess: max |phi| = {err:.3g} "

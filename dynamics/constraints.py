@@ -38,6 +38,7 @@ import numpy as np
 
 from . import checks
 from ._numba import Kernel, inline_kernel, kernel
+from .configuration import integrate_q
 from .errors import InputError
 from .kinematics import frame_placement, world_pose
 from .model import Model, _frozen
@@ -232,8 +233,10 @@ def with_constraints(model, constraints, *, at=None):
     ``constraints``: PointConstraint, WeldConstraint, RevoluteConstraint and JointCoupling declarations.
     ``at``: the assembly configuration, where a WeldConstraint without ``placement`` takes its relative pose
     (default: ``model.neutral()``).  Unknown frames or joints are an :class:`~dynamics.InputError` listing the
-    closest names; a set of constraints that leaves nothing free to move (rank of Phi_q = nv at ``at``) is
-    refused with the rank.  ``model.info["constraints"]`` records rows, rank and mobility at ``at``.
+    closest names.  The loops are closed near ``at`` by Gauss-Newton (:func:`dynamics.assemble`'s iteration);
+    where they close, a set of constraints that leaves nothing free to move (rank of Phi_q = nv) is refused
+    with the rank.  ``model.info["constraints"]`` records rows, rank and mobility there (or at ``at`` when the
+    loops do not close near it: ``closed_near_assembly`` False).
     """
     checks.check_model(model)
     if isinstance(constraints, (PointConstraint, WeldConstraint, RevoluteConstraint, JointCoupling)):
@@ -258,24 +261,48 @@ def with_constraints(model, constraints, *, at=None):
         fixed.append(c)
     out = replace(model, constraints=tuple(model.constraints) + tuple(fixed), info=dict(model.info))
     C, m = arrays(out)
-    rank = generic_rank(out, q0) if m else 0
-    if m and model.nv and rank >= model.nv:
+    q1, err = q0, 0.0
+    rng = np.random.default_rng(0)
+    for attempt in range(6 if m else 0):  # a stretched pose (a singular J) can stall: retry from nearby ones
+        start = q0 if attempt == 0 else integrate_q(model.tree, q0, rng.normal(scale=0.3, size=model.nv), 1.0)
+        q1, err = close_loops(out, C, m, start, np.ones(model.nv), 1e-10, 30)
+        if err <= 1e-10:
+            break
+    J = constraint_jacobian(out, q1) if m else np.zeros((0, model.nv))
+    rank = int(np.linalg.matrix_rank(J, tol=1e-9 * max(1.0, np.abs(J).max()))) if m else 0
+    if m and model.nv and rank >= model.nv and err <= 1e-10:
         raise InputError(f"constraints: over-constrained: the {m} constraint rows have rank {rank} = nv = "
-                         f"{model.nv}, so nothing can move; remove constraints or unlock joints")
+                         f"{model.nv} where the loops close, so nothing can move; remove constraints or unlock "
+                         f"joints")
     out.info["constraints"] = {"count": len(out.constraints), "rows": m, "rank": rank,
-                               "mobility": model.nv - rank}
+                               "mobility": model.nv - rank, "closed_near_assembly": bool(err <= 1e-10)}
     return out
 
 
-def generic_rank(model, q0):
-    """Rank of Phi_q at q0 and at a fixed pseudo-random configuration (the generic rank: a special pose such as
-    a stretched linkage can lose rank, a random one does not with probability 1)."""
-    rng = np.random.default_rng(12345)
-    q1 = rng.uniform(-np.pi, np.pi, model.nq)
-    for k in model.quaternion_starts:
-        q1[k:k + 4] = rng.normal(size=4)
-    J = constraint_jacobian(model, np.array([q0, q1]))
-    return max(int(np.linalg.matrix_rank(Jb, tol=1e-9 * max(1.0, np.abs(Jb).max()))) for Jb in J)
+def close_loops(model, C, m, q, free, tol, max_iter):
+    """Gauss-Newton on phi from q over the coordinates where ``free`` is 1 (see :mod:`dynamics.assemble`):
+    returns (q, max |phi(q)|), stopping at tol, after max_iter steps, or where no step reduces |phi|."""
+    tree = model.tree
+    V = np.zeros((1, model.nv))
+    phi, J = np.empty((1, m)), np.empty((1, m, model.nv))
+    residual_batch(tree, q[None], V, C, phi)
+    err = np.abs(phi[0]).max()
+    for _ in range(max_iter):
+        if err <= tol:
+            break
+        jacobian_batch(tree, q[None], V, C, J)
+        dq = -np.linalg.lstsq(J[0] * free, phi[0], rcond=1e-12)[0] * free
+        step = 1.0
+        while step > 1e-6:
+            q_new = integrate_q(tree, q, dq, step)
+            residual_batch(tree, q_new[None], V, C, phi)
+            if np.abs(phi[0]).max() < err:
+                break
+            step *= 0.5
+        else:
+            break  # no step reduces |phi|: a least-squares minimum with phi != 0
+        q, err = q_new, np.abs(phi[0]).max()
+    return q, err
 
 
 # -- kernels -----------------------------------------------------------------------------------------------------

@@ -107,7 +107,8 @@ def test_random_tree_closures_match_pinocchio(seed, kind):
 def test_cassie_like_leg_matches_pinocchio(floating):
     path = os.path.join(OUR_ROBOTS, "cassie_like_leg.urdf")
     model = dynamics.load_urdf(path, floating_base=floating)
-    assert model.info["constraints"] == {"count": 1, "rows": 3, "rank": 3, "mobility": model.nv - 3}
+    assert model.info["constraints"] == {"count": 1, "rows": 3, "rank": 3, "mobility": model.nv - 3,
+                                         "closed_near_assembly": True}
     pm = pin.buildModelFromUrdf(path, pin.JointModelFreeFlyer()) if floating else pin.buildModelFromUrdf(path)
     con = model.constraints[0]
     A, B = np.eye(4), np.eye(4)
