@@ -34,6 +34,8 @@ from .rnea import workspace as rnea_workspace
 
 #: eigenvalues of K (and singular values in the inverse dynamics) below this times the largest are dependent rows
 RANK_RTOL = 1e-12
+#: a Cholesky pivot of K below this times K's largest diagonal entry sends the solve to the eigen-decomposition
+CHOLESKY_RTOL = 1e-10
 #: default Baumgarte gains of a simulation (1/s): a critically damped phi_dd + 2 alpha phi_d + beta^2 phi = 0
 DEFAULT_BAUMGARTE = (10.0, 10.0)
 
@@ -41,18 +43,54 @@ DEFAULT_BAUMGARTE = (10.0, 10.0)
 @kernel
 def workspace(nb, nv, m):
     """Scratch of one state: kinematics, M^-1, RNEA, then M^-1 (nv, nv), J (m, nv), phi, gamma (m,), f (nv,),
-    M^-1 J^T (nv, m), K (m, m), rhs (m,), an empty f_ext."""
+    M^-1 J^T (nv, m), K (m, m), rhs (m,), an empty f_ext, K's Cholesky factor (m, m)."""
     return (terms_workspace(nb, nv), minverse_workspace(nb, nv), rnea_workspace(nb), np.empty((nv, nv)),
             np.empty((m, nv)), np.empty(m), np.empty(m), np.empty(nv), np.empty((nv, m)), np.empty((m, m)),
-            np.empty(m), np.zeros((0, 6)))
+            np.empty(m), np.zeros((0, 6)), np.empty((m, m)))
 
 
 @kernel
-def pinv_solve(K, rhs, rtol, x):
-    """x = K^+ rhs for a symmetric positive semidefinite K (minimum-norm least squares); returns the rank."""
+def pinv_solve(K, rhs, rtol, x, L):
+    """x = K^+ rhs for a symmetric positive semidefinite K (minimum-norm least squares); returns the rank.
+
+    Full-rank K (every Cholesky pivot above :data:`CHOLESKY_RTOL` times the largest diagonal entry): a
+    Cholesky solve in L (m, m scratch), no allocation.  Otherwise K's eigen-decomposition, eigenvalues above
+    rtol times the largest kept (the dependent rows' round-off is dropped)."""
     m = K.shape[0]
     if m == 0:
         return 0
+    dmax = 0.0
+    for r in range(m):
+        dmax = max(dmax, K[r, r])
+    full = dmax > 0.0
+    for j in range(m):
+        if not full:
+            break
+        d = K[j, j]
+        for k in range(j):
+            d -= L[j, k] * L[j, k]
+        if d <= CHOLESKY_RTOL * dmax:
+            full = False
+            break
+        d = np.sqrt(d)
+        L[j, j] = d
+        for r in range(j + 1, m):
+            y = K[r, j]
+            for k in range(j):
+                y -= L[r, k] * L[j, k]
+            L[r, j] = y / d
+    if full:
+        for r in range(m):  # L y = rhs, then L^T x = y
+            y = rhs[r]
+            for k in range(r):
+                y -= L[r, k] * x[k]
+            x[r] = y / L[r, r]
+        for r in range(m - 1, -1, -1):
+            y = x[r]
+            for k in range(r + 1, m):
+                y -= L[k, r] * x[k]
+            x[r] = y / L[r, r]
+        return m
     w, E = np.linalg.eigh(K)
     cut = rtol * max(w[m - 1], 0.0)
     x[:] = 0.0
@@ -75,7 +113,7 @@ def constrained_accel_kernel(tree, C, gravity, q, v, tau, alpha, beta, ws, a_out
     beta (1/s; 0, 0 for none).  ws = workspace(nb, nv, m), reused across calls of one thread.  Returns -1, or
     the index of a body whose joint makes M singular (then the outputs are not valid).  The single-state entry
     for a simulation's right-hand side: it allocates only inside the m x m eigen-decomposition."""
-    tws, mws, rws, Minv, J, phi, gamma, f, MJt, K, rhs, no_forces = ws
+    tws, mws, rws, Minv, J, phi, gamma, f, MJt, K, rhs, no_forces, L = ws
     nv, m = f.shape[0], phi.shape[0]
     status = minverse_into(tree, q, mws, Minv)
     if status >= 0:
@@ -106,7 +144,7 @@ def constrained_accel_kernel(tree, C, gravity, q, v, tau, alpha, beta, ws, a_out
                 y += J[r, c] * MJt[c, s]
             K[r, s] = y
             K[s, r] = y
-    pinv_solve(K, rhs, RANK_RTOL, lam_out)
+    pinv_solve(K, rhs, RANK_RTOL, lam_out, L)
     for k in range(nv):
         x = a_out[k]
         for r in range(m):
@@ -129,7 +167,7 @@ def constrained_fd_batch(tree, Q, V, T, C, gravity, alpha, beta, out, status):
 @kernel
 def drift_kernel(tree, C, q, v, ws):
     """(max |phi(q)|, max |Phi_q v|): the position and velocity residuals of one state (ws = workspace)."""
-    tws, _, _, _, J, phi, gamma, _, _, _, _, _ = ws
+    tws, _, _, _, J, phi, gamma, _, _, _, _, _, _ = ws
     constraint_terms(tree, C, q, v, True, False, tws, phi, J, gamma)
     pos, vel = 0.0, 0.0
     for r in range(phi.shape[0]):
@@ -145,7 +183,7 @@ def drift_kernel(tree, C, q, v, ws):
 def project_velocity_kernel(tree, C, q, v, ws, v_out):
     """v_out = v - M^-1 J^T K^+ J v: the velocity closest to v in the kinetic-energy metric with J v_out = 0
     (what an impulse along the constraints does).  Returns -1 or a body whose joint makes M singular."""
-    tws, mws, _, Minv, J, phi, gamma, _, MJt, K, rhs, _ = ws
+    tws, mws, _, Minv, J, phi, gamma, _, MJt, K, rhs, _, L = ws
     nv, m = v.shape[0], phi.shape[0]
     status = minverse_into(tree, q, mws, Minv)
     if status >= 0:
@@ -168,7 +206,7 @@ def project_velocity_kernel(tree, C, q, v, ws, v_out):
                 y += J[r, c] * MJt[c, s]
             K[r, s] = y
             K[s, r] = y
-    pinv_solve(K, rhs, RANK_RTOL, gamma)
+    pinv_solve(K, rhs, RANK_RTOL, gamma, L)
     for k in range(nv):
         x = v[k]
         for r in range(m):
@@ -203,7 +241,7 @@ def constrained_id_kernel(tree, C, gravity, q, v, a, actuated, ws, tau_out):
     """tau_out (nv,) with zeros at passive coordinates such that M a + C v + g = tau + J^T lambda for some
     lambda.  ``actuated`` (nv,) is 1.0 at actuated coordinates.  Returns 0 (done), 1 (a violates the
     constraints: J a + gamma != 0) or 2 (the actuated coordinates cannot produce this motion)."""
-    tws, _, rws, _, J, phi, gamma, f, _, _, _, no_forces = ws
+    tws, _, rws, _, J, phi, gamma, f, _, _, _, no_forces, _ = ws
     nv, m = f.shape[0], phi.shape[0]
     rnea_terms(tree, q, v, a, gravity, no_forces, rws, f, True, True)  # f = M a + C v + g
     constraint_terms(tree, C, q, v, True, True, tws, phi, J, gamma)
