@@ -11,8 +11,10 @@ Eliminating a with f = tau - C v - g (the lectures' formula):
     K = J M^-1 J^T (the Delassus matrix),   K lambda = -(J M^-1 f + gamma + 2 alpha J v + beta^2 phi),
     a = M^-1 (f + J^T lambda).
 
-M^-1 comes from the O(n^2) articulated-body kernel (:mod:`dynamics.minverse`, no M is formed or factored) and
-C v + g from the RNEA at a = 0.  Redundant rows are normal (a planar loop closed by a 3-D point or hinge
+M comes from the CRBA and is factored M = L L^T in the kernel (Y = L^-1 J^T, K = Y^T Y, a = L^-T (L^-1 f + Y
+lambda)); C v + g from the RNEA at a = 0.  Measured (benchmarks/constraints.py): on the Cassie-like leg the
+CRBA and a Cholesky cost less than the O(n^2) articulated-body M^-1 of :mod:`dynamics.minverse`, which the
+first version used.  Redundant rows are normal (a planar loop closed by a 3-D point or hinge
 closure): K is then singular, a stays unique, and lambda is the minimum-norm multiplier, lambda = K^+ rhs,
 with K^+ from K's eigen-decomposition keeping eigenvalues above :data:`RANK_RTOL` times the largest (the
 discarded ones are round-off of exactly dependent rows, ~1e-16 relative).  lambda's rows and frames are those
@@ -26,8 +28,8 @@ from ._numba import Kernel, kernel
 from .constraints import arrays, constraint_terms
 from .constraints import workspace as terms_workspace
 from .errors import InputError
-from .minverse import minverse_into
-from .minverse import workspace as minverse_workspace
+from .crba import crba_into
+from .crba import workspace as crba_workspace
 from .parallel import run_chunks
 from .rnea import rnea_terms
 from .rnea import workspace as rnea_workspace
@@ -42,11 +44,76 @@ DEFAULT_BAUMGARTE = (10.0, 10.0)
 
 @kernel
 def workspace(nb, nv, m):
-    """Scratch of one state: kinematics, M^-1, RNEA, then M^-1 (nv, nv), J (m, nv), phi, gamma (m,), f (nv,),
-    M^-1 J^T (nv, m), K (m, m), rhs (m,), an empty f_ext, K's Cholesky factor (m, m)."""
-    return (terms_workspace(nb, nv), minverse_workspace(nb, nv), rnea_workspace(nb), np.empty((nv, nv)),
+    """Scratch of one state: kinematics, CRBA, RNEA, then L (nv, nv; M's Cholesky factor), J (m, nv), phi,
+    gamma (m,), f (nv,), Y = L^-1 J^T (nv, m), K (m, m), rhs (m,), an empty f_ext, K's Cholesky factor."""
+    return (terms_workspace(nb, nv), crba_workspace(nb), rnea_workspace(nb), np.empty((nv, nv)),
             np.empty((m, nv)), np.empty(m), np.empty(m), np.empty(nv), np.empty((nv, m)), np.empty((m, m)),
             np.empty(m), np.zeros((0, 6)), np.empty((m, m)))
+
+
+@kernel
+def mass_factor(tree, q, ws, L):
+    """L = the Cholesky factor of M(q) (lower triangle; M from the CRBA).  Returns -1, or the body whose joint
+    has a non-positive pivot (M singular: the joint moves no mass)."""
+    nv = L.shape[0]
+    L[:, :] = 0.0
+    crba_into(tree, q, ws, L)
+    for j in range(nv):
+        d = L[j, j]
+        for k in range(j):
+            d -= L[j, k] * L[j, k]
+        if not d > 0.0:
+            for i in range(tree.v_idx.shape[0]):
+                if tree.v_idx[i] <= j < tree.v_idx[i] + tree.nv_j[i]:
+                    return i
+            return 0
+        d = np.sqrt(d)
+        L[j, j] = d
+        for r in range(j + 1, nv):
+            y = L[r, j]
+            for k in range(j):
+                y -= L[r, k] * L[j, k]
+            L[r, j] = y / d
+    return -1
+
+
+@kernel
+def lower_solve(L, x):
+    """x = L^-1 x in place (forward substitution)."""
+    for r in range(x.shape[0]):
+        y = x[r]
+        for k in range(r):
+            y -= L[r, k] * x[k]
+        x[r] = y / L[r, r]
+
+
+@kernel
+def upper_solve(L, x):
+    """x = L^-T x in place (back substitution)."""
+    for r in range(x.shape[0] - 1, -1, -1):
+        y = x[r]
+        for k in range(r + 1, x.shape[0]):
+            y -= L[k, r] * x[k]
+        x[r] = y / L[r, r]
+
+
+@kernel
+def delassus(L, J, Y, K):
+    """Y = L^-1 J^T (nv, m) and K = Y^T Y = J M^-1 J^T (m, m)."""
+    nv, m = Y.shape[0], Y.shape[1]
+    for r in range(m):
+        for k in range(nv):
+            y = J[r, k]
+            for c in range(k):
+                y -= L[k, c] * Y[c, r]
+            Y[k, r] = y / L[k, k]
+    for r in range(m):
+        for s in range(r, m):
+            y = 0.0
+            for k in range(nv):
+                y += Y[k, r] * Y[k, s]
+            K[r, s] = y
+            K[s, r] = y
 
 
 @kernel
@@ -113,43 +180,29 @@ def constrained_accel_kernel(tree, C, gravity, q, v, tau, alpha, beta, ws, a_out
     beta (1/s; 0, 0 for none).  ws = workspace(nb, nv, m), reused across calls of one thread.  Returns -1, or
     the index of a body whose joint makes M singular (then the outputs are not valid).  The single-state entry
     for a simulation's right-hand side: it allocates only inside the m x m eigen-decomposition."""
-    tws, mws, rws, Minv, J, phi, gamma, f, MJt, K, rhs, no_forces, L = ws
+    tws, cws, rws, LM, J, phi, gamma, f, Y, K, rhs, no_forces, LK = ws
     nv, m = f.shape[0], phi.shape[0]
-    status = minverse_into(tree, q, mws, Minv)
+    status = mass_factor(tree, q, cws, LM)
     if status >= 0:
         return status
     rnea_terms(tree, q, v, v, gravity, no_forces, rws, f, True, False)  # f = C v + g
     for k in range(nv):
         f[k] = tau[k] - f[k]
+    lower_solve(LM, f)  # f = L^-1 (tau - C v - g)
     constraint_terms(tree, C, q, v, True, True, tws, phi, J, gamma)
-    for k in range(nv):  # a0 = M^-1 f
-        x = 0.0
-        for c in range(nv):
-            x += Minv[k, c] * f[c]
-        a_out[k] = x
-    for k in range(nv):  # M^-1 J^T
-        for r in range(m):
-            x = 0.0
-            for c in range(nv):
-                x += Minv[k, c] * J[r, c]
-            MJt[k, r] = x
-    for r in range(m):
+    delassus(LM, J, Y, K)
+    for r in range(m):  # rhs = -(J M^-1 f + gamma + 2 alpha J v + beta^2 phi), J M^-1 f = Y^T L^-1 f
         x = gamma[r] + beta * beta * phi[r]
         for c in range(nv):
-            x += J[r, c] * (a_out[c] + 2.0 * alpha * v[c])
+            x += Y[c, r] * f[c] + 2.0 * alpha * J[r, c] * v[c]
         rhs[r] = -x
-        for s in range(r, m):
-            y = 0.0
-            for c in range(nv):
-                y += J[r, c] * MJt[c, s]
-            K[r, s] = y
-            K[s, r] = y
-    pinv_solve(K, rhs, RANK_RTOL, lam_out, L)
-    for k in range(nv):
-        x = a_out[k]
+    pinv_solve(K, rhs, RANK_RTOL, lam_out, LK)
+    for k in range(nv):  # a = L^-T (L^-1 f + Y lambda)
+        x = f[k]
         for r in range(m):
-            x += MJt[k, r] * lam_out[r]
+            x += Y[k, r] * lam_out[r]
         a_out[k] = x
+    upper_solve(LM, a_out)
     return -1
 
 
@@ -183,41 +236,33 @@ def drift_kernel(tree, C, q, v, ws):
 def project_velocity_kernel(tree, C, q, v, ws, v_out):
     """v_out = v - M^-1 J^T K^+ J v: the velocity closest to v in the kinetic-energy metric with J v_out = 0
     (what an impulse along the constraints does).  Returns -1 or a body whose joint makes M singular."""
-    tws, mws, _, Minv, J, phi, gamma, _, MJt, K, rhs, _, L = ws
+    tws, cws, _, LM, J, phi, gamma, f, Y, K, rhs, _, LK = ws
     nv, m = v.shape[0], phi.shape[0]
-    status = minverse_into(tree, q, mws, Minv)
+    status = mass_factor(tree, q, cws, LM)
     if status >= 0:
         return status
     constraint_terms(tree, C, q, v, True, False, tws, phi, J, gamma)
-    for k in range(nv):
-        for r in range(m):
-            x = 0.0
-            for c in range(nv):
-                x += Minv[k, c] * J[r, c]
-            MJt[k, r] = x
+    delassus(LM, J, Y, K)
     for r in range(m):
         x = 0.0
         for c in range(nv):
             x += J[r, c] * v[c]
         rhs[r] = -x
-        for s in range(r, m):
-            y = 0.0
-            for c in range(nv):
-                y += J[r, c] * MJt[c, s]
-            K[r, s] = y
-            K[s, r] = y
-    pinv_solve(K, rhs, RANK_RTOL, gamma, L)
-    for k in range(nv):
-        x = v[k]
+    pinv_solve(K, rhs, RANK_RTOL, gamma, LK)
+    for k in range(nv):  # M^-1 J^T mu = L^-T Y mu
+        x = 0.0
         for r in range(m):
-            x += MJt[k, r] * gamma[r]
-        v_out[k] = x
+            x += Y[k, r] * gamma[r]
+        f[k] = x
+    upper_solve(LM, f)
+    for k in range(nv):
+        v_out[k] = v[k] + f[k]
     return -1
 
 
 @kernel
 def project_batch(tree, Q, V, C, out, status):
-    nb, nv, m = tree.parents.shape[0], tree.S.shape[0], tree.S.shape[0]
+    nb, nv = tree.parents.shape[0], tree.S.shape[0]
     ws = workspace(nb, nv, C_rows(C))
     lv = V.shape[0] - 1
     for b in range(Q.shape[0]):
