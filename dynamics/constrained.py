@@ -19,6 +19,18 @@ closure): K is then singular, a stays unique, and lambda is the minimum-norm mul
 with K^+ from K's eigen-decomposition keeping eigenvalues above :data:`RANK_RTOL` times the largest (the
 discarded ones are round-off of exactly dependent rows, ~1e-16 relative).  lambda's rows and frames are those
 of :mod:`dynamics.constraints` (world axes, force on body a at its anchor, torques, coupling forces).
+
+Simulation hook (for :mod:`dynamics.simulation`; compiled, single state, no allocation except the eigen-
+decomposition of dependent rows).  With ``C, m = dynamics.constraints.arrays(model)`` (resolved once and kept
+with the model) and one ``ws = workspace(model.nbodies, model.nv, m)`` per thread:
+
+* ``constrained_accel_kernel(tree, C, gravity, q, v, tau, alpha, beta, ws, a_out, lam_out) -> int``: the
+  right-hand side a = qdd (and lambda) in place of the ABA; -1 when fine, else the body whose joint makes M
+  singular.  alpha, beta: Baumgarte gains (1/s), :data:`DEFAULT_BAUMGARTE` for a simulation, 0, 0 for none.
+* ``drift_kernel(tree, C, q, v, ws) -> (max |phi|, max |Phi_q v|)``: the position and velocity residuals, for
+  ``constraint_drift`` in the report (their largest values over the run).
+* ``project_velocity_kernel(tree, C, q, v, ws, v_out) -> int``: the optional projection of v after an
+  accepted step (q is projected by :func:`dynamics.constraints.close_loops`, a Python-level Gauss-Newton).
 """
 
 import numpy as np
