@@ -261,14 +261,17 @@ def with_constraints(model, constraints, *, at=None):
         fixed.append(c)
     out = replace(model, constraints=tuple(model.constraints) + tuple(fixed), info=dict(model.info))
     C, m = arrays(out)
-    q1, err = q0, 0.0
-    rng = np.random.default_rng(0)
-    for attempt in range(6 if m else 0):  # a stretched pose (a singular J) can stall: retry from nearby ones
-        start = q0 if attempt == 0 else integrate_q(model.tree, q0, rng.normal(scale=0.3, size=model.nv), 1.0)
-        q1, err = close_loops(out, C, m, start, np.ones(model.nv), 1e-10, 30)
-        if err <= 1e-10:
-            break
-    J = constraint_jacobian(out, q1) if m else np.zeros((0, model.nv))
+    if np.all(C.kind == COUPLING):  # constant rows, always closable: no kinematics compiled to load a gripper
+        J, err = coupling_rows(C, m, model.nv), 0.0
+    else:
+        q1, err = q0, 0.0
+        rng = np.random.default_rng(0)
+        for attempt in range(6):  # a stretched pose (a singular J) can stall: retry from nearby ones
+            start = q0 if attempt == 0 else integrate_q(model.tree, q0, rng.normal(scale=0.3, size=model.nv), 1.0)
+            q1, err = close_loops(out, C, m, start, np.ones(model.nv), 1e-10, 30)
+            if err <= 1e-10:
+                break
+        J = constraint_jacobian(out, q1)
     rank = int(np.linalg.matrix_rank(J, tol=1e-9 * max(1.0, np.abs(J).max()))) if m else 0
     if m and model.nv and rank >= model.nv and err <= 1e-10:
         raise InputError(f"constraints: over-constrained: the {m} constraint rows have rank {rank} = nv = "
@@ -277,6 +280,15 @@ def with_constraints(model, constraints, *, at=None):
     out.info["constraints"] = {"count": len(out.constraints), "rows": m, "rank": rank,
                                "mobility": model.nv - rank, "closed_near_assembly": bool(err <= 1e-10)}
     return out
+
+
+def coupling_rows(C, m, nv):
+    """Phi_q of a set of couplings only (constant): e_follower - multiplier e_leader per row."""
+    J = np.zeros((m, nv))
+    for c in range(C.kind.shape[0]):
+        J[C.row[c], C.idx[c, 1]] += 1.0
+        J[C.row[c], C.idx[c, 3]] -= C.coef[c, 0]
+    return J
 
 
 def close_loops(model, C, m, q, free, tol, max_iter):

@@ -150,9 +150,11 @@ def _keep_constraints(model, reduced, locked):
             kept.append(c)
     out = with_constraints(reduced, kept)
     C, m = arrays(out)
-    phi = constraint_residual(out, out.neutral()) if m else np.zeros(0)
-    for c, con in enumerate(out.constraints):
-        if C.kind[c] != 3 and C.body[c, 0] == C.body[c, 1]:
+    loops = [c for c in range(len(out.constraints)) if C.kind[c] != 3]
+    phi = constraint_residual(out, out.neutral()) if loops else np.zeros(m)
+    for c in loops:
+        con = out.constraints[c]
+        if C.body[c, 0] == C.body[c, 1]:
             r = phi[C.row[c]:C.row[c] + con.rows]
             if np.abs(r).max() > 1e-9:
                 raise InputError(f"locked: the joints locked leave both ends of loop {con.name or con.frame_a + '-' + con.frame_b!r} "
