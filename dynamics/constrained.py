@@ -39,7 +39,9 @@ from . import checks
 from ._numba import Kernel, kernel
 from .constraints import arrays, constraint_terms
 from .constraints import workspace as terms_workspace
+from .checks import inputs_ok
 from .errors import InputError
+from .model import Model
 from .crba import crba_into
 from .crba import workspace as crba_workspace
 from .parallel import run_chunks
@@ -230,6 +232,17 @@ def constrained_fd_batch(tree, Q, V, T, C, gravity, alpha, beta, out, status):
 
 
 @kernel
+def constrained_fd_single(tree, C, gravity, q, v, tau, alpha, beta):
+    """One state with its inputs checked in the same compiled call: (a, lam, status); status -2: a non-finite
+    input or a zero quaternion (the general path then says which), else as constrained_accel_kernel."""
+    nb, nv, m = tree.parents.shape[0], tree.S.shape[0], C_rows(C)
+    a, lam = np.empty(nv), np.empty(m)
+    if not inputs_ok(tree, q, (v, tau)):
+        return a, lam, -2
+    return a, lam, constrained_accel_kernel(tree, C, gravity, q, v, tau, alpha, beta, workspace(nb, nv, m), a, lam)
+
+
+@kernel
 def drift_kernel(tree, C, q, v, ws):
     """(max |phi(q)|, max |Phi_q v|): the position and velocity residuals of one state (ws = workspace)."""
     tws, _, _, _, J, phi, gamma, _, _, _, _, _, _ = ws
@@ -369,6 +382,7 @@ class _Checked:
 
 
 _fd_batch = _Checked(constrained_fd_batch, -1)
+_fd_single = Kernel(constrained_fd_single)
 _project_batch = _Checked(project_batch, -1)
 _id_batch = _Checked(constrained_id_batch, 0)
 
@@ -397,8 +411,13 @@ def constrained_forward_dynamics(model, q, v, tau, *, baumgarte=None, gravity=No
     units, the rows and frames of :mod:`dynamics.constraints` (world axes; force on frame_a's body at its
     anchor [N], torques [N m], coupling generalised forces).  A model without constraints gives the ABA's a.
     """
-    Q, (V, T), B, batched = checks.state_batch(model, q, (("v", v, model.nv), ("tau", tau, model.nv)))
     alpha, beta = baumgarte_gains(baumgarte)
+    if (gravity is None and type(model) is Model and checks.is_state(q, model.nq) and checks.is_state(v, model.nv)
+            and checks.is_state(tau, model.nv)):  # one state: checked and solved in one compiled call
+        a, lam, status = _fd_single(model.tree, arrays(model)[0], model.gravity, q, v, tau, alpha, beta)
+        if status == -1:
+            return a, lam
+    Q, (V, T), B, batched = checks.state_batch(model, q, (("v", v, model.nv), ("tau", tau, model.nv)))
     C, m = arrays(model)
     out = np.empty((B, model.nv + m))
     try:
