@@ -29,14 +29,17 @@ with the model) and one ``ws = workspace(model.nbodies, model.nv, m)`` per threa
   singular.  alpha, beta: Baumgarte gains (1/s), :data:`DEFAULT_BAUMGARTE` for a simulation, 0, 0 for none.
 * ``drift_kernel(tree, C, q, v, ws) -> (max |phi|, max |Phi_q v|)``: the position and velocity residuals, for
   ``constraint_drift`` in the report (their largest values over the run).
-* ``project_velocity_kernel(tree, C, q, v, ws, v_out) -> int``: the optional projection of v after an
-  accepted step (q is projected by :func:`dynamics.constraints.close_loops`, a Python-level Gauss-Newton).
+* ``project_position_kernel(tree, C, q, ws, tol, max_iter, q_out) -> max |phi|`` then
+  ``project_velocity_kernel(tree, C, q_out, v, ws, v_out) -> int``: the optional projection onto the
+  constraint manifold after an accepted step (positions by Gauss-Newton, velocities in the kinetic-energy
+  metric).
 """
 
 import numpy as np
 
 from . import checks
 from ._numba import Kernel, kernel
+from .configuration import integrate_q
 from .constraints import arrays, constraint_terms
 from .constraints import workspace as terms_workspace
 from .checks import inputs_ok
@@ -283,6 +286,26 @@ def project_velocity_kernel(tree, C, q, v, ws, v_out):
     for k in range(nv):
         v_out[k] = v[k] + f[k]
     return -1
+
+
+@kernel
+def project_position_kernel(tree, C, q, ws, tol, max_iter, q_out):
+    """q_out = q moved onto phi = 0 by Gauss-Newton with minimum-norm steps, q_{k+1} = q_k (+) (-J^+ phi), at
+    most max_iter steps (near the manifold, after an accepted step, it converges quadratically).  Returns max
+    |phi(q_out)|; above tol the projection failed (the caller keeps q and reports it)."""
+    tws, _, _, _, J, phi, gamma, f, _, _, _, _, _ = ws
+    q_out[:] = q
+    err = 0.0
+    for it in range(max_iter + 1):
+        constraint_terms(tree, C, q_out, f, True, False, tws, phi, J, gamma)
+        err = 0.0
+        for r in range(phi.shape[0]):
+            err = max(err, abs(phi[r]))
+        if err <= tol or it == max_iter:
+            break
+        dq = np.linalg.lstsq(J, phi, rcond=1e-12)[0]
+        q_out[:] = integrate_q(tree, q_out, dq, -1.0)
+    return err
 
 
 @kernel
