@@ -25,6 +25,10 @@ from .com import center_of_mass, center_of_mass_velocity, com_jacobian
 from .minverse import inverse_mass_matrix
 from .task_space import operational_space_inertia
 from .inverse_kinematics import inverse_kinematics
+from .constraints import (JointCoupling, PointConstraint, RevoluteConstraint, WeldConstraint, constraint_bias,
+                          constraint_jacobian, constraint_residual, with_constraints)
+from .constrained import constrained_forward_dynamics, constrained_inverse_dynamics, project_velocity
+from .assemble import assemble
 
 from . import plot, robots, torques
 from .configuration import integrate
@@ -40,4 +44,7 @@ __all__ = [
     "forward_kinematics", "frame_placement", "frame_velocity", "frame_acceleration", "frame_bias_acceleration",
     "frame_jacobian", "center_of_mass", "center_of_mass_velocity", "com_jacobian",
     "inverse_mass_matrix", "operational_space_inertia", "inverse_kinematics",
+    "PointConstraint", "WeldConstraint", "RevoluteConstraint", "JointCoupling", "with_constraints",
+    "constraint_residual", "constraint_jacobian", "constraint_bias", "constrained_forward_dynamics",
+    "constrained_inverse_dynamics", "project_velocity", "assemble",
 ]

@@ -95,6 +95,9 @@ class Model:
     frames: dict = field(default_factory=dict)
     #: what the model builder merged or left out, as counts and names (see :meth:`summary`)
     info: dict = field(default_factory=dict)
+    #: closed loops and coupled joints (:mod:`dynamics.constraints`), added by :func:`dynamics.with_constraints`
+    #: or by load_urdf (``<mimic>``, ``<loop>``); empty for a plain tree
+    constraints: tuple = ()
 
     # -- sizes ---------------------------------------------------------------------------------------
     @property

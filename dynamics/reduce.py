@@ -9,6 +9,7 @@ the body they now belong to.
 
 import numpy as np
 
+from .constraints import JointCoupling, arrays, constraint_residual, with_constraints
 from .errors import InputError
 from .model import BodySpec, Model, build_model
 
@@ -115,5 +116,47 @@ def lock_joints(model: Model, values: dict) -> Model:
                              **{model.joint_names[i]: (float(v[0]) if v.size == 1 else v.tolist())
                                 for i, v in locked.items()}}
     info["massless_bodies"] = [s.name for s in specs if s.mass == 0.0]
-    return build_model(model.name, specs, floating_base=any(s.joint_type == "floating" for s in specs),
-                       gravity=model.gravity, warnings=model.warnings, frames=frames, info=info)
+    reduced = build_model(model.name, specs, floating_base=any(s.joint_type == "floating" for s in specs),
+                          gravity=model.gravity, warnings=model.warnings, frames=frames, info=info)
+    if not model.constraints:
+        return reduced
+    return _keep_constraints(model, reduced, {model.joint_names[i]: float(v[0]) for i, v in locked.items()
+                                              if v.size == 1})
+
+
+def _keep_constraints(model, reduced, locked):
+    """The constraints of ``model`` on the reduced model: a coupling between two locked joints must hold at
+    their values (it is dropped), one with a single locked side is refused (the other joint is then fixed
+    too: lock it as well); loops stay (frames keep their names) and must still close where both ends ended
+    on one body.  Too few free coordinates left is refused by with_constraints, with the rank."""
+    kept = []
+    for c in model.constraints:
+        if not isinstance(c, JointCoupling):
+            kept.append(c)
+            continue
+        f, l = c.follower in locked, c.leader in locked
+        if f and l:
+            want = c.multiplier * locked[c.leader] + c.offset
+            if abs(locked[c.follower] - want) > 1e-9 * (1.0 + abs(want)):
+                raise InputError(f"locked: joint {c.follower!r} follows {c.leader!r} (q = {c.multiplier:g} q_leader "
+                                 f"+ {c.offset:g}), so it must be locked at {want!r}, got {locked[c.follower]!r}")
+        elif f or l:
+            other, value = ((c.leader, (locked[c.follower] - c.offset) / c.multiplier if c.multiplier else None)
+                            if f else (c.follower, c.multiplier * locked[c.leader] + c.offset))
+            at = f" at {value!r}" if value is not None else ""
+            raise InputError(f"locked: joint {c.follower!r} is coupled to {c.leader!r}; locking one fixes the "
+                             f"other, so lock {other!r}{at} as well")
+        else:
+            kept.append(c)
+    out = with_constraints(reduced, kept)
+    C, m = arrays(out)
+    loops = [c for c in range(len(out.constraints)) if C.kind[c] != 3]
+    phi = constraint_residual(out, out.neutral()) if loops else np.zeros(m)
+    for c in loops:
+        con = out.constraints[c]
+        if C.body[c, 0] == C.body[c, 1]:
+            r = phi[C.row[c]:C.row[c] + con.rows]
+            if np.abs(r).max() > 1e-9:
+                raise InputError(f"locked: the joints locked leave both ends of loop {con.name or con.frame_a + '-' + con.frame_b!r} "
+                                 f"on one rigid body {np.abs(r).max():.3g} apart: the loop cannot close")
+    return out

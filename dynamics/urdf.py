@@ -7,6 +7,24 @@ any file named inside the URDF is ever opened.
 
 Fixed joints are merged: a link welded to its parent adds its mass, centre of mass and inertia to the
 parent body exactly (parallel-axis theorem, :func:`dynamics.spatial.inertia_to_parent`).
+
+Closed loops and coupled joints (:mod:`dynamics.constraints`).  ``<mimic joint="leader" multiplier="k"
+offset="c"/>`` in joint f becomes the coupling q_f = k q_leader + c (``mimic="coupling"``, the default) or is
+ignored with a warning (``mimic="independent"``, what the model did before).  A loop is declared by the
+extension element, a child of ``<robot>``::
+
+    <loop name="knee_rod" type="point|weld|revolute">
+      <link_a name="thigh" xyz="0 0 -0.4" rpy="0 0 0"/>   <!-- an anchor frame fixed on a link -->
+      <link_b name="rod" xyz="0 0 0.3"/>
+      <axis xyz="0 1 0"/>                                 <!-- revolute only: in each anchor's frame -->
+    </loop>
+
+The two anchors coincide (point: their origins; weld: their poses; revolute: origins, and the axis as seen
+by each).  Why a separate element rather than a second ``<joint>`` into the closing link: the kinematic tree
+stays a valid URDF, so ROS tools, urdfdom and Pinocchio still load the file (they skip unknown top-level
+elements) as its spanning tree, while a second parent makes each of them refuse it.  Plain ``<loop>`` (no
+namespace prefix like Drake's ``<drake:ball_constraint>``) because the untrusted-XML parser needs no
+namespace declaration for it, and one element with a ``type`` covers all three closures.
 """
 
 import difflib
@@ -17,8 +35,10 @@ import numpy as np
 from lxml import etree
 from yourdfpy import URDF, Link
 
-from .errors import URDFError
+from .constraints import JointCoupling, PointConstraint, RevoluteConstraint, WeldConstraint, with_constraints
+from .errors import DynamicsError, URDFError
 from .model import BodySpec, Model, build_model
+from .spatial import rpy_to_matrix
 
 #: largest URDF accepted by the library (the service applies its own, smaller limit)
 MAX_URDF_BYTES = 64 * 1024 * 1024
@@ -188,7 +208,7 @@ def _origin(T, what):
     return T
 
 
-def load_urdf(source, *, floating_base: bool = False, strict_inertia: bool = True) -> Model:
+def load_urdf(source, *, floating_base: bool = False, strict_inertia: bool = True, mimic: str = "coupling") -> Model:
     """Build a :class:`~dynamics.model.Model` from a URDF path or URDF text (str or bytes).
 
     ``floating_base=True`` gives the root link a free joint ("root_joint"): q = [x, y, z, qx, qy, qz, qw, ...],
@@ -196,7 +216,12 @@ def load_urdf(source, *, floating_base: bool = False, strict_inertia: bool = Tru
     Raises :class:`~dynamics.URDFError` naming the link or joint when the URDF cannot describe a tree of
     rigid bodies.  ``strict_inertia=False`` accepts inertias that violate positive-definiteness or the
     triangle inequality by more than 1 % (with a warning in ``model.warnings``) instead of refusing them.
+    ``mimic="coupling"`` (default) turns each ``<mimic>`` into a :class:`~dynamics.JointCoupling` constraint
+    (the follower keeps its coordinate, ``model.constraints`` ties it to the leader); ``mimic="independent"``
+    leaves mimic joints free, with a warning.  ``<loop>`` elements (module docstring) become constraints too.
     """
+    if mimic not in ("coupling", "independent"):
+        raise URDFError(f"mimic: expected 'coupling' or 'independent', got {mimic!r}")
     root = parse_xml(_read_source(source))
     warnings = []
     name = root.get("name") or "robot"
@@ -271,7 +296,7 @@ def load_urdf(source, *, floating_base: bool = False, strict_inertia: bool = Tru
 
     # --- walk the tree depth first, merging fixed joints ------------------------------------------
     bodies, frames = [], {}
-    merged_fixed, massless = [], []
+    merged_fixed, massless, couplings = [], [], []
     if floating_base:
         bodies.append(BodySpec(name=root_link, joint_name="root_joint", joint_type="floating", parent=-1,
                                placement=np.eye(4), axis=np.zeros(3)))
@@ -297,9 +322,11 @@ def load_urdf(source, *, floating_base: bool = False, strict_inertia: bool = Tru
             elif j.type == "floating" and floating_base and lname == root_link:
                 raise URDFError(f"joint {j.name!r}: the URDF already has a floating joint; load it with "
                                 f"floating_base=False")
-            elif j.mimic is not None:
+            elif j.mimic is not None and mimic == "independent":
                 warnings.append(f"joint {j.name!r} mimics {j.mimic.joint!r}; it is treated as an independent "
-                                f"joint")
+                                f"joint (mimic='independent')")
+            elif j.mimic is not None:
+                couplings.append(j)
             stack.append((j.child, j, body, T @ J))
     if visited != len(links):
         lost = sorted(set(links) - set(frames))
@@ -323,8 +350,80 @@ def load_urdf(source, *, floating_base: bool = False, strict_inertia: bool = Tru
         "locked_joints": {},
         "meshes_loaded": 0,
     }
-    return build_model(name, bodies, floating_base=floating_base or any(
+    model = build_model(name, bodies, floating_base=floating_base or any(
         b.joint_type == "floating" for b in bodies), warnings=warnings, frames=frames, info=info)
+    constraints = _couplings(couplings, model) + _loops(root, links)
+    if not constraints:
+        return model
+    try:
+        return with_constraints(model, constraints)
+    except DynamicsError as e:
+        raise URDFError(f"URDF constraints: {e}") from None
+
+
+def _couplings(joints, model):
+    """JointCoupling of each mimic joint; the leader must be a movable joint of the model."""
+    out = []
+    for j in joints:
+        leader = j.mimic.joint
+        if leader not in model.joint_names:
+            close = difflib.get_close_matches(str(leader), model.joint_names, n=5)
+            raise URDFError(f"joint {j.name!r}: <mimic joint={str(leader)[:40]!r}> names no movable joint of "
+                            f"the model (closest: {close}); load with mimic='independent' to ignore mimics")
+        try:
+            out.append(JointCoupling(j.name, leader, float(j.mimic.multiplier), float(j.mimic.offset)))
+        except (DynamicsError, TypeError) as e:
+            raise URDFError(f"joint {j.name!r}: <mimic>: {e}") from None
+    return out
+
+
+def _numbers(el, attr, what, default="0 0 0"):
+    try:
+        x = np.array([float(t) for t in (el.get(attr) or default).split()])
+    except ValueError:
+        raise URDFError(f"{what}: {attr}={el.get(attr)[:40]!r} is not 3 numbers") from None
+    if x.shape != (3,) or not np.all(np.isfinite(x)):
+        raise URDFError(f"{what}: {attr} must be 3 finite numbers, got {el.get(attr)!r:.40}")
+    return x
+
+
+def _loops(root, links):
+    """The constraints of the ``<loop>`` elements (module docstring)."""
+    out = []
+    for k, el in enumerate(root.findall("loop")):
+        lname = el.get("name") or f"loop{k}"
+        _check_name("loop", lname)
+        what = f"<loop name={lname!r}>"
+        kind = el.get("type")
+        if kind not in ("point", "weld", "revolute"):
+            raise URDFError(f"{what}: type {str(kind)[:40]!r}; expected 'point', 'weld' or 'revolute'")
+        anchors = []
+        for tag in ("link_a", "link_b"):
+            sub = el.find(tag)
+            if sub is None or not sub.get("name"):
+                raise URDFError(f"{what}: missing <{tag} name=\"...\"/>")
+            link = sub.get("name")
+            if link not in links:
+                close = difflib.get_close_matches(link, list(links), n=5)
+                raise URDFError(f"{what}: <{tag}> names unknown link {link[:40]!r} (closest: {close})")
+            T = np.eye(4)
+            T[:3, :3] = rpy_to_matrix(_numbers(sub, "rpy", what))
+            T[:3, 3] = _numbers(sub, "xyz", what)
+            anchors.append((link, T))
+        (la, Ta), (lb, Tb) = anchors
+        if kind == "point":
+            out.append(PointConstraint(la, lb, Ta[:3, 3], Tb[:3, 3], name=lname))
+        elif kind == "weld":
+            out.append(WeldConstraint(la, lb, Ta @ np.linalg.inv(Tb), name=lname))
+        else:
+            ax = el.find("axis")
+            if ax is None:
+                raise URDFError(f"{what}: a revolute loop needs <axis xyz=\"...\"/>")
+            u = _numbers(ax, "xyz", what)
+            if np.linalg.norm(u) < 1e-12:
+                raise URDFError(f"{what}: the axis is zero")
+            out.append(RevoluteConstraint(la, lb, Ta[:3, :3] @ u, Ta[:3, 3], Tb[:3, 3], Tb[:3, :3] @ u, name=lname))
+    return out
 
 
 def _joint_frame(name, links):

@@ -120,9 +120,10 @@ def test_example_robot_data_kinematics_match_pinocchio(rel, floating):
 
 
 def load_ours(path, floating):
-    """Our model of the URDF (non-physical inertias accepted, as Pinocchio does), None for a planar joint."""
+    """Our model of the URDF (non-physical inertias accepted and mimic joints free, as Pinocchio's default
+    loads it), None for a planar joint."""
     try:
-        return dynamics.load_urdf(path, floating_base=floating, strict_inertia=False)
+        return dynamics.load_urdf(path, floating_base=floating, strict_inertia=False, mimic="independent")
     except dynamics.URDFError as e:
         assert "planar" in str(e), str(e)
         return None

@@ -122,15 +122,17 @@ def test_example_robot_data_matches_pinocchio(rel, floating):
     pm = _pin_loads(path, floating)
     if pm is None:
         pytest.skip("Pinocchio does not load this URDF")
+    # the open tree's dynamics, as Pinocchio's buildModelFromUrdf builds it (mimic=False): mimic joints free
+    # (the couplings are tested in tests/test_constraints_pinocchio.py)
     try:
-        model = dynamics.load_urdf(path, floating_base=floating)
+        model = dynamics.load_urdf(path, floating_base=floating, mimic="independent")
     except dynamics.URDFError as e:
         # a planar joint, or an inertia no rigid body can have (several published URDFs): the error says
         # which, and a non-physical inertia can still be loaded on request, as Pinocchio does
         if "planar" in str(e):
             return
         assert "inertia" in str(e) and "strict_inertia=False" in str(e), str(e)
-        model = dynamics.load_urdf(path, floating_base=floating, strict_inertia=False)
+        model = dynamics.load_urdf(path, floating_base=floating, strict_inertia=False, mimic="independent")
         assert any("inertia" in w for w in model.warnings)
     if pm.nv != model.nv:  # a massless root with a URDF floating joint etc.: must be explained
         pytest.fail(f"nv differs: ours {model.nv}, Pinocchio {pm.nv}")

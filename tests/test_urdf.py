@@ -206,7 +206,10 @@ def test_limits_damping_friction_continuous_and_mimic():
     np.testing.assert_array_equal(model.velocity_limit, [4, np.inf, 1])
     np.testing.assert_array_equal(model.damping, [0.5, 0, 0])
     np.testing.assert_array_equal(model.friction, [0.25, 0, 0])
-    assert any("'j3' mimics 'j1'" in w for w in model.warnings)
+    assert model.constraints == (dynamics.JointCoupling("j3", "j1", 2.0, 0.0),)  # mimic="coupling" by default
+    assert not any("mimic" in w for w in model.warnings)
+    free = dynamics.load_urdf(text, mimic="independent")
+    assert free.constraints == () and any("'j3' mimics 'j1'" in w for w in free.warnings)
     with pytest.raises(ValueError):
         model.damping[0] = 1.0  # immutable
 

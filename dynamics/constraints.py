@@ -1,0 +1,523 @@
+"""Closed loops and coupled joints: declarations, and the residual phi(q), its Jacobian Phi_q and Phi_q_dot v.
+
+A constrained model adds m equations phi(q) = 0 to the tree (the lectures' parallel mechanisms, the four-bar
+first).  Each declaration is resolved once into two *anchors* fixed on bodies, a (body_a, R_a, p_a) and
+(body_b, R_b, p_b) pose in the body frames (:class:`ConstraintArrays`), and gives rows of phi, all in
+**world axes**, with x_A, x_B the anchors' world origins, R_A, R_B their world axes:
+
+===================  ====  ====================================================================================
+declaration          rows  phi(q) and the velocity rows Phi_q v
+===================  ====  ====================================================================================
+PointConstraint      3     x_A - x_B;                    v_A(x_A) - v_B(x_B)
+WeldConstraint       6     [x_A - x_B; log(R_A R_B^T)];  [v_A(x_A) - v_B(x_B); w_A - w_B]
+RevoluteConstraint   5     [x_A - x_B; t_k . (u_B x u_A)];  [v_A(x_A) - v_B(x_B); t_k . (w_A - w_B)], k = 1, 2
+JointCoupling        1     q_f - (multiplier q_l + offset);  v_f - multiplier v_l
+===================  ====  ====================================================================================
+
+u_A, u_B are the hinge axis on each body (the anchors' z axes) and t_1, t_2 the anchor-a axes normal to it
+(x and y).  The velocity rows are exact for the point and coupling rows everywhere; for the angular rows of
+the weld and the hinge they are the derivative of phi on the manifold phi = 0 (to first order near it),
+which is all the dynamics, Baumgarte's terms and Newton's method need.  Phi_q_dot v (:func:`constraint_bias`)
+is the time derivative of Phi_q v at a = 0: the difference of the anchors' classical bias accelerations
+(Jdot v of :mod:`dynamics.kinematics`), and for the hinge rows (w_A x t_k) . (w_A - w_B) + t_k . (alpha_A -
+alpha_B), so that d/dt (Phi_q v) = Phi_q a + Phi_q_dot v exactly.
+
+Multipliers (:mod:`dynamics.constrained`) enter as M a + C v + g = tau + Phi_q^T lambda: the rows of lambda are
+then, in world axes, the force [N] exerted on body a at x_A (and its opposite on body b at x_B), the torque
+[N m] on body a (weld: 3 components; hinge: about t_1 and t_2), and for a coupling the generalised force on
+the follower joint [N m or N] (its reaction, -multiplier times it, acts on the leader).
+
+Kinematics run in world coordinates (Featherstone 2008, sec. 2.9): motion axes oS_k = (oR_i S_w, oR_i S_v +
+op_i x oR_i S_w) at the world origin, V_i = V_p + oS_i qd_i, bias acceleration A_i = A_p + V_i x oS_i qd_i.
+"""
+
+from dataclasses import dataclass, replace
+from typing import NamedTuple
+
+import numpy as np
+
+from . import checks
+from ._numba import Kernel, inline_kernel, kernel
+from .configuration import integrate_q
+from .errors import InputError
+from .kinematics import frame_placement, world_pose
+from .model import Model, _frozen
+from .parallel import run_chunks
+from .spatial import add, cross, cross_motion, dot, load3, load33, matmul, rot, rotation_log, scale, transpose
+
+POINT, WELD, REVOLUTE, COUPLING = 0, 1, 2, 3
+#: rows per constraint kind
+ROWS = {POINT: 3, WELD: 6, REVOLUTE: 5, COUPLING: 1}
+
+
+# -- declarations ----------------------------------------------------------------------------------------------
+
+def _vec3(name, x):
+    return tuple(float(c) for c in checks.vector(name, x, 3))
+
+
+def _name(what, x):
+    if not isinstance(x, str) or not x:
+        raise InputError(f"{what}: expected a frame or joint name (a non-empty str), got {x!r}")
+    return x
+
+
+@dataclass(frozen=True)
+class PointConstraint:
+    """A spherical closure (3 rows): ``point_a`` on frame_a coincides with ``point_b`` on frame_b (each in its
+    frame's coordinates)."""
+
+    frame_a: str
+    frame_b: str
+    point_a: tuple = (0.0, 0.0, 0.0)
+    point_b: tuple = (0.0, 0.0, 0.0)
+    name: str = ""
+    rows = 3
+
+    def __post_init__(self):
+        object.__setattr__(self, "frame_a", _name("PointConstraint frame_a", self.frame_a))
+        object.__setattr__(self, "frame_b", _name("PointConstraint frame_b", self.frame_b))
+        object.__setattr__(self, "point_a", _vec3("PointConstraint point_a", self.point_a))
+        object.__setattr__(self, "point_b", _vec3("PointConstraint point_b", self.point_b))
+
+
+@dataclass(frozen=True)
+class WeldConstraint:
+    """A rigid closure (6 rows): frame_b keeps the pose ``placement`` (4x4) in frame_a.  ``placement=None``:
+    the relative pose at assembly (the configuration ``at`` given to :func:`with_constraints`)."""
+
+    frame_a: str
+    frame_b: str
+    placement: object = None
+    name: str = ""
+    rows = 6
+
+    def __post_init__(self):
+        object.__setattr__(self, "frame_a", _name("WeldConstraint frame_a", self.frame_a))
+        object.__setattr__(self, "frame_b", _name("WeldConstraint frame_b", self.frame_b))
+        if self.placement is not None:
+            T, batched = checks.poses("WeldConstraint placement", self.placement)
+            if batched:
+                raise InputError("WeldConstraint placement: expected one (4, 4) pose")
+            object.__setattr__(self, "placement", tuple(map(tuple, T[0])))
+
+
+@dataclass(frozen=True)
+class RevoluteConstraint:
+    """A hinge closure (5 rows): ``point_a`` on frame_a coincides with ``point_b`` on frame_b and the hinge
+    ``axis`` (frame_a's coordinates) stays parallel to ``axis_b`` (frame_b's coordinates; default: the same
+    numbers as ``axis``)."""
+
+    frame_a: str
+    frame_b: str
+    axis: tuple = (0.0, 0.0, 1.0)
+    point_a: tuple = (0.0, 0.0, 0.0)
+    point_b: tuple = (0.0, 0.0, 0.0)
+    axis_b: tuple = None
+    name: str = ""
+    rows = 5
+
+    def __post_init__(self):
+        object.__setattr__(self, "frame_a", _name("RevoluteConstraint frame_a", self.frame_a))
+        object.__setattr__(self, "frame_b", _name("RevoluteConstraint frame_b", self.frame_b))
+        object.__setattr__(self, "point_a", _vec3("RevoluteConstraint point_a", self.point_a))
+        object.__setattr__(self, "point_b", _vec3("RevoluteConstraint point_b", self.point_b))
+        for attr, x in (("axis", self.axis), ("axis_b", self.axis if self.axis_b is None else self.axis_b)):
+            u = np.array(_vec3(f"RevoluteConstraint {attr}", x))
+            if np.linalg.norm(u) < 1e-12:
+                raise InputError(f"RevoluteConstraint {attr}: the hinge axis is zero; expected a non-zero 3-vector")
+            object.__setattr__(self, attr, tuple(float(c) for c in u / np.linalg.norm(u)))
+
+
+@dataclass(frozen=True)
+class JointCoupling:
+    """q_follower = multiplier * q_leader + offset (1 row): what a URDF ``<mimic>`` means.  Both joints are
+    1-dof (revolute, continuous or prismatic)."""
+
+    follower: str
+    leader: str
+    multiplier: float = 1.0
+    offset: float = 0.0
+    name: str = ""
+    rows = 1
+
+    def __post_init__(self):
+        object.__setattr__(self, "follower", _name("JointCoupling follower", self.follower))
+        object.__setattr__(self, "leader", _name("JointCoupling leader", self.leader))
+        object.__setattr__(self, "multiplier", checks.real_number("JointCoupling multiplier", self.multiplier))
+        object.__setattr__(self, "offset", checks.real_number("JointCoupling offset", self.offset))
+        if self.follower == self.leader:
+            raise InputError(f"JointCoupling: joint {self.follower!r} cannot follow itself")
+
+
+KINDS = {PointConstraint: POINT, WeldConstraint: WELD, RevoluteConstraint: REVOLUTE, JointCoupling: COUPLING}
+
+
+class ConstraintArrays(NamedTuple):
+    """The constraints as flat arrays for the kernels (nc constraints, m rows)."""
+
+    kind: np.ndarray  # (nc,) int64: POINT, WELD, REVOLUTE or COUPLING
+    row: np.ndarray  # (nc,) int64: the constraint's first row in phi
+    body: np.ndarray  # (nc, 2) int64: the bodies of anchors a and b (-1: the world)
+    R: np.ndarray  # (nc, 2, 3, 3): the anchors' axes in their bodies' frames (hinge: z = the axis)
+    p: np.ndarray  # (nc, 2, 3): the anchors' origins in their bodies' frames
+    idx: np.ndarray  # (nc, 4) int64: coupling (q index, v index) of the follower, then of the leader
+    coef: np.ndarray  # (nc, 2): coupling (multiplier, offset)
+
+
+def _basis(u):
+    """A rotation whose z column is the unit vector u (x, y complete a right-handed frame)."""
+    u = np.asarray(u, float)
+    t = np.array([1.0, 0, 0]) if abs(u[0]) < 0.9 else np.array([0, 1.0, 0])
+    x = np.cross(t, u)
+    x /= np.linalg.norm(x)
+    return np.column_stack([x, np.cross(u, x), u])
+
+
+def _anchor(model, frame, R, p):
+    """(body, pose in the body frame) of a pose (R, p) given in ``frame``'s coordinates."""
+    body, T = model.frames[model.frame_names[checks.frame(model, frame)]]
+    return body, T[:3, :3] @ R, T[:3, :3] @ p + T[:3, 3]
+
+
+def _joint(model, name, what):
+    i = model.joint_index(name)
+    if model.joint_types[i] == "floating":
+        raise InputError(f"{what}: joint {name!r} is a floating joint; a coupling needs 1-dof joints")
+    return int(model.q_index[i]), int(model.v_index[i])
+
+
+def resolve(model, constraints, placements):
+    """Flat arrays of ``constraints`` on ``model``; ``placements[k]`` is weld k's placement (4x4) or None."""
+    nc = len(constraints)
+    kind, row = np.zeros(nc, np.int64), np.zeros(nc, np.int64)
+    body, R, p = np.full((nc, 2), -1, np.int64), np.tile(np.eye(3), (nc, 2, 1, 1)), np.zeros((nc, 2, 3))
+    idx, coef = np.zeros((nc, 4), np.int64), np.zeros((nc, 2))
+    m = 0
+    for c, con in enumerate(constraints):
+        kind[c], row[c] = KINDS[type(con)], m
+        m += con.rows
+        if kind[c] == COUPLING:
+            idx[c, :2] = _joint(model, con.follower, "JointCoupling follower")
+            idx[c, 2:] = _joint(model, con.leader, "JointCoupling leader")
+            coef[c] = con.multiplier, con.offset
+            continue
+        eye, zero = np.eye(3), np.zeros(3)
+        if kind[c] == POINT:
+            a, b = (eye, np.array(con.point_a)), (eye, np.array(con.point_b))
+        elif kind[c] == WELD:
+            T = np.array(placements[c])
+            a, b = (T[:3, :3], T[:3, 3]), (eye, zero)
+        else:
+            a, b = (_basis(con.axis), np.array(con.point_a)), (_basis(con.axis_b), np.array(con.point_b))
+        body[c, 0], R[c, 0], p[c, 0] = _anchor(model, con.frame_a, *a)
+        body[c, 1], R[c, 1], p[c, 1] = _anchor(model, con.frame_b, *b)
+    arrays = ConstraintArrays(_frozen(kind, np.int64), _frozen(row, np.int64), _frozen(body, np.int64),
+                              _frozen(R), _frozen(p), _frozen(idx, np.int64), _frozen(coef))
+    return arrays, m
+
+
+def arrays(model):
+    """The model's constraints as :class:`ConstraintArrays` (resolved once, kept with the model) and m."""
+    cached = model.__dict__.get("_constraint_arrays")
+    if cached is None:
+        weld_T = [getattr(c, "placement", None) for c in model.constraints]
+        cached = resolve(model, model.constraints, weld_T)
+        object.__setattr__(model, "_constraint_arrays", cached)
+    return cached
+
+
+def with_constraints(model, constraints, *, at=None):
+    """A new model with ``constraints`` added to ``model.constraints`` (immutable, like :func:`lock_joints`).
+
+    ``constraints``: PointConstraint, WeldConstraint, RevoluteConstraint and JointCoupling declarations.
+    ``at``: the assembly configuration, where a WeldConstraint without ``placement`` takes its relative pose
+    (default: ``model.neutral()``).  Unknown frames or joints are an :class:`~dynamics.InputError` listing the
+    closest names.  The loops are closed near ``at`` by Gauss-Newton (:func:`dynamics.assemble`'s iteration);
+    where they close, a set of constraints that leaves nothing free to move (rank of Phi_q = nv) is refused
+    with the rank.  ``model.info["constraints"]`` records rows, rank and mobility there (or at ``at`` when the
+    loops do not close near it: ``closed_near_assembly`` False).
+    """
+    checks.check_model(model)
+    if isinstance(constraints, (PointConstraint, WeldConstraint, RevoluteConstraint, JointCoupling)):
+        constraints = [constraints]
+    try:
+        constraints = list(constraints)
+    except TypeError:
+        raise InputError(f"constraints: expected a list of constraint declarations, got "
+                         f"{type(constraints).__name__}") from None
+    for k, c in enumerate(constraints):
+        if type(c) not in KINDS:
+            raise InputError(f"constraints[{k}]: expected PointConstraint, WeldConstraint, RevoluteConstraint "
+                             f"or JointCoupling, got {type(c).__name__}")
+    q0 = model.neutral() if at is None else checks.vector("at", at, model.nq)
+    resolve(model, constraints, [np.eye(4)] * len(constraints))  # names checked before any kinematics
+    fixed = []
+    for c in constraints:
+        if isinstance(c, WeldConstraint) and c.placement is None:
+            Ta = frame_placement(model, q0, c.frame_a)
+            Tb = frame_placement(model, q0, c.frame_b)
+            c = replace(c, placement=np.linalg.solve(Ta, Tb))
+        fixed.append(c)
+    out = replace(model, constraints=tuple(model.constraints) + tuple(fixed), info=dict(model.info))
+    C, m = arrays(out)
+    if np.all(C.kind == COUPLING):  # constant rows, always closable: no kinematics compiled to load a gripper
+        J, err = coupling_rows(C, m, model.nv), 0.0
+    else:
+        q1, err = q0, 0.0
+        rng = np.random.default_rng(0)
+        for attempt in range(6):  # a stretched pose (a singular J) can stall: retry from nearby ones
+            start = q0 if attempt == 0 else integrate_q(model.tree, q0, rng.normal(scale=0.3, size=model.nv), 1.0)
+            q1, err = close_loops(out, C, m, start, np.ones(model.nv), 1e-10, 30)
+            if err <= 1e-10:
+                break
+        J = constraint_jacobian(out, q1)
+    rank = int(np.linalg.matrix_rank(J, tol=1e-9 * max(1.0, np.abs(J).max()))) if m else 0
+    if m and model.nv and rank >= model.nv and err <= 1e-10:
+        raise InputError(f"constraints: over-constrained: the {m} constraint rows have rank {rank} = nv = "
+                         f"{model.nv} where the loops close, so nothing can move; remove constraints or unlock "
+                         f"joints")
+    out.info["constraints"] = {"count": len(out.constraints), "rows": m, "rank": rank,
+                               "mobility": model.nv - rank, "closed_near_assembly": bool(err <= 1e-10)}
+    return out
+
+
+def coupling_rows(C, m, nv):
+    """Phi_q of a set of couplings only (constant): e_follower - multiplier e_leader per row."""
+    J = np.zeros((m, nv))
+    for c in range(C.kind.shape[0]):
+        J[C.row[c], C.idx[c, 1]] += 1.0
+        J[C.row[c], C.idx[c, 3]] -= C.coef[c, 0]
+    return J
+
+
+def close_loops(model, C, m, q, free, tol, max_iter):
+    """Gauss-Newton on phi from q over the coordinates where ``free`` is 1 (see :mod:`dynamics.assemble`):
+    returns (q, max |phi(q)|), stopping at tol, after max_iter steps, or where no step reduces |phi|."""
+    tree = model.tree
+    V = np.zeros((1, model.nv))
+    phi, J = np.empty((1, m)), np.empty((1, m, model.nv))
+    residual_batch(tree, q[None], V, C, phi)
+    err = np.abs(phi[0]).max()
+    for _ in range(max_iter):
+        if err <= tol:
+            break
+        jacobian_batch(tree, q[None], V, C, J)
+        dq = -np.linalg.lstsq(J[0] * free, phi[0], rcond=1e-12)[0] * free
+        step = 1.0
+        while step > 1e-6:
+            q_new = integrate_q(tree, q, dq, step)
+            residual_batch(tree, q_new[None], V, C, phi)
+            if np.abs(phi[0]).max() < err:
+                break
+            step *= 0.5
+        else:
+            break  # no step reduces |phi|: a least-squares minimum with phi != 0
+        q, err = q_new, np.abs(phi[0]).max()
+    return q, err
+
+
+# -- kernels -----------------------------------------------------------------------------------------------------
+
+@kernel
+def workspace(nb, nv):
+    """World poses, motion axes oS (nv, 6), body velocities V and bias accelerations A (nb, 6) at the origin."""
+    return np.empty((nb, 3, 3)), np.empty((nb, 3)), np.empty((nv, 6)), np.empty((nb, 6)), np.empty((nb, 6))
+
+
+@inline_kernel
+def _get(X, i):
+    return (X[i, 0], X[i, 1], X[i, 2]), (X[i, 3], X[i, 4], X[i, 5])
+
+
+@inline_kernel
+def _put(X, i, w, v):
+    X[i, 0], X[i, 1], X[i, 2] = w
+    X[i, 3], X[i, 4], X[i, 5] = v
+
+
+@kernel
+def body_motion(tree, q, v, with_v, ws):
+    """World poses, motion axes oS_k and (with_v) V_i and A_i of every body (module docstring)."""
+    parents, S, v_idx, nv_j = tree.parents, tree.S, tree.v_idx, tree.nv_j
+    oR, op, oS, V, A = ws
+    zero = (0.0, 0.0, 0.0)
+    for i in range(parents.shape[0]):
+        _, _, R, p = world_pose(tree, i, q, oR, op)
+        jw, jv = zero, zero
+        for k in range(v_idx[i], v_idx[i] + nv_j[i]):
+            w = rot(R, (S[k, 0], S[k, 1], S[k, 2]))
+            u = add(rot(R, (S[k, 3], S[k, 4], S[k, 5])), cross(p, w))
+            _put(oS, k, w, u)
+            if with_v:
+                jw, jv = add(jw, scale(v[k], w)), add(jv, scale(v[k], u))
+        if with_v:
+            par = parents[i]
+            Vw, Vv, Aw, Av = zero, zero, zero, zero
+            if par >= 0:
+                Vw, Vv = _get(V, par)
+                Aw, Av = _get(A, par)
+            Vw, Vv = add(Vw, jw), add(Vv, jv)
+            cw, cv = cross_motion(Vw, Vv, jw, jv)
+            _put(V, i, Vw, Vv)
+            _put(A, i, add(Aw, cw), add(Av, cv))
+
+
+@inline_kernel
+def anchor_pose(C, c, s, oR, op):
+    """World axes (9-tuple) and origin of anchor s (0: a, 1: b) of constraint c."""
+    b = C.body[c, s]
+    R = (C.R[c, s, 0, 0], C.R[c, s, 0, 1], C.R[c, s, 0, 2], C.R[c, s, 1, 0], C.R[c, s, 1, 1], C.R[c, s, 1, 2],
+         C.R[c, s, 2, 0], C.R[c, s, 2, 1], C.R[c, s, 2, 2])
+    p = (C.p[c, s, 0], C.p[c, s, 1], C.p[c, s, 2])
+    if b < 0:
+        return R, p
+    Rb = load33(oR, b)
+    return matmul(Rb, R), add(rot(Rb, p), load3(op, b))
+
+
+@inline_kernel
+def anchor_motion(V, A, b, x):
+    """Velocity (linear at world point x, angular) and classical bias acceleration (linear, angular) of body b."""
+    zero = (0.0, 0.0, 0.0)
+    if b < 0:
+        return zero, zero, zero, zero
+    w, v0 = _get(V, b)
+    aw, av0 = _get(A, b)
+    lin = add(v0, cross(w, x))
+    return lin, w, add(add(av0, cross(aw, x)), cross(w, lin)), aw
+
+
+@inline_kernel
+def add_columns(tree, oS, b, x, sign, J, r, lin, D, nang):
+    """J[r:r+3] += sign * linear velocity columns at world point x (if lin), then J[r+3 or r: +nang] +=
+    sign * D[j] . angular columns, over the support of body b."""
+    parents, v_idx, nv_j = tree.parents, tree.v_idx, tree.nv_j
+    ra = r + 3 if lin else r
+    j = b
+    while j >= 0:
+        for k in range(v_idx[j], v_idx[j] + nv_j[j]):
+            w, u = _get(oS, k)
+            if lin:
+                vx = add(u, cross(w, x))
+                J[r, k] += sign * vx[0]
+                J[r + 1, k] += sign * vx[1]
+                J[r + 2, k] += sign * vx[2]
+            for t in range(nang):
+                J[ra + t, k] += sign * dot(D[t], w)
+        j = parents[j]
+
+
+@inline_kernel
+def _col(R, k):
+    return (R[k], R[3 + k], R[6 + k])
+
+
+@kernel
+def constraint_terms(tree, C, q, v, with_J, with_v, ws, phi, J, gamma):
+    """phi (m,) at q; with_J: J = Phi_q (m, nv); with_v: gamma = Phi_q_dot v (m,).  ws from :func:`workspace`."""
+    oR, op, oS, V, A = ws
+    body_motion(tree, q, v, with_v, ws)
+    if with_J:
+        J[:, :] = 0.0
+    E = ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0))
+    for c in range(C.kind.shape[0]):
+        kind, r = C.kind[c], C.row[c]
+        if kind == 3:  # coupling: q_f - (k q_l + offset)
+            qf, vf, ql, vl = C.idx[c, 0], C.idx[c, 1], C.idx[c, 2], C.idx[c, 3]
+            mult = C.coef[c, 0]
+            phi[r] = q[qf] - mult * q[ql] - C.coef[c, 1]
+            if with_J:
+                J[r, vf] += 1.0
+                J[r, vl] -= mult
+            if with_v:
+                gamma[r] = 0.0
+            continue
+        Ra, xa = anchor_pose(C, c, 0, oR, op)
+        Rb, xb = anchor_pose(C, c, 1, oR, op)
+        ba, bb = C.body[c, 0], C.body[c, 1]
+        phi[r], phi[r + 1], phi[r + 2] = xa[0] - xb[0], xa[1] - xb[1], xa[2] - xb[2]
+        t1, t2 = _col(Ra, 0), _col(Ra, 1)
+        D, nang = E, 0
+        if kind == 1:  # weld: log(R_A R_B^T)
+            e = rotation_log(matmul(Ra, transpose(Rb)))
+            phi[r + 3], phi[r + 4], phi[r + 5] = e
+            nang = 3
+        elif kind == 2:  # hinge: t_k . (u_B x u_A)
+            n = cross(_col(Rb, 2), _col(Ra, 2))
+            phi[r + 3], phi[r + 4] = dot(t1, n), dot(t2, n)
+            D, nang = (t1, t2, t2), 2
+        if with_J:
+            add_columns(tree, oS, ba, xa, 1.0, J, r, True, D, nang)
+            add_columns(tree, oS, bb, xb, -1.0, J, r, True, D, nang)
+        if with_v:
+            la, wa, aa, ala = anchor_motion(V, A, ba, xa)
+            lb, wb, ab, alb = anchor_motion(V, A, bb, xb)
+            gamma[r], gamma[r + 1], gamma[r + 2] = aa[0] - ab[0], aa[1] - ab[1], aa[2] - ab[2]
+            dw, dal = add(wa, scale(-1.0, wb)), add(ala, scale(-1.0, alb))
+            if kind == 1:
+                gamma[r + 3], gamma[r + 4], gamma[r + 5] = dal
+            elif kind == 2:
+                gamma[r + 3] = dot(cross(wa, t1), dw) + dot(t1, dal)
+                gamma[r + 4] = dot(cross(wa, t2), dw) + dot(t2, dal)
+
+
+@kernel
+def residual_batch(tree, Q, V, C, out):
+    """out[b] = phi(Q[b]) (V unused)."""
+    nb, nv, m = tree.parents.shape[0], tree.S.shape[0], out.shape[1]
+    ws, J, gamma = workspace(nb, nv), np.empty((m, nv)), np.empty(m)
+    for b in range(Q.shape[0]):
+        constraint_terms(tree, C, Q[b], V[0], False, False, ws, out[b], J, gamma)
+
+
+@kernel
+def jacobian_batch(tree, Q, V, C, out):
+    """out[b] = Phi_q(Q[b]) (V unused)."""
+    nb, nv, m = tree.parents.shape[0], tree.S.shape[0], out.shape[1]
+    ws, phi, gamma = workspace(nb, nv), np.empty(m), np.empty(m)
+    for b in range(Q.shape[0]):
+        constraint_terms(tree, C, Q[b], V[0], True, False, ws, phi, out[b], gamma)
+
+
+@kernel
+def bias_batch(tree, Q, V, C, out):
+    """out[b] = Phi_q_dot v at (Q[b], V[b]) (V may have one row)."""
+    nb, nv, m = tree.parents.shape[0], tree.S.shape[0], out.shape[1]
+    ws, phi, J = workspace(nb, nv), np.empty(m), np.empty((m, nv))
+    lv = V.shape[0] - 1
+    for b in range(Q.shape[0]):
+        constraint_terms(tree, C, Q[b], V[min(b, lv)], False, True, ws, phi, J, out[b])
+
+
+# -- public entry points -------------------------------------------------------------------------------------
+_BATCH = {0: Kernel(residual_batch), 1: Kernel(jacobian_batch), 2: Kernel(bias_batch)}
+
+
+def _terms(model, q, v, what):
+    checks.check_model(model)
+    C, m = arrays(model)
+    if v is None:
+        Q, batched = checks.configurations(model, q)
+        V, B = np.zeros((1, model.nv)), Q.shape[0]
+    else:
+        Q, (V,), B, batched = checks.state_batch(model, q, (("v", v, model.nv),))
+    out = np.empty((B, m, model.nv) if what == 1 else (B, m))
+    run_chunks(_BATCH[what], model.tree, (Q, V), (C,), out)
+    return out if batched else out[0]
+
+
+def constraint_residual(model, q):
+    """phi(q): (m,) or (B, m), zero when every loop is closed and every coupling holds (module docstring for
+    the rows; metres, radians, or a joint's units for couplings)."""
+    return _terms(model, q, None, 0)
+
+
+def constraint_jacobian(model, q):
+    """Phi_q: (m, nv) or (B, m, nv), the constraints' velocity rows (module docstring), world axes."""
+    return _terms(model, q, None, 1)
+
+
+def constraint_bias(model, q, v):
+    """Phi_q_dot v: (m,) or (B, m), so that d/dt (Phi_q v) = Phi_q a + Phi_q_dot v."""
+    return _terms(model, q, v, 2)
