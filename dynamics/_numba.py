@@ -21,10 +21,14 @@ every array taken out of a tuple is reference counted with an atomic operation.
 **Borrowed values.** :func:`borrowed` returns a value whose arrays have a NULL owner pointer (meminfo), so
 numba's reference counting skips them.  The rule for using it safely: the caller keeps the owned original
 alive (a later :func:`keep_alive` call on it), and the borrowed copy never outlives the call (never store or
-return it).  It is used where a hot loop would otherwise pay tens of atomic increments per step.
+return it).  It is used where a hot loop would otherwise pay tens of atomic increments per step.  :func:`view` makes
+such borrowed arrays directly: a C-contiguous window of a flat buffer, with no checks and no reference count
+(numba's own slice + reshape costs ~80 ns per view, which a single call from Python cannot afford); the same
+rule applies to the buffer.
 
 :class:`Kernel` calls a compiled function through its native entry point once its single overload exists,
-skipping the dispatcher's type resolution (~4 us for a model's tuple of arrays).
+skipping the dispatcher's type resolution (~4 us for a model's tuple of arrays).  :class:`Entry` does the same
+for one fixed signature (:func:`single_signature`), the single-state entry points' way in (~60 ns per array).
 """
 
 from numba import njit, types
@@ -62,6 +66,34 @@ def borrowed(typingctx, x):
     return x(x), codegen
 
 
+@intrinsic
+def view(typingctx, buf, start, shape):
+    """``buf[start:start + prod(shape)].reshape(shape)`` for a C-contiguous 1-D ``buf``, borrowed (NULL owner)
+    and unchecked: the caller keeps ``buf`` alive and in bounds.  ``shape`` is an int or a tuple of ints."""
+    dims_ty = tuple(shape) if isinstance(shape, types.BaseTuple) else (shape,)
+    if not (isinstance(buf, types.Array) and buf.ndim == 1 and buf.layout == "C" and isinstance(start, types.Integer)
+            and all(isinstance(d, types.Integer) for d in dims_ty)):
+        return None
+    out_ty = buf.copy(ndim=len(dims_ty), layout="C")
+
+    def codegen(context, builder, sig, args):
+        src = context.make_array(sig.args[0])(context, builder, args[0])
+        dims = cgutils.unpack_tuple(builder, args[2]) if isinstance(sig.args[2], types.BaseTuple) else [args[2]]
+        dims = [context.cast(builder, d, t, types.intp) for d, t in zip(dims, dims_ty)]
+        itemsize = context.get_constant(types.intp, context.get_abi_sizeof(context.get_data_type(buf.dtype)))
+        strides, step = [], itemsize
+        for d in reversed(dims):
+            strides.insert(0, step)
+            step = builder.mul(step, d)
+        first = context.cast(builder, args[1], sig.args[1], types.intp)
+        out = context.make_array(out_ty)(context, builder)
+        context.populate_array(out, data=builder.gep(src.data, [first]), shape=dims, strides=strides,
+                               itemsize=itemsize, meminfo=cgutils.get_null_value(out.meminfo.type))
+        return out._getvalue()
+
+    return out_ty(buf, start, shape), codegen
+
+
 @kernel
 def keep_alive(x):
     """A use of ``x``: numba frees a variable after its last use, so this pins the owner of a borrowed value."""
@@ -88,3 +120,32 @@ class Kernel:
         if len(overloads) == 1:
             self.entry = overloads[0].entry_point
         return out
+
+
+#: the types of a single-state kernel's fixed arguments: the packed model (read-only) and the scratch buffer
+PACKED_INTS = types.Array(types.int64, 1, "C", readonly=True)
+PACKED_FLOATS = types.Array(types.float64, 1, "C", readonly=True)
+VECTOR = types.float64[::1]
+MATRIX = types.float64[:, ::1]
+
+
+def single_signature(*args):
+    """``int64(packed ints, packed floats, scratch, *args)``: a single-state kernel returns a status code."""
+    return types.int64(PACKED_INTS, PACKED_FLOATS, VECTOR, *args)
+
+
+class Entry:
+    """A kernel's compiled entry point for one fixed signature, compiled (or loaded from the cache) at first use.
+
+    numba's entry point unboxes each argument in C but checks only an array's item size, not its dtype or
+    rank: whoever calls :attr:`call` passes exactly the signature's types (an int64 array read as float64, or a
+    2-D array unboxed as 1-D, would be garbage or a crash).  :func:`dynamics.parallel.run_single` does.
+    """
+
+    def __init__(self, dispatcher, signature):
+        self.dispatcher, self.signature, self.call = dispatcher, signature, None
+
+    def compiled(self):
+        if self.call is None:
+            self.call = self.dispatcher.compile(self.signature)
+        return self.call

@@ -11,8 +11,10 @@ Only the lower triangle is computed; the upper one is its mirror.
 import numpy as np
 
 from . import checks
-from ._numba import Kernel, kernel
-from .parallel import run_chunks
+from ._numba import MATRIX, VECTOR, Entry, Kernel, inline_kernel, kernel, single_signature, view
+from .checks import DONE, GENERAL, NEED_SCRATCH, config_ok, is_vector
+from .model import Model, unpack
+from .parallel import run_chunks, run_single
 from .joints import joint_transform
 from .spatial import add, force_to_parent, inertia_times, inertia_to_parent, load3, load33, store3, store33
 
@@ -21,6 +23,13 @@ from .spatial import add, force_to_parent, inertia_times, inertia_to_parent, loa
 def workspace(nb):
     """Scratch: poses (R, p) and composite inertias (m, h, Io)."""
     return np.empty((nb, 3, 3)), np.empty((nb, 3)), np.empty(nb), np.empty((nb, 3)), np.empty((nb, 3, 3))
+
+
+@inline_kernel
+def workspace_in(buf, nb):
+    """The same scratch borrowed from ``buf`` (25 nb floats, kept alive by the caller)."""
+    return (view(buf, 0, (nb, 3, 3)), view(buf, 9 * nb, (nb, 3)), view(buf, 12 * nb, nb), view(buf, 13 * nb, (nb, 3)),
+            view(buf, 16 * nb, (nb, 3, 3)))
 
 
 @kernel
@@ -74,12 +83,31 @@ def crba_batch(tree, Q, out):
         crba_into(tree, Q[b], ws, out[b])
 
 
+@kernel
+def crba_single(ints, floats, scratch, q, M):
+    """One state from Python, inputs checked in the call (status codes of :mod:`dynamics.checks`)."""
+    tree, gravity, nq = unpack(ints, floats)
+    nb = tree.parents.shape[0]
+    if not config_ok(tree, nq, q):
+        return GENERAL
+    if scratch.shape[0] < 25 * nb:
+        return NEED_SCRATCH
+    M[:, :] = 0.0
+    crba_into(tree, q, workspace_in(scratch, nb), M)
+    return DONE
+
+
 # -- public entry point ----------------------------------------------------------------------------
 _crba_batch = Kernel(crba_batch)
+_crba_single = Entry(crba_single, single_signature(VECTOR, MATRIX))
 
 
 def mass_matrix(model, q):
     """The joint-space mass matrix M(q) (CRBA), symmetric positive definite: (nv, nv) or (B, nv, nv)."""
+    if type(model) is Model and is_vector(q):
+        M = np.empty((model.nv, model.nv))
+        if run_single(_crba_single, model, q, M) == DONE:
+            return M
     checks.check_model(model)
     Q, batched = checks.configurations(model, q)
     out = np.empty((Q.shape[0], model.nv, model.nv))

@@ -22,6 +22,14 @@ mass               (nb,)            body mass (kg)
 h                  (nb,3)           first moment of mass m*c in the body frame (kg m)
 Io                 (nb,3,3)         rotational inertia about the body frame origin, body frame (kg m^2)
 =================  ===============  =====================================================================
+
+The same arrays also exist packed into two flat arrays, ``Model.packed_ints`` and ``Model.packed_floats``
+(:func:`pack`, built once with the model): a compiled call from Python unboxes each array argument (~60 ns
+each), so the single-state entry points pass these two and :func:`unpack` rebuilds the :class:`Tree` as
+views inside the kernel.  Layout (offsets in order, nothing between them):
+
+    packed_ints   = [nb, nq, nv, parents, jtype, q_idx, v_idx, nv_j]              (3 + 5 nb,) int64
+    packed_floats = [gravity(3), Xrot(9 nb), Xpos(3 nb), axis(3 nb), S(6 nv), mass(nb), h(3 nb), Io(9 nb)]
 """
 
 from dataclasses import dataclass, field
@@ -30,6 +38,7 @@ from typing import NamedTuple
 import numpy as np
 
 from . import reorder
+from ._numba import inline_kernel, view
 from .joints import JOINT_FREE, JOINT_NQ, JOINT_NV, URDF_JOINT_CODES, motion_subspace
 
 
@@ -56,6 +65,29 @@ class Frames(NamedTuple):
     body: np.ndarray  # (nf,) int64: the body the frame is fixed to, -1 for the world
     R: np.ndarray  # (nf, 3, 3): the frame's axes in that body's frame
     p: np.ndarray  # (nf, 3): the frame's origin in that body's frame
+
+
+def pack(tree, gravity):
+    """The model's arrays as (ints, floats), two read-only flat arrays (layout in the module docstring)."""
+    nb, nv = tree.parents.shape[0], tree.S.shape[0]
+    nq = int(sum(7 if c == JOINT_FREE else 1 for c in tree.jtype))
+    ints = np.concatenate([[nb, nq, nv], tree.parents, tree.jtype, tree.q_idx, tree.v_idx, tree.nv_j])
+    floats = np.concatenate([np.ravel(x) for x in (gravity, tree.Xrot, tree.Xpos, tree.axis, tree.S, tree.mass,
+                                                   tree.h, tree.Io)])
+    return _frozen(ints, np.int64), _frozen(floats)
+
+
+@inline_kernel
+def unpack(ints, floats):
+    """(tree, gravity, nq) from the packed arrays: borrowed views (:func:`dynamics._numba.view`), nothing
+    copied; they live as long as the call that unpacks them."""
+    nb, nq, nv = ints[0], ints[1], ints[2]
+    o = 3 + 15 * nb + 6 * nv  # mass, h, Io follow S
+    tree = Tree(view(ints, 3, nb), view(ints, 3 + nb, nb), view(ints, 3 + 2 * nb, nb), view(ints, 3 + 3 * nb, nb),
+                view(ints, 3 + 4 * nb, nb), view(floats, 3, (nb, 3, 3)), view(floats, 3 + 9 * nb, (nb, 3)),
+                view(floats, 3 + 12 * nb, (nb, 3)), view(floats, 3 + 15 * nb, (nv, 6)), view(floats, o, nb),
+                view(floats, o + nb, (nb, 3)), view(floats, o + 4 * nb, (nb, 3, 3)))
+    return tree, view(floats, 0, 3), nq
 
 
 def _frozen(a, dtype=np.float64):
@@ -95,6 +127,11 @@ class Model:
     frames: dict = field(default_factory=dict)
     #: what the model builder merged or left out, as counts and names (see :meth:`summary`)
     info: dict = field(default_factory=dict)
+
+    def __post_init__(self):
+        ints, floats = pack(self.tree, self.gravity)
+        object.__setattr__(self, "packed_ints", ints)
+        object.__setattr__(self, "packed_floats", floats)
 
     # -- sizes ---------------------------------------------------------------------------------------
     @property
