@@ -17,12 +17,12 @@ carries no mass or inertia it could move) makes M singular: the kernel stops and
 import numpy as np
 
 from . import checks
-from ._numba import VECTOR, Entry, Kernel, inline_kernel, kernel, single_signature, view
-from .checks import DONE, GENERAL, NEED_SCRATCH, config_ok, is_vector, nonzero, vector_ok
+from ._numba import VECTOR, Entry, Kernel, inline_kernel, keep_alive, kernel, scratch, single_signature, view
+from .checks import DONE, F64, GENERAL, NOT_ARRAYS, config_ok, nonzero, vector_ok
 from .errors import InputError
 from .joints import joint_motion, joint_transform
-from .model import Model, unpack
-from .parallel import run_chunks, run_single
+from .model import unpack
+from .parallel import run_chunks
 from .spatial import (add, add_inertia6_to_parent, cross_force, cross_motion, force_to_parent, inertia_times,
                       joint_gram, load3, load33, motion_to_child, spd_inverse, store3, store33, store_inertia6)
 
@@ -36,15 +36,10 @@ def workspace(nb, nv):
             np.empty((nb, 6)), np.empty((6, 6)), np.empty((6, 6)), np.empty(6), np.empty(6))  # a, Ia, D, pa, t
 
 
-#: floats of scratch for one state (the arrays of :func:`workspace`)
-@inline_kernel
-def scratch_size(nb, nv):
-    return 108 * nb + 7 * nv + 84
-
-
 @inline_kernel
 def workspace_in(buf, nb, nv):
-    """The same scratch as :func:`workspace`, borrowed from ``buf`` (kept alive by the caller)."""
+    """The same scratch as :func:`workspace`, borrowed from ``buf`` (108 nb + 7 nv + 84 floats, kept alive by
+    the caller)."""
     return (view(buf, 0, (nb, 3, 3)), view(buf, 9 * nb, (nb, 3)),
             view(buf, 12 * nb, (nb, 6)), view(buf, 18 * nb, (nb, 6)),
             view(buf, 24 * nb, (nb, 6, 6)), view(buf, 60 * nb, (nb, 6)),
@@ -192,19 +187,17 @@ def aba_batch(tree, Q, V, T, F, gravity, with_v, out, status):
 
 
 @kernel
-def aba_single(ints, floats, scratch, q, v, tau, qdd):
+def aba_single(packed, q, v, tau, qdd):
     """One state from Python, inputs checked in the call (status codes of :mod:`dynamics.checks`; a singular
     joint takes the general path, which names it)."""
-    tree, gravity, nq = unpack(ints, floats)
+    tree, gravity, nq = unpack(packed)
     nb, nv = tree.parents.shape[0], tree.S.shape[0]
     if not (config_ok(tree, nq, q) and vector_ok(v, nv) and vector_ok(tau, nv)):
         return GENERAL
-    if scratch.shape[0] < scratch_size(nb, nv):
-        return NEED_SCRATCH
-    no_forces = view(scratch, 0, (0, 6))
-    if aba_terms(tree, q, v, tau, gravity, no_forces, workspace_in(scratch, nb, nv), qdd, nonzero(v)) >= 0:
-        return GENERAL
-    return DONE
+    buf = scratch(108 * nb + 7 * nv + 84)
+    singular = aba_terms(tree, q, v, tau, gravity, view(buf, 0, (0, 6)), workspace_in(buf, nb, nv), qdd, nonzero(v))
+    keep_alive(buf)
+    return DONE if singular < 0 else GENERAL
 
 
 # -- public entry point ----------------------------------------------------------------------------
@@ -231,11 +224,14 @@ def forward_dynamics(model, q, v, tau, *, gravity=None, f_ext=None):
     Shapes as :func:`dynamics.inverse_dynamics` with tau in place of a.  Raises InputError naming the
     joint when the mass matrix is singular (a joint that moves no mass or inertia).
     """
-    if gravity is None and f_ext is None and type(model) is Model and is_vector(q) and is_vector(v) \
-            and is_vector(tau):
-        qdd = np.empty(model.nv)
-        if run_single(_aba_single, model, q, v, tau, qdd) == DONE:
-            return qdd
+    try:  # one state of float64 vectors: one compiled call, which checks them too (dynamics.checks.F64)
+        if gravity is None and f_ext is None and q.dtype is v.dtype is tau.dtype is F64 \
+                and q.ndim == v.ndim == tau.ndim == 1:
+            qdd = np.empty(model.nv)
+            if _aba_single.call(model.packed, q, v, tau, qdd) == DONE:
+                return qdd
+    except NOT_ARRAYS:
+        pass
     Q, (V, T), B, batched = checks.state_batch(model, q, (("v", v, model.nv), ("tau", tau, model.nv)))
     out = np.empty((B, model.nv))
     F = checks.external_forces(model, f_ext, B)

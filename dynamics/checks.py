@@ -5,8 +5,8 @@ Public functions accept one state (q of shape (nq,)) or a batch (B, nq).  Argume
 (one compiled signature per kernel); the kernels never check.  Every error is an :class:`InputError` whose
 message starts with the argument's name and says what was expected.
 
-The single-state fast paths check in Python only what the compiled call cannot (:func:`is_vector`: an
-ndarray of float64, 1-D) and the rest inside the compiled call (:func:`config_ok`, :func:`vector_ok`: length,
+The single-state fast paths check in Python only what the compiled call cannot (:data:`F64`: float64 and
+1-D) and the rest inside the compiled call (:func:`config_ok`, :func:`vector_ok`: length,
 unit stride, finiteness, non-zero quaternions).  On a failed check the kernel returns :data:`GENERAL` and the
 public function takes the general path, which raises the same error as always, so every message has one
 source.
@@ -55,16 +55,16 @@ _first_zero_quaternion_k = Kernel(_first_zero_quaternion)
 
 
 #: status codes of the single-state kernels: done; take the general path (it raises the clear error, or
-#: computes what the fast path does not handle); the per-thread scratch buffer is too small
-DONE, GENERAL, NEED_SCRATCH = 0, 1, 2
+#: computes what the fast path does not handle)
+DONE, GENERAL = 0, 1
 
-_F8 = np.dtype(np.float64)
-
-
-def is_vector(x):
-    """An ndarray of native float64, 1-D: what the compiled single-state call may be given (its length, stride
-    and values are checked inside the call)."""
-    return type(x) is np.ndarray and x.dtype is _F8 and x.ndim == 1
+#: the single-state fast path's test, written out in each entry point (a Python call would cost more than the
+#: test): ``x.dtype is F64 and x.ndim == 1`` on each state.  Only the compiled call may then be given them:
+#: numba's entry point checks an array's item size but not its dtype or rank (dynamics._numba.Entry).  A
+#: non-array fails the test with one of NOT_ARRAYS (no dtype; or numba refuses to unbox it): the entry point
+#: catches them and takes the general path, which says what is wrong.
+F64 = np.dtype(np.float64)
+NOT_ARRAYS = (AttributeError, TypeError)
 
 
 @inline_kernel
@@ -145,7 +145,7 @@ def _length_hint(model, name, length, kind):
 def states(name, x, n, model=None, kind="v"):
     """Check one state (n,) or a batch (B, n); return (C-contiguous writable 2-D float64 array, batched).
     With ``model``, a wrong length gets a hint at the likely mistake (``kind``: "q" or "v")."""
-    if type(x) is np.ndarray and x.dtype is _F8 and x.shape == (n,) and x.flags.c_contiguous and x.flags.writeable:
+    if type(x) is np.ndarray and x.dtype is F64 and x.shape == (n,) and x.flags.c_contiguous and x.flags.writeable:
         arr2, batched = x.reshape(1, n), False
     else:
         arr = _real_array(name, x, f"({n},) or (B, {n})")

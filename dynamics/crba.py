@@ -11,10 +11,10 @@ Only the lower triangle is computed; the upper one is its mirror.
 import numpy as np
 
 from . import checks
-from ._numba import MATRIX, VECTOR, Entry, Kernel, inline_kernel, kernel, single_signature, view
-from .checks import DONE, GENERAL, NEED_SCRATCH, config_ok, is_vector
-from .model import Model, unpack
-from .parallel import run_chunks, run_single
+from ._numba import MATRIX, VECTOR, Entry, Kernel, inline_kernel, keep_alive, kernel, scratch, single_signature, view
+from .checks import DONE, F64, GENERAL, NOT_ARRAYS, config_ok
+from .model import unpack
+from .parallel import run_chunks
 from .joints import joint_transform
 from .spatial import add, force_to_parent, inertia_times, inertia_to_parent, load3, load33, store3, store33
 
@@ -84,16 +84,16 @@ def crba_batch(tree, Q, out):
 
 
 @kernel
-def crba_single(ints, floats, scratch, q, M):
+def crba_single(packed, q, M):
     """One state from Python, inputs checked in the call (status codes of :mod:`dynamics.checks`)."""
-    tree, gravity, nq = unpack(ints, floats)
+    tree, gravity, nq = unpack(packed)
     nb = tree.parents.shape[0]
     if not config_ok(tree, nq, q):
         return GENERAL
-    if scratch.shape[0] < 25 * nb:
-        return NEED_SCRATCH
+    buf = scratch(25 * nb)
     M[:, :] = 0.0
-    crba_into(tree, q, workspace_in(scratch, nb), M)
+    crba_into(tree, q, workspace_in(buf, nb), M)
+    keep_alive(buf)
     return DONE
 
 
@@ -104,10 +104,13 @@ _crba_single = Entry(crba_single, single_signature(VECTOR, MATRIX))
 
 def mass_matrix(model, q):
     """The joint-space mass matrix M(q) (CRBA), symmetric positive definite: (nv, nv) or (B, nv, nv)."""
-    if type(model) is Model and is_vector(q):
-        M = np.empty((model.nv, model.nv))
-        if run_single(_crba_single, model, q, M) == DONE:
-            return M
+    try:  # one float64 vector: one compiled call, which checks it too (dynamics.checks.F64)
+        if q.dtype is F64 and q.ndim == 1:
+            M = np.empty((model.nv, model.nv))
+            if _crba_single.call(model.packed, q, M) == DONE:
+                return M
+    except NOT_ARRAYS:
+        pass
     checks.check_model(model)
     Q, batched = checks.configurations(model, q)
     out = np.empty((Q.shape[0], model.nv, model.nv))

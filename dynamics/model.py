@@ -23,13 +23,13 @@ h                  (nb,3)           first moment of mass m*c in the body frame (
 Io                 (nb,3,3)         rotational inertia about the body frame origin, body frame (kg m^2)
 =================  ===============  =====================================================================
 
-The same arrays also exist packed into two flat arrays, ``Model.packed_ints`` and ``Model.packed_floats``
-(:func:`pack`, built once with the model): a compiled call from Python unboxes each array argument (~60 ns
-each), so the single-state entry points pass these two and :func:`unpack` rebuilds the :class:`Tree` as
-views inside the kernel.  Layout (offsets in order, nothing between them):
+The same arrays also exist packed into one flat array, ``Model.packed`` (:func:`pack`, built once with the
+model): a compiled call from Python unboxes each array argument (~60 ns each, ~1 us for the 12 arrays of a
+Tree), so the single-state entry points pass this one and :func:`unpack` rebuilds the :class:`Tree` as views
+inside the kernel.  Layout (in order, nothing between; the floats are stored bit for bit as int64):
 
-    packed_ints   = [nb, nq, nv, parents, jtype, q_idx, v_idx, nv_j]              (3 + 5 nb,) int64
-    packed_floats = [gravity(3), Xrot(9 nb), Xpos(3 nb), axis(3 nb), S(6 nv), mass(nb), h(3 nb), Io(9 nb)]
+    [nb, nq, nv, parents, jtype, q_idx, v_idx, nv_j,                                   ints (3 + 5 nb)
+     gravity(3), Xrot(9 nb), Xpos(3 nb), axis(3 nb), S(6 nv), mass(nb), h(3 nb), Io(9 nb)]   floats
 """
 
 from dataclasses import dataclass, field
@@ -38,7 +38,7 @@ from typing import NamedTuple
 import numpy as np
 
 from . import reorder
-from ._numba import inline_kernel, view
+from ._numba import float_view, inline_kernel, view
 from .joints import JOINT_FREE, JOINT_NQ, JOINT_NV, URDF_JOINT_CODES, motion_subspace
 
 
@@ -68,26 +68,28 @@ class Frames(NamedTuple):
 
 
 def pack(tree, gravity):
-    """The model's arrays as (ints, floats), two read-only flat arrays (layout in the module docstring)."""
+    """The model's arrays as one read-only int64 array (layout in the module docstring)."""
     nb, nv = tree.parents.shape[0], tree.S.shape[0]
     nq = int(sum(7 if c == JOINT_FREE else 1 for c in tree.jtype))
-    ints = np.concatenate([[nb, nq, nv], tree.parents, tree.jtype, tree.q_idx, tree.v_idx, tree.nv_j])
-    floats = np.concatenate([np.ravel(x) for x in (gravity, tree.Xrot, tree.Xpos, tree.axis, tree.S, tree.mass,
-                                                   tree.h, tree.Io)])
-    return _frozen(ints, np.int64), _frozen(floats)
+    floats = np.concatenate([np.ravel(x).astype(np.float64) for x in (gravity, tree.Xrot, tree.Xpos, tree.axis,
+                                                                      tree.S, tree.mass, tree.h, tree.Io)])
+    ints = np.array([nb, nq, nv, *tree.parents, *tree.jtype, *tree.q_idx, *tree.v_idx, *tree.nv_j], np.int64)
+    return _frozen(np.concatenate([ints, floats.view(np.int64)]), np.int64)
 
 
 @inline_kernel
-def unpack(ints, floats):
-    """(tree, gravity, nq) from the packed arrays: borrowed views (:func:`dynamics._numba.view`), nothing
+def unpack(packed):
+    """(tree, gravity, nq) from the packed model: borrowed views (:func:`dynamics._numba.view`), nothing
     copied; they live as long as the call that unpacks them."""
-    nb, nq, nv = ints[0], ints[1], ints[2]
-    o = 3 + 15 * nb + 6 * nv  # mass, h, Io follow S
-    tree = Tree(view(ints, 3, nb), view(ints, 3 + nb, nb), view(ints, 3 + 2 * nb, nb), view(ints, 3 + 3 * nb, nb),
-                view(ints, 3 + 4 * nb, nb), view(floats, 3, (nb, 3, 3)), view(floats, 3 + 9 * nb, (nb, 3)),
-                view(floats, 3 + 12 * nb, (nb, 3)), view(floats, 3 + 15 * nb, (nv, 6)), view(floats, o, nb),
-                view(floats, o + nb, (nb, 3)), view(floats, o + 4 * nb, (nb, 3, 3)))
-    return tree, view(floats, 0, 3), nq
+    nb, nq, nv = packed[0], packed[1], packed[2]
+    f = 3 + 5 * nb  # the floats: gravity, Xrot, Xpos, axis, S, then mass, h, Io from o
+    o = f + 3 + 15 * nb + 6 * nv
+    tree = Tree(view(packed, 3, nb), view(packed, 3 + nb, nb), view(packed, 3 + 2 * nb, nb),
+                view(packed, 3 + 3 * nb, nb), view(packed, 3 + 4 * nb, nb), float_view(packed, f + 3, (nb, 3, 3)),
+                float_view(packed, f + 3 + 9 * nb, (nb, 3)), float_view(packed, f + 3 + 12 * nb, (nb, 3)),
+                float_view(packed, f + 3 + 15 * nb, (nv, 6)), float_view(packed, o, nb),
+                float_view(packed, o + nb, (nb, 3)), float_view(packed, o + 4 * nb, (nb, 3, 3)))
+    return tree, float_view(packed, f, 3), nq
 
 
 def _frozen(a, dtype=np.float64):
@@ -129,9 +131,7 @@ class Model:
     info: dict = field(default_factory=dict)
 
     def __post_init__(self):
-        ints, floats = pack(self.tree, self.gravity)
-        object.__setattr__(self, "packed_ints", ints)
-        object.__setattr__(self, "packed_floats", floats)
+        object.__setattr__(self, "packed", pack(self.tree, self.gravity))
 
     # -- sizes ---------------------------------------------------------------------------------------
     @property

@@ -1,4 +1,4 @@
-"""Batches over threads, deadlines for long batches, and single states on the calling thread.
+"""Batches over threads, and deadlines for long batches.
 
 A batch of states is split into one chunk per core and the chunks run on a shared thread pool: the kernels
 are ``nogil`` and keep no state between calls (each chunk owns its workspace), so concurrent calls from any
@@ -9,10 +9,6 @@ Inside ``with deadline(t):`` (t on :func:`time.monotonic`'s clock) each thread w
 pieces of about :data:`PIECE_SECONDS` and checks the clock between them; past ``t`` the call raises
 :class:`~dynamics.errors.DeadlineExceeded`.  A server uses this to bound a request's time without chunking
 batches itself.
-
-One state (:func:`run_single`) runs on the calling thread with that thread's own scratch buffer, kept between
-calls (allocating it inside the kernel costs ~0.2 us per array): a thread never shares it, and a kernel never
-calls back into Python, so no call can see another's scratch.
 """
 
 import contextlib
@@ -24,7 +20,6 @@ from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
-from .checks import NEED_SCRATCH
 from .errors import DeadlineExceeded
 
 MIN_PARALLEL_BATCH = 64
@@ -117,22 +112,3 @@ def run_chunks(kernel, tree, batched, shared, out):
     for fut in futures:
         fut.result()
     return out
-
-
-class _Scratch(threading.local):
-    buffer = np.empty(0)  # per thread; grown when a kernel answers NEED_SCRATCH
-
-
-_scratch = _Scratch()
-
-
-def run_single(entry, model, *args):
-    """Call a single-state kernel (:class:`dynamics._numba.Entry`) on the packed model and this thread's scratch;
-    returns its status (:data:`dynamics.checks.DONE` or GENERAL).  ``args`` match the entry's signature: the
-    caller has checked :func:`dynamics.checks.is_vector` on each state it passes."""
-    call = entry.call or entry.compiled()
-    status = call(model.packed_ints, model.packed_floats, _scratch.buffer, *args)
-    while status == NEED_SCRATCH:  # rare: the first call on a thread, or a larger model
-        _scratch.buffer = np.empty(max(1024, 2 * _scratch.buffer.shape[0]))
-        status = call(model.packed_ints, model.packed_floats, _scratch.buffer, *args)
-    return status

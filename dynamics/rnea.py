@@ -15,10 +15,10 @@ Backward pass:  tau_i = S_i^T f_i ,  f_p += X_i^T f_i .
 import numpy as np
 
 from . import checks
-from ._numba import VECTOR, Entry, Kernel, inline_kernel, kernel, single_signature, view
-from .checks import DONE, GENERAL, NEED_SCRATCH, config_ok, is_vector, nonzero, vector_ok
-from .model import Model, unpack
-from .parallel import run_chunks, run_single
+from ._numba import VECTOR, Entry, Kernel, inline_kernel, keep_alive, kernel, scratch, single_signature, view
+from .checks import DONE, F64, GENERAL, NOT_ARRAYS, config_ok, nonzero, vector_ok
+from .model import unpack
+from .parallel import run_chunks
 from .joints import joint_motion, joint_transform, project_force
 from .spatial import (add, cross, cross_force, cross_motion, force_to_parent, inertia_times, load3, load33,
                       motion_to_child, rot, rotT, scale, store3, store33)
@@ -157,40 +157,38 @@ def rnea_batch(tree, Q, V, A, F, gravity, with_v, with_a, out):
 
 # -- one state from Python: inputs checked inside the call (status codes of dynamics.checks) ----------------
 @kernel
-def rnea_single(ints, floats, scratch, q, v, a, tau):
-    tree, gravity, nq = unpack(ints, floats)
+def rnea_single(packed, q, v, a, tau):
+    tree, gravity, nq = unpack(packed)
     nb, nv = tree.parents.shape[0], tree.S.shape[0]
     if not (config_ok(tree, nq, q) and vector_ok(v, nv) and vector_ok(a, nv)):
         return GENERAL
-    if scratch.shape[0] < 30 * nb:
-        return NEED_SCRATCH
-    no_forces = view(scratch, 0, (0, 6))
-    rnea_terms(tree, q, v, a, gravity, no_forces, workspace_in(scratch, nb), tau, nonzero(v), nonzero(a))
+    buf = scratch(30 * nb)
+    rnea_terms(tree, q, v, a, gravity, view(buf, 0, (0, 6)), workspace_in(buf, nb), tau, nonzero(v), nonzero(a))
+    keep_alive(buf)
     return DONE
 
 
 @kernel
-def bias_single(ints, floats, scratch, q, v, tau):
-    tree, gravity, nq = unpack(ints, floats)
+def bias_single(packed, q, v, tau):
+    tree, gravity, nq = unpack(packed)
     nb, nv = tree.parents.shape[0], tree.S.shape[0]
     if not (config_ok(tree, nq, q) and vector_ok(v, nv)):
         return GENERAL
-    if scratch.shape[0] < 30 * nb:
-        return NEED_SCRATCH
-    no_forces = view(scratch, 0, (0, 6))
-    rnea_terms(tree, q, v, v, gravity, no_forces, workspace_in(scratch, nb), tau, nonzero(v), False)
+    buf = scratch(30 * nb)
+    rnea_terms(tree, q, v, v, gravity, view(buf, 0, (0, 6)), workspace_in(buf, nb), tau, nonzero(v), False)
+    keep_alive(buf)
     return DONE
 
 
 @kernel
-def gravity_single(ints, floats, scratch, q, tau):
-    tree, gravity, nq = unpack(ints, floats)
+def gravity_single(packed, q, tau):
+    tree, gravity, nq = unpack(packed)
     nb = tree.parents.shape[0]
     if not config_ok(tree, nq, q):
         return GENERAL
-    if scratch.shape[0] < 30 * nb:
-        return NEED_SCRATCH
-    gravity_into(tree, q, gravity, workspace_in(scratch, nb), tau)
+    buf = scratch(30 * nb)
+    gravity_into(tree, q, gravity, workspace_in(buf, nb), tau)
+    keep_alive(buf)
     return DONE
 
 
@@ -231,19 +229,25 @@ def inverse_dynamics(model, q, v, a, *, gravity=None, f_ext=None):
     f_ext: (nbodies, 6) or (B, nbodies, 6), one [force, torque] per body in its body frame, torque about the
     body frame origin.  Returns tau of shape (nv,) or (B, nv).
     """
-    if gravity is None and f_ext is None and type(model) is Model and is_vector(q) and is_vector(v) and is_vector(a):
-        tau = np.empty(model.nv)
-        if run_single(_rnea_single, model, q, v, a, tau) == DONE:
-            return tau
+    try:  # one state of float64 vectors: one compiled call, which checks them too (dynamics.checks.F64)
+        if gravity is None and f_ext is None and q.dtype is v.dtype is a.dtype is F64 and q.ndim == v.ndim == a.ndim == 1:
+            tau = np.empty(model.nv)
+            if _rnea_single.call(model.packed, q, v, a, tau) == DONE:
+                return tau
+    except NOT_ARRAYS:
+        pass
     return _run(model, q, v, a, gravity, f_ext)
 
 
 def gravity_torques(model, q, *, gravity=None):
     """g(q): the torques that hold the robot still against gravity, (nv,) or (B, nv)."""
-    if gravity is None and type(model) is Model and is_vector(q):
-        tau = np.empty(model.nv)
-        if run_single(_gravity_single, model, q, tau) == DONE:
-            return tau
+    try:  # the fast path, as in inverse_dynamics
+        if gravity is None and q.dtype is F64 and q.ndim == 1:
+            tau = np.empty(model.nv)
+            if _gravity_single.call(model.packed, q, tau) == DONE:
+                return tau
+    except NOT_ARRAYS:
+        pass
     checks.check_model(model)
     Q, batched = checks.configurations(model, q)
     out = np.empty((Q.shape[0], model.nv))
@@ -253,9 +257,12 @@ def gravity_torques(model, q, *, gravity=None):
 
 def bias_forces(model, q, v, *, gravity=None):
     """C(q, v) v + g(q): inverse dynamics at zero acceleration, (nv,) or (B, nv)."""
-    if gravity is None and type(model) is Model and is_vector(q) and is_vector(v):
-        tau = np.empty(model.nv)
-        if run_single(_bias_single, model, q, v, tau) == DONE:
-            return tau
+    try:  # the fast path, as in inverse_dynamics
+        if gravity is None and q.dtype is v.dtype is F64 and q.ndim == v.ndim == 1:
+            tau = np.empty(model.nv)
+            if _bias_single.call(model.packed, q, v, tau) == DONE:
+                return tau
+    except NOT_ARRAYS:
+        pass
     checks.check_model(model)
     return _run(model, q, v, np.zeros(model.nv), gravity, None)
