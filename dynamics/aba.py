@@ -232,6 +232,7 @@ def forward_dynamics(model, q, v, tau, *, gravity=None, f_ext=None):
                 return qdd
     except NOT_ARRAYS:
         pass
+    checks.check_model(model)
     Q, (V, T), B, batched = checks.state_batch(model, q, (("v", v, model.nv), ("tau", tau, model.nv)))
     out = np.empty((B, model.nv))
     F = checks.external_forces(model, f_ext, B)

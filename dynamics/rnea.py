@@ -201,6 +201,7 @@ _gravity_single = Entry(gravity_single, single_signature(VECTOR, VECTOR))
 
 
 def _run(model, q, v, a, gravity, f_ext):
+    checks.check_model(model)
     Q, (V, A), B, batched = checks.state_batch(model, q, (("v", v, model.nv), ("a", a, model.nv)))
     F = checks.external_forces(model, f_ext, B)
     g = checks.gravity_vector(model, gravity)
