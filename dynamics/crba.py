@@ -85,13 +85,13 @@ def crba_batch(tree, Q, out):
 
 @kernel
 def crba_single(packed, q, M):
-    """One state from Python, inputs checked in the call (status codes of :mod:`dynamics.checks`)."""
+    """One state from Python into a zeroed M, inputs checked in the call (status codes of
+    :mod:`dynamics.checks`)."""
     tree, gravity, nq = unpack(packed)
     nb = tree.parents.shape[0]
     if not config_ok(tree, nq, q):
         return GENERAL
     buf = scratch(25 * nb)
-    M[:, :] = 0.0
     crba_into(tree, q, workspace_in(buf, nb), M)
     keep_alive(buf)
     return DONE
@@ -106,7 +106,7 @@ def mass_matrix(model, q):
     """The joint-space mass matrix M(q) (CRBA), symmetric positive definite: (nv, nv) or (B, nv, nv)."""
     try:  # one float64 vector: one compiled call, which checks it too (dynamics.checks.F64)
         if q.dtype is F64 and q.ndim == 1:
-            M = np.empty((model.nv, model.nv))
+            M = np.zeros((model.nv, model.nv))  # crba_into writes the non-zero entries
             if _crba_single.call(model.packed, q, M) == DONE:
                 return M
     except NOT_ARRAYS:
