@@ -117,6 +117,12 @@ def float_view(typingctx, buf, start, shape):
     return _view_typer(buf, start, shape, types.float64)
 
 
+@intrinsic
+def int_view(typingctx, buf, start, shape):
+    """:func:`view` of a 64-bit buffer read as int64 (integer scratch carved from a float buffer)."""
+    return _view_typer(buf, start, shape, types.int64)
+
+
 #: scratch above this many floats goes to the heap (a thread's stack is a few MB)
 STACK_FLOATS = 32768
 

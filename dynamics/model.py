@@ -29,7 +29,9 @@ Tree), so the single-state entry points pass this one and :func:`unpack` rebuild
 inside the kernel.  Layout (in order, nothing between; the floats are stored bit for bit as int64):
 
     [nb, nq, nv, parents, jtype, q_idx, v_idx, nv_j,                                   ints (3 + 5 nb)
-     gravity(3), Xrot(9 nb), Xpos(3 nb), axis(3 nb), S(6 nv), mass(nb), h(3 nb), Io(9 nb)]   floats
+     gravity(3), Xrot(9 nb), Xpos(3 nb), axis(3 nb), S(6 nv), mass(nb), h(3 nb), Io(9 nb),   floats
+     nf, body(nf),                                                                   ints
+     R(9 nf), p(3 nf)]                                                          floats (the frames)
 """
 
 from dataclasses import dataclass, field
@@ -67,14 +69,17 @@ class Frames(NamedTuple):
     p: np.ndarray  # (nf, 3): the frame's origin in that body's frame
 
 
-def pack(tree, gravity):
+def pack(tree, gravity, frames):
     """The model's arrays as one read-only int64 array (layout in the module docstring)."""
     nb, nv = tree.parents.shape[0], tree.S.shape[0]
     nq = int(sum(7 if c == JOINT_FREE else 1 for c in tree.jtype))
     floats = np.concatenate([np.ravel(x).astype(np.float64) for x in (gravity, tree.Xrot, tree.Xpos, tree.axis,
                                                                       tree.S, tree.mass, tree.h, tree.Io)])
     ints = np.array([nb, nq, nv, *tree.parents, *tree.jtype, *tree.q_idx, *tree.v_idx, *tree.nv_j], np.int64)
-    return _frozen(np.concatenate([ints, floats.view(np.int64)]), np.int64)
+    nf = frames.body.shape[0]
+    frame_floats = np.concatenate([np.ravel(frames.R), np.ravel(frames.p)]).astype(np.float64)
+    return _frozen(np.concatenate([ints, floats.view(np.int64), [nf], frames.body, frame_floats.view(np.int64)]),
+                   np.int64)
 
 
 @inline_kernel
@@ -90,6 +95,16 @@ def unpack(packed):
                 float_view(packed, f + 3 + 15 * nb, (nv, 6)), float_view(packed, o, nb),
                 float_view(packed, o + nb, (nb, 3)), float_view(packed, o + 4 * nb, (nb, 3, 3)))
     return tree, float_view(packed, f, 3), nq
+
+
+@inline_kernel
+def unpack_frames(packed):
+    """The frames (:class:`Frames`) from the packed model, as :func:`unpack`."""
+    nb, nv = packed[0], packed[2]
+    e = 6 + 33 * nb + 6 * nv  # after the tree
+    nf = packed[e]
+    return Frames(view(packed, e + 1, nf), float_view(packed, e + 1 + nf, (nf, 3, 3)),
+                  float_view(packed, e + 1 + 10 * nf, (nf, 3)))
 
 
 def _frozen(a, dtype=np.float64):
@@ -131,7 +146,7 @@ class Model:
     info: dict = field(default_factory=dict)
 
     def __post_init__(self):
-        object.__setattr__(self, "packed", pack(self.tree, self.gravity))
+        object.__setattr__(self, "packed", pack(self.tree, self.gravity, self.frame_arrays))
 
     # -- sizes ---------------------------------------------------------------------------------------
     @property
