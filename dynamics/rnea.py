@@ -231,7 +231,8 @@ def inverse_dynamics(model, q, v, a, *, gravity=None, f_ext=None):
     body frame origin.  Returns tau of shape (nv,) or (B, nv).
     """
     try:  # one state of float64 vectors: one compiled call, which checks them too (dynamics.checks.F64)
-        if gravity is None and f_ext is None and q.dtype is v.dtype is a.dtype is F64 and q.ndim == v.ndim == a.ndim == 1:
+        if gravity is None and f_ext is None and q.dtype is v.dtype is a.dtype is F64 \
+                and q.ndim == v.ndim == a.ndim == 1:
             tau = np.empty(model.nv)
             if _rnea_single.call(model.packed, q, v, a, tau) == DONE:
                 return tau
