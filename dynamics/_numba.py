@@ -123,8 +123,8 @@ def int_view(typingctx, buf, start, shape):
     return _view_typer(buf, start, shape, types.int64)
 
 
-#: scratch above this many floats goes to the heap (a thread's stack is a few MB)
-STACK_FLOATS = 32768
+#: scratch above this many floats (64 KiB) goes to the heap: threads may have small stacks (musl: 128 KiB)
+STACK_FLOATS = 8192
 
 
 @intrinsic
