@@ -17,7 +17,8 @@ count.
 import numpy as np
 
 from . import checks
-from ._numba import MATRIX, VECTOR, Entry, Kernel, inline_kernel, keep_alive, kernel, scratch, single_signature, view
+from ._numba import (MATRIX, VECTOR, Entry, Kernel, borrowed, inline_kernel, keep_alive, kernel, scratch,
+                     single_signature, view)
 from .checks import DONE, F64, GENERAL, NOT_ARRAYS, config_ok
 from .joints import joint_motion
 from .kinematics import world_pose
@@ -29,8 +30,9 @@ COM, VELOCITY, JACOBIAN = 0, 1, 2
 
 
 @kernel
-def com_batch(tree, Q, V, what, out):
+def com_batch(model_tree, Q, V, what, out):
     """Per state into out[b] (3, 1 or nv): com, vcom (what = VELOCITY) or Jcom (what = JACOBIAN)."""
+    tree = borrowed(model_tree)  # com_into takes its arrays out of the tuple per state: no reference counts
     nb = tree.parents.shape[0]
     oR, op, H, ms = np.empty((nb, 3, 3)), np.empty((nb, 3)), np.empty((nb, 3)), np.empty(nb)
     ws, vs = np.empty((nb, 3)), np.empty((nb, 3))
@@ -38,6 +40,7 @@ def com_batch(tree, Q, V, what, out):
     lv = V.shape[0] - 1
     for b in range(Q.shape[0]):
         com_into(tree, Q[b], V[min(b, lv)], what, inv_m, oR, op, H, ms, ws, vs, out[b])
+    keep_alive(model_tree)
 
 
 @inline_kernel
