@@ -32,15 +32,17 @@ COM, VELOCITY, JACOBIAN = 0, 1, 2
 @kernel
 def com_batch(model_tree, Q, V, what, out):
     """Per state into out[b] (3, 1 or nv): com, vcom (what = VELOCITY) or Jcom (what = JACOBIAN)."""
-    tree = borrowed(model_tree)  # com_into takes its arrays out of the tuple per state: no reference counts
+    # borrowed: com_into takes the arrays out of the tuple, and out[b] is a view, per state: no reference counts
+    tree, rows = borrowed(model_tree), borrowed(out)
     nb = tree.parents.shape[0]
     oR, op, H, ms = np.empty((nb, 3, 3)), np.empty((nb, 3)), np.empty((nb, 3)), np.empty(nb)
     ws, vs = np.empty((nb, 3)), np.empty((nb, 3))
     inv_m = inverse_mass(tree)
     lv = V.shape[0] - 1
     for b in range(Q.shape[0]):
-        com_into(tree, Q[b], V[min(b, lv)], what, inv_m, oR, op, H, ms, ws, vs, out[b])
+        com_into(tree, Q[b], V[min(b, lv)], what, inv_m, oR, op, H, ms, ws, vs, rows[b])
     keep_alive(model_tree)
+    keep_alive(out)
 
 
 @inline_kernel
