@@ -6,7 +6,9 @@ package, never copied; a generated 200-link chain), in one run:
 * batched per-state time on B states (default 10,000) of inverse dynamics, forward dynamics and the
   mass matrix, as ratios to Pinocchio's `rneaInParallel` / `abaInParallel` with 2 threads (one
   `pin.ModelPool`) and to a Python loop over `pin.crba` (Pinocchio has no batched CRBA);
-* single-call latency of `inverse_dynamics` as a ratio to one `pin.rnea` call from Python;
+* single-call latency of `inverse_dynamics`, `forward_dynamics`, `mass_matrix`, `gravity_torques` and
+  `bias_forces` as ratios to one call from Python of `pin.rnea`, `pin.aba`, `pin.crba`,
+  `pin.computeGeneralizedGravity` and `pin.nonLinearEffects` (Panda, UR5, Talos);
 * cold start in a fresh subprocess (import, load_urdf, first calls) with the numba cache warm and
   with NUMBA_CACHE_DIR pointed at an empty temporary directory;
 * cost growth: per-state time of batched RNEA and ABA on chains of 20, 200 and 1000 links.
@@ -239,12 +241,38 @@ def bench_robot(dyn, pin, robot: Robot, B: int, repeat: int, rng) -> dict:
 
     r["m"], r["m_pin"] = (t / Bm for t in best_pair(lambda: dyn.mass_matrix(model, Qm), crba_loop, repeat))
 
-    q1, v1, a1 = Q[0].copy(), V[0].copy(), A[0].copy()
-    qp1, vp1, ap1 = Qp[0].copy(), Vp[0].copy(), Ap[0].copy()
-    n_calls = 2000
-    r["single"], r["single_pin"] = best_pair(
-        lambda: dyn.inverse_dynamics(model, q1, v1, a1), lambda: pin.rnea(pm, pd, qp1, vp1, ap1), repeat, n_calls
-    )
+    r.update(bench_single(dyn, pin, model, pm, pd, (Q[0], V[0], A[0], TAU[0]), (Qp[0], Vp[0], Ap[0], TAUp[0]),
+                          repeat))
+    r["single"], r["single_pin"] = r["single_id"], r["single_id_pin"]
+    return r
+
+
+#: single-call rows: (key, label, ours, Pinocchio's) with the arguments (q, v, a, tau) each takes
+SINGLE_CALLS = [
+    ("id", "inverse_dynamics / rnea", lambda dyn, m, q, v, a, t: dyn.inverse_dynamics(m, q, v, a),
+     lambda pin, pm, pd, q, v, a, t: pin.rnea(pm, pd, q, v, a)),
+    ("fd", "forward_dynamics / aba", lambda dyn, m, q, v, a, t: dyn.forward_dynamics(m, q, v, t),
+     lambda pin, pm, pd, q, v, a, t: pin.aba(pm, pd, q, v, t)),
+    ("m", "mass_matrix / crba", lambda dyn, m, q, v, a, t: dyn.mass_matrix(m, q),
+     lambda pin, pm, pd, q, v, a, t: pin.crba(pm, pd, q)),
+    ("g", "gravity_torques / computeGeneralizedGravity", lambda dyn, m, q, v, a, t: dyn.gravity_torques(m, q),
+     lambda pin, pm, pd, q, v, a, t: pin.computeGeneralizedGravity(pm, pd, q)),
+    ("bias", "bias_forces / nonLinearEffects", lambda dyn, m, q, v, a, t: dyn.bias_forces(m, q, v),
+     lambda pin, pm, pd, q, v, a, t: pin.nonLinearEffects(pm, pd, q, v)),
+]
+
+
+def bench_single(dyn, pin, model, pm, pd, ours, theirs, repeat, n_calls=1000) -> dict:
+    """One call from Python of each SINGLE_CALLS pair on one state (fresh contiguous float64 vectors, as a
+    controller would pass them), timed alternately: best of 3 * repeat runs of n_calls calls."""
+    ours = [np.array(x) for x in ours]
+    theirs = [np.array(x) for x in theirs]
+    r = {}
+    for key, _, f_ours, f_pin in SINGLE_CALLS:
+        fa = lambda: f_ours(dyn, model, *ours)  # noqa: E731
+        fb = lambda: f_pin(pin, pm, pd, *theirs)  # noqa: E731
+        fa(), fb()
+        r[f"single_{key}"], r[f"single_{key}_pin"] = best_pair(fa, fb, 3 * repeat, n_calls)
     return r
 
 
@@ -381,6 +409,19 @@ def tables(header, rows, growth, cold, cold_robot) -> str:
     if capped:
         L.append(f"Mass matrix batches capped at {M_BATCH_BYTES >> 20} MiB of output: " + ", ".join(capped) + " states.")
     L.append("")
+    L += [
+        "## Single call from Python (us per call)",
+        "",
+        "| robot | " + " | ".join(f"{label} | ratio" for _, label, _, _ in SINGLE_CALLS) + " |",
+        "|---|" + "---:|---:|" * len(SINGLE_CALLS),
+    ]
+    for r in rows:
+        if "single_id" not in r or r["robot"].startswith("chain"):
+            continue
+        cells = [f"{us(r[f'single_{k}'])} / {us(r[f'single_{k}_pin'])} | {r[f'single_{k}'] / r[f'single_{k}_pin']:.2f}"
+                 for k, _, _, _ in SINGLE_CALLS]
+        L.append(f"| {r['robot']} | " + " | ".join(cells) + " |")
+    L += ["", "Target: every single-call ratio <= 1.5 on Panda and UR5.", ""]
     if growth:
         base = growth[0]
         L += [

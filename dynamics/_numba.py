@@ -21,12 +21,18 @@ every array taken out of a tuple is reference counted with an atomic operation.
 **Borrowed values.** :func:`borrowed` returns a value whose arrays have a NULL owner pointer (meminfo), so
 numba's reference counting skips them.  The rule for using it safely: the caller keeps the owned original
 alive (a later :func:`keep_alive` call on it), and the borrowed copy never outlives the call (never store or
-return it).  It is used where a hot loop would otherwise pay tens of atomic increments per step.
+return it).  It is used where a hot loop would otherwise pay tens of atomic increments per step.  :func:`view` makes
+such borrowed arrays directly: a C-contiguous window of a flat buffer, with no checks and no reference count
+(numba's own slice + reshape costs ~80 ns per view, which a single call from Python cannot afford); the same
+rule applies to the buffer.  :func:`stack_array` is scratch on the kernel's own stack (a heap array costs
+~0.2 us to allocate): never return it or keep it past the kernel that made it.
 
 :class:`Kernel` calls a compiled function through its native entry point once its single overload exists,
-skipping the dispatcher's type resolution (~4 us for a model's tuple of arrays).
+skipping the dispatcher's type resolution (~4 us for a model's tuple of arrays).  :class:`Entry` does the same
+for one fixed signature (:func:`single_signature`), the single-state entry points' way in (~60 ns per array).
 """
 
+import numpy as np
 from numba import njit, types
 from numba.core import cgutils
 from numba.extending import intrinsic
@@ -62,6 +68,88 @@ def borrowed(typingctx, x):
     return x(x), codegen
 
 
+def _dims(builder, context, shape_ty, shape):
+    if isinstance(shape_ty, types.BaseTuple):
+        return [context.cast(builder, d, t, types.intp) for d, t in zip(cgutils.unpack_tuple(builder, shape), shape_ty)]
+    return [context.cast(builder, shape, shape_ty, types.intp)]
+
+
+def _borrowed_array(context, builder, out_ty, data, dims):
+    """A C-contiguous array of ``out_ty`` over ``data`` with a NULL owner (no reference counting)."""
+    itemsize = context.get_constant(types.intp, context.get_abi_sizeof(context.get_data_type(out_ty.dtype)))
+    strides, step = [], itemsize
+    for d in reversed(dims):
+        strides.insert(0, step)
+        step = builder.mul(step, d)
+    out = context.make_array(out_ty)(context, builder)
+    data = builder.bitcast(data, out.data.type)
+    context.populate_array(out, data=data, shape=dims, strides=strides, itemsize=itemsize,
+                           meminfo=cgutils.get_null_value(out.meminfo.type))
+    return out._getvalue()
+
+
+def _view_typer(buf, start, shape, dtype):
+    dims_ty = tuple(shape) if isinstance(shape, types.BaseTuple) else (shape,)
+    if not (isinstance(buf, types.Array) and buf.ndim == 1 and buf.layout == "C" and buf.dtype.bitwidth == 64
+            and isinstance(start, types.Integer) and all(isinstance(d, types.Integer) for d in dims_ty)):
+        return None
+    out_ty = types.Array(dtype or buf.dtype, len(dims_ty), "C", readonly=not buf.mutable)
+
+    def codegen(context, builder, sig, args):
+        src = context.make_array(sig.args[0])(context, builder, args[0])
+        first = context.cast(builder, args[1], sig.args[1], types.intp)
+        dims = _dims(builder, context, sig.args[2], args[2])
+        return _borrowed_array(context, builder, sig.return_type, builder.gep(src.data, [first]), dims)
+
+    return out_ty(buf, start, shape), codegen
+
+
+@intrinsic
+def view(typingctx, buf, start, shape):
+    """``buf[start:start + prod(shape)].reshape(shape)`` for a C-contiguous 1-D ``buf``, borrowed (NULL owner)
+    and unchecked: the caller keeps ``buf`` alive and in bounds.  ``shape`` is an int or a tuple of ints."""
+    return _view_typer(buf, start, shape, None)
+
+
+@intrinsic
+def float_view(typingctx, buf, start, shape):
+    """:func:`view` of a 64-bit buffer read as float64 (the packed model keeps its floats in an int64 array)."""
+    return _view_typer(buf, start, shape, types.float64)
+
+
+@intrinsic
+def int_view(typingctx, buf, start, shape):
+    """:func:`view` of a 64-bit buffer read as int64 (integer scratch carved from a float buffer)."""
+    return _view_typer(buf, start, shape, types.int64)
+
+
+#: scratch above this many floats (64 KiB) goes to the heap: threads may have small stacks (musl: 128 KiB)
+STACK_FLOATS = 8192
+
+
+@intrinsic
+def stack_array(typingctx, n):
+    """n uninitialised float64 on the stack of the kernel that calls this (it must be called from the kernel
+    itself or an ``inline_kernel``, never returned): free to allocate, freed when the kernel returns.  Keep n
+    <= :data:`STACK_FLOATS`."""
+    if not isinstance(n, types.Integer):
+        return None
+
+    def codegen(context, builder, sig, args):
+        size = context.cast(builder, args[0], sig.args[0], types.intp)
+        data = builder.alloca(context.get_data_type(types.float64), size=size)
+        return _borrowed_array(context, builder, sig.return_type, data, [size])
+
+    return types.float64[::1](n), codegen
+
+
+@inline_kernel
+def scratch(n):
+    """n floats of scratch for a kernel: :func:`stack_array` up to :data:`STACK_FLOATS`, else a heap array.
+    Call it in the kernel that uses it (inlined, so the stack is that kernel's) and end with keep_alive."""
+    return stack_array(n) if n <= STACK_FLOATS else np.empty(n)
+
+
 @kernel
 def keep_alive(x):
     """A use of ``x``: numba frees a variable after its last use, so this pins the owner of a borrowed value."""
@@ -88,3 +176,32 @@ class Kernel:
         if len(overloads) == 1:
             self.entry = overloads[0].entry_point
         return out
+
+
+#: the types of a single-state kernel's arguments: the packed model (read-only), states and results
+PACKED = types.Array(types.int64, 1, "C", readonly=True)
+VECTOR = types.float64[::1]
+MATRIX = types.float64[:, ::1]
+
+
+def single_signature(*args):
+    """``int64(packed model, *args)``: a single-state kernel returns a status code."""
+    return types.int64(PACKED, *args)
+
+
+class Entry:
+    """A kernel's compiled entry point for one fixed signature: ``entry.call(*args)``.  The first call compiles
+    it (or loads it from the cache) and replaces ``call`` by numba's entry point itself, so later calls cost
+    one attribute lookup and the unboxing of the arguments.
+
+    numba's entry point unboxes each argument in C but checks only an array's item size, not its dtype or
+    rank: whoever calls it passes exactly the signature's types (an int64 array read as float64, or a 2-D
+    array unboxed as 1-D, would be garbage or a crash); see :data:`dynamics.checks.F64`.
+    """
+
+    def __init__(self, dispatcher, signature):
+        self.dispatcher, self.signature = dispatcher, signature
+
+    def call(self, *args):
+        self.call = self.dispatcher.compile(self.signature)
+        return self.call(*args)

@@ -17,9 +17,11 @@ carries no mass or inertia it could move) makes M singular: the kernel stops and
 import numpy as np
 
 from . import checks
-from ._numba import Kernel, inline_kernel, kernel
+from ._numba import VECTOR, Entry, Kernel, inline_kernel, keep_alive, kernel, scratch, single_signature, view
+from .checks import DONE, F64, GENERAL, NOT_ARRAYS, config_ok, nonzero, vector_ok
 from .errors import InputError
 from .joints import joint_motion, joint_transform
+from .model import unpack
 from .parallel import run_chunks
 from .spatial import (add, add_inertia6_to_parent, cross_force, cross_motion, force_to_parent, inertia_times,
                       joint_gram, load3, load33, motion_to_child, spd_inverse, store3, store33, store_inertia6)
@@ -32,6 +34,19 @@ def workspace(nb, nv):
             np.empty((nb, 6, 6)), np.empty((nb, 6)),  # IA, pA
             np.empty((nv, 6)), np.empty((nb, 6, 6)), np.empty(nv),  # U, Dinv, u
             np.empty((nb, 6)), np.empty((6, 6)), np.empty((6, 6)), np.empty(6), np.empty(6))  # a, Ia, D, pa, t
+
+
+@inline_kernel
+def workspace_in(buf, nb, nv):
+    """The same scratch as :func:`workspace`, borrowed from ``buf`` (108 nb + 7 nv + 84 floats, kept alive by
+    the caller)."""
+    return (view(buf, 0, (nb, 3, 3)), view(buf, 9 * nb, (nb, 3)),
+            view(buf, 12 * nb, (nb, 6)), view(buf, 18 * nb, (nb, 6)),
+            view(buf, 24 * nb, (nb, 6, 6)), view(buf, 60 * nb, (nb, 6)),
+            view(buf, 66 * nb, (nv, 6)), view(buf, 66 * nb + 6 * nv, (nb, 6, 6)), view(buf, 102 * nb + 6 * nv, nv),
+            view(buf, 102 * nb + 7 * nv, (nb, 6)), view(buf, 108 * nb + 7 * nv, (6, 6)),
+            view(buf, 108 * nb + 7 * nv + 36, (6, 6)), view(buf, 108 * nb + 7 * nv + 72, 6),
+            view(buf, 108 * nb + 7 * nv + 78, 6))
 
 
 @kernel
@@ -171,8 +186,23 @@ def aba_batch(tree, Q, V, T, F, gravity, with_v, out, status):
         status[b] = aba_terms(tree, Q[b], V[min(b, lv)], T[min(b, lt)], gravity, F[min(b, lf)], ws, out[b], with_v)
 
 
+@kernel
+def aba_single(packed, q, v, tau, qdd):
+    """One state from Python, inputs checked in the call (status codes of :mod:`dynamics.checks`; a singular
+    joint takes the general path, which names it)."""
+    tree, gravity, nq = unpack(packed)
+    nb, nv = tree.parents.shape[0], tree.S.shape[0]
+    if not (config_ok(tree, nq, q) and vector_ok(v, nv) and vector_ok(tau, nv)):
+        return GENERAL
+    buf = scratch(108 * nb + 7 * nv + 84)
+    singular = aba_terms(tree, q, v, tau, gravity, view(buf, 0, (0, 6)), workspace_in(buf, nb, nv), qdd, nonzero(v))
+    keep_alive(buf)
+    return DONE if singular < 0 else GENERAL
+
+
 # -- public entry point ----------------------------------------------------------------------------
 _aba_batch = Kernel(aba_batch)
+_aba_single = Entry(aba_single, single_signature(VECTOR, VECTOR, VECTOR, VECTOR))
 
 
 def _aba_chunk(tree, Q, V, T, F, gravity, with_v, out):
@@ -194,6 +224,15 @@ def forward_dynamics(model, q, v, tau, *, gravity=None, f_ext=None):
     Shapes as :func:`dynamics.inverse_dynamics` with tau in place of a.  Raises InputError naming the
     joint when the mass matrix is singular (a joint that moves no mass or inertia).
     """
+    try:  # one state of float64 vectors: one compiled call, which checks them too (dynamics.checks.F64)
+        if gravity is None and f_ext is None and q.dtype is v.dtype is tau.dtype is F64 \
+                and q.ndim == v.ndim == tau.ndim == 1:
+            qdd = np.empty(model.nv)
+            if _aba_single.call(model.packed, q, v, tau, qdd) == DONE:
+                return qdd
+    except NOT_ARRAYS:
+        pass
+    checks.check_model(model)
     Q, (V, T), B, batched = checks.state_batch(model, q, (("v", v, model.nv), ("tau", tau, model.nv)))
     out = np.empty((B, model.nv))
     F = checks.external_forces(model, f_ext, B)

@@ -5,15 +5,18 @@ Public functions accept one state (q of shape (nq,)) or a batch (B, nq).  Argume
 (one compiled signature per kernel); the kernels never check.  Every error is an :class:`InputError` whose
 message starts with the argument's name and says what was expected.
 
-The single-state fast paths call :func:`inputs_ok` inside their compiled call instead: on False the public
-function takes the general path, which says exactly what is wrong.
+The single-state fast paths check in Python only what the compiled call cannot (:data:`F64`: float64 and
+1-D) and the rest inside the compiled call (:func:`config_ok`, :func:`vector_ok`: length,
+unit stride, finiteness, non-zero quaternions).  On a failed check the kernel returns :data:`GENERAL` and the
+public function takes the general path, which raises the same error as always, so every message has one
+source.
 """
 
 import math
 
 import numpy as np
 
-from ._numba import Kernel, kernel
+from ._numba import Kernel, inline_kernel, kernel
 from .errors import InputError
 from .joints import JOINT_FREE
 from .model import Model
@@ -51,31 +54,59 @@ _first_nonfinite_k = Kernel(_first_nonfinite)
 _first_zero_quaternion_k = Kernel(_first_zero_quaternion)
 
 
-@kernel
-def inputs_ok(tree, q, vecs):
-    """Whether q and every vector of ``vecs`` are finite and each free joint's quaternion is non-zero."""
-    for k in range(q.shape[0]):
-        if not np.isfinite(q[k]):
+#: status codes of the single-state kernels: done; take the general path (it raises the clear error, or
+#: computes what the fast path does not handle)
+DONE, GENERAL = 0, 1
+
+#: the single-state fast path's test, written out in each entry point (a Python call would cost more than the
+#: test): ``x.dtype is F64 and x.ndim == 1`` on each state.  Only the compiled call may then be given them:
+#: numba's entry point checks an array's item size but not its dtype or rank (dynamics._numba.Entry).  A
+#: non-array fails the test with one of NOT_ARRAYS (no dtype; or numba refuses to unbox it): the entry point
+#: catches them and takes the general path, which says what is wrong.
+F64 = np.dtype(np.float64)
+NOT_ARRAYS = (AttributeError, TypeError)
+
+
+@inline_kernel
+def _unit_stride_of_length(x, n):
+    return x.shape[0] == n and (n <= 1 or x.strides[0] == 8)
+
+
+@inline_kernel
+def vector_ok(x, n):
+    """x has length n, unit stride and finite values (the general path names what is wrong otherwise)."""
+    if not _unit_stride_of_length(x, n):
+        return False
+    for k in range(n):
+        if not np.isfinite(x[k]):
             return False
-    for x in vecs:
-        for k in range(x.shape[0]):
-            if not np.isfinite(x[k]):
-                return False
+    return True
+
+
+@inline_kernel
+def config_ok(tree, nq, q):
+    """q is a valid configuration: as :func:`vector_ok`, and every free joint's quaternion is non-zero."""
+    if not vector_ok(q, nq):
+        return False
     for i in range(tree.jtype.shape[0]):
         if tree.jtype[i] == JOINT_FREE and _quaternion_sq(q, tree.q_idx[i] + 3) < ZERO_QUATERNION_SQ:
             return False
     return True
 
 
+@inline_kernel
+def nonzero(x):
+    """Whether any x[k] != 0: a term with x = 0 is skipped (the single-state twin of the general path's
+    ``X.any()``, so both paths skip the same terms and agree bit for bit)."""
+    for k in range(x.shape[0]):
+        if x[k] != 0.0:
+            return True
+    return False
+
+
 def check_model(model):
     if not isinstance(model, Model):
         raise InputError(f"model: expected a dynamics.Model (from load_urdf), got {type(model).__name__}")
-
-
-def is_state(x, n):
-    """True for a C-contiguous writable float64 vector of length n: the fast single-state path."""
-    return (type(x) is np.ndarray and x.dtype == np.float64 and x.shape == (n,) and x.flags.c_contiguous
-            and x.flags.writeable)
 
 
 _KIND_NAMES = {"U": "strings", "S": "bytes", "c": "complex numbers", "b": "booleans", "O": "Python objects",
@@ -114,7 +145,7 @@ def _length_hint(model, name, length, kind):
 def states(name, x, n, model=None, kind="v"):
     """Check one state (n,) or a batch (B, n); return (C-contiguous writable 2-D float64 array, batched).
     With ``model``, a wrong length gets a hint at the likely mistake (``kind``: "q" or "v")."""
-    if is_state(x, n):
+    if type(x) is np.ndarray and x.dtype is F64 and x.shape == (n,) and x.flags.c_contiguous and x.flags.writeable:
         arr2, batched = x.reshape(1, n), False
     else:
         arr = _real_array(name, x, f"({n},) or (B, {n})")

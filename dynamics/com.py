@@ -17,9 +17,12 @@ count.
 import numpy as np
 
 from . import checks
-from ._numba import Kernel, kernel
+from ._numba import (MATRIX, VECTOR, Entry, Kernel, borrowed, inline_kernel, keep_alive, kernel, scratch,
+                     single_signature, view)
+from .checks import DONE, F64, GENERAL, NOT_ARRAYS, config_ok
 from .joints import joint_motion
 from .kinematics import world_pose
+from .model import unpack
 from .parallel import run_chunks
 from .spatial import add, cross, load3, load33, motion_to_child, rot, scale, store3
 
@@ -27,58 +30,99 @@ COM, VELOCITY, JACOBIAN = 0, 1, 2
 
 
 @kernel
-def com_batch(tree, Q, V, what, out):
+def com_batch(model_tree, Q, V, what, out):
     """Per state into out[b] (3, 1 or nv): com, vcom (what = VELOCITY) or Jcom (what = JACOBIAN)."""
-    parents, mass, hs, S, v_idx, nv_j = tree.parents, tree.mass, tree.h, tree.S, tree.v_idx, tree.nv_j
-    nb = parents.shape[0]
+    # borrowed: com_into takes the arrays out of the tuple, and out[b] is a view, per state: no reference counts
+    tree, rows = borrowed(model_tree), borrowed(out)
+    nb = tree.parents.shape[0]
     oR, op, H, ms = np.empty((nb, 3, 3)), np.empty((nb, 3)), np.empty((nb, 3)), np.empty(nb)
     ws, vs = np.empty((nb, 3)), np.empty((nb, 3))
-    m = 0.0
-    for i in range(nb):
-        m += mass[i]
-    inv_m = 1.0 / m if m > 0.0 else 0.0
-    zero = (0.0, 0.0, 0.0)
+    inv_m = inverse_mass(tree)
     lv = V.shape[0] - 1
     for b in range(Q.shape[0]):
-        q, v = Q[b], V[min(b, lv)]
-        c = zero
-        for i in range(nb):
-            Rl, pl, R, p = world_pose(tree, i, q, oR, op)
-            par = parents[i]
-            w, vl = zero, zero
-            if par >= 0 and what == VELOCITY:
-                w, vl = motion_to_child(Rl, pl, load3(ws, par), load3(vs, par))
-            h = load3(hs, i)
-            Hi = add(rot(R, h), scale(mass[i], p))  # the body's world first moment
-            if what == COM:
-                c = add(c, Hi)
-            elif what == VELOCITY:  # momentum oR (m v + w x h)
-                wJ, vJ = joint_motion(tree, i, v)
-                w, vl = add(w, wJ), add(vl, vJ)
-                store3(ws, i, w)
-                store3(vs, i, vl)
-                c = add(c, rot(R, add(scale(mass[i], vl), cross(w, h))))
-            store3(H, i, Hi)
-            ms[i] = mass[i]
-        if what != JACOBIAN:
-            out[b, 0, 0], out[b, 1, 0], out[b, 2, 0] = scale(inv_m, c)
-            continue
-        for i in range(nb - 1, -1, -1):  # subtree masses and world first moments
-            par = parents[i]
-            if par >= 0:
-                ms[par] += ms[i]
-                store3(H, par, add(load3(H, par), load3(H, i)))
-        J = out[b]
-        for i in range(nb):
-            R, p, Hs = load33(oR, i), load3(op, i), load3(H, i)
-            for k in range(v_idx[i], v_idx[i] + nv_j[i]):
-                w = rot(R, (S[k, 0], S[k, 1], S[k, 2]))
-                vk = add(rot(R, (S[k, 3], S[k, 4], S[k, 5])), cross(p, w))
-                J[0, k], J[1, k], J[2, k] = scale(inv_m, add(scale(ms[i], vk), cross(w, Hs)))
+        com_into(tree, Q[b], V[min(b, lv)], what, inv_m, oR, op, H, ms, ws, vs, rows[b])
+    keep_alive(model_tree)
+    keep_alive(out)
+
+
+@inline_kernel
+def inverse_mass(tree):
+    m = 0.0
+    for i in range(tree.mass.shape[0]):
+        m += tree.mass[i]
+    return 1.0 / m if m > 0.0 else 0.0
+
+
+@inline_kernel
+def com_into(tree, q, v, what, inv_m, oR, op, H, ms, ws, vs, out):
+    """One state into out (3, 1 or nv); oR, op, H, ms, ws, vs are scratch."""
+    parents, mass, hs, S, v_idx, nv_j = tree.parents, tree.mass, tree.h, tree.S, tree.v_idx, tree.nv_j
+    nb = parents.shape[0]
+    zero = (0.0, 0.0, 0.0)
+    c = zero
+    for i in range(nb):
+        Rl, pl, R, p = world_pose(tree, i, q, oR, op)
+        par = parents[i]
+        w, vl = zero, zero
+        if par >= 0 and what == VELOCITY:
+            w, vl = motion_to_child(Rl, pl, load3(ws, par), load3(vs, par))
+        h = load3(hs, i)
+        Hi = add(rot(R, h), scale(mass[i], p))  # the body's world first moment
+        if what == COM:
+            c = add(c, Hi)
+        elif what == VELOCITY:  # momentum oR (m v + w x h)
+            wJ, vJ = joint_motion(tree, i, v)
+            w, vl = add(w, wJ), add(vl, vJ)
+            store3(ws, i, w)
+            store3(vs, i, vl)
+            c = add(c, rot(R, add(scale(mass[i], vl), cross(w, h))))
+        store3(H, i, Hi)
+        ms[i] = mass[i]
+    if what != JACOBIAN:
+        out[0, 0], out[1, 0], out[2, 0] = scale(inv_m, c)
+        return
+    for i in range(nb - 1, -1, -1):  # subtree masses and world first moments
+        par = parents[i]
+        if par >= 0:
+            ms[par] += ms[i]
+            store3(H, par, add(load3(H, par), load3(H, i)))
+    for i in range(nb):
+        R, p, Hs = load33(oR, i), load3(op, i), load3(H, i)
+        for k in range(v_idx[i], v_idx[i] + nv_j[i]):
+            w = rot(R, (S[k, 0], S[k, 1], S[k, 2]))
+            vk = add(rot(R, (S[k, 3], S[k, 4], S[k, 5])), cross(p, w))
+            out[0, k], out[1, k], out[2, k] = scale(inv_m, add(scale(ms[i], vk), cross(w, Hs)))
+
+
+@inline_kernel
+def com_single_into(packed, q, what, out):
+    """One state from Python into out (3, 1 or nv), q checked here (status codes of dynamics.checks)."""
+    tree, gravity, nq = unpack(packed)
+    nb = tree.parents.shape[0]
+    if not config_ok(tree, nq, q):
+        return GENERAL
+    buf = scratch(22 * nb)
+    com_into(tree, q, q, what, inverse_mass(tree), view(buf, 0, (nb, 3, 3)), view(buf, 9 * nb, (nb, 3)),
+             view(buf, 12 * nb, (nb, 3)), view(buf, 15 * nb, nb), view(buf, 16 * nb, (nb, 3)),
+             view(buf, 19 * nb, (nb, 3)), out)
+    keep_alive(buf)
+    return DONE
+
+
+@kernel
+def com_single(packed, q, com):
+    return com_single_into(packed, q, COM, view(com, 0, (3, 1)))
+
+
+@kernel
+def com_jacobian_single(packed, q, J):
+    return com_single_into(packed, q, JACOBIAN, J)
 
 
 # -- public entry points ---------------------------------------------------------------------------
 _com_batch = Kernel(com_batch)
+_com_single = Entry(com_single, single_signature(VECTOR, VECTOR))
+_com_jacobian_single = Entry(com_jacobian_single, single_signature(VECTOR, MATRIX))
 
 
 def _run(model, q, v, what):
@@ -97,6 +141,13 @@ def _run(model, q, v, what):
 
 def center_of_mass(model, q):
     """The robot's centre of mass in the world, (3,) or (B, 3) (``model.total_mass`` is its mass)."""
+    try:  # one float64 vector: one compiled call, which checks it too (dynamics.checks.F64)
+        if q.dtype is F64 and q.ndim == 1:
+            out = np.empty(3)
+            if _com_single.call(model.packed, q, out) == DONE:
+                return out
+    except NOT_ARRAYS:
+        pass
     return _run(model, q, None, COM)
 
 
@@ -107,4 +158,11 @@ def center_of_mass_velocity(model, q, v):
 
 def com_jacobian(model, q):
     """Jcom (3, nv) or (B, 3, nv), world frame: center_of_mass_velocity = Jcom v."""
+    try:  # the fast path, as in center_of_mass
+        if q.dtype is F64 and q.ndim == 1:
+            out = np.empty((3, model.nv))
+            if _com_jacobian_single.call(model.packed, q, out) == DONE:
+                return out
+    except NOT_ARRAYS:
+        pass
     return _run(model, q, None, JACOBIAN)

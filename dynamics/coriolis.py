@@ -132,6 +132,7 @@ _coriolis_batch = Kernel(coriolis_batch)
 
 def coriolis_matrix(model, q, v):
     """C(q, v), (nv, nv) or (B, nv, nv): C v + g(q) = bias_forces(q, v), dM/dt - 2C skew-symmetric."""
+    checks.check_model(model)
     Q, (V,), B, batched = checks.state_batch(model, q, (("v", v, model.nv),))
     out = np.empty((B, model.nv, model.nv))
     run_chunks(_coriolis_batch, model.tree, (Q, V), (), out)

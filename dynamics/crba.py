@@ -11,7 +11,9 @@ Only the lower triangle is computed; the upper one is its mirror.
 import numpy as np
 
 from . import checks
-from ._numba import Kernel, kernel
+from ._numba import MATRIX, VECTOR, Entry, Kernel, inline_kernel, keep_alive, kernel, scratch, single_signature, view
+from .checks import DONE, F64, GENERAL, NOT_ARRAYS, config_ok
+from .model import unpack
 from .parallel import run_chunks
 from .joints import joint_transform
 from .spatial import add, force_to_parent, inertia_times, inertia_to_parent, load3, load33, store3, store33
@@ -21,6 +23,13 @@ from .spatial import add, force_to_parent, inertia_times, inertia_to_parent, loa
 def workspace(nb):
     """Scratch: poses (R, p) and composite inertias (m, h, Io)."""
     return np.empty((nb, 3, 3)), np.empty((nb, 3)), np.empty(nb), np.empty((nb, 3)), np.empty((nb, 3, 3))
+
+
+@inline_kernel
+def workspace_in(buf, nb):
+    """The same scratch borrowed from ``buf`` (25 nb floats, kept alive by the caller)."""
+    return (view(buf, 0, (nb, 3, 3)), view(buf, 9 * nb, (nb, 3)), view(buf, 12 * nb, nb), view(buf, 13 * nb, (nb, 3)),
+            view(buf, 16 * nb, (nb, 3, 3)))
 
 
 @kernel
@@ -74,12 +83,34 @@ def crba_batch(tree, Q, out):
         crba_into(tree, Q[b], ws, out[b])
 
 
+@kernel
+def crba_single(packed, q, M):
+    """One state from Python into a zeroed M, inputs checked in the call (status codes of
+    :mod:`dynamics.checks`)."""
+    tree, gravity, nq = unpack(packed)
+    nb = tree.parents.shape[0]
+    if not config_ok(tree, nq, q):
+        return GENERAL
+    buf = scratch(25 * nb)
+    crba_into(tree, q, workspace_in(buf, nb), M)
+    keep_alive(buf)
+    return DONE
+
+
 # -- public entry point ----------------------------------------------------------------------------
 _crba_batch = Kernel(crba_batch)
+_crba_single = Entry(crba_single, single_signature(VECTOR, MATRIX))
 
 
 def mass_matrix(model, q):
     """The joint-space mass matrix M(q) (CRBA), symmetric positive definite: (nv, nv) or (B, nv, nv)."""
+    try:  # one float64 vector: one compiled call, which checks it too (dynamics.checks.F64)
+        if q.dtype is F64 and q.ndim == 1:
+            M = np.zeros((model.nv, model.nv))  # crba_into writes the non-zero entries
+            if _crba_single.call(model.packed, q, M) == DONE:
+                return M
+    except NOT_ARRAYS:
+        pass
     checks.check_model(model)
     Q, batched = checks.configurations(model, q)
     out = np.empty((Q.shape[0], model.nv, model.nv))

@@ -79,6 +79,7 @@ _potential_energy_batch = Kernel(potential_energy_batch)
 
 def kinetic_energy(model, q, v):
     """T = 1/2 v^T M(q) v (J): a float, or (B,) for a batch."""
+    checks.check_model(model)
     Q, (V,), B, batched = checks.state_batch(model, q, (("v", v, model.nv),))
     out = np.empty(B)
     run_chunks(_kinetic_energy_batch, model.tree, (Q, V), (), out)

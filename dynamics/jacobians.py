@@ -13,10 +13,13 @@ A point does not change the "world" Jacobian: the spatial velocity of a body is 
 """
 
 import numpy as np
+from numba import types
 
 from . import checks
-from ._numba import Kernel, kernel
+from ._numba import MATRIX, VECTOR, Entry, Kernel, int_view, keep_alive, kernel, scratch, single_signature, view
+from .checks import DONE, F64, GENERAL, NOT_ARRAYS, config_ok
 from .kinematics import LOCAL, WORLD, frame_pose, support, world_poses
+from .model import unpack, unpack_frames
 from .parallel import run_chunks
 from .spatial import add, cross, load3, load33, rot, rotT
 
@@ -54,8 +57,23 @@ def jacobian_batch(tree, Q, frames, f, ref, point, out):
         jacobian_into(tree, frames, Q[b], f, ref, pt, path, oR, op, out[b])
 
 
+@kernel
+def jacobian_single(packed, q, f, ref, point, J):
+    """One state from Python into a zeroed J, q checked in the call (status codes of dynamics.checks)."""
+    tree, gravity, nq = unpack(packed)
+    nb = tree.parents.shape[0]
+    if not config_ok(tree, nq, q):
+        return GENERAL
+    buf = scratch(13 * nb)
+    jacobian_into(tree, unpack_frames(packed), q, f, ref, (point[0], point[1], point[2]), int_view(buf, 12 * nb, nb),
+                  view(buf, 0, (nb, 3, 3)), view(buf, 9 * nb, (nb, 3)), J)
+    keep_alive(buf)
+    return DONE
+
+
 # -- public entry point ----------------------------------------------------------------------------
 _jacobian_batch = Kernel(jacobian_batch)
+_jacobian_single = Entry(jacobian_single, single_signature(VECTOR, types.int64, types.int64, VECTOR, MATRIX))
 _ORIGIN = np.zeros(3)
 
 
@@ -67,6 +85,14 @@ def frame_jacobian(model, q, frame, *, reference="local_world_aligned", point=No
     three, same meaning.  ``point``: (3,) offset of a point fixed on the frame, in the frame's axes; the
     linear rows are then that point's velocity (the "world" Jacobian does not depend on it).
     """
+    try:  # one float64 q at the frame origin: one compiled call, which checks q too (dynamics.checks.F64)
+        if point is None and q.dtype is F64 and q.ndim == 1:
+            f, ref = checks.frame(model, frame), checks.reference(reference)
+            J = np.zeros((6, model.nv))
+            if _jacobian_single.call(model.packed, q, f, ref, _ORIGIN, J) == DONE:
+                return J
+    except NOT_ARRAYS:
+        pass
     checks.check_model(model)
     f = checks.frame(model, frame)
     ref = checks.reference(reference)

@@ -25,10 +25,14 @@ xdd = J a + Jdot v.
 """
 
 import numpy as np
+from numba import types
 
 from . import checks
-from ._numba import Kernel, inline_kernel, kernel
+from ._numba import VECTOR, Entry, Kernel, inline_kernel, int_view, keep_alive, kernel, scratch, single_signature, \
+    view
+from .checks import DONE, F64, GENERAL, NOT_ARRAYS, config_ok
 from .joints import joint_motion, joint_transform
+from .model import unpack, unpack_frames
 from .parallel import run_chunks
 from .spatial import add, cross, cross_motion, load3, load33, matmul, motion_to_child, rot, rotT, store3, store33
 
@@ -113,10 +117,32 @@ def placements_batch(tree, Q, frames, out):
     nb = tree.parents.shape[0]
     path, oR, op = np.arange(nb), np.empty((nb, 3, 3)), np.empty((nb, 3))
     for b in range(Q.shape[0]):
-        world_poses(tree, Q[b], path, nb, oR, op)
-        for f in range(frames.body.shape[0]):
-            R, p = frame_pose(frames, f, oR, op)
-            store_pose(R, p, out[b, f])
+        placements_into(tree, frames, Q[b], path, oR, op, out[b])
+
+
+@inline_kernel
+def placements_into(tree, frames, q, path, oR, op, out):
+    """out[f] = 4x4 world placement of every frame f at q (path = every body, 0..nb-1)."""
+    world_poses(tree, q, path, tree.parents.shape[0], oR, op)
+    for f in range(frames.body.shape[0]):
+        R, p = frame_pose(frames, f, oR, op)
+        store_pose(R, p, out[f])
+
+
+@kernel
+def placements_single(packed, q, out):
+    """One state from Python into out (nf, 4, 4), q checked in the call (status codes of dynamics.checks)."""
+    tree, gravity, nq = unpack(packed)
+    nb = tree.parents.shape[0]
+    if not config_ok(tree, nq, q):
+        return GENERAL
+    buf = scratch(13 * nb)
+    path = int_view(buf, 12 * nb, nb)
+    for i in range(nb):
+        path[i] = i
+    placements_into(tree, unpack_frames(packed), q, path, view(buf, 0, (nb, 3, 3)), view(buf, 9 * nb, (nb, 3)), out)
+    keep_alive(buf)
+    return DONE
 
 
 @kernel
@@ -180,12 +206,20 @@ def motion_batch(tree, Q, V, A, frames, f, ref, what, classical, out):
 _placements_batch = Kernel(placements_batch)
 _placement_batch = Kernel(placement_batch)
 _motion_batch = Kernel(motion_batch)
+_placements_single = Entry(placements_single, single_signature(VECTOR, types.float64[:, :, ::1]))
 
 
 def forward_kinematics(model, q):
     """World placement of every frame: (nframes, 4, 4), or (B, nframes, 4, 4) for a batch of q, in
     ``model.frame_names`` order (homogeneous matrices: rotation = the frame's axes in the world, translation =
     its origin)."""
+    try:  # one float64 vector: one compiled call, which checks it too (dynamics.checks.F64)
+        if q.dtype is F64 and q.ndim == 1:
+            out = np.empty((len(model.frames), 4, 4))
+            if _placements_single.call(model.packed, q, out) == DONE:
+                return out
+    except NOT_ARRAYS:
+        pass
     checks.check_model(model)
     Q, batched = checks.configurations(model, q)
     out = np.empty((Q.shape[0], len(model.frames), 4, 4))

@@ -22,9 +22,12 @@ loops specialised with their 6-vectors in locals; the free joint the generic one
 import numpy as np
 
 from . import checks
-from ._numba import Kernel, inline_kernel, kernel
+from ._numba import MATRIX, VECTOR, Entry, Kernel, inline_kernel, int_view, keep_alive, kernel, scratch, \
+    single_signature, view
+from .checks import DONE, F64, GENERAL, NOT_ARRAYS, config_ok
 from .errors import InputError
 from .kinematics import world_pose
+from .model import unpack
 from .parallel import run_chunks
 from .spatial import add, cross, inertia_to_parent, joint_gram, load3, load33, rot, spd_inverse, store_inertia6
 
@@ -35,6 +38,30 @@ def workspace(nb, nv):
             np.empty((nv, 6)), np.empty((nv, 6)), np.empty((nv, 6)),  # S (world), U, U D^-1
             np.empty((nb, 6, 6)), np.empty((nb, nv, 6)),  # D^-1, F then A (per column a 6-vector)
             np.empty(nb, np.int64), np.empty((6, 6)), np.empty((6, 6)))  # subtree sizes, D, scratch
+
+
+@inline_kernel
+def workspace_in(buf, nb, nv):
+    """The same scratch borrowed from ``buf`` (84 nb + 18 nv + 6 nb nv + 72 floats, kept alive by the caller)."""
+    o = 84 * nb + 18 * nv  # after the poses, I^A, S, U, U D^-1 and D^-1
+    return (view(buf, 0, (nb, 3, 3)), view(buf, 9 * nb, (nb, 3)), view(buf, 12 * nb, (nb, 6, 6)),
+            view(buf, 48 * nb, (nv, 6)), view(buf, 48 * nb + 6 * nv, (nv, 6)), view(buf, 48 * nb + 12 * nv, (nv, 6)),
+            view(buf, 48 * nb + 18 * nv, (nb, 6, 6)), view(buf, o, (nb, nv, 6)), int_view(buf, o + 6 * nb * nv, nb),
+            view(buf, o + 6 * nb * nv + nb, (6, 6)), view(buf, o + 6 * nb * nv + nb + 36, (6, 6)))
+
+
+@kernel
+def minverse_single(packed, q, Minv):
+    """One state from Python, q checked in the call (status codes of dynamics.checks; a singular joint takes
+    the general path, which names it)."""
+    tree, gravity, nq = unpack(packed)
+    nb, nv = tree.parents.shape[0], tree.S.shape[0]
+    if not config_ok(tree, nq, q):
+        return GENERAL
+    buf = scratch(84 * nb + 18 * nv + 6 * nb * nv + nb + 72)
+    singular = minverse_into(tree, q, workspace_in(buf, nb, nv), Minv)
+    keep_alive(buf)
+    return DONE if singular < 0 else GENERAL
 
 
 @kernel
@@ -252,12 +279,20 @@ def run_checked(model, kernel, batched, shared, out, what):
 
 
 _minverse_batch = Checked(minverse_batch)
+_minverse_single = Entry(minverse_single, single_signature(VECTOR, MATRIX))
 
 
 def inverse_mass_matrix(model, q):
     """M(q)^-1, (nv, nv) or (B, nv, nv), computed directly in O(n^2) (not by inverting M; module docstring).
 
     Raises InputError naming the joint when M is singular (a joint that moves no mass or inertia)."""
+    try:  # one float64 vector: one compiled call, which checks it too (dynamics.checks.F64)
+        if q.dtype is F64 and q.ndim == 1:
+            Minv = np.empty((model.nv, model.nv))
+            if _minverse_single.call(model.packed, q, Minv) == DONE:
+                return Minv
+    except NOT_ARRAYS:
+        pass
     checks.check_model(model)
     Q, batched = checks.configurations(model, q)
     out = np.empty((Q.shape[0], model.nv, model.nv))

@@ -22,6 +22,16 @@ mass               (nb,)            body mass (kg)
 h                  (nb,3)           first moment of mass m*c in the body frame (kg m)
 Io                 (nb,3,3)         rotational inertia about the body frame origin, body frame (kg m^2)
 =================  ===============  =====================================================================
+
+The same arrays also exist packed into one flat array, ``Model.packed`` (:func:`pack`, built once with the
+model): a compiled call from Python unboxes each array argument (~60 ns each, ~1 us for the 12 arrays of a
+Tree), so the single-state entry points pass this one and :func:`unpack` rebuilds the :class:`Tree` as views
+inside the kernel.  Layout (in order, nothing between; the floats are stored bit for bit as int64):
+
+    [nb, nq, nv, parents, jtype, q_idx, v_idx, nv_j,                                   ints (3 + 5 nb)
+     gravity(3), Xrot(9 nb), Xpos(3 nb), axis(3 nb), S(6 nv), mass(nb), h(3 nb), Io(9 nb),   floats
+     nf, body(nf),                                                                   ints
+     R(9 nf), p(3 nf)]                                                          floats (the frames)
 """
 
 from dataclasses import dataclass, field
@@ -30,6 +40,7 @@ from typing import NamedTuple
 import numpy as np
 
 from . import reorder
+from ._numba import float_view, inline_kernel, view
 from .joints import JOINT_FREE, JOINT_NQ, JOINT_NV, URDF_JOINT_CODES, motion_subspace
 
 
@@ -56,6 +67,44 @@ class Frames(NamedTuple):
     body: np.ndarray  # (nf,) int64: the body the frame is fixed to, -1 for the world
     R: np.ndarray  # (nf, 3, 3): the frame's axes in that body's frame
     p: np.ndarray  # (nf, 3): the frame's origin in that body's frame
+
+
+def pack(tree, gravity, frames):
+    """The model's arrays as one read-only int64 array (layout in the module docstring)."""
+    nb, nv = tree.parents.shape[0], tree.S.shape[0]
+    nq = int(sum(7 if c == JOINT_FREE else 1 for c in tree.jtype))
+    floats = np.concatenate([np.ravel(x).astype(np.float64) for x in (gravity, tree.Xrot, tree.Xpos, tree.axis,
+                                                                      tree.S, tree.mass, tree.h, tree.Io)])
+    ints = np.array([nb, nq, nv, *tree.parents, *tree.jtype, *tree.q_idx, *tree.v_idx, *tree.nv_j], np.int64)
+    nf = frames.body.shape[0]
+    frame_floats = np.concatenate([np.ravel(frames.R), np.ravel(frames.p)]).astype(np.float64)
+    return _frozen(np.concatenate([ints, floats.view(np.int64), [nf], frames.body, frame_floats.view(np.int64)]),
+                   np.int64)
+
+
+@inline_kernel
+def unpack(packed):
+    """(tree, gravity, nq) from the packed model: borrowed views (:func:`dynamics._numba.view`), nothing
+    copied; they live as long as the call that unpacks them."""
+    nb, nq, nv = packed[0], packed[1], packed[2]
+    f = 3 + 5 * nb  # the floats: gravity, Xrot, Xpos, axis, S, then mass, h, Io from o
+    o = f + 3 + 15 * nb + 6 * nv
+    tree = Tree(view(packed, 3, nb), view(packed, 3 + nb, nb), view(packed, 3 + 2 * nb, nb),
+                view(packed, 3 + 3 * nb, nb), view(packed, 3 + 4 * nb, nb), float_view(packed, f + 3, (nb, 3, 3)),
+                float_view(packed, f + 3 + 9 * nb, (nb, 3)), float_view(packed, f + 3 + 12 * nb, (nb, 3)),
+                float_view(packed, f + 3 + 15 * nb, (nv, 6)), float_view(packed, o, nb),
+                float_view(packed, o + nb, (nb, 3)), float_view(packed, o + 4 * nb, (nb, 3, 3)))
+    return tree, float_view(packed, f, 3), nq
+
+
+@inline_kernel
+def unpack_frames(packed):
+    """The frames (:class:`Frames`) from the packed model, as :func:`unpack`."""
+    nb, nv = packed[0], packed[2]
+    e = 6 + 33 * nb + 6 * nv  # after the tree
+    nf = packed[e]
+    return Frames(view(packed, e + 1, nf), float_view(packed, e + 1 + nf, (nf, 3, 3)),
+                  float_view(packed, e + 1 + 10 * nf, (nf, 3)))
 
 
 def _frozen(a, dtype=np.float64):
@@ -98,6 +147,9 @@ class Model:
     #: closed loops and coupled joints (:mod:`dynamics.constraints`), added by :func:`dynamics.with_constraints`
     #: or by load_urdf (``<mimic>``, ``<loop>``); empty for a plain tree
     constraints: tuple = ()
+
+    def __post_init__(self):
+        object.__setattr__(self, "packed", pack(self.tree, self.gravity, self.frame_arrays))
 
     # -- sizes ---------------------------------------------------------------------------------------
     @property

@@ -15,9 +15,9 @@ Backward pass:  tau_i = S_i^T f_i ,  f_p += X_i^T f_i .
 import numpy as np
 
 from . import checks
-from ._numba import Kernel, inline_kernel, kernel
-from .checks import inputs_ok
-from .model import Model
+from ._numba import VECTOR, Entry, Kernel, inline_kernel, keep_alive, kernel, scratch, single_signature, view
+from .checks import DONE, F64, GENERAL, NOT_ARRAYS, config_ok, nonzero, vector_ok
+from .model import unpack
 from .parallel import run_chunks
 from .joints import joint_motion, joint_transform, project_force
 from .spatial import (add, cross, cross_force, cross_motion, force_to_parent, inertia_times, load3, load33,
@@ -26,13 +26,21 @@ from .spatial import (add, cross, cross_force, cross_motion, force_to_parent, in
 
 @kernel
 def workspace(nb):
-    """Scratch for one state: poses (R, p), velocities (w, v), accelerations (aw, av), forces (n, f),
-    carved out of one allocation."""
+    """Scratch for one state, owned (the caller may keep it): the same arrays as :func:`workspace_in`."""
     buf = np.empty(nb * 30)
     return (buf[:9 * nb].reshape((nb, 3, 3)), buf[9 * nb:12 * nb].reshape((nb, 3)),
             buf[12 * nb:15 * nb].reshape((nb, 3)), buf[15 * nb:18 * nb].reshape((nb, 3)),
             buf[18 * nb:21 * nb].reshape((nb, 3)), buf[21 * nb:24 * nb].reshape((nb, 3)),
             buf[24 * nb:27 * nb].reshape((nb, 3)), buf[27 * nb:30 * nb].reshape((nb, 3)))
+
+
+@inline_kernel
+def workspace_in(buf, nb):
+    """Scratch for one state, borrowed from ``buf`` (30 nb floats, kept alive by the caller): poses (R, p),
+    velocities (w, v), accelerations (aw, av), forces (n, f)."""
+    return (view(buf, 0, (nb, 3, 3)), view(buf, 9 * nb, (nb, 3)), view(buf, 12 * nb, (nb, 3)),
+            view(buf, 15 * nb, (nb, 3)), view(buf, 18 * nb, (nb, 3)), view(buf, 21 * nb, (nb, 3)),
+            view(buf, 24 * nb, (nb, 3)), view(buf, 27 * nb, (nb, 3)))
 
 
 @inline_kernel
@@ -138,16 +146,6 @@ def rnea_into(tree, q, v, a, gravity, f_ext, ws, tau):
 
 
 @kernel
-def rnea_single(tree, q, v, a, gravity):
-    """One state, inputs checked in the same compiled call: (tau, inputs were valid)."""
-    tau = np.empty(tree.S.shape[0])
-    if not inputs_ok(tree, q, (v, a)):
-        return tau, False
-    rnea_into(tree, q, v, a, gravity, np.zeros((0, 6)), workspace(tree.parents.shape[0]), tau)
-    return tau, True
-
-
-@kernel
 def rnea_batch(tree, Q, V, A, F, gravity, with_v, with_a, out):
     """Rows of ``out`` = RNEA of the rows of Q, V, A (V or A may have one row when unused); F is
     (1 or B, nb or 0, 6)."""
@@ -157,13 +155,53 @@ def rnea_batch(tree, Q, V, A, F, gravity, with_v, with_a, out):
         rnea_terms(tree, Q[b], V[min(b, lv)], A[min(b, la)], gravity, F[min(b, lf)], ws, out[b], with_v, with_a)
 
 
+# -- one state from Python: inputs checked inside the call (status codes of dynamics.checks) ----------------
+@kernel
+def rnea_single(packed, q, v, a, tau):
+    tree, gravity, nq = unpack(packed)
+    nb, nv = tree.parents.shape[0], tree.S.shape[0]
+    if not (config_ok(tree, nq, q) and vector_ok(v, nv) and vector_ok(a, nv)):
+        return GENERAL
+    buf = scratch(30 * nb)
+    rnea_terms(tree, q, v, a, gravity, view(buf, 0, (0, 6)), workspace_in(buf, nb), tau, nonzero(v), nonzero(a))
+    keep_alive(buf)
+    return DONE
+
+
+@kernel
+def bias_single(packed, q, v, tau):
+    tree, gravity, nq = unpack(packed)
+    nb, nv = tree.parents.shape[0], tree.S.shape[0]
+    if not (config_ok(tree, nq, q) and vector_ok(v, nv)):
+        return GENERAL
+    buf = scratch(30 * nb)
+    rnea_terms(tree, q, v, v, gravity, view(buf, 0, (0, 6)), workspace_in(buf, nb), tau, nonzero(v), False)
+    keep_alive(buf)
+    return DONE
+
+
+@kernel
+def gravity_single(packed, q, tau):
+    tree, gravity, nq = unpack(packed)
+    nb = tree.parents.shape[0]
+    if not config_ok(tree, nq, q):
+        return GENERAL
+    buf = scratch(30 * nb)
+    gravity_into(tree, q, gravity, workspace_in(buf, nb), tau)
+    keep_alive(buf)
+    return DONE
+
+
 # -- public entry points ---------------------------------------------------------------------------
 _rnea_batch = Kernel(rnea_batch)
-_rnea_single = Kernel(rnea_single)
 _gravity_batch = Kernel(gravity_batch)
+_rnea_single = Entry(rnea_single, single_signature(VECTOR, VECTOR, VECTOR, VECTOR))
+_bias_single = Entry(bias_single, single_signature(VECTOR, VECTOR, VECTOR))
+_gravity_single = Entry(gravity_single, single_signature(VECTOR, VECTOR))
 
 
 def _run(model, q, v, a, gravity, f_ext):
+    checks.check_model(model)
     Q, (V, A), B, batched = checks.state_batch(model, q, (("v", v, model.nv), ("a", a, model.nv)))
     F = checks.external_forces(model, f_ext, B)
     g = checks.gravity_vector(model, gravity)
@@ -192,16 +230,26 @@ def inverse_dynamics(model, q, v, a, *, gravity=None, f_ext=None):
     f_ext: (nbodies, 6) or (B, nbodies, 6), one [force, torque] per body in its body frame, torque about the
     body frame origin.  Returns tau of shape (nv,) or (B, nv).
     """
-    if (gravity is None and f_ext is None and type(model) is Model and checks.is_state(q, model.nq)
-            and checks.is_state(v, model.nv) and checks.is_state(a, model.nv)):
-        tau, ok = _rnea_single(model.tree, q, v, a, model.gravity)
-        if ok:
-            return tau
+    try:  # one state of float64 vectors: one compiled call, which checks them too (dynamics.checks.F64)
+        if gravity is None and f_ext is None and q.dtype is v.dtype is a.dtype is F64 \
+                and q.ndim == v.ndim == a.ndim == 1:
+            tau = np.empty(model.nv)
+            if _rnea_single.call(model.packed, q, v, a, tau) == DONE:
+                return tau
+    except NOT_ARRAYS:
+        pass
     return _run(model, q, v, a, gravity, f_ext)
 
 
 def gravity_torques(model, q, *, gravity=None):
     """g(q): the torques that hold the robot still against gravity, (nv,) or (B, nv)."""
+    try:  # the fast path, as in inverse_dynamics
+        if gravity is None and q.dtype is F64 and q.ndim == 1:
+            tau = np.empty(model.nv)
+            if _gravity_single.call(model.packed, q, tau) == DONE:
+                return tau
+    except NOT_ARRAYS:
+        pass
     checks.check_model(model)
     Q, batched = checks.configurations(model, q)
     out = np.empty((Q.shape[0], model.nv))
@@ -211,4 +259,12 @@ def gravity_torques(model, q, *, gravity=None):
 
 def bias_forces(model, q, v, *, gravity=None):
     """C(q, v) v + g(q): inverse dynamics at zero acceleration, (nv,) or (B, nv)."""
+    try:  # the fast path, as in inverse_dynamics
+        if gravity is None and q.dtype is v.dtype is F64 and q.ndim == v.ndim == 1:
+            tau = np.empty(model.nv)
+            if _bias_single.call(model.packed, q, v, tau) == DONE:
+                return tau
+    except NOT_ARRAYS:
+        pass
+    checks.check_model(model)
     return _run(model, q, v, np.zeros(model.nv), gravity, None)

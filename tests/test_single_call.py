@@ -1,0 +1,168 @@
+"""The single-state fast path (one compiled call that checks its inputs itself, on the packed model) against the
+general path: the same numbers bit for bit, and every bad input the same clear error."""
+
+import pickle
+import re
+import threading
+
+import numpy as np
+import pytest
+
+import dynamics
+from robots import chain_urdf, erd, random_state, random_urdf
+
+ROBOTS = {
+    "panda": (erd("panda_description/urdf/panda.urdf"), False),
+    "ur5": (erd("ur_description/urdf/ur5_robot.urdf"), False),
+    "talos": (erd("talos_data/robots/talos_reduced.urdf"), True),
+    "random-floating": (random_urdf(np.random.default_rng(3), 9, floating_joint=True), False),
+}
+
+# name -> (function, which of (q, v, a/tau) it takes)
+FUNCTIONS = {
+    "inverse_dynamics": (dynamics.inverse_dynamics, 3),
+    "forward_dynamics": (dynamics.forward_dynamics, 3),
+    "mass_matrix": (dynamics.mass_matrix, 1),
+    "gravity_torques": (dynamics.gravity_torques, 1),
+    "bias_forces": (dynamics.bias_forces, 2),
+}
+
+
+@pytest.fixture(scope="module", params=list(ROBOTS))
+def model(request):
+    source, floating = ROBOTS[request.param]
+    return dynamics.load_urdf(source, floating_base=floating)
+
+
+def _states(model, seed=0):
+    rng = np.random.default_rng(seed)
+    q, v, a = random_state(model, rng)
+    zero = np.zeros(model.nv)
+    return [(q, v, a), (q, zero, a), (q, v, zero), (q, zero, zero)]  # zero terms are skipped on both paths
+
+
+@pytest.mark.parametrize("name", list(FUNCTIONS))
+def test_fast_path_equals_batched_and_general_bit_for_bit(model, name):
+    f, n = FUNCTIONS[name]
+    for state in _states(model):
+        args = state[:n]
+        fast = f(model, *args)
+        batched = f(model, *(np.stack([x, x]) for x in args))
+        general = f(model, *(list(x) for x in args))  # lists: the general path for one state
+        assert fast.shape == general.shape == batched.shape[1:]
+        np.testing.assert_array_equal(fast, batched[0])
+        np.testing.assert_array_equal(fast, batched[1])
+        np.testing.assert_array_equal(fast, general)
+
+
+def test_fast_path_is_independent_of_layout_and_writeability(model):
+    """Strided, read-only and integer inputs are not the fast path's: they take the general path, same answer."""
+    q, v, a = _states(model)[0]
+    tau = dynamics.inverse_dynamics(model, q, v, a)
+    strided = np.empty((model.nq, 2))
+    strided[:, 0] = q
+    frozen = q.copy()
+    frozen.flags.writeable = False
+    np.testing.assert_array_equal(dynamics.inverse_dynamics(model, strided[:, 0], v, a), tau)
+    np.testing.assert_array_equal(dynamics.inverse_dynamics(model, frozen, v, a), tau)
+    qi = np.round(q).astype(np.int64)
+    np.testing.assert_array_equal(dynamics.mass_matrix(model, qi), dynamics.mass_matrix(model, qi.astype(float)))
+    np.testing.assert_array_equal(dynamics.gravity_torques(model, q.astype(np.float32)),
+                                  dynamics.gravity_torques(model, q.astype(np.float32).astype(float)))
+
+
+def _call(f, n, model, q, v, a):
+    return f(model, *(q, v, a)[:n])
+
+
+def _bad_inputs(model):
+    """(what, q, v, a, expected message) for one state of float64 vectors: the fast path's own inputs."""
+    q, v, a = _states(model)[0]
+    out = []
+    for k, (arg, x) in enumerate(zip("qva", (q, v, a))):
+        nan, inf, short = x.copy(), x.copy(), x[:-1].copy()
+        nan[0], inf[-1] = np.nan, -np.inf
+        for what, bad, msg in ((f"nan in {arg}", nan, "contains non-finite values"),
+                               (f"inf in {arg}", inf, "contains non-finite values"),
+                               (f"short {arg}", short, r"expected shape \(")):
+            args = [q, v, a]
+            args[k] = bad
+            out.append((k, what, *args, msg))
+    return out
+
+
+@pytest.mark.parametrize("name", list(FUNCTIONS))
+def test_every_bad_input_gets_the_general_paths_error(model, name):
+    f, n = FUNCTIONS[name]
+    arg_names = ("q", "v", "tau" if name == "forward_dynamics" else "a")
+    for k, what, q, v, a, msg in _bad_inputs(model):
+        if k >= n:
+            continue
+        with pytest.raises(dynamics.InputError) as fast:
+            _call(f, n, model, q, v, a)
+        with pytest.raises(dynamics.InputError) as general:  # lists never take the fast path
+            _call(f, n, model, list(q), list(v), list(a))
+        assert str(fast.value) == str(general.value), what
+        assert str(fast.value).startswith(arg_names[k] + ": "), (what, str(fast.value))
+        assert re.search(msg, str(fast.value)), (what, str(fast.value))
+
+
+def test_zero_quaternion_and_non_model_errors_are_unchanged():
+    talos = dynamics.load_urdf(*ROBOTS["talos"][:1], floating_base=True)
+    q = talos.neutral()
+    q[3:7] = 0.0
+    v = np.zeros(talos.nv)
+    for f, args in ((dynamics.inverse_dynamics, (q, v, v)), (dynamics.forward_dynamics, (q, v, v)),
+                    (dynamics.mass_matrix, (q,)), (dynamics.gravity_torques, (q,)), (dynamics.bias_forces, (q, v))):
+        with pytest.raises(dynamics.InputError, match=r"q: the quaternion q\[3:7\] of a floating joint is zero"):
+            f(talos, *args)
+    with pytest.raises(dynamics.InputError, match="model: expected a dynamics.Model"):
+        dynamics.inverse_dynamics("panda", np.zeros(3), np.zeros(3), np.zeros(3))
+    with pytest.raises(dynamics.InputError, match="model: expected a dynamics.Model"):
+        dynamics.mass_matrix(None, np.zeros(3))
+
+
+def test_singular_joint_is_named_on_the_fast_path():
+    text = chain_urdf(2)  # the last link carries nothing: M is singular at joint1
+    head, tail = text.rsplit('<link name="link1">', 1)
+    model = dynamics.load_urdf(head + '<link name="link1"/>' + tail.split("</link>", 1)[1])
+    with pytest.raises(dynamics.InputError, match="singular at joint 'joint1'"):
+        dynamics.forward_dynamics(model, np.array([0.1, 0.2]), np.zeros(2), np.zeros(2))
+
+
+def test_wrong_rank_never_reaches_the_compiled_call():
+    """A (1, n) row or a 0-d array is not a state vector: the general path answers (a batch of one) or refuses."""
+    model = dynamics.load_urdf(chain_urdf(3))
+    q = np.array([[0.1, 0.2, 0.3]])
+    assert dynamics.mass_matrix(model, q).shape == (1, 3, 3)
+    with pytest.raises(dynamics.InputError, match=r"q: expected shape \(3,\) or \(B, 3\), got \(\)"):
+        dynamics.gravity_torques(model, np.float64(0.1))
+
+
+def test_concurrent_single_calls_agree():
+    """Each compiled call keeps its scratch on its own stack: threads never share it."""
+    model = dynamics.load_urdf(ROBOTS["panda"][0])
+    states = [random_state(model, np.random.default_rng(k)) for k in range(8)]
+    expected = [dynamics.forward_dynamics(model, q, v, a) for q, v, a in states]
+    errors = []
+
+    def work():
+        for _ in range(200):
+            for (q, v, a), ref in zip(states, expected):
+                if not np.array_equal(dynamics.forward_dynamics(model, q, v, a), ref):
+                    errors.append(1)
+
+    threads = [threading.Thread(target=work) for _ in range(4)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    assert not errors
+
+
+def test_packed_model_survives_pickling():
+    model = dynamics.load_urdf(ROBOTS["ur5"][0])
+    clone = pickle.loads(pickle.dumps(model))
+    assert not clone.packed.flags.writeable
+    q, v, a = _states(model)[0]
+    np.testing.assert_array_equal(dynamics.inverse_dynamics(clone, q, v, a), dynamics.inverse_dynamics(model, q, v, a))
