@@ -109,6 +109,12 @@ def check_model(model):
         raise InputError(f"model: expected a dynamics.Model (from load_urdf), got {type(model).__name__}")
 
 
+def is_state(x, n):
+    """True for a C-contiguous writable float64 vector of length n (the constrained single-state path)."""
+    return (type(x) is np.ndarray and x.dtype == np.float64 and x.shape == (n,) and x.flags.c_contiguous
+            and x.flags.writeable)
+
+
 _KIND_NAMES = {"U": "strings", "S": "bytes", "c": "complex numbers", "b": "booleans", "O": "Python objects",
                "M": "dates", "m": "time spans", "V": "records"}
 

@@ -42,7 +42,7 @@ from ._numba import Kernel, kernel
 from .configuration import integrate_q
 from .constraints import arrays, constraint_terms
 from .constraints import workspace as terms_workspace
-from .checks import inputs_ok
+from .checks import config_ok, vector_ok
 from .errors import InputError
 from .model import Model
 from .crba import crba_into
@@ -240,7 +240,7 @@ def constrained_fd_single(tree, C, gravity, q, v, tau, alpha, beta):
     input or a zero quaternion (the general path then says which), else as constrained_accel_kernel."""
     nb, nv, m = tree.parents.shape[0], tree.S.shape[0], C_rows(C)
     a, lam = np.empty(nv), np.empty(m)
-    if not inputs_ok(tree, q, (v, tau)):
+    if not (config_ok(tree, q.shape[0], q) and vector_ok(v, nv) and vector_ok(tau, nv)):
         return a, lam, -2
     return a, lam, constrained_accel_kernel(tree, C, gravity, q, v, tau, alpha, beta, workspace(nb, nv, m), a, lam)
 
