@@ -17,7 +17,8 @@ from fastapi.openapi.utils import get_openapi
 from . import __version__, errors, schemas
 from .auth import ApiKeys
 from .deps import Deps
-from .routes import dynamics, health, robots, simulate
+from .jobs.manager import Jobs
+from .routes import dynamics, health, jobs, robots, simulate
 from .settings import Settings, configure_logging
 
 DESCRIPTION = ("Rigid-body dynamics of URDF robots: inverse and forward dynamics, mass matrix, simulation. "
@@ -33,7 +34,7 @@ def _openapi(app: FastAPI):
         doc = get_openapi(title=app.title, version=app.version, description=app.description, routes=app.routes)
         components = doc.setdefault("components", {}).setdefault("schemas", {})
         requests = [schema for schema, _, _ in dynamics.ROUTES.values()] + [schemas.SimulateRequest,
-                                                                              schemas.UploadRequest]
+                                                                              schemas.UploadRequest, schemas.JobRequest]
         for model in requests:
             js = model.model_json_schema(ref_template="#/components/schemas/{model}")
             components.update(js.pop("$defs", {}))
@@ -52,14 +53,16 @@ def create_app(settings: Optional[Settings] = None) -> FastAPI:
     @asynccontextmanager
     async def lifespan(app: FastAPI):
         app.state.deps = Deps.start(settings)
+        app.state.jobs = Jobs.start(settings, app.state.deps.models)
         try:
             yield
         finally:
+            app.state.jobs.close()
             app.state.deps.close()
 
     app = FastAPI(title="dynamics", version=__version__, lifespan=lifespan, description=DESCRIPTION)
     errors.install(app)
-    for module in (health, robots, dynamics, simulate):
+    for module in (health, robots, dynamics, simulate, jobs):
         app.include_router(module.router)
     app.add_middleware(ApiKeys, keys=settings.api_keys, open_paths=health.OPEN_PATHS)
     app.openapi = _openapi(app)
