@@ -18,7 +18,7 @@ from .. import schemas
 from ..auth import caller
 from ..codec import JSON, NPZ, encode, read_body, wants_npz
 from ..deps import Deps, deps
-from ..errors import NotOffered
+from ..errors import NotOffered, TooLarge
 from ..jobs.files import read_npz
 from ..jobs.manager import Jobs
 from . import ERRORS, body_doc
@@ -43,7 +43,12 @@ def _json(doc, status: int = 200, headers: Optional[dict[str, str]] = None) -> R
              summary="submit a job (simulate_many, or a dynamics batch of any size); answers at once with its id")
 async def submit(request: Request, d: Deps = Depends(deps), owner: Optional[str] = Depends(caller)) -> Response:
     jobs = _jobs(request)
-    body = await read_body(request, jobs.settings.max_job_input_bytes)
+    limit = jobs.settings.max_job_input_bytes
+    try:
+        body = await read_body(request, limit)
+    except TooLarge:
+        raise TooLarge(f"body: larger than the jobs' limit of {limit} bytes (DYNAMICS_MAX_JOB_INPUT_BYTES); split "
+                       f"the job", "body", headers={"Connection": "close"}) from None
     status = await d.compute.run(jobs.submit, owner, body, request.headers.get("content-type"))
     return _json(status, 202, {"Location": status["status_url"]})
 
