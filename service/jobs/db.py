@@ -130,6 +130,10 @@ class JobDB:
         rows = self._conn().execute(f"SELECT * FROM jobs WHERE status IN ({marks}) ORDER BY created", states)
         return [JobRecord.from_row(r) for r in rows]
 
+    def of_owner(self, owner: str) -> list[JobRecord]:
+        rows = self._conn().execute("SELECT * FROM jobs WHERE owner = ? ORDER BY created", (owner,))
+        return [JobRecord.from_row(r) for r in rows]
+
     def expired(self, before: float) -> list[str]:
         return [r[0] for r in self._conn().execute(
             f"SELECT id FROM jobs WHERE status NOT IN {ACTIVE} AND finished < ?", (before,))]
@@ -163,14 +167,14 @@ class JobDB:
     def finish(self, job_id: str, boot: str, result_bytes: int, seconds: float) -> bool:
         with self._tx() as c:
             n = c.execute("UPDATE jobs SET status = 'done', done = total, result_bytes = ?, compute_seconds = ?, "
-                          "finished = ?, boot = NULL WHERE id = ? AND status = 'running' AND boot = ?",
+                          "input_bytes = 0, finished = ?, boot = NULL WHERE id = ? AND status = 'running' AND boot = ?",
                           (result_bytes, seconds, time.time(), job_id, boot)).rowcount
         return n == 1
 
     def fail(self, job_id: str, reason: str, boot: Optional[str] = None) -> None:
         """Failed for good, with the reason (only if still active, and still ``boot``'s when given)."""
         with self._tx() as c:
-            c.execute(f"UPDATE jobs SET status = 'failed', error = ?, finished = ?, boot = NULL "
+            c.execute(f"UPDATE jobs SET status = 'failed', error = ?, finished = ?, boot = NULL, input_bytes = 0 "
                       f"WHERE id = ? AND status IN {ACTIVE} AND (? IS NULL OR boot = ?)",
                       (reason, time.time(), job_id, boot, boot))
 
@@ -185,7 +189,8 @@ class JobDB:
                 c.execute("UPDATE jobs SET status = 'queued', boot = NULL, error = ? WHERE id = ?",
                           (f"restarted: {reason}", job_id))
                 return "queued"
-            c.execute("UPDATE jobs SET status = 'failed', boot = NULL, finished = ?, error = ? WHERE id = ?",
+            c.execute("UPDATE jobs SET status = 'failed', boot = NULL, finished = ?, error = ?, input_bytes = 0 "
+                      "WHERE id = ?",
                       (time.time(), f"{reason} (attempt {row[0]} of {max_attempts}; not retried)", job_id))
             return "failed"
 

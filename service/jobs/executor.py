@@ -112,6 +112,8 @@ class Executor:
             if isinstance(error, BrokenProcessPool):  # the worker died (killed, out of memory): a fresh pool
                 self.pool = None
                 status = self.db.retry_or_fail(job_id, "its worker process died", self.settings.job_attempts)
+                if status == "failed":
+                    self.files.remove(job_id)
                 log.warning("jobs: %s lost its worker process; now %s", job_id, status)
             elif error is not None:
                 self.db.fail(job_id, f"internal error: {type(error).__name__}: {error}", self.boot)
@@ -143,6 +145,8 @@ class Executor:
             if not self._alive(job.boot):
                 status = self.db.retry_or_fail(job.id, "the server running it stopped (crash or kill)",
                                                self.settings.job_attempts)
+                if status == "failed":
+                    self.files.remove(job.id)
                 log.warning("jobs: %s was running on a server that is gone; now %s", job.id, status)
         for path in self.files.root.joinpath("boots").glob("*.lock"):
             if not self._alive(path.stem):

@@ -147,8 +147,7 @@ class Jobs:
         return self.describe(self.get(owner, job_id))
 
     def list(self, owner: Optional[str]) -> list[dict[str, Any]]:
-        return [self.describe(j) for j in self.db.with_status(*("queued", "running", "done", "failed", "cancelled"))
-                if j.owner == (owner or "")]
+        return [self.describe(j) for j in self.db.of_owner(owner or "")]
 
     def result(self, owner: Optional[str], job_id: str) -> tuple[JobRecord, Path]:
         job = self.get(owner, job_id)

@@ -182,9 +182,11 @@ def run_job(files: JobFiles, job_id: str, boot: str) -> None:
             files.remove(job_id, keep_result=now is not None and now.status == "done")
         elif isinstance(e, ValueError):  # the library's InputError (names the argument) and our own refusals
             db.fail(job_id, str(e), boot)
+            files.remove(job_id)
         else:
             log.error("job %s failed:\n%s", job_id, traceback.format_exc())
             db.fail(job_id, f"internal error: {type(e).__name__}: {e}", boot)
+            files.remove(job_id)
 
 
 def _run(files: JobFiles, settings: Settings, db: JobDB, store: RobotStore, models: ModelCache, job: JobRecord,
@@ -244,8 +246,8 @@ def check_inputs(kind_name: str, model, inputs: dict[str, np.ndarray], spec: dic
         if name not in inputs:
             return f"inputs.{name}: missing (required for {kind_name})"
         x, n = inputs[name], sizes[name]
-        ok = (x.ndim == 1 and x.shape == (n,) and kind_name == "simulate_many") or (x.ndim == 2 and x.shape == (total, n))
-        if not ok:
+        one_row = x.ndim == 1 and x.shape == (n,) and kind_name == "simulate_many"  # shared by every run
+        if not (one_row or x.shape == (total, n)):
             rows = f"({n},) or ({total}, {n})" if kind_name == "simulate_many" else f"(B, {n})"
             return f"inputs.{name}: expected shape {rows}, got {x.shape}"
     return None
