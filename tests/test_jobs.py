@@ -147,7 +147,10 @@ def test_refusals_name_the_field(alice, server):
                                                                             "a": [[0, 0, 0]]}}, 422, "inputs.a"),
              ({"robot": "planar-2r", "kind": "simulate_many", "inputs": {"q0": [0, 0], "v0": [0, 0]}}, 422,
               "options.duration"),
-             ({"robot": "planar-2r", "kind": "mass_matrix", "inputs": {"q": [[0, 0]], "x": [1]}}, 422, "inputs.x")]
+             ({"robot": "planar-2r", "kind": "mass_matrix", "inputs": {"q": [[0, 0]], "x": [1]}}, 422, "inputs.x"),
+             ({"robot": "planar-2r", "kind": "simulate_many", "options": {"duration": 1},
+               "inputs": {"q0": [0, 0], "v0": [0, 0], "torque": {"type": "pd", "q_target": [0, 0]}}}, 422,
+              "inputs.torque.kp")]
     for body, status, field in cases:
         r = httpx.post(server.url + "/v1/jobs", json=body, headers={"Authorization": "Bearer alice-key"})
         assert (r.status_code, r.json()["field"]) == (status, field), r.text

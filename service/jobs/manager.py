@@ -16,7 +16,7 @@ from pathlib import Path
 from typing import Any, Optional
 
 import numpy as np
-from pydantic import TypeAdapter
+from pydantic import TypeAdapter, ValidationError
 
 from .. import errors, schemas
 from ..codec import decode, to_array
@@ -127,9 +127,12 @@ class Jobs:
         if torque is not None:
             try:
                 parsed = _TORQUE.validate_python(torque).model_dump(exclude_none=True)
-            except Exception as e:  # pydantic's ValidationError, named for the caller
-                raise InvalidInput(f"inputs.torque: {str(e).splitlines()[-2].strip() if ':' in str(e) else e}",
-                                   "inputs.torque") from None
+            except ValidationError as e:
+                err = e.errors(include_url=False)[0]
+                where = ".".join(["inputs", "torque", *(str(p) for p in err["loc"][1:])])
+                raise InvalidInput(f"{where}: {err['msg']}", where) from None
+            except InvalidInput as e:  # an array field that is no array ("q_target: expected a number, ...")
+                raise InvalidInput(f"inputs.torque.{e.detail}", f"inputs.torque.{e.field}") from None
             for name, value in list(parsed.items()):
                 if isinstance(value, np.ndarray):
                     arrays[f"torque.{name}"] = parsed.pop(name)
