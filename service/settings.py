@@ -77,7 +77,7 @@ class Settings:
     max_job_result_bytes: int = 2 * 1024 * 1024 * 1024
     # Jobs queued or running at once per API key (429 past it).
     max_jobs_per_key: int = 4
-    # Disk kept for one key's job inputs and results (507 past it) and for all keys together.
+    # Disk kept for one key's job inputs and results (507 past it).
     job_quota_bytes: int = 4 * 1024 * 1024 * 1024
     # Seconds a finished job (its record and result) is kept after it ended.
     job_expiry: float = 7 * 24 * 3600.0

@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 
 import dynamics
+from dynamics import engines
 from dynamics.torques import PD
 from service.client import Client, ServiceError
 from service_fixtures import ROBOTS, Server
@@ -219,3 +220,23 @@ def test_a_job_out_of_attempts_fails_with_the_reason(tmp_path):
         assert json.dumps(info)  # plain JSON all the way
     finally:
         server.stop()
+
+
+def test_with_a_ray_address_the_parts_run_on_ray(tmp_path):
+    ray = pytest.importorskip("ray")
+    engines.ray_init(num_cpus=2)  # a local Ray owned by this test process; the server's job worker joins it
+    try:
+        address = ray.get_runtime_context().gcs_address
+        server = Server(tmp_path / "store", env=dict(KEYS, DYNAMICS_RAY_ADDRESS=address)).start()
+        try:
+            client = Client(server.url, api_key="alice-key")
+            model = planar3()
+            q = np.random.default_rng(6).normal(size=(20_000, model.nq))
+            job = client.submit("planar-3r", "inverse_dynamics", {"q": q, "v": q, "a": q})
+            assert job.wait(timeout=300)["status"] == "done", job.status()
+            assert np.array_equal(job.result()["tau"], dynamics.inverse_dynamics(model, q, q, q))
+            assert "Ray cluster" in server.log.read_text()  # the job worker joined it as a driver
+        finally:
+            server.stop()
+    finally:
+        ray.shutdown()

@@ -115,6 +115,11 @@ class JobDB:
         row = self._conn().execute("SELECT * FROM jobs WHERE id = ?", (job_id,)).fetchone()
         return JobRecord.from_row(row) if row else None
 
+    def owns(self, job_id: str, boot: str) -> bool:
+        """True while ``job_id`` is running under ``boot`` (not cancelled, deleted or handed on)."""
+        return self._conn().execute("SELECT 1 FROM jobs WHERE id = ? AND status = 'running' AND boot = ?",
+                                    (job_id, boot)).fetchone() is not None
+
     def active_count(self, owner: str) -> int:
         return self._conn().execute(f"SELECT count(*) FROM jobs WHERE owner = ? AND status IN {ACTIVE}",
                                     (owner,)).fetchone()[0]

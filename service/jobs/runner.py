@@ -207,7 +207,7 @@ def _run(files: JobFiles, settings: Settings, db: JobDB, store: RobotStore, mode
         t0 = time.perf_counter()
         result = kind.run(model, inputs, job.spec, lo, hi, engine, _progress_writer(db, job.id, boot, lo, seconds))
         elapsed = time.perf_counter() - t0
-        if not db.progress(job.id, boot, lo, seconds):  # cancelled, deleted or no longer ours: leave it
+        if not db.owns(job.id, boot):  # cancelled, deleted or handed on meanwhile: leave it
             return
         write_npz(folder / f"{lo}-{hi}.npz", result)
         seconds += elapsed
