@@ -7,6 +7,8 @@
     ...     traj = robot.simulate(q0, v0, 1.0, torque={"type": "zero"})
     ...     tau1 = robot.inverse_dynamics(q[:1], v[:1], a[:1], locked={"joint2": 0.3})  # joint1 moves alone
     ...     robot.last_scene                    # {"locked": {"joint2": 0.3}, "skipped": [...], "nv": 1, ...}
+    ...     job = client.submit("planar-2r", "inverse_dynamics", {"q": Q, "v": V, "a": A})  # a job: returns at once
+    ...     job.wait(progress=True); tau = job.result()["tau"]
 
 Batches of more than :data:`NPZ_THRESHOLD` numbers travel as ``.npz`` both ways (no JSON number formatting
 or parsing); smaller requests use JSON. Every failure raises :class:`ServiceError` with the HTTP status, the
