@@ -4,8 +4,11 @@ restarted on the same store loses no job; results equal the library's, bit for b
 from __future__ import annotations
 
 import json
+import os
+import signal
 import socket
 import time
+from pathlib import Path
 
 import httpx
 import numpy as np
@@ -33,6 +36,29 @@ def long_inputs(n, seed=0):
     q0 = rng.uniform(-1, 1, (n, model.nq))
     return {"q0": q0, "v0": np.zeros(model.nv),
             "torque": {"type": "pd", "q_target": rng.uniform(-1, 1, (n, model.nq)), "kp": 50.0, "kd": 5.0}}
+
+
+def descendants(pid):
+    """[(pid, command line)] of every process below ``pid`` (from /proc)."""
+    parents = {}
+    for stat in Path("/proc").glob("[0-9]*/stat"):
+        try:
+            fields = stat.read_text().rsplit(")", 1)[1].split()
+            parents[int(stat.parent.name)] = int(fields[1])
+        except (OSError, IndexError, ValueError):
+            continue
+    found, frontier = [], [pid]
+    while frontier:
+        kids = [p for p, parent in parents.items() if parent in frontier]
+        found += kids
+        frontier = kids
+    out = []
+    for p in found:
+        try:
+            out.append((p, (Path("/proc") / str(p) / "cmdline").read_bytes().replace(b"\0", b" ").decode()))
+        except OSError:
+            pass
+    return out
 
 
 def wait_for(job, predicate, timeout=300.0):
@@ -240,3 +266,36 @@ def test_with_a_ray_address_the_parts_run_on_ray(tmp_path):
             server.stop()
     finally:
         ray.shutdown()
+
+
+def test_a_run_that_blows_up_does_not_sink_the_job(alice, server):
+    q0 = np.zeros((2, 3))
+    kp = np.array([[50.0] * 3, [1e9] * 3])  # one row per run: the second is far past rk4's stability limit
+    job = alice.submit("planar-3r", "simulate_many", {"q0": q0, "v0": np.zeros(3), "torque": {
+        "type": "pd", "q_target": np.ones(3), "kp": kp, "kd": 5.0}}, dict(LONG, duration=0.3))
+    assert job.wait(timeout=300)["status"] == "done"
+    out = job.result()
+    assert out["reports"][0]["status"] == "ok" and out["reports"][1]["status"].startswith("unstable")
+    assert out["counts"][0] == 4 and out["counts"][1] < 4 and np.isnan(out["q"][1, -1]).all()
+    one = dynamics.simulate(planar3(), q0[0], np.zeros(3), 0.3, torque=PD(np.ones(3), kp[0], 5.0),
+                            **{k: v for k, v in LONG.items() if k != "duration"})
+    assert np.array_equal(out["q"][0], one.q)
+    r = httpx.get(server.url + f"/v1/jobs/{job.id}/result", headers={"Authorization": "Bearer alice-key"})
+    assert r.headers["content-type"] == "application/x-npz"  # JSON has no NaN
+
+
+def test_a_dead_job_worker_process_is_replaced_and_the_job_resumes(alice, server):
+    inputs = long_inputs(400, seed=7)
+    job = alice.submit("planar-3r", "simulate_many", inputs, LONG)
+    wait_for(job, lambda i: i["status"] == "running" and i["progress"]["done"] > 0)
+    workers = [pid for pid, cmd in descendants(server.proc.pid) if "spawn_main" in cmd]
+    assert workers
+    for pid in workers:
+        os.kill(pid, signal.SIGKILL)
+    info = job.wait(timeout=300)
+    assert info["status"] == "done" and info["attempts"] == 2 and "worker process died" in info["error"], info
+    out = job.result()
+    one = dynamics.simulate(planar3(), inputs["q0"][399], inputs["v0"], 1.0,
+                            torque=PD(inputs["torque"]["q_target"][399], 50.0, 5.0),
+                            **{k: v for k, v in LONG.items() if k != "duration"})
+    assert np.array_equal(out["q"][399], one.q)

@@ -110,6 +110,8 @@ class Executor:
             del self.running[job_id]
             error = future.exception() if not future.cancelled() else None
             if isinstance(error, BrokenProcessPool):  # the worker died (killed, out of memory): a fresh pool
+                if self.pool is not None:
+                    self.pool.shutdown(wait=False, cancel_futures=True)
                 self.pool = None
                 status = self.db.retry_or_fail(job_id, "its worker process died", self.settings.job_attempts)
                 if status == "failed":

@@ -11,6 +11,7 @@ from __future__ import annotations
 import json
 from typing import Optional
 
+import numpy as np
 from fastapi import APIRouter, Depends, Request
 from starlette.responses import FileResponse, Response
 
@@ -66,7 +67,8 @@ async def status(job_id: str, request: Request, d: Deps = Depends(deps),
 
 
 @router.get("/jobs/{job_id}/result", responses={**_JOB_ERRORS, 200: {"content": {NPZ: {}, JSON: {}}}},
-            summary="the result: .npz streamed from disk; JSON when small (DYNAMICS_JOB_JSON_BYTES) and asked for")
+            summary="the result: .npz streamed from disk; JSON when small (DYNAMICS_JOB_JSON_BYTES), finite and not "
+                    "asked for as .npz")
 async def result(job_id: str, request: Request, d: Deps = Depends(deps),
                  owner: Optional[str] = Depends(caller)) -> Response:
     jobs = _jobs(request)
@@ -75,6 +77,8 @@ async def result(job_id: str, request: Request, d: Deps = Depends(deps),
     if wants_npz(accept) or job.result_bytes > jobs.settings.job_json_bytes:
         return FileResponse(path, media_type=NPZ, filename=f"{job_id}.npz")
     arrays = await d.compute.run(read_npz, path)
+    if not all(np.isfinite(a).all() for a in arrays.values() if a.dtype.kind == "f"):  # JSON has no NaN: runs
+        return FileResponse(path, media_type=NPZ, filename=f"{job_id}.npz")         # that stopped early are NaN
     if "reports" in arrays:
         arrays["reports"] = json.loads(str(arrays["reports"]))
     return await d.compute.run(encode, arrays, JSON)
