@@ -18,6 +18,10 @@ import dynamics
 from dynamics import engines
 from dynamics.torques import PD
 from service.client import Client, ServiceError
+from service.jobs.db import JobDB
+from service.jobs.executor import Executor
+from service.jobs.files import JobFiles, write_npz
+from service.settings import Settings
 from service_fixtures import ROBOTS, Server
 
 KEYS = {"DYNAMICS_API_KEYS": "alice-key,bob-key", "DYNAMICS_JOB_PART_SECONDS": "0.2",
@@ -299,3 +303,25 @@ def test_a_dead_job_worker_process_is_replaced_and_the_job_resumes(alice, server
                             torque=PD(inputs["torque"]["q_target"][399], 50.0, 5.0),
                             **{k: v for k, v in LONG.items() if k != "duration"})
     assert np.array_equal(out["q"][399], one.q)
+
+
+def test_expiry_removes_finished_jobs_and_stale_temporary_files(tmp_path):
+    """In-process (no server): the housekeeping of service.jobs.executor on a store of its own."""
+    settings = Settings(store_dir=tmp_path, job_expiry=0.0)
+    files = JobFiles.under(tmp_path)
+    db = JobDB(files.db)
+    write_npz(files.inputs("old"), {"q": np.zeros((1, 2))})
+    db.create("old", "", "planar-2r", "mass_matrix", {"options": {}}, 1, 10)
+    db.create("queued", "", "planar-2r", "mass_matrix", {"options": {}}, 1, 10)
+    db.cancel("old")
+    stale, fresh = files.root / "parts" / ".a.npz.1.tmp", files.root / "results" / ".b.npz.2.tmp"
+    stale.write_bytes(b"x")
+    fresh.write_bytes(b"x")
+    os.utime(stale, (0, 0))
+    executor = Executor(files, db, settings)
+    time.sleep(0.01)
+    executor.expire()
+    assert db.get("old") is None and not files.inputs("old").exists()
+    assert db.get("queued").status == "queued"  # an active job never expires
+    assert not stale.exists() and fresh.exists()
+    executor.close()

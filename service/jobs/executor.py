@@ -13,7 +13,7 @@ Crashes: this server process holds an flock on ``boots/<boot>.lock`` while it li
 the process dies, however it dies. At start and every :data:`HOUSEKEEPING_SECONDS`, a running job whose boot's
 lock can be taken has lost its server: it is queued again (it resumes after its last part) or, past
 ``DYNAMICS_JOB_ATTEMPTS`` starts, failed with the reason. A runner that finds its job no longer its own stops.
-Housekeeping also removes finished jobs older than ``DYNAMICS_JOB_EXPIRY``.
+Housekeeping also removes finished jobs older than ``DYNAMICS_JOB_EXPIRY`` and temporary files a crash left.
 """
 
 from __future__ import annotations
@@ -37,6 +37,8 @@ from .runner import run_job
 log = logging.getLogger("service.jobs")
 
 HOUSEKEEPING_SECONDS = 5.0
+#: a temporary file older than this was left by a crash (a part takes seconds to write)
+STALE_TMP_SECONDS = 3600.0
 
 
 class Executor:
@@ -61,7 +63,8 @@ class Executor:
         """Stop dispatching, stop the workers and hand this server's running jobs back to the queue."""
         self.stopping.set()
         self.wake.set()
-        self.thread.join(5.0)
+        if self.thread.is_alive():
+            self.thread.join(5.0)
         if self.pool is not None:
             for process in list(getattr(self.pool, "_processes", {}).values()):  # no public way to stop a job
                 process.terminate()
@@ -157,6 +160,14 @@ class Executor:
             self.wake.set()
 
     def expire(self) -> None:
+        """Finished jobs past their expiry, and temporary files a crash left (old enough that no writer of any
+        server process can still be at them)."""
         for job_id in self.db.expired(time.time() - self.settings.job_expiry):
             self.files.remove(job_id)
             self.db.delete(job_id)
+        for stale in self.files.root.glob("**/.*.tmp"):
+            try:
+                if stale.stat().st_mtime < time.time() - STALE_TMP_SECONDS:
+                    stale.unlink()
+            except FileNotFoundError:
+                pass
