@@ -32,7 +32,7 @@ from ..settings import Settings
 from ..sim.worker import build_torque, finite_report
 from ..store import RobotStore
 from .db import JobDB, JobRecord
-from .files import JobFiles, read_npz, write_npz
+from .files import JobFiles, Stacked, read_member, read_npz, write_npz
 
 log = logging.getLogger("service.jobs")
 
@@ -69,8 +69,10 @@ class Dynamics:
         out = lib().map_batches(fn, model, *arrays, progress=progress, **engine, **kwargs)
         return {self.answer: out}
 
-    def assemble(self, parts: list[dict[str, Any]]) -> dict[str, Any]:
-        return {self.answer: np.concatenate([p[self.answer] for p in parts])}
+    def assemble(self, parts: list[Path], total: int) -> dict[str, Any]:
+        first = read_member(parts[0], self.answer)
+        return {self.answer: Stacked((total, *first.shape[1:]), first.dtype,
+                                     (read_member(p, self.answer) for p in parts))}
 
 
 class SimulateMany:
@@ -117,17 +119,21 @@ class SimulateMany:
         return {"t": out.t, "q": out.q, "v": out.v, "tau": out.tau, "counts": out.counts,
                 "reports": np.array(json.dumps(reports))}
 
-    def assemble(self, parts: list[dict[str, Any]]) -> dict[str, Any]:
-        T = max(p["t"].shape[0] for p in parts)
-        t = next(p["t"] for p in parts if p["t"].shape[0] == T)
+    def assemble(self, parts: list[Path], total: int) -> dict[str, Any]:
+        grids = [read_member(p, "t") for p in parts]
+        t = max(grids, key=len)
+        T = len(t)
 
         def padded(name):  # a part whose runs all stopped early has fewer samples: NaN after them
-            return np.concatenate([np.pad(p[name], ((0, 0), (0, T - p[name].shape[1]), (0, 0)),
-                                          constant_values=np.nan) for p in parts])
+            n = read_member(parts[0], name).shape[2]
+            chunks = (np.pad(x, ((0, 0), (0, T - x.shape[1]), (0, 0)), constant_values=np.nan)
+                      for x in (read_member(p, name) for p in parts))
+            return Stacked((total, T, n), np.float64, chunks)
 
-        reports = [r for p in parts for r in json.loads(str(p["reports"]))]
+        reports = [r for p in parts for r in json.loads(str(read_member(p, "reports")))]
         return {"t": t, "q": padded("q"), "v": padded("v"), "tau": padded("tau"),
-                "counts": np.concatenate([p["counts"] for p in parts]), "reports": np.array(json.dumps(reports))}
+                "counts": np.concatenate([read_member(p, "counts") for p in parts]),
+                "reports": np.array(json.dumps(reports))}
 
 
 KINDS: dict[str, Any] = {
@@ -162,9 +168,17 @@ def model_of(store: RobotStore, models: ModelCache, robot: str, locked: tuple):
 
 
 def parts_done(folder: Path) -> list[tuple[int, int]]:
-    """[(lo, hi)] of the parts on disk, in order (a crash between parts leaves whole files only)."""
-    found = sorted((int(m[1]), int(m[2])) for p in folder.glob("*.npz") if (m := _PART_NAME.match(p.name)))
-    return found
+    """[(lo, hi)] of the parts on disk that follow each other from item 0 (a crash leaves whole files only; a
+    runner orphaned by a killed server may have left a part cut elsewhere, which is then skipped)."""
+    ends: dict[int, int] = {}
+    for p in folder.glob("*.npz"):
+        if m := _PART_NAME.match(p.name):
+            ends[int(m[1])] = max(ends.get(int(m[1]), 0), int(m[2]))
+    chain, at = [], 0
+    while at in ends:
+        chain.append((at, ends[at]))
+        at = ends[at]
+    return chain
 
 
 def run_job(files: JobFiles, job_id: str, boot: str) -> None:
@@ -216,8 +230,8 @@ def _run(files: JobFiles, settings: Settings, db: JobDB, store: RobotStore, mode
         rate = (hi - lo) / max(elapsed, 1e-6)
         size = int(min(4 * size, max(1, rate * settings.job_part_seconds)))
         lo = hi
-    parts = [read_npz(folder / f"{a}-{b}.npz") for a, b in parts_done(folder)]
-    nbytes = write_npz(files.result(job.id), kind.assemble(parts))
+    parts = [folder / f"{a}-{b}.npz" for a, b in parts_done(folder)]
+    nbytes = write_npz(files.result(job.id), kind.assemble(parts, job.total))
     if db.finish(job.id, boot, nbytes, seconds):
         files.remove(job.id, keep_result=True)
     else:  # cancelled meanwhile
