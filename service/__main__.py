@@ -1,4 +1,4 @@
-"""``python -m service [--host 127.0.0.1] [--port 8000] [--store DIR] [--workers N]``: run the HTTP service.
+"""``python -m service [--host 127.0.0.1] [--port 8000] [--store DIR] [--workers N] [--ray-address ADDR]``: run the HTTP service.
 
 Options are written into the ``DYNAMICS_*`` environment variables before uvicorn starts, so that every worker
 process (``--workers N`` starts them from scratch) reads the same settings. ``--warmup`` runs the warm-up's
@@ -33,6 +33,8 @@ def _parser() -> argparse.ArgumentParser:
                    help="directory of uploaded robots (default $DYNAMICS_STORE or ./store)")
     p.add_argument("--workers", type=int, default=1, help="server processes (default 1)")
     p.add_argument("--log-level", default="info", help="uvicorn's and the service's (warm-up progress: info)")
+    p.add_argument("--ray-address", default=None,
+                   help="send job parts to this Ray cluster ('auto', 'ray://head:10001'; $DYNAMICS_RAY_ADDRESS)")
     p.add_argument("--warmup", action="store_true", help="compile the kernels on the bundled robots and exit")
     return p
 
@@ -67,6 +69,8 @@ def main(argv: list[str] | None = None) -> int:
     elif "DYNAMICS_STORE" not in os.environ:
         os.environ["DYNAMICS_STORE"] = os.path.abspath("store")
     os.environ["DYNAMICS_LOG_LEVEL"] = args.log_level
+    if args.ray_address:
+        os.environ["DYNAMICS_RAY_ADDRESS"] = args.ray_address
     if args.warmup:
         configure_logging(args.log_level)
         return warmup()

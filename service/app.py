@@ -18,7 +18,8 @@ from fastapi_offline import FastAPIOffline
 from . import __version__, errors, schemas
 from .auth import ApiKeys
 from .deps import Deps
-from .routes import dynamics, health, kinematics, robots, simulate
+from .jobs.manager import Jobs
+from .routes import dynamics, health, jobs, kinematics, robots, simulate
 from .settings import Settings, configure_logging
 
 DESCRIPTION = ("Rigid-body dynamics of URDF robots: inverse and forward dynamics, mass matrix, Coriolis matrix, "
@@ -36,7 +37,7 @@ def _openapi(app: FastAPI):
         doc = get_openapi(title=app.title, version=app.version, description=app.description, routes=app.routes)
         components = doc.setdefault("components", {}).setdefault("schemas", {})
         requests = [schema for routes in (dynamics.ROUTES, kinematics.ROUTES) for schema, _, _ in routes.values()]
-        requests += [schemas.SimulateRequest, schemas.UploadRequest]
+        requests += [schemas.SimulateRequest, schemas.UploadRequest, schemas.JobRequest]
         for model in requests:
             js = model.model_json_schema(ref_template="#/components/schemas/{model}")
             components.update(js.pop("$defs", {}))
@@ -55,16 +56,18 @@ def create_app(settings: Optional[Settings] = None) -> FastAPI:
     @asynccontextmanager
     async def lifespan(app: FastAPI):
         app.state.deps = Deps.start(settings)
+        app.state.jobs = Jobs.start(settings, app.state.deps.models)
         try:
             yield
         finally:
+            app.state.jobs.close()
             app.state.deps.close()
 
     # /docs (Swagger UI) and /redoc load their scripts and styles from the installed fastapi-offline package, under
     # /static-offline-docs: they work without internet access (FastAPI's own pages load them from a CDN)
     app = FastAPIOffline(title="dynamics", version=__version__, lifespan=lifespan, description=DESCRIPTION)
     errors.install(app)
-    for module in (health, robots, dynamics, kinematics, simulate):
+    for module in (health, robots, dynamics, kinematics, simulate, jobs):
         app.include_router(module.router)
     app.add_middleware(ApiKeys, keys=settings.api_keys, open_paths=health.OPEN_PATHS)
     app.openapi = _openapi(app)

@@ -8,6 +8,8 @@
     ...     traj = robot.simulate(q0, v0, 1.0, torque=dynamics.torques.PD(q_target, 50.0, 5.0))  # or a dict
     ...     tau1 = robot.inverse_dynamics(q[:1], v[:1], a[:1], locked={"joint2": 0.3})  # joint1 moves alone
     ...     robot.last_scene                    # {"locked": {"joint2": 0.3}, "skipped": [...], "nv": 1, ...}
+    ...     job = client.submit("planar-2r", "inverse_dynamics", {"q": Q, "v": V, "a": A})  # a job: returns at once
+    ...     job.wait(progress=True); tau = job.result()["tau"]
 
 Batches of more than :data:`NPZ_THRESHOLD` numbers travel as ``.npz`` both ways (no JSON number formatting
 or parsing); smaller requests use JSON. Every failure raises :class:`ServiceError` with the HTTP status, the
@@ -20,12 +22,14 @@ import io
 import json
 import os
 import sys
+import time
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Mapping, Optional, Union
 
 import httpx
 import numpy as np
+from tqdm.auto import tqdm
 
 NPZ = "application/x-npz"
 JSON = "application/json"
@@ -157,6 +161,33 @@ class Client:
 
     def delete(self, robot_id: str) -> None:
         self.request("DELETE", f"/v1/robots/{robot_id}")
+
+    # -- jobs ------------------------------------------------------------------------------------------------
+    def submit(self, robot: Union[str, "Robot"], kind: str, inputs: Mapping[str, Any],
+               options: Optional[Mapping[str, Any]] = None) -> "Job":
+        """Queue a job (``kind``: simulate_many, inverse_dynamics, forward_dynamics, mass_matrix) and return at
+        once. ``inputs``: arrays by name (q0, v0 and a torque spec whose arrays may have one row per run; or
+        q, v, a / q, v, tau / q); ``options``: duration and simulate's options, gravity, locked. Sent as .npz."""
+        robot_id = robot.id if isinstance(robot, Robot) else robot
+        members: dict[str, Any] = {"robot": np.array(robot_id), "kind": np.array(kind),
+                                   "options": np.array(json.dumps(_plain_tree(dict(options or {}))))}
+        for name, value in inputs.items():
+            if name == "torque" and value is not None:
+                spec = {k: v for k, v in value.items() if not isinstance(v, np.ndarray)}
+                members["torque"] = np.array(json.dumps(_plain_tree(spec)))
+                members.update({f"torque.{k}": v for k, v in value.items() if isinstance(v, np.ndarray)})
+            elif value is not None:
+                members[name] = _as_array(value)
+        buf = io.BytesIO()
+        np.savez(buf, **members)
+        r = self.request("POST", "/v1/jobs", content=buf.getvalue(), headers={"Content-Type": NPZ})
+        return Job(self, r.json())
+
+    def job(self, job_id: str) -> "Job":
+        return Job(self, self.request("GET", f"/v1/jobs/{job_id}").json())
+
+    def jobs(self) -> list[dict[str, Any]]:
+        return self.request("GET", "/v1/jobs").json()["jobs"]
 
 
 class Robot:
@@ -328,6 +359,53 @@ def torque_spec(torque: Any) -> Optional[dict[str, Any]]:
         return {"type": "constant", "tau": _plain_tree(torque)}
     raise TypeError(f"torque: expected a dynamics.torques object ({', '.join(TORQUE_CLASSES)}), a constant tau, None "
                     f"or a mapping {{'type': ...}}, got {cls.__name__}")
+class Job:
+    """A job of the service: ``status()``, ``wait(progress=True)``, ``result()``, ``cancel()``."""
+
+    FINAL = ("done", "failed", "cancelled")
+
+    def __init__(self, client: Client, info: dict[str, Any]):
+        self.client = client
+        self.id: str = info["id"]
+        self.info = info
+
+    def __repr__(self) -> str:
+        return f"Job({self.id!r}, {self.info['kind']}, {self.info['status']})"
+
+    def status(self) -> dict[str, Any]:
+        """The job's record: status, progress {done, total, fraction}, timing, error, ..."""
+        self.info = self.client.request("GET", f"/v1/jobs/{self.id}").json()
+        return self.info
+
+    def wait(self, progress: bool = False, timeout: Optional[float] = None, poll: float = 0.5) -> dict[str, Any]:
+        """Poll until the job is done, failed or cancelled (a tqdm bar of its items with ``progress``); its
+        final status. ``timeout`` seconds: a ServiceError (code "timeout") if it is still running then."""
+        end = None if timeout is None else time.monotonic() + timeout
+        bar = None
+        try:
+            while True:
+                info = self.status()
+                if progress:
+                    if bar is None:
+                        bar = tqdm(total=info["progress"]["total"], desc=info["kind"], unit="item")
+                    bar.update(info["progress"]["done"] - bar.n)
+                if info["status"] in self.FINAL:
+                    return info
+                if end is not None and time.monotonic() > end:
+                    raise ServiceError(0, f"job {self.id}: still {info['status']} after {timeout} s", "timeout")
+                time.sleep(poll)
+        finally:
+            if bar is not None:
+                bar.close()
+
+    def result(self) -> dict[str, Any]:
+        """The result as arrays (tau / a / mass_matrix; or t, q, v, tau, counts and reports of simulate_many);
+        a ServiceError 409 until it is done."""
+        return decode_answer(self.client.request("GET", f"/v1/jobs/{self.id}/result", headers={"Accept": NPZ}))
+
+    def cancel(self) -> dict[str, Any]:
+        """Cancel it if it is queued or running; remove it (and its result) if it has finished."""
+        return self.client.request("DELETE", f"/v1/jobs/{self.id}").json()
 
 
 def decode_answer(r: httpx.Response) -> dict[str, Any]:

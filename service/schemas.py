@@ -18,7 +18,8 @@ import json
 from typing import Annotated, Any, Literal, Optional, Union, get_args
 
 import numpy as np
-from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, ValidationError, ValidationInfo, WithJsonSchema
+from pydantic import (BaseModel, BeforeValidator, ConfigDict, Field, ValidationError, ValidationInfo, WithJsonSchema,
+                      create_model)
 
 from .codec import to_array
 from .errors import InvalidInput
@@ -561,3 +562,48 @@ class KineticEnergyAnswer(BaseModel):
 class PotentialEnergyAnswer(BaseModel):
     potential_energy: Answer(0, "J")
     scene: Scene
+# -- jobs (POST /v1/jobs; service.jobs) -------------------------------------------------------------------------
+JOB_KINDS = ("simulate_many", "inverse_dynamics", "forward_dynamics", "mass_matrix")
+_JOB_OPTION_FIELDS = {name: (f.annotation, f) for name, f in SimulateRequest.model_fields.items()
+                      if name in SIMULATE_OPTIONS or name == "locked"}
+#: a job's options: simulate's (duration required for simulate_many), gravity for dynamics, locked joints
+JobOptions = create_model("JobOptions", __base__=_Request, **_JOB_OPTION_FIELDS,
+                          duration=(Optional[float], Field(None, gt=0, description="simulate_many: seconds per run")))
+
+
+class JobRequest(_Request):
+    """A batch too large for one request, run as a job (``inputs``: arrays by name; see the README's Jobs)."""
+    robot: str
+    kind: Literal["simulate_many", "inverse_dynamics", "forward_dynamics", "mass_matrix"]
+    inputs: dict[str, Any] = Field(description="simulate_many: q0 (B, nq) or (nq,), v0, optional torque spec whose "
+                                               "array fields may have one row per run; inverse_dynamics: q, v, a "
+                                               "(B, n); forward_dynamics: q, v, tau; mass_matrix: q")
+    options: JobOptions = Field(default_factory=JobOptions)
+
+
+class JobProgress(BaseModel):
+    done: int
+    total: int
+    fraction: float
+
+
+class JobStatus(BaseModel):
+    id: str
+    robot: str
+    kind: str
+    status: Literal["queued", "running", "done", "failed", "cancelled"]
+    progress: JobProgress
+    created: float = Field(description="Unix time of submission")
+    started: Optional[float]
+    finished: Optional[float]
+    timing: dict[str, Optional[float]] = Field(description="queued_seconds, running_seconds, compute_seconds")
+    error: Optional[str] = Field(description="why it failed, or why it was restarted")
+    attempts: int
+    status_url: str
+    result_url: Optional[str] = Field(description="once done")
+    result_bytes: int
+    expires: Optional[float] = Field(description="Unix time when the finished job and its result are removed")
+
+
+class JobList(BaseModel):
+    jobs: list[JobStatus]

@@ -70,6 +70,26 @@ class Settings:
     api_keys: tuple[str, ...] = ()
     # Level of the service's own log (logger "service", on stderr): the warm-up's progress is logged at "info".
     log_level: str = "info"
+    # -- jobs (POST /v1/jobs; service.jobs) ----------------------------------------------------------------------
+    # Processes running jobs (each job's parts spread over the library's threads, or over Ray); 0 turns jobs off.
+    job_workers: int = 1
+    # A Ray cluster for job parts ("auto", "ray://head:10001"); empty = the local pool only.
+    ray_address: str = ""
+    # Largest job input (the request body, JSON or .npz) and largest result (estimated before the job runs).
+    max_job_input_bytes: int = 256 * 1024 * 1024
+    max_job_result_bytes: int = 2 * 1024 * 1024 * 1024
+    # Jobs queued or running at once per API key (429 past it).
+    max_jobs_per_key: int = 4
+    # Disk kept for one key's job inputs and results (507 past it).
+    job_quota_bytes: int = 4 * 1024 * 1024 * 1024
+    # Seconds a finished job (its record and result) is kept after it ended.
+    job_expiry: float = 7 * 24 * 3600.0
+    # Starts of one job (the first and the resumptions after a server restart or a dead worker) before it fails.
+    job_attempts: int = 2
+    # Target seconds of work per part (a part's result is kept on disk: a restart resumes after the last one).
+    job_part_seconds: float = 2.0
+    # Results up to this size are answered as JSON when the caller accepts it; larger ones only as .npz.
+    job_json_bytes: int = 1024 * 1024
 
     @classmethod
     def from_env(cls) -> "Settings":
@@ -93,6 +113,7 @@ class Settings:
             sim_workers=int(_env("SIM_WORKERS", str(defaults.sim_workers))),
             api_keys=keys,
             log_level=_env("LOG_LEVEL", defaults.log_level),
+            **_job_settings(defaults),
         )
 
     @staticmethod
@@ -100,6 +121,13 @@ class Settings:
         """Field name -> environment variable, for the docs and ``--help``."""
         special = {"store_dir": "STORE", "robots_dir": "ROBOTS_DIR"}
         return {f.name: ENV_PREFIX + special.get(f.name, f.name.upper()) for f in fields(Settings)}
+
+
+def _job_settings(defaults: Settings) -> dict:
+    """The jobs' fields from ``DYNAMICS_<FIELD>`` (and ``DYNAMICS_RAY_ADDRESS``), typed like their defaults."""
+    names = ("job_workers", "ray_address", "max_job_input_bytes", "max_job_result_bytes", "max_jobs_per_key",
+             "job_quota_bytes", "job_expiry", "job_attempts", "job_part_seconds", "job_json_bytes")
+    return {name: type(getattr(defaults, name))(_env(name.upper(), str(getattr(defaults, name)))) for name in names}
 
 
 def configure_logging(level: str) -> None:

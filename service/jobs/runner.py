@@ -1,0 +1,267 @@
+"""Running one job, part by part, in a job worker process (:mod:`service.jobs.executor`) by calling the library.
+
+A job's items (runs of ``simulate_many``, states of a dynamics batch) are done in parts of about
+``DYNAMICS_JOB_PART_SECONDS`` of work: the first part is small, later ones are sized from the measured rate.
+Each part is one library call spread over the local cores (``engine="threads"``) or over a Ray cluster
+(``engine="ray"``, ``DYNAMICS_RAY_ADDRESS``): ``dynamics.simulate_many`` or ``dynamics.map_batches``. Its result
+is written atomically to ``parts/<id>/<lo>-<hi>.npz`` before the progress is recorded, so a job interrupted
+anywhere (a SIGKILLed server, a dead worker) resumes after its last finished part, and the parts stacked give
+exactly what one call on the whole input gives (every item is computed alone, bit for bit).
+
+Between parts the runner records progress and, by the same write, learns whether the job is still its own
+(cancelled, deleted or handed to another server: it stops). Within a part the library's progress callback
+updates ``done`` at most every :data:`PROGRESS_EVERY` seconds.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import re
+import time
+import traceback
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Callable, Optional
+
+import numpy as np
+
+from ..library import lib
+from ..models import ModelCache, load_model, reduce_model
+from ..settings import Settings
+from ..sim.worker import build_torque, finite_report
+from ..store import RobotStore
+from .db import JobDB, JobRecord
+from .files import JobFiles, Stacked, read_member, read_npz, write_npz
+
+log = logging.getLogger("service.jobs")
+
+#: seconds between progress writes inside a part
+PROGRESS_EVERY = 0.5
+#: size of the first part (items), before any rate is known
+FIRST_PART = {"simulate_many": 8, "dynamics": 4096}
+_PART_NAME = re.compile(r"^(\d+)-(\d+)\.npz$")
+
+#: ndim of each torque field for ONE run; a field with one more dimension holds one row per run (B first)
+TORQUE_NDIM = {"constant": {"tau": 1}, "table": {"t": 1, "tau": 2},
+               "pd": {"q_target": 1, "kp": 1, "kd": 1, "v_target": 1, "tau_ff": 1},
+               "computed_torque": {"t": 1, "q": 2, "v": 2, "a": 2, "kp": 1, "kd": 1}}
+
+
+# -- the kinds of job ----------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class Dynamics:
+    """A batched dynamics function over rows of its state arrays, in parts through ``dynamics.map_batches``."""
+    function: str             # inverse_dynamics
+    states: tuple[str, ...]   # (q, v, a)
+    answer: str               # tau
+
+    def total(self, model, inputs: dict[str, np.ndarray], spec: dict[str, Any]) -> int:
+        return int(inputs[self.states[0]].shape[0]) if inputs[self.states[0]].ndim == 2 else 1
+
+    def result_bytes(self, model, total: int, spec: dict[str, Any]) -> int:
+        return 8 * total * (model.nv * model.nv if self.answer == "mass_matrix" else model.nv)
+
+    def run(self, model, inputs, spec, lo, hi, engine, progress) -> dict[str, Any]:
+        fn = getattr(lib(), self.function)
+        arrays = [np.atleast_2d(inputs[name])[lo:hi] for name in self.states]
+        kwargs = {"gravity": np.asarray(spec["options"]["gravity"])} if spec["options"].get("gravity") else {}
+        out = lib().map_batches(fn, model, *arrays, progress=progress, **engine, **kwargs)
+        return {self.answer: out}
+
+    def assemble(self, parts: list[Path], total: int) -> dict[str, Any]:
+        first = read_member(parts[0], self.answer)
+        return {self.answer: Stacked((total, *first.shape[1:]), first.dtype,
+                                     (read_member(p, self.answer) for p in parts))}
+
+
+class SimulateMany:
+    """Runs of ``dynamics.simulate_many``: q0 (B, nq), v0 (B, nv) (either may be one row), a torque spec whose
+    array fields may hold one row per run (see :data:`TORQUE_NDIM`), the simulate options."""
+
+    function = "simulate_many"
+    states = ("q0", "v0")
+
+    def total(self, model, inputs, spec) -> int:
+        rows = [inputs[n].shape[0] for n in self.states if inputs[n].ndim == 2]
+        kind = (spec.get("torque") or {}).get("type")
+        for name, ndim in TORQUE_NDIM.get(kind, {}).items():
+            value = inputs.get(f"torque.{name}")
+            if value is not None and value.ndim == ndim + 1:
+                rows.append(value.shape[0])
+        return max(rows, default=1)
+
+    def result_bytes(self, model, total: int, spec: dict[str, Any]) -> int:
+        o = spec["options"]
+        dt = o.get("sample_dt") or (o.get("dt") if o.get("integrator") in ("euler", "rk4") else None)
+        samples = int(o["duration"] / dt) + 2 if dt else 1001
+        return 8 * total * samples * (model.nq + 2 * model.nv)
+
+    def torques(self, inputs, spec, lo, hi) -> Any:
+        torque = spec.get("torque")
+        if torque is None:
+            return None
+        fields = TORQUE_NDIM.get(torque["type"], {})
+        shared = dict(torque, **{n: inputs[f"torque.{n}"] for n in fields if f"torque.{n}" in inputs})
+        per_run = [n for n in fields if n in shared and np.ndim(shared[n]) == fields[n] + 1]
+        if not per_run:
+            return build_torque(shared)
+        return [build_torque(dict(shared, **{n: shared[n][k] for n in per_run})) for k in range(lo, hi)]
+
+    def run(self, model, inputs, spec, lo, hi, engine, progress) -> dict[str, Any]:
+        options = dict(spec["options"])
+        duration = options.pop("duration")
+        q0, v0 = (np.broadcast_to(inputs[n], (self.total(model, inputs, spec), inputs[n].shape[-1]))[lo:hi]
+                  for n in self.states)
+        out = lib().simulate_many(model, q0, v0, duration, torque=self.torques(inputs, spec, lo, hi),
+                                  progress=progress, **engine, **options)
+        reports = [dict(finite_report(r), run=lo + k) for k, r in enumerate(out.reports)]
+        return {"t": out.t, "q": out.q, "v": out.v, "tau": out.tau, "counts": out.counts,
+                "reports": np.array(json.dumps(reports))}
+
+    def assemble(self, parts: list[Path], total: int) -> dict[str, Any]:
+        grids = [read_member(p, "t") for p in parts]
+        t = max(grids, key=len)
+        T = len(t)
+
+        def padded(name):  # a part whose runs all stopped early has fewer samples: NaN after them
+            n = read_member(parts[0], name).shape[2]
+            chunks = (np.pad(x, ((0, 0), (0, T - x.shape[1]), (0, 0)), constant_values=np.nan)
+                      for x in (read_member(p, name) for p in parts))
+            return Stacked((total, T, n), np.float64, chunks)
+
+        reports = [r for p in parts for r in json.loads(str(read_member(p, "reports")))]
+        return {"t": t, "q": padded("q"), "v": padded("v"), "tau": padded("tau"),
+                "counts": np.concatenate([read_member(p, "counts") for p in parts]),
+                "reports": np.array(json.dumps(reports))}
+
+
+KINDS: dict[str, Any] = {
+    "simulate_many": SimulateMany(),
+    "inverse_dynamics": Dynamics("inverse_dynamics", ("q", "v", "a"), "tau"),
+    "forward_dynamics": Dynamics("forward_dynamics", ("q", "v", "tau"), "a"),
+    "mass_matrix": Dynamics("mass_matrix", ("q",), "mass_matrix"),
+}
+
+
+# -- the worker process's side -------------------------------------------------------------------------------
+_process: dict[str, Any] = {}  # per worker process: the database connection, the robot store, the model cache
+
+
+def _state(files: JobFiles, settings: Settings) -> tuple[JobDB, RobotStore, ModelCache]:
+    if "db" not in _process:
+        _process["db"] = JobDB(files.db)
+        _process["store"] = RobotStore(settings.store_dir, settings.robots_dir)
+        _process["models"] = ModelCache(8)
+    return _process["db"], _process["store"], _process["models"]
+
+
+def model_of(store: RobotStore, models: ModelCache, robot: str, locked: tuple):
+    record = store.get(robot)
+    if record is None:
+        raise ValueError(f"robot: {robot!r} was deleted before the job ran")
+    model = models.get_or_load((robot, ()), lambda: load_model(record.urdf, record.floating_base))
+    if locked:
+        full = model
+        model = models.get_or_load((robot, locked), lambda: reduce_model(full, locked))
+    return model
+
+
+def parts_done(folder: Path) -> list[tuple[int, int]]:
+    """[(lo, hi)] of the parts on disk that follow each other from item 0 (a crash leaves whole files only; a
+    runner orphaned by a killed server may have left a part cut elsewhere, which is then skipped)."""
+    ends: dict[int, int] = {}
+    for p in folder.glob("*.npz"):
+        if m := _PART_NAME.match(p.name):
+            ends[int(m[1])] = max(ends.get(int(m[1]), 0), int(m[2]))
+    chain, at = [], 0
+    while at in ends:
+        chain.append((at, ends[at]))
+        at = ends[at]
+    return chain
+
+
+def run_job(files: JobFiles, job_id: str, boot: str) -> None:
+    """Entry point in a job worker process: run ``job_id`` if it is still running under ``boot``."""
+    settings = Settings.from_env()
+    db, store, models = _state(files, settings)
+    job = db.get(job_id)
+    if job is None or job.status != "running" or job.boot != boot:
+        return
+    try:
+        _run(files, settings, db, store, models, job, boot)
+    except Exception as e:  # noqa: BLE001 - a job must end with a reason, never silently
+        now = db.get(job_id)
+        if now is None or now.status != "running" or now.boot != boot:  # cancelled or deleted under our feet
+            files.remove(job_id, keep_result=now is not None and now.status == "done")
+        elif isinstance(e, ValueError):  # the library's InputError (names the argument) and our own refusals
+            db.fail(job_id, str(e), boot)
+            files.remove(job_id)
+        else:
+            log.error("job %s failed:\n%s", job_id, traceback.format_exc())
+            db.fail(job_id, f"internal error: {type(e).__name__}: {e}", boot)
+            files.remove(job_id)
+
+
+def _run(files: JobFiles, settings: Settings, db: JobDB, store: RobotStore, models: ModelCache, job: JobRecord,
+         boot: str) -> None:
+    kind = KINDS[job.kind]
+    locked = tuple((name, tuple(v)) for name, v in job.spec.get("locked", []))
+    model = model_of(store, models, job.robot, locked)
+    inputs = read_npz(files.inputs(job.id))
+    engine = {"engine": "ray", "ray_address": settings.ray_address} if settings.ray_address else {"engine": "threads"}
+    folder = files.parts(job.id)
+    folder.mkdir(parents=True, exist_ok=True)
+    done_parts = parts_done(folder)
+    lo = done_parts[-1][1] if done_parts else 0
+    seconds = job.compute_seconds
+    size = FIRST_PART["simulate_many" if job.kind == "simulate_many" else "dynamics"]
+    while lo < job.total:
+        hi = min(job.total, lo + size)
+        t0 = time.perf_counter()
+        result = kind.run(model, inputs, job.spec, lo, hi, engine, _progress_writer(db, job.id, boot, lo, seconds))
+        elapsed = time.perf_counter() - t0
+        if not db.owns(job.id, boot):  # cancelled, deleted or handed on meanwhile: leave it
+            return
+        write_npz(folder / f"{lo}-{hi}.npz", result)
+        seconds += elapsed
+        if not db.progress(job.id, boot, hi, seconds):
+            return
+        rate = (hi - lo) / max(elapsed, 1e-6)
+        size = int(min(4 * size, max(1, rate * settings.job_part_seconds)))
+        lo = hi
+    parts = [folder / f"{a}-{b}.npz" for a, b in parts_done(folder)]
+    nbytes = write_npz(files.result(job.id), kind.assemble(parts, job.total))
+    if db.finish(job.id, boot, nbytes, seconds):
+        files.remove(job.id, keep_result=True)
+    else:  # cancelled meanwhile
+        files.remove(job.id)
+
+
+def _progress_writer(db: JobDB, job_id: str, boot: str, base: int, seconds: float) -> Callable[[int, int], None]:
+    last = [time.monotonic()]
+
+    def progress(done: int, total: int) -> None:
+        now = time.monotonic()
+        if now - last[0] >= PROGRESS_EVERY:
+            last[0] = now
+            db.progress(job_id, boot, base + done, seconds)
+
+    return progress
+
+
+def check_inputs(kind_name: str, model, inputs: dict[str, np.ndarray], spec: dict[str, Any]) -> Optional[str]:
+    """At submission: the first thing wrong with the inputs' shapes (named), or None. The library checks
+    values (finiteness, quaternions) when the job runs; shapes are cheap to check now and catch most mistakes."""
+    kind = KINDS[kind_name]
+    sizes = {"q": model.nq, "q0": model.nq, "v": model.nv, "v0": model.nv, "a": model.nv, "tau": model.nv}
+    total = kind.total(model, inputs, spec)
+    for name in kind.states:
+        if name not in inputs:
+            return f"inputs.{name}: missing (required for {kind_name})"
+        x, n = inputs[name], sizes[name]
+        one_row = x.ndim == 1 and x.shape == (n,) and kind_name == "simulate_many"  # shared by every run
+        if not (one_row or x.shape == (total, n)):
+            rows = f"({n},) or ({total}, {n})" if kind_name == "simulate_many" else f"(B, {n})"
+            return f"inputs.{name}: expected shape {rows}, got {x.shape}"
+    return None
