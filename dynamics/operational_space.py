@@ -1,0 +1,133 @@
+"""Operational-space control of a frame (Khatib 1987, "A unified approach for motion and force control of robot
+manipulators: the operational space formulation"; Featherstone 2008, sec. 9.3), the kernel behind
+:class:`dynamics.torques.OperationalSpace` and :class:`dynamics.torques.Target`.
+
+The task x is the frame's position (and orientation) in the world, with velocity J v, J the frame's Jacobian at
+"local_world_aligned" (:mod:`dynamics.jacobians`) restricted to the task rows (of [linear; angular]), and
+acceleration xdd = J vd + Jdot v (Jdot v: :func:`dynamics.frame_bias_acceleration`).  With M vd + b = tau
+(b = C v + g minus the passive torques the simulator adds), the task-space dynamics are
+
+    F = Lambda xdd + mu + p,     Lambda = (J M^-1 J^T)^-1,     mu + p = Lambda (J M^-1 b - Jdot v),
+
+and the controller commands the task acceleration xdd* = xdd_d + Kd edot + Kp e, plus a posture task in the
+dynamically consistent null space (N = 1 - J^T Jbar^T, Jbar = M^-1 J^T Lambda, so J M^-1 N = 0):
+
+    tau = J^T (Lambda xdd* + mu + p) + N tau_0,     tau_0 = M a_0 + b,     a_0 = Kp0 (q_0 - q) - Kd0 v.
+
+Expanding N, the same torque is a joint-space computed torque for a_0 corrected along the task,
+
+    tau = ID(q, v, a_0) + J^T Lambda (xdd* - Jdot v - J a_0)                                        (*)
+
+(ID the RNEA, :mod:`dynamics.rnea`), which is what the kernel evaluates: one RNEA, one M^-1
+(:mod:`dynamics.minverse`), one Jacobian, one Jdot v, and an r x r solve (r <= 6 task rows).  The closed
+loop is xdd = xdd* exactly for the model, i.e. e'' + Kd e' + Kp e = 0 per task row, and vd = a_0 in the
+directions the task leaves free.
+
+Errors: e = p_d - p for the position; for the orientation e = log(R_d R^T) (world axes,
+:func:`dynamics.spatial.rotation_log`) and edot = w_d - w, exact to first order in the error.  When J M^-1 J^T
+is not positive definite (the frame at a singularity of its task rows) the torque is NaN and the simulation
+stops with an "unstable" status; ``damping`` d > 0 uses (J M^-1 J^T + d 1)^-1 instead.
+"""
+
+import numpy as np
+
+from ._numba import kernel
+from .configuration import difference
+from .jacobians import jacobian_into
+from .kinematics import BIAS_ACCELERATION, LOCAL_WORLD_ALIGNED, motion_batch
+from .minverse import minverse_into
+from .minverse import workspace as minverse_workspace
+from .rnea import rnea_into
+from .spatial import matmul, rotation_about_axis, rotation_log, spd_inverse, transpose
+
+
+@kernel
+def orientation_at(times, otable, t):
+    """The reference orientation R_d (9-tuple) and its angular velocity w_d (world) at t.  otable[k] = [R_k (9),
+    psi_k (3)], psi_k = log(R_k+1 R_k^T): between samples R_d = Exp((t - t_k) psi_k / h) R_k (the geodesic),
+    w_d = psi_k / h; clamped to the first / last sample (w_d = 0) outside [t_0, t_N-1]."""
+    N = times.shape[0]
+    if N == 1 or t <= times[0] or t >= times[N - 1]:
+        k = 0 if (N == 1 or t <= times[0]) else N - 1
+        R = otable[k]
+        return (R[0], R[1], R[2], R[3], R[4], R[5], R[6], R[7], R[8]), (0.0, 0.0, 0.0)
+    k = np.searchsorted(times, t, side="right") - 1
+    if k > N - 2:
+        k = N - 2
+    h = times[k + 1] - times[k]
+    o = otable[k]
+    psi = (o[9], o[10], o[11])
+    w = (psi[0] / h, psi[1] / h, psi[2] / h)
+    angle = np.sqrt(psi[0] * psi[0] + psi[1] * psi[1] + psi[2] * psi[2])
+    Rk = (o[0], o[1], o[2], o[3], o[4], o[5], o[6], o[7], o[8])
+    if angle == 0.0:
+        return Rk, w
+    s = (t - times[k]) / h
+    E = rotation_about_axis((psi[0] / angle, psi[1] / angle, psi[2] / angle), s * angle)
+    return matmul(E, Rk), w
+
+
+@kernel
+def operational_space_into(src, tree, gravity, f_ext, t, q, v, x_ref, tau_passive, ws_rnea, tau):
+    """tau by (*) of the module docstring for the task of ``src`` (a :class:`dynamics.torques.Source`):
+    frame ``src.frame`` of ``src.frames``, rows ``src.rows``, gains ``src.task_gains`` [Kp; Kd] (2, 6) and
+    posture gains ``src.gains`` [Kp0; Kd0] toward ``src.qref``.  x_ref (3, 3) = [p_d; pdot_d; pddot_d] at t."""
+    frames, f, rows, kt = src.frames, src.frame, src.rows, src.task_gains
+    nv, nb, r = v.shape[0], tree.parents.shape[0], src.rows.shape[0]
+    path, oR, op = np.empty(nb, np.int64), np.empty((nb, 3, 3)), np.empty((nb, 3))
+    J = np.zeros((6, nv))
+    R, p = jacobian_into(tree, frames, q, f, LOCAL_WORLD_ALIGNED, (0.0, 0.0, 0.0), path, oR, op, J)
+    Q1, V1, jdv = np.empty((1, q.shape[0])), np.empty((1, nv)), np.empty((1, 6))
+    Q1[0], V1[0] = q, v
+    motion_batch(tree, Q1, V1, V1, frames, f, LOCAL_WORLD_ALIGNED, BIAS_ACCELERATION, True, jdv)
+    Minv = np.empty((nv, nv))
+    if minverse_into(tree, q, minverse_workspace(nb, nv), Minv) >= 0:
+        tau[:] = np.nan
+        return
+    # the posture acceleration a_0 and ID(q, v, a_0) - tau_passive
+    a0 = np.empty(nv)
+    difference(tree, q, src.qref, a0)
+    for i in range(nv):
+        a0[i] = src.gains[0, i] * a0[i] - src.gains[1, i] * v[i]
+    rnea_into(tree, q, v, a0, gravity, f_ext, ws_rnea, tau)
+    for i in range(nv):
+        tau[i] -= tau_passive[i]
+    # task errors (6 rows, world axes) and the commanded acceleration xdd* - Jdot v - J a_0
+    Rd, wd = orientation_at(src.times, src.orientation, t)
+    eo = rotation_log(matmul(Rd, transpose(R)))
+    e = (x_ref[0, 0] - p[0], x_ref[0, 1] - p[1], x_ref[0, 2] - p[2], eo[0], eo[1], eo[2])
+    xd_d = (x_ref[1, 0], x_ref[1, 1], x_ref[1, 2], wd[0], wd[1], wd[2])
+    xdd_d = (x_ref[2, 0], x_ref[2, 1], x_ref[2, 2], 0.0, 0.0, 0.0)
+    y = np.empty(r)
+    for a in range(r):
+        k = rows[a]
+        xd = 0.0
+        Ja0 = 0.0
+        for c in range(nv):
+            xd += J[k, c] * v[c]
+            Ja0 += J[k, c] * a0[c]
+        y[a] = xdd_d[k] + kt[1, k] * (xd_d[k] - xd) + kt[0, k] * e[k] - jdv[0, k] - Ja0
+    # Lambda = (J M^-1 J^T + d 1)^-1, then tau += J^T Lambda y
+    JM = np.empty((r, nv))
+    for a in range(r):
+        for c in range(nv):
+            x = 0.0
+            for s in range(nv):
+                x += J[rows[a], s] * Minv[s, c]
+            JM[a, c] = x
+    A, Lam, scratch = np.empty((6, 6)), np.empty((1, 6, 6)), np.empty((6, 6))
+    for a in range(r):
+        for b in range(r):
+            x = src.damping if a == b else 0.0
+            for s in range(nv):
+                x += JM[a, s] * J[rows[b], s]
+            A[a, b] = x
+    if not spd_inverse(A, r, Lam, 0, scratch):
+        tau[:] = np.nan
+        return
+    for a in range(r):
+        F = 0.0
+        for b in range(r):
+            F += Lam[0, a, b] * y[b]
+        for c in range(nv):
+            tau[c] += J[rows[a], c] * F
