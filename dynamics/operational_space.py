@@ -25,8 +25,9 @@ directions the task leaves free.
 
 Errors: e = p_d - p for the position; for the orientation e = log(R_d R^T) (world axes,
 :func:`dynamics.spatial.rotation_log`) and edot = w_d - w, exact to first order in the error.  When J M^-1 J^T
-is not positive definite (the frame at a singularity of its task rows) the torque is NaN and the simulation
-stops with an "unstable" status; ``damping`` d > 0 uses (J M^-1 J^T + d 1)^-1 instead.
+is singular (the frame at a singularity of its task rows: a condition number above
+:data:`dynamics.task_space.MAX_CONDITION`, as for :func:`dynamics.operational_space_inertia`) the torque is NaN
+and the simulation stops with a non-finite status; ``damping`` d > 0 uses (J M^-1 J^T + d 1)^-1 instead.
 """
 
 import numpy as np
@@ -39,6 +40,7 @@ from .minverse import minverse_into
 from .minverse import workspace as minverse_workspace
 from .rnea import rnea_into
 from .spatial import matmul, rotation_about_axis, rotation_log, spd_inverse, transpose
+from .task_space import MAX_CONDITION
 
 
 @kernel
@@ -115,14 +117,18 @@ def operational_space_into(src, tree, gravity, f_ext, t, q, v, x_ref, tau_passiv
             for s in range(nv):
                 x += J[rows[a], s] * Minv[s, c]
             JM[a, c] = x
-    A, Lam, scratch = np.empty((6, 6)), np.empty((1, 6, 6)), np.empty((6, 6))
+    A, Lam, scratch = np.empty((6, 6)), np.empty((1, 6, 6)), np.empty((6, 6))  # spd_inverse overwrites scratch
     for a in range(r):
         for b in range(r):
             x = src.damping if a == b else 0.0
             for s in range(nv):
                 x += JM[a, s] * J[rows[b], s]
             A[a, b] = x
-    if not spd_inverse(A, r, Lam, 0, scratch):
+    ok = spd_inverse(A, r, Lam, 0, scratch)
+    big_A, big_Lam = 0.0, 0.0
+    for a in range(r):  # max diag(A) max diag(A^-1) <= cond(A) <= r^2 times it (A symmetric positive definite)
+        big_A, big_Lam = max(big_A, A[a, a]), max(big_Lam, Lam[0, a, a])
+    if not ok or not big_A * big_Lam <= MAX_CONDITION:
         tau[:] = np.nan
         return
     for a in range(r):

@@ -372,7 +372,11 @@ def _operational_space_source(model, spec):
     nv, nq = model.nv, model.nq
     if model.floating_base:
         raise InputError("torque: OperationalSpace needs a fixed-base model (a floating base is not actuated)")
-    f = checks.frame(model, spec.frame)
+    try:
+        f = checks.frame(model, spec.frame)
+        rows = checks.rows(spec.rows) if spec.rows is not None else None
+    except InputError as e:
+        raise InputError(f"torque.{e}") from None
     if isinstance(spec, Target):
         pos = _array("torque.position", spec.position, (3,))
         ref = TaskReference([0.0], pos[None], orientation=spec.orientation)
@@ -397,7 +401,8 @@ def _operational_space_source(model, spec):
     otab[:, :9] = R.reshape(N, 9)
     for k in range(N - 1):
         otab[k, 9:] = rotation_log(tuple((R[k + 1] @ R[k].T).ravel()))
-    rows = checks.rows(spec.rows) if spec.rows is not None else np.arange(6 if ref.orientation is not None else 3)
+    if rows is None:
+        rows = np.arange(6 if ref.orientation is not None else 3)
     if ref.orientation is None and rows.max() > 2:
         raise InputError(f"torque.rows: the angular rows 3-5 need an orientation reference, got {rows.tolist()}")
     task_gains = np.zeros((2, 6))
