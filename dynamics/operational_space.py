@@ -12,15 +12,18 @@ acceleration xdd = J vd + Jdot v (Jdot v: :func:`dynamics.frame_bias_acceleratio
 and the controller commands the task acceleration xdd* = xdd_d + Kd edot + Kp e, plus a posture task in the
 dynamically consistent null space (N = 1 - J^T Jbar^T, Jbar = M^-1 J^T Lambda, so J M^-1 N = 0):
 
-    tau = J^T (Lambda xdd* + mu + p) + N tau_0,     tau_0 = M a_0 + b,     a_0 = Kp0 (q_0 - q) - Kd0 v.
+    tau = J^T (Lambda xdd* + mu + p) + N tau_0,     tau_0 = b + tau_p,     tau_p = Kp0 (q_0 - q) - Kd0 v.
 
-Expanding N, the same torque is a joint-space computed torque for a_0 corrected along the task,
+The posture is a joint stiffness (N m/rad): at rest the posture error that the task forces on the arm is the
+stiffness-weighted least-squares one (N tau_p = 0: Kp0 e in the range of J^T), so every joint shares the task's
+motion by its stiffness, not by its inertia (an acceleration-level posture M a_0 would let the light wrist take
+it all).  Expanding N (N b + J^T Lambda J M^-1 b = b), the same torque is
 
-    tau = ID(q, v, a_0) + J^T Lambda (xdd* - Jdot v - J a_0)                                        (*)
+    tau = ID(q, v, 0) + tau_p + J^T Lambda (xdd* - Jdot v - J M^-1 tau_p)                           (*)
 
 (ID the RNEA, :mod:`dynamics.rnea`), which is what the kernel evaluates: one RNEA, one M^-1
 (:mod:`dynamics.minverse`), one Jacobian, one Jdot v, and an r x r solve (r <= 6 task rows).  The closed
-loop is xdd = xdd* exactly for the model, i.e. e'' + Kd e' + Kp e = 0 per task row, and vd = a_0 in the
+loop is xdd = xdd* exactly for the model, i.e. e'' + Kd e' + Kp e = 0 per task row, and N tau_p drives the
 directions the task leaves free.
 
 Errors: e = p_d - p for the position; for the orientation e = log(R_d R^T) (world axes,
@@ -86,15 +89,23 @@ def operational_space_into(src, tree, gravity, f_ext, t, q, v, x_ref, tau_passiv
     if minverse_into(tree, q, minverse_workspace(nb, nv), Minv) >= 0:
         tau[:] = np.nan
         return
-    # the posture acceleration a_0 and ID(q, v, a_0) - tau_passive
-    a0 = np.empty(nv)
-    difference(tree, q, src.qref, a0)
+    # the posture torque tau_p = Kp0 (q_0 - q) - Kd0 v, and b = ID(q, v, 0) - tau_passive into tau
+    tp = np.empty(nv)
+    difference(tree, q, src.qref, tp)
     for i in range(nv):
-        a0[i] = src.gains[0, i] * a0[i] - src.gains[1, i] * v[i]
-    rnea_into(tree, q, v, a0, gravity, f_ext, ws_rnea, tau)
+        tp[i] = src.gains[0, i] * tp[i] - src.gains[1, i] * v[i]
+    zero = np.zeros(nv)
+    rnea_into(tree, q, v, zero, gravity, f_ext, ws_rnea, tau)
     for i in range(nv):
-        tau[i] -= tau_passive[i]
-    # task errors (6 rows, world axes) and the commanded acceleration xdd* - Jdot v - J a_0
+        tau[i] += tp[i] - tau_passive[i]
+    JM = np.empty((r, nv))  # J M^-1 (task rows)
+    for a in range(r):
+        for c in range(nv):
+            x = 0.0
+            for s in range(nv):
+                x += J[rows[a], s] * Minv[s, c]
+            JM[a, c] = x
+    # task errors (6 rows, world axes) and y = xdd* - Jdot v - J M^-1 tau_p
     Rd, wd = orientation_at(src.times, src.orientation, t)
     eo = rotation_log(matmul(Rd, transpose(R)))
     e = (x_ref[0, 0] - p[0], x_ref[0, 1] - p[1], x_ref[0, 2] - p[2], eo[0], eo[1], eo[2])
@@ -104,19 +115,12 @@ def operational_space_into(src, tree, gravity, f_ext, t, q, v, x_ref, tau_passiv
     for a in range(r):
         k = rows[a]
         xd = 0.0
-        Ja0 = 0.0
+        JMtp = 0.0
         for c in range(nv):
             xd += J[k, c] * v[c]
-            Ja0 += J[k, c] * a0[c]
-        y[a] = xdd_d[k] + kt[1, k] * (xd_d[k] - xd) + kt[0, k] * e[k] - jdv[0, k] - Ja0
+            JMtp += JM[a, c] * tp[c]
+        y[a] = xdd_d[k] + kt[1, k] * (xd_d[k] - xd) + kt[0, k] * e[k] - jdv[0, k] - JMtp
     # Lambda = (J M^-1 J^T + d 1)^-1, then tau += J^T Lambda y
-    JM = np.empty((r, nv))
-    for a in range(r):
-        for c in range(nv):
-            x = 0.0
-            for s in range(nv):
-                x += J[rows[a], s] * Minv[s, c]
-            JM[a, c] = x
     A, Lam, scratch = np.empty((6, 6)), np.empty((1, 6, 6)), np.empty((6, 6))  # spd_inverse overwrites scratch
     for a in range(r):
         for b in range(r):

@@ -47,6 +47,7 @@ from . import checks
 from .errors import InputError
 from ._numba import gil_kernel, inline_kernel, kernel
 from .configuration import difference
+from .crba import mass_matrix
 from .operational_space import operational_space_into
 from .rnea import rnea_into
 from .spatial import rotation_log
@@ -132,9 +133,12 @@ class OperationalSpace:
     the world, orientation (N, 3, 3) or one (3, 3) rotation of the frame's axes in the world.
     rows: the task rows of [x, y, z, wx, wy, wz] (world axes), default the 3 position rows, or all 6 with an
     orientation.  kp, kd: >= 0, scalars or one per task row (task-space acceleration gains, 1/s^2 and 1/s).
-    posture (nq,): the null-space posture, pulled with joint accelerations posture_kp (posture - q) -
-    posture_kd v; posture_kd defaults to 2 sqrt(posture_kp) (critical damping).  damping >= 0: added to the
-    diagonal of J M^-1 J^T (robust near singularities, at the cost of exact tracking).  Fixed base only.
+    posture (nq,): the null-space posture, pulled by the joint torques posture_kp (posture - q) - posture_kd v
+    projected into the dynamically consistent null space (posture_kp in N m/rad, scalar or (nv,));
+    posture_kd defaults to 2 sqrt(posture_kp M_ii(posture)) (each joint critically damped on its own inertia).
+    Before the first and after the last sample the reference holds its end position at rest.
+    damping >= 0: added to the diagonal of J M^-1 J^T (robust near singularities, at the cost of exact
+    tracking).  Fixed base only.
     """
 
     def __init__(self, frame, reference, kp, kd, posture=None, posture_kp=0.0, posture_kd=None, rows=None,
@@ -307,6 +311,8 @@ def torque_eval(src, tree, ps, t, q, v, ws, tau):
     elif kind == OPERATIONAL_SPACE:
         x_ref = np.empty((3, 3))
         reference_at(src.times, src.table, 3, t, x_ref[0], x_ref[1], x_ref[2])
+        if t < src.times[0] or t > src.times[-1]:  # hold the end position at rest
+            x_ref[1:] = 0.0
         pas = ws[1][3]
         passive_torques(ps, q, v, pas)
         operational_space_into(src, tree, ps.gravity, ps.f_ext, t, q, v, x_ref, pas, ws[0], tau)
@@ -410,11 +416,13 @@ def _operational_space_source(model, spec):
     task_gains[1, rows] = _array("torque.kd", spec.kd, (rows.size,), nonneg=True)
     gains = np.zeros((4, nv))
     gains[0] = _array("torque.posture_kp", spec.posture_kp, (nv,), nonneg=True)
-    gains[1] = (2.0 * np.sqrt(gains[0]) if spec.posture_kd is None
-                else _array("torque.posture_kd", spec.posture_kd, (nv,), nonneg=True))
     if spec.posture is None and np.any(gains[0] > 0):
         raise InputError("torque.posture: required (shape (nq,)) when posture_kp > 0")
     qref = np.zeros(nq) if spec.posture is None else _array("torque.posture", spec.posture, (nq,))
+    if spec.posture_kd is not None:
+        gains[1] = _array("torque.posture_kd", spec.posture_kd, (nv,), nonneg=True)
+    elif spec.posture is not None:
+        gains[1] = 2.0 * np.sqrt(gains[0] * np.diag(mass_matrix(model, qref)))
     damping = checks.real_number("torque.damping", spec.damping, lo=0.0)
     return Source(OPERATIONAL_SPACE, times, np.ascontiguousarray(np.concatenate([p, pd, pdd], 1)), gains, qref,
                   -1, model.frame_arrays, f, rows.astype(np.int64), task_gains, otab, float(damping))

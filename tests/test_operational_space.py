@@ -44,8 +44,8 @@ def test_2r_tracks_the_circle_like_computed_torque(arm2):
     q2 = np.arccos((np.hypot(p[:, 0], p[:, 2]) ** 2 - 2.0) / 2.0)  # elbow-down inverse kinematics
     q = np.stack([np.arctan2(p[:, 2], p[:, 0]) - np.arctan2(np.sin(q2), 1 + np.cos(q2)), q2], 1)
     Jp = dynamics.frame_jacobian(arm2, q, "tip")[:, [0, 2]]
-    v = np.linalg.solve(Jp, pd[:, [0, 2]])
-    acc = np.linalg.solve(Jp, pdd[:, [0, 2]] - dynamics.frame_bias_acceleration(arm2, q, v, "tip")[:, [0, 2]])
+    v = np.linalg.solve(Jp, pd[:, [0, 2], None])[..., 0]
+    acc = np.linalg.solve(Jp, (pdd - dynamics.frame_bias_acceleration(arm2, q, v, "tip")[:, :3])[:, [0, 2], None])[..., 0]
     kw = dict(rtol=1e-10, atol=1e-12, sample_dt=0.05)
     os_ = dynamics.simulate(arm2, q[0], v[0], T, torque=OperationalSpace("tip", TaskReference(t, p, pd, pdd),
                                                                          kp=100.0, kd=20.0, rows=[0, 2]), **kw)
@@ -74,7 +74,7 @@ def test_2r_positions_only_reference_uses_finite_differences(arm2):
 
 # -- the torque against the textbook form built from explicit matrices --------------------------------------
 def test_torque_is_the_textbook_operational_space_law(panda):
-    """tau = J^T (Lambda xdd* + Lambda (J M^-1 b - Jdot v)) + (1 - J^T Lambda J M^-1) (M a_0 + b), with b the
+    """tau = J^T (Lambda xdd* + Lambda (J M^-1 b - Jdot v)) + (1 - J^T Lambda J M^-1) (tau_p + b), with b the
     bias forces minus the passive (damping) torques, at the samples of a short run toward a fixed pose."""
     R0 = dynamics.frame_placement(panda, PANDA_Q0, "panda_hand")
     target = R0[:3, 3] + [0.05, -0.03, 0.04]
@@ -83,7 +83,7 @@ def test_torque_is_the_textbook_operational_space_law(panda):
     tr = dynamics.simulate(panda, PANDA_Q0, np.zeros(9), 0.3, torque=src, rtol=1e-9, atol=1e-11, sample_dt=0.1)
     for q, v, tau in zip(tr.q, tr.v, tr.tau):
         J = dynamics.frame_jacobian(panda, q, "panda_hand")
-        M, Minv = dynamics.mass_matrix(panda, q), dynamics.inverse_mass_matrix(panda, q)
+        Minv = dynamics.inverse_mass_matrix(panda, q)
         b = dynamics.bias_forces(panda, q, v) + panda.damping * v
         Lam = np.linalg.inv(J @ Minv @ J.T)
         T = dynamics.frame_placement(panda, q, "panda_hand")
@@ -94,7 +94,8 @@ def test_torque_is_the_textbook_operational_space_law(panda):
         xdd = kp * e - kd * (J @ v)
         mu_p = Lam @ (J @ Minv @ b - dynamics.frame_bias_acceleration(panda, q, v, "panda_hand"))
         N = np.eye(9) - J.T @ Lam @ J @ Minv
-        tau0 = M @ (kp0 * (PANDA_Q0 - q) - 2 * np.sqrt(kp0) * v) + b
+        kd0 = 2 * np.sqrt(kp0 * np.diag(dynamics.mass_matrix(panda, PANDA_Q0)))
+        tau0 = kp0 * (PANDA_Q0 - q) - kd0 * v + b
         expected = J.T @ (Lam @ xdd + mu_p) + N @ tau0
         assert np.abs(tau - expected).max() < 1e-7 * np.abs(expected).max()
 
@@ -121,7 +122,11 @@ def test_panda_tracks_a_circle_with_bounded_posture(panda, rows):
     assert np.abs(P[:, :3, 3] - circle(tr.t, centre, r, w, n=(0.0, 1.0, 0.0))[0]).max() < 1e-6
     if rows == 6:
         assert np.abs(P[:, :3, :3] - T0[:3, :3]).max() < 1e-6
-    assert np.abs(tr.q - PANDA_Q0).max() < 0.5 and np.abs(tr.v).max() < 1.0  # the posture stays bounded
+    # the posture stays bounded (the shoulder and wrist share the 20 cm excursion by stiffness: ~0.6 rad at most)
+    # and is back once the hand is; the fingers, outside the task, are held by the posture against the hand's
+    # accelerations
+    assert np.abs(tr.q - PANDA_Q0).max() < 0.75 and np.abs(tr.v).max() < 1.5
+    assert np.abs(tr.q[-1] - PANDA_Q0).max() < 0.05 and np.abs(tr.q[:, 7:] - PANDA_Q0[7:]).max() < 1e-3
 
 
 def test_target_converges_to_a_fixed_pose(panda):
