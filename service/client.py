@@ -214,7 +214,8 @@ class Robot:
                  integrator: Optional[str] = None, rtol: Optional[float] = None, atol: Optional[float] = None,
                  dt: Optional[float] = None, sample_dt: Optional[float] = None, gravity=None,
                  locked=None) -> Trajectory:
-        """``torque``: {"type": "zero" | "constant" | "table" | "pd" | "computed_torque", ...} (see the API docs)."""
+        """``torque``: {"type": "zero" | "constant" | "table" | "pd" | "computed_torque" | "operational_space", ...}
+        (see the API docs)."""
         payload = {"q0": _as_array(q0), "v0": _as_array(v0), "duration": float(duration),
                    "torque": _plain_tree(torque) if torque is not None else None, "integrator": integrator,
                    "rtol": rtol, "atol": atol, "dt": dt, "sample_dt": sample_dt, "gravity": self._opt(gravity),
