@@ -73,32 +73,37 @@ def orientation_at(times, otable, t):
 
 
 @kernel
+def workspace(nb, nv, nq):
+    """Scratch of :func:`operational_space_into`, one per simulation (its Source): J is zero off the frame's
+    support, which is all jacobian_into leaves untouched, and ``zero`` is never written."""
+    return (np.empty(nb, np.int64), np.empty((nb, 3, 3)), np.empty((nb, 3)), np.zeros((6, nv)),  # path, poses, J
+            np.empty((1, nq)), np.empty((1, nv)), np.empty((1, 6)),  # q, v, Jdot v as batches of one
+            np.empty((nv, nv)), minverse_workspace(nb, nv), np.empty(nv), np.zeros(nv),  # M^-1, tau_p, zero
+            np.empty((6, nv)), np.empty(6), np.empty((6, 6)), np.empty((1, 6, 6)), np.empty((6, 6)))  # JM, y, Lambda
+
+
+@kernel
 def operational_space_into(src, tree, gravity, f_ext, t, q, v, x_ref, tau_passive, ws_rnea, tau):
     """tau by (*) of the module docstring for the task of ``src`` (a :class:`dynamics.torques.Source`):
     frame ``src.frame`` of ``src.frames``, rows ``src.rows``, gains ``src.task_gains`` [Kp; Kd] (2, 6) and
     posture gains ``src.gains`` [Kp0; Kd0] toward ``src.qref``.  x_ref (3, 3) = [p_d; pdot_d; pddot_d] at t."""
     frames, f, rows, kt = src.frames, src.frame, src.rows, src.task_gains
-    nv, nb, r = v.shape[0], tree.parents.shape[0], src.rows.shape[0]
-    path, oR, op = np.empty(nb, np.int64), np.empty((nb, 3, 3)), np.empty((nb, 3))
-    J = np.zeros((6, nv))
+    path, oR, op, J, Q1, V1, jdv, Minv, ws_minv, tp, zero, JM, y, A, Lam, scratch = src.ws
+    nv, r = v.shape[0], rows.shape[0]
     R, p = jacobian_into(tree, frames, q, f, LOCAL_WORLD_ALIGNED, (0.0, 0.0, 0.0), path, oR, op, J)
-    Q1, V1, jdv = np.empty((1, q.shape[0])), np.empty((1, nv)), np.empty((1, 6))
     Q1[0], V1[0] = q, v
     motion_batch(tree, Q1, V1, V1, frames, f, LOCAL_WORLD_ALIGNED, BIAS_ACCELERATION, True, jdv)
-    Minv = np.empty((nv, nv))
-    if minverse_into(tree, q, minverse_workspace(nb, nv), Minv) >= 0:
+    if minverse_into(tree, q, ws_minv, Minv) >= 0:
         tau[:] = np.nan
         return
     # the posture torque tau_p = Kp0 (q_0 - q) - Kd0 v, and b = ID(q, v, 0) - tau_passive into tau
-    tp = np.empty(nv)
     difference(tree, q, src.qref, tp)
     for i in range(nv):
         tp[i] = src.gains[0, i] * tp[i] - src.gains[1, i] * v[i]
-    zero = np.zeros(nv)
     rnea_into(tree, q, v, zero, gravity, f_ext, ws_rnea, tau)
     for i in range(nv):
         tau[i] += tp[i] - tau_passive[i]
-    JM = np.empty((r, nv))  # J M^-1 (task rows)
+    # J M^-1 (task rows)
     for a in range(r):
         for c in range(nv):
             x = 0.0
@@ -111,7 +116,6 @@ def operational_space_into(src, tree, gravity, f_ext, t, q, v, x_ref, tau_passiv
     e = (x_ref[0, 0] - p[0], x_ref[0, 1] - p[1], x_ref[0, 2] - p[2], eo[0], eo[1], eo[2])
     xd_d = (x_ref[1, 0], x_ref[1, 1], x_ref[1, 2], wd[0], wd[1], wd[2])
     xdd_d = (x_ref[2, 0], x_ref[2, 1], x_ref[2, 2], 0.0, 0.0, 0.0)
-    y = np.empty(r)
     for a in range(r):
         k = rows[a]
         xd = 0.0
@@ -121,7 +125,6 @@ def operational_space_into(src, tree, gravity, f_ext, t, q, v, x_ref, tau_passiv
             JMtp += JM[a, c] * tp[c]
         y[a] = xdd_d[k] + kt[1, k] * (xd_d[k] - xd) + kt[0, k] * e[k] - jdv[0, k] - JMtp
     # Lambda = (J M^-1 J^T + d 1)^-1, then tau += J^T Lambda y
-    A, Lam, scratch = np.empty((6, 6)), np.empty((1, 6, 6)), np.empty((6, 6))  # spd_inverse overwrites scratch
     for a in range(r):
         for b in range(r):
             x = src.damping if a == b else 0.0

@@ -49,6 +49,7 @@ from ._numba import gil_kernel, inline_kernel, kernel
 from .configuration import difference
 from .crba import mass_matrix
 from .operational_space import operational_space_into
+from .operational_space import workspace as operational_space_workspace
 from .rnea import rnea_into
 from .spatial import rotation_log
 
@@ -78,6 +79,7 @@ class Source(NamedTuple):
     task_gains: np.ndarray  # (2, 6): Kp, Kd per task row
     orientation: np.ndarray  # (N, 12): reference orientation R_k (9) and psi_k = log(R_k+1 R_k^T) (3)
     damping: float  # added to the diagonal of J M^-1 J^T
+    ws: tuple  # operational_space.workspace: scratch, so one Source serves one simulation at a time (as it does)
 
 
 class Passive(NamedTuple):
@@ -352,9 +354,10 @@ def _times(name, t):
 def _source_for(model):
     """Source(...) with the operational-space fields set to placeholders of the right types."""
     frames, rows, task_gains, orientation = model.frame_arrays, np.zeros(0, np.int64), np.zeros((2, 6)), _IDENTITY
+    ws = operational_space_workspace(0, 0, 0)
 
     def build(kind, times, table, gains, qref, slot):
-        return Source(kind, times, table, gains, qref, slot, frames, -1, rows, task_gains, orientation, 0.0)
+        return Source(kind, times, table, gains, qref, slot, frames, -1, rows, task_gains, orientation, 0.0, ws)
     return build
 
 
@@ -425,7 +428,8 @@ def _operational_space_source(model, spec):
         gains[1] = 2.0 * np.sqrt(gains[0] * np.diag(mass_matrix(model, qref)))
     damping = checks.real_number("torque.damping", spec.damping, lo=0.0)
     return Source(OPERATIONAL_SPACE, times, np.ascontiguousarray(np.concatenate([p, pd, pdd], 1)), gains, qref,
-                  -1, model.frame_arrays, f, rows.astype(np.int64), task_gains, otab, float(damping))
+                  -1, model.frame_arrays, f, rows.astype(np.int64), task_gains, otab, float(damping),
+                  operational_space_workspace(model.tree.parents.shape[0], nv, nq))
 
 
 def make_source(model, torque):
