@@ -366,7 +366,10 @@ _IDENTITY = np.array([[1.0, 0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0]])
 
 def _rotations(name, R, N):
     """(N, 3, 3) proper rotations from (N, 3, 3) or one (3, 3)."""
-    R = np.array(R, dtype=np.float64) if R is not None else np.eye(3)
+    try:
+        R = np.array(R, dtype=np.float64) if R is not None else np.eye(3)
+    except (TypeError, ValueError):
+        raise InputError(f"{name}: expected ({N}, 3, 3) or (3, 3) rotation matrices, got {type(R).__name__}") from None
     if R.shape == (3, 3):
         R = np.broadcast_to(R, (N, 3, 3))
     R = _array(name, R, (N, 3, 3))
