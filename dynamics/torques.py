@@ -18,6 +18,9 @@ kd)``                  vector from q to q_target (:func:`dynamics.integrate.diff
 q, v, a, kp, kd)``     (inverse dynamics, the RNEA), so the closed loop is e'' + kd e' + kp e = 0 exactly for the
                        model.  The reference is a table of samples (t_k, q_k, v_k, a_k) interpolated by quintic
                        Hermite polynomials, which are C2 and consistent (v_ref = q_ref', a_ref = v_ref').
+``OperationalSpace(    operational-space control of a frame's position (and orientation) along a reference
+frame, reference,      trajectory: tau = J^T (Lambda xdd* + mu + p) + N tau_0 with a null-space posture task
+kp, kd)``, ``Target``  (:mod:`dynamics.operational_space`); ``Target`` holds a fixed pose.
 callable f(t, q, v)    called from the compiled loop through ``numba.objmode`` (one Python call per
                        right-hand-side evaluation; everything else stays compiled).
 =====================  ========================================================================================
@@ -40,19 +43,24 @@ import numpy as np
 from numba import objmode
 from numba.core.errors import NumbaWarning
 
+from . import checks
 from .errors import InputError
 from ._numba import gil_kernel, inline_kernel, kernel
 from .configuration import difference
+from .crba import mass_matrix
+from .operational_space import operational_space_into
+from .operational_space import workspace as operational_space_workspace
 from .rnea import rnea_into
-
+from .spatial import rotation_log
 
 
 # The objmode block for Python callables re-takes the GIL by design; numba warns about it at compile time.
 warnings.filterwarnings("ignore", message="Code running in object mode won't allow parallel execution",
                         category=NumbaWarning)
 
-ZERO, CONSTANT, TABLE_LINEAR, TABLE_ZOH, PD_KIND, COMPUTED_TORQUE, CALLABLE = range(7)
-KIND_NAMES = ("zero", "constant", "table_linear", "table_zoh", "pd", "computed_torque", "callable")
+ZERO, CONSTANT, TABLE_LINEAR, TABLE_ZOH, PD_KIND, COMPUTED_TORQUE, CALLABLE, OPERATIONAL_SPACE = range(8)
+KIND_NAMES = ("zero", "constant", "table_linear", "table_zoh", "pd", "computed_torque", "callable",
+              "operational_space")
 
 
 class Source(NamedTuple):
@@ -60,10 +68,18 @@ class Source(NamedTuple):
 
     kind: int
     times: np.ndarray  # (N,) table or reference times
-    table: np.ndarray  # (N, m): torques (m = nv) or reference [q, v, a] (m = 3 nv)
+    table: np.ndarray  # (N, m): torques (m = nv) or reference [q, v, a] (m = 3 nv) or [p, pdot, pddot] (m = 9)
     gains: np.ndarray  # (4, nv): rows are kind-dependent (constant tau | kp, kd, v_target, tau_ff)
-    qref: np.ndarray  # (nq,) PD target configuration
+    qref: np.ndarray  # (nq,) PD target configuration, operational space: posture
     slot: int  # callable registry slot
+    # operational space only (the other kinds carry harmless placeholders of the same types)
+    frames: object  # model.frame_arrays
+    frame: int  # the controlled frame, -1 for the other kinds
+    rows: np.ndarray  # (r,) int64: task rows of [linear; angular]
+    task_gains: np.ndarray  # (2, 6): Kp, Kd per task row
+    orientation: np.ndarray  # (N, 12): reference orientation R_k (9) and psi_k = log(R_k+1 R_k^T) (3)
+    damping: float  # added to the diagonal of J M^-1 J^T
+    ws: tuple  # operational_space.workspace: scratch, so one Source serves one simulation at a time (as it does)
 
 
 class Passive(NamedTuple):
@@ -109,6 +125,49 @@ class ComputedTorque:
 
     def __init__(self, t, q, v, a, kp, kd):
         self.t, self.q, self.v, self.a, self.kp, self.kd = t, q, v, a, kp, kd
+
+
+class OperationalSpace:
+    """Operational-space control of ``frame`` along ``reference`` (:mod:`dynamics.operational_space`).
+
+    reference: ``(t, position)`` or ``(t, position, orientation)``, or a :class:`TaskReference` (which can also
+    give the velocities and accelerations): t (N,) strictly increasing, position (N, 3) of the frame origin in
+    the world, orientation (N, 3, 3) or one (3, 3) rotation of the frame's axes in the world.
+    rows: the task rows of [x, y, z, wx, wy, wz] (world axes), default the 3 position rows, or all 6 with an
+    orientation.  kp, kd: >= 0, scalars or one per task row (task-space acceleration gains, 1/s^2 and 1/s).
+    posture (nq,): the null-space posture, pulled by the joint torques posture_kp (posture - q) - posture_kd v
+    projected into the dynamically consistent null space (posture_kp in N m/rad, scalar or (nv,));
+    posture_kd defaults to 2 sqrt(posture_kp M_ii(posture)) (each joint critically damped on its own inertia).
+    Before the first and after the last sample the reference holds its end position at rest.
+    damping >= 0: added to the diagonal of J M^-1 J^T (robust near singularities, at the cost of exact
+    tracking).  Fixed base only.
+    """
+
+    def __init__(self, frame, reference, kp, kd, posture=None, posture_kp=0.0, posture_kd=None, rows=None,
+                 damping=0.0):
+        self.frame, self.reference, self.kp, self.kd = frame, reference, kp, kd
+        self.posture, self.posture_kp, self.posture_kd = posture, posture_kp, posture_kd
+        self.rows, self.damping = rows, damping
+
+
+class TaskReference:
+    """A task-space reference: t (N,), position (N, 3), optional velocity and acceleration (N, 3) (central
+    finite differences of the positions when absent) and orientation (N, 3, 3) or (3, 3).  Positions are
+    interpolated by quintic Hermite polynomials through (position, velocity, acceleration); the orientation
+    along the geodesic between samples at constant angular velocity."""
+
+    def __init__(self, t, position, velocity=None, acceleration=None, orientation=None):
+        self.t, self.position, self.velocity, self.acceleration = t, position, velocity, acceleration
+        self.orientation = orientation
+
+
+class Target(OperationalSpace):
+    """Operational-space regulation of ``frame`` to a fixed position (3,) and, if given, orientation (3, 3):
+    the constant-reference form of :class:`OperationalSpace` (same keyword arguments)."""
+
+    def __init__(self, frame, position, orientation=None, *, kp, kd, **kwargs):
+        super().__init__(frame, None, kp, kd, **kwargs)
+        self.position, self.orientation = position, orientation
 
 
 # ---------------------------------------------------------------------------------------------------
@@ -251,6 +310,14 @@ def torque_eval(src, tree, ps, t, q, v, ws, tau):
         passive_torques(ps, q, v, pas)
         for i in range(nv):
             tau[i] -= pas[i]
+    elif kind == OPERATIONAL_SPACE:
+        x_ref = np.empty((3, 3))
+        reference_at(src.times, src.table, 3, t, x_ref[0], x_ref[1], x_ref[2])
+        if t < src.times[0] or t > src.times[-1]:  # hold the end position at rest
+            x_ref[1:] = 0.0
+        pas = ws[1][3]
+        passive_torques(ps, q, v, pas)
+        operational_space_into(src, tree, ps.gravity, ps.f_ext, t, q, v, x_ref, pas, ws[0], tau)
     else:
         _torque_callable(src.slot, t, q, v, tau)
 
@@ -284,6 +351,90 @@ def _times(name, t):
     return np.ascontiguousarray(t)
 
 
+def _source_for(model):
+    """Source(...) with the operational-space fields set to placeholders of the right types."""
+    frames, rows, task_gains, orientation = model.frame_arrays, np.zeros(0, np.int64), np.zeros((2, 6)), _IDENTITY
+    ws = operational_space_workspace(0, 0, 0)
+
+    def build(kind, times, table, gains, qref, slot):
+        return Source(kind, times, table, gains, qref, slot, frames, -1, rows, task_gains, orientation, 0.0, ws)
+    return build
+
+
+_IDENTITY = np.array([[1.0, 0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0]])
+
+
+def _rotations(name, R, N):
+    """(N, 3, 3) proper rotations from (N, 3, 3) or one (3, 3)."""
+    try:
+        R = np.array(R, dtype=np.float64) if R is not None else np.eye(3)
+    except (TypeError, ValueError):
+        raise InputError(f"{name}: expected ({N}, 3, 3) or (3, 3) rotation matrices, got {type(R).__name__}") from None
+    if R.shape == (3, 3):
+        R = np.broadcast_to(R, (N, 3, 3))
+    R = _array(name, R, (N, 3, 3))
+    err = np.abs(R @ R.transpose(0, 2, 1) - np.eye(3)).max(initial=0.0)
+    if err > 1e-6 or np.any(np.linalg.det(R) <= 0):
+        raise InputError(f"{name}: expected rotation matrices (R R^T = 1, det R = +1), off by {err:.1e}")
+    return R
+
+
+def _operational_space_source(model, spec):
+    """The OPERATIONAL_SPACE Source: checks every argument, naming it."""
+    nv, nq = model.nv, model.nq
+    if model.floating_base:
+        raise InputError("torque: OperationalSpace needs a fixed-base model (a floating base is not actuated)")
+    try:
+        f = checks.frame(model, spec.frame)
+        rows = checks.rows(spec.rows) if spec.rows is not None else None
+    except InputError as e:
+        raise InputError(f"torque.{e}") from None
+    if isinstance(spec, Target):
+        pos = _array("torque.position", spec.position, (3,))
+        ref = TaskReference([0.0], pos[None], orientation=spec.orientation)
+        names = dict(t="torque.t", position="torque.position", velocity="torque.velocity",
+                     acceleration="torque.acceleration", orientation="torque.orientation")
+    else:
+        ref = spec.reference
+        if isinstance(ref, (tuple, list)) and len(ref) in (2, 3):
+            ref = TaskReference(ref[0], ref[1], orientation=ref[2] if len(ref) == 3 else None)
+        if not isinstance(ref, TaskReference):
+            raise InputError("torque.reference: expected (t, position), (t, position, orientation) or a "
+                             f"TaskReference, got {type(spec.reference).__name__}")
+        names = {k: "torque.reference." + k for k in ("t", "position", "velocity", "acceleration", "orientation")}
+    times = _times(names["t"], ref.t)
+    N = times.shape[0]
+    p = _array(names["position"], ref.position, (N, 3))
+    diff = (lambda x: np.gradient(x, times, axis=0, edge_order=2 if N > 2 else 1)) if N > 1 else np.zeros_like
+    pd = diff(p) if ref.velocity is None else _array(names["velocity"], ref.velocity, (N, 3))
+    pdd = diff(pd) if ref.acceleration is None else _array(names["acceleration"], ref.acceleration, (N, 3))
+    R = _rotations(names["orientation"], ref.orientation, N)
+    otab = np.zeros((N, 12))
+    otab[:, :9] = R.reshape(N, 9)
+    for k in range(N - 1):
+        otab[k, 9:] = rotation_log(tuple((R[k + 1] @ R[k].T).ravel()))
+    if rows is None:
+        rows = np.arange(6 if ref.orientation is not None else 3)
+    if ref.orientation is None and rows.max() > 2:
+        raise InputError(f"torque.rows: the angular rows 3-5 need an orientation reference, got {rows.tolist()}")
+    task_gains = np.zeros((2, 6))
+    task_gains[0, rows] = _array("torque.kp", spec.kp, (rows.size,), nonneg=True)
+    task_gains[1, rows] = _array("torque.kd", spec.kd, (rows.size,), nonneg=True)
+    gains = np.zeros((4, nv))
+    gains[0] = _array("torque.posture_kp", spec.posture_kp, (nv,), nonneg=True)
+    if spec.posture is None and np.any(gains[0] > 0):
+        raise InputError("torque.posture: required (shape (nq,)) when posture_kp > 0")
+    qref = np.zeros(nq) if spec.posture is None else _array("torque.posture", spec.posture, (nq,))
+    if spec.posture_kd is not None:
+        gains[1] = _array("torque.posture_kd", spec.posture_kd, (nv,), nonneg=True)
+    elif spec.posture is not None:
+        gains[1] = 2.0 * np.sqrt(gains[0] * np.diag(mass_matrix(model, qref)))
+    damping = checks.real_number("torque.damping", spec.damping, lo=0.0)
+    return Source(OPERATIONAL_SPACE, times, np.ascontiguousarray(np.concatenate([p, pd, pdd], 1)), gains, qref,
+                  -1, model.frame_arrays, f, rows.astype(np.int64), task_gains, otab, float(damping),
+                  operational_space_workspace(model.tree.parents.shape[0], nv, nq))
+
+
 def make_source(model, torque):
     """The compiled :class:`Source` for the ``torque`` argument of :func:`dynamics.simulate`."""
     nv, nq = model.nv, model.nq
@@ -291,14 +442,15 @@ def make_source(model, torque):
     empty_tab = np.zeros((1, nv))
     gains = np.zeros((4, nv))
     qref = np.zeros(nq)
+    source = _source_for(model)
     if torque is None:
-        return Source(ZERO, empty_t, empty_tab, gains, qref, -1)
+        return source(ZERO, empty_t, empty_tab, gains, qref, -1)
     if isinstance(torque, Table):
         times = _times("torque.t", torque.t)
         tab = _array("torque.tau", torque.tau, (times.shape[0], nv))
         if torque.hold not in ("linear", "zoh"):
             raise InputError(f"torque.hold: expected 'linear' or 'zoh', got {torque.hold!r}")
-        return Source(TABLE_LINEAR if torque.hold == "linear" else TABLE_ZOH, times, tab, gains, qref, -1)
+        return source(TABLE_LINEAR if torque.hold == "linear" else TABLE_ZOH, times, tab, gains, qref, -1)
     if isinstance(torque, PD):
         qref = _array("torque.q_target", torque.q_target, (nq,))
         gains[0] = _array("torque.kp", torque.kp, (nv,), nonneg=True)
@@ -307,7 +459,7 @@ def make_source(model, torque):
             gains[2] = _array("torque.v_target", torque.v_target, (nv,))
         if torque.tau_ff is not None:
             gains[3] = _array("torque.tau_ff", torque.tau_ff, (nv,))
-        return Source(PD_KIND, empty_t, empty_tab, gains, qref, -1)
+        return source(PD_KIND, empty_t, empty_tab, gains, qref, -1)
     if isinstance(torque, ComputedTorque):
         if model.floating_base or nq != nv:
             raise InputError("torque: ComputedTorque needs a fixed-base model with 1-dof joints (nq == nv)")
@@ -317,12 +469,14 @@ def make_source(model, torque):
                               _array("torque.a", torque.a, (N, nv))], axis=1)
         gains[0] = _array("torque.kp", torque.kp, (nv,), nonneg=True)
         gains[1] = _array("torque.kd", torque.kd, (nv,), nonneg=True)
-        return Source(COMPUTED_TORQUE, times, np.ascontiguousarray(tab), gains, qref, -1)
+        return source(COMPUTED_TORQUE, times, np.ascontiguousarray(tab), gains, qref, -1)
+    if isinstance(torque, OperationalSpace):
+        return _operational_space_source(model, torque)
     if callable(torque):
-        return Source(CALLABLE, empty_t, empty_tab, gains, qref, register_callable(torque, nv))
+        return source(CALLABLE, empty_t, empty_tab, gains, qref, register_callable(torque, nv))
     try:
         gains[0] = _array("torque", torque, (nv,))
     except InputError as e:
         raise InputError(f"{e} (torque: expected None, an (nv,) = ({nv},) array, a Table, PD, ComputedTorque "
                          "or a callable f(t, q, v) -> tau)") from None
-    return Source(CONSTANT, empty_t, empty_tab, gains, qref, -1)
+    return source(CONSTANT, empty_t, empty_tab, gains, qref, -1)

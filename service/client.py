@@ -322,8 +322,8 @@ class Robot:
                  dt: Optional[float] = None, sample_dt: Optional[float] = None, gravity=None,
                  locked=None) -> Trajectory:
         """``torque``: what ``dynamics.simulate`` takes (``dynamics.torques.PD``, ``Table``, ``ComputedTorque``,
-        a constant tau, None) or the HTTP form {"type": "zero" | "constant" | "table" | "pd" | "computed_torque",
-        ...} (see the API docs)."""
+        ``OperationalSpace``, a constant tau, None) or the HTTP form {"type": "zero" | "constant" | "table" | "pd" |
+        "computed_torque" | "operational_space", ...} (see the API docs)."""
         payload = {"q0": _as_array(q0), "v0": _as_array(v0), "duration": float(duration),
                    "torque": torque_spec(torque), "integrator": integrator,
                    "rtol": rtol, "atol": atol, "dt": dt, "sample_dt": sample_dt, "gravity": self._opt(gravity),
@@ -340,6 +340,15 @@ TORQUE_CLASSES: dict[str, tuple[str, tuple[str, ...]]] = {
     "PD": ("pd", ("q_target", "kp", "kd", "v_target", "tau_ff")),
     "Table": ("table", ("t", "tau", "hold")),
     "ComputedTorque": ("computed_torque", ("t", "q", "v", "a", "kp", "kd")),
+    "OperationalSpace": ("operational_space", ("frame", "reference", "kp", "kd", "posture", "posture_kp",
+                                               "posture_kd", "rows", "damping")),
+    "Target": ("operational_space", ("frame", "position", "orientation", "kp", "kd", "posture", "posture_kp",
+                                     "posture_kd", "rows", "damping")),
+}
+
+#: objects nested in a torque object, sent as the mapping of their attributes (dynamics.torques.TaskReference)
+NESTED_CLASSES: dict[str, tuple[str, ...]] = {
+    "TaskReference": ("t", "position", "velocity", "acceleration", "orientation"),
 }
 
 
@@ -445,4 +454,7 @@ def _plain_tree(obj: Any) -> Any:
         return obj.tolist()
     if isinstance(obj, (np.floating, np.integer)):
         return obj.item()
+    if type(obj).__name__ in NESTED_CLASSES:
+        return {k: _plain_tree(getattr(obj, k)) for k in NESTED_CLASSES[type(obj).__name__]
+                if getattr(obj, k) is not None}
     return obj

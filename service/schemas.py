@@ -216,8 +216,36 @@ class ComputedTorque(_Request):
     kd: Gains
 
 
-TorqueSpec = Annotated[Union[ZeroTorque, ConstantTorque, TableTorque, PDTorque, ComputedTorque],
-                       Field(discriminator="type")]
+class TaskReferenceSpec(_Request):
+    """A frame's reference path: t (N,), position (N, 3) in the world, optional velocity and acceleration (N, 3)
+    (finite differences otherwise), orientation (N, 3, 3) or (3, 3) (dynamics.torques.TaskReference)."""
+    t: Array
+    position: Array
+    velocity: Optional[Array] = None
+    acceleration: Optional[Array] = None
+    orientation: Optional[Array] = None
+
+
+class OperationalSpaceTorque(_Request):
+    """Operational-space control of ``frame`` along ``reference``, or to the fixed ``position`` (3,) [and
+    ``orientation`` (3, 3)], with a null-space ``posture`` (dynamics.torques.OperationalSpace and Target)."""
+    type: Literal["operational_space"]
+    frame: Union[str, int]
+    reference: Optional[TaskReferenceSpec] = None
+    position: Optional[Array] = None
+    orientation: Optional[Array] = None
+    kp: Gains
+    kd: Gains
+    rows: Optional[list[int]] = Field(None, description="task rows of [x, y, z, wx, wy, wz]; default position "
+                                                        "only, or all 6 with an orientation")
+    posture: Optional[Array] = None
+    posture_kp: Gains = 0.0
+    posture_kd: Optional[Gains] = None
+    damping: float = 0.0
+
+
+TorqueSpec = Annotated[Union[ZeroTorque, ConstantTorque, TableTorque, PDTorque, ComputedTorque,
+                             OperationalSpaceTorque], Field(discriminator="type")]
 
 
 class SimulateRequest(_Request):

@@ -6,7 +6,8 @@ and sends an :class:`~service.sim.job.Outcome` back. Models are cached per worke
 in the server. A library error becomes ``input_error`` (the server answers 422 naming the field); the process
 only ends when its connection closes or the server kills it.
 
-The HTTP torque spec (``{"type": "zero" | "constant" | "table" | "pd" | "computed_torque", ...}``) is turned into
+The HTTP torque spec (``{"type": "zero" | "constant" | "table" | "pd" | "computed_torque" |
+"operational_space", ...}``) is turned into
 the library's torque objects here (:func:`build_torque`), so that the server needs no numeric code for it.
 """
 
@@ -45,7 +46,24 @@ def build_torque(spec: dict[str, Any] | None):
                           tau_ff=spec.get("tau_ff"))
     if kind == "computed_torque":
         return torques.ComputedTorque(spec["t"], spec["q"], spec["v"], spec["a"], spec["kp"], spec["kd"])
+    if kind == "operational_space":
+        return _operational_space(torques, spec)
     raise InvalidInput(f"torque.type: unknown torque type {kind!r}", "torque.type")
+
+
+def _operational_space(torques, spec: dict[str, Any]):
+    """{"reference": {...}} tracks a path (OperationalSpace), {"position": ...} holds a pose (Target)."""
+    kw = {k: spec.get(k) for k in ("posture", "posture_kp", "posture_kd", "rows", "damping")}
+    ref = spec.get("reference")
+    if (ref is None) == (spec.get("position") is None):
+        raise InvalidInput("torque.reference: give either reference (a path) or position (a fixed target)",
+                           "torque.reference")
+    if ref is None:
+        return torques.Target(spec["frame"], spec["position"], spec.get("orientation"), kp=spec["kp"],
+                              kd=spec["kd"], **kw)
+    if spec.get("orientation") is not None:
+        raise InvalidInput("torque.orientation: with a reference, give reference.orientation", "torque.orientation")
+    return torques.OperationalSpace(spec["frame"], torques.TaskReference(**ref), spec["kp"], spec["kd"], **kw)
 
 
 def finite_report(obj: Any) -> Any:
