@@ -62,5 +62,6 @@ def create_app(settings: Optional[Settings] = None) -> FastAPI:
     for module in (health, robots, dynamics, simulate):
         app.include_router(module.router)
     app.add_middleware(ApiKeys, keys=settings.api_keys, open_paths=health.OPEN_PATHS)
+    app.add_middleware(errors.RequestIds)  # added last: outermost, so that it sees every exception
     app.openapi = _openapi(app)
     return app

@@ -21,7 +21,10 @@ import numpy as np
 from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, ValidationError, ValidationInfo, WithJsonSchema
 
 from .codec import to_array
-from .errors import InvalidInput
+from .errors import InvalidInput, echo
+
+#: longest name (of a robot, a joint) accepted in a request or kept from a URDF
+MAX_NAME = 128
 
 _NUMBERS = {"type": "array", "items": {"type": "number"}}
 _STATE_SCHEMA = {"anyOf": [_NUMBERS, {"type": "array", "items": _NUMBERS}],
@@ -45,17 +48,28 @@ def _locked(value: Any) -> Optional[dict[str, Any]]:
         raise InvalidInput(f"locked: expected an object {{joint name: value}}, got {type(value).__name__}", "locked")
     out: dict[str, Any] = {}
     for name, v in value.items():
+        where = f"locked[{echo(name)}]"
+        if len(name) > MAX_NAME:
+            raise InvalidInput(f"{where}: a joint name of {len(name)} characters; joint names have at most "
+                               f"{MAX_NAME}", where)
         if isinstance(v, (int, float)) and not isinstance(v, bool):
-            out[name] = float(v)
-        elif isinstance(v, (list, np.ndarray)) and all(
+            out[name] = _float(v, where)
+        elif isinstance(v, (list, np.ndarray)) and len(v) <= 7 and all(
                 isinstance(x, (int, float, np.floating, np.integer)) and not isinstance(x, (bool, np.bool_))
                 for x in (v.tolist() if isinstance(v, np.ndarray) else v)):
-            out[name] = [float(x) for x in v]
+            out[name] = [_float(x, where) for x in v]
         else:
-            where = f"locked[{name!r}]"
             raise InvalidInput(f"{where}: expected a number (1-dof joint) or a list of numbers (7 for a floating "
                                f"joint: x, y, z, qx, qy, qz, qw), got {v!r:.60}", where)
     return out
+
+
+def _float(x: Any, where: str) -> float:
+    try:
+        return float(x)
+    except OverflowError:  # an integer of hundreds of digits
+        raise InvalidInput(f"{where}: {str(x)[:20]}... is too large for a float; expected a finite number",
+                           where) from None
 
 
 def validate(schema: type[BaseModel], payload: dict[str, Any]) -> BaseModel:

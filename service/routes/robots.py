@@ -12,7 +12,7 @@ from .. import schemas
 from ..auth import caller
 from ..codec import JSON, XML_TYPES, decode, media_type, read_body
 from ..deps import Deps, deps
-from ..errors import UnsupportedMediaType
+from ..errors import InvalidInput, UnsupportedMediaType
 from . import ERRORS
 
 router = APIRouter(prefix="/v1")
@@ -34,13 +34,22 @@ async def upload(request: Request, name: Optional[str] = Query(None, max_length=
         urdf = body
     elif kind == JSON or not kind:
         req = schemas.validate(schemas.UploadRequest, decode(body, JSON, max_unpacked=0))
-        urdf, name, floating_base = req.urdf.encode("utf-8"), req.name or name, req.floating_base
+        urdf, name, floating_base = _utf8(req.urdf), req.name or name, req.floating_base
     else:
         raise UnsupportedMediaType(f"Content-Type: {kind!r} is not accepted; send the URDF as application/xml, or "
                                    f"JSON {{\"urdf\": ...}}", "Content-Type")
     info = await d.compute.run(d.catalog.upload, urdf, name, floating_base, owner)
     return Response(json.dumps(info).encode(), status_code=201, media_type=JSON,
                     headers={"Location": f"/v1/robots/{info['id']}"})
+
+
+def _utf8(text: str) -> bytes:
+    """A JSON string -> UTF-8; JSON can carry a lone surrogate (``"\\ud800"``), which no UTF-8 document holds."""
+    try:
+        return text.encode("utf-8")
+    except UnicodeEncodeError as e:
+        raise InvalidInput(f"urdf: not valid Unicode text (a lone surrogate at character {e.start})", "urdf") \
+            from None
 
 
 @router.get("/robots", response_model=schemas.RobotList, responses=ERRORS, summary="every robot")
