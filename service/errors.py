@@ -57,6 +57,14 @@ class NotFound(Problem):
     """No such robot."""
 
 
+class Conflict(Problem):
+    """The name is taken by another robot of this key, or names several robots."""
+
+
+class RequestTimeout(Problem):
+    """The client took longer than DYNAMICS_READ_TIMEOUT to send its body."""
+
+
 class TooLarge(Problem):
     """A body, an unpacked archive or a URDF over its limit."""
 
@@ -92,7 +100,8 @@ class BudgetExceeded(Problem):
 #: each problem's HTTP status and default code
 STATUS: dict[type[Problem], tuple[int, str]] = {
     BadRequest: (400, "bad_request"), Unauthorized: (401, "unauthorized"), Forbidden: (403, "forbidden"),
-    NotFound: (404, "not_found"), TooLarge: (413, "too_large"), UnsupportedMediaType: (415, "unsupported_media_type"),
+    NotFound: (404, "not_found"), RequestTimeout: (408, "request_timeout"), Conflict: (409, "conflict"),
+    TooLarge: (413, "too_large"), UnsupportedMediaType: (415, "unsupported_media_type"),
     InvalidInput: (422, "invalid_input"), Failed: (500, "internal_error"), NotOffered: (501, "not_implemented"),
     Unavailable: (503, "busy"), BudgetExceeded: (504, "time_budget_exceeded"),
 }

@@ -22,9 +22,12 @@ _UPLOAD_BODY = {"requestBody": {"required": True, "content": {
     JSON: {"schema": {"$ref": "#/components/schemas/UploadRequest"}}}}}
 
 
-@router.post("/robots", status_code=201, response_model=schemas.UploadAnswer, responses=ERRORS,
+@router.post("/robots", status_code=201, response_model=schemas.UploadAnswer,
+             responses={**ERRORS, 200: {"model": schemas.UploadAnswer, "description": "already stored: the same "
+                                        "robot (same key, URDF, name and options)"},
+                        409: {"model": schemas.ErrorAnswer}},
              openapi_extra=_UPLOAD_BODY,
-             summary="upload a URDF; the id derives from content and options (same upload, same id)")
+             summary="upload a URDF; 201 with its id, or 200 with the existing id when it is already stored")
 async def upload(request: Request, name: Optional[str] = Query(None, max_length=128),
                  floating_base: bool = Query(False), d: Deps = Depends(deps),
                  owner: Optional[str] = Depends(caller)) -> Response:
@@ -38,8 +41,8 @@ async def upload(request: Request, name: Optional[str] = Query(None, max_length=
     else:
         raise UnsupportedMediaType(f"Content-Type: {kind!r} is not accepted; send the URDF as application/xml, or "
                                    f"JSON {{\"urdf\": ...}}", "Content-Type")
-    info = await d.compute.run(d.catalog.upload, urdf, name, floating_base, owner)
-    return Response(json.dumps(info).encode(), status_code=201, media_type=JSON,
+    info, created = await d.compute.run(d.catalog.store_upload, urdf, name, floating_base, owner)
+    return Response(json.dumps(info).encode(), status_code=201 if created else 200, media_type=JSON,
                     headers={"Location": f"/v1/robots/{info['id']}"})
 
 
@@ -52,19 +55,22 @@ def _utf8(text: str) -> bytes:
             from None
 
 
-@router.get("/robots", response_model=schemas.RobotList, responses=ERRORS, summary="every robot")
-async def robots(d: Deps = Depends(deps)) -> Response:
-    return Response(json.dumps({"robots": await d.compute.run(d.catalog.list_robots)}).encode(), media_type=JSON)
+@router.get("/robots", response_model=schemas.RobotList, responses=ERRORS,
+            summary="the robots this key may use: the bundled ones and its own")
+async def robots(d: Deps = Depends(deps), owner: Optional[str] = Depends(caller)) -> Response:
+    listing = await d.compute.run(d.catalog.list_robots, owner)
+    return Response(json.dumps({"robots": listing}).encode(), media_type=JSON)
 
 
 @router.get("/robots/{robot_id}", response_model=schemas.RobotInfo, responses=ERRORS,
             summary="joints (types, limits, damping) and bodies of one robot")
-async def robot(robot_id: str, d: Deps = Depends(deps)) -> Response:
-    return Response(json.dumps(await d.compute.run(d.catalog.describe, robot_id)).encode(), media_type=JSON)
+async def robot(robot_id: str, d: Deps = Depends(deps), owner: Optional[str] = Depends(caller)) -> Response:
+    rid = d.catalog.resolve(robot_id, owner)
+    return Response(json.dumps(await d.compute.run(d.catalog.describe, rid)).encode(), media_type=JSON)
 
 
 @router.delete("/robots/{robot_id}", status_code=204, responses={**ERRORS, 403: {"model": schemas.ErrorAnswer}},
                summary="delete an uploaded robot (with the key that uploaded it); bundled robots stay")
 async def delete(robot_id: str, d: Deps = Depends(deps), owner: Optional[str] = Depends(caller)) -> Response:
-    await d.compute.run(d.catalog.delete, robot_id, owner)
+    await d.compute.run(d.catalog.delete, d.catalog.resolve(robot_id, owner), owner)
     return Response(status_code=204)
