@@ -17,6 +17,7 @@ from fastapi.openapi.utils import get_openapi
 from . import __version__, errors, schemas
 from .auth import ApiKeys
 from .deps import Deps
+from .protocol import Options
 from .routes import dynamics, health, robots, simulate
 from .settings import Settings, configure_logging
 
@@ -62,6 +63,7 @@ def create_app(settings: Optional[Settings] = None) -> FastAPI:
     for module in (health, robots, dynamics, simulate):
         app.include_router(module.router)
     app.add_middleware(ApiKeys, keys=settings.api_keys, open_paths=health.OPEN_PATHS)
+    app.add_middleware(Options, routes=app.router.routes)  # (before the key check: Allow tells no secret)
     app.add_middleware(errors.RequestIds)  # added last: outermost, so that it sees every exception
     app.openapi = _openapi(app)
     return app

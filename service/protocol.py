@@ -1,4 +1,6 @@
-"""uvicorn's h11 protocol with a deadline on request headers, so that half-sent requests do not pile up.
+"""HTTP details: a deadline on request headers (:class:`HeaderTimeoutProtocol`), and OPTIONS (:class:`Options`).
+
+uvicorn's h11 protocol gets a deadline on request headers, so that half-sent requests do not pile up.
 
 uvicorn closes idle keep-alive connections, but a client that sends half its headers and then nothing is kept
 forever (its data cancels the keep-alive timer); 1,000 of those held 1,000 sockets. Here a connection whose
@@ -12,7 +14,11 @@ import asyncio
 import os
 
 import h11
+from starlette.responses import Response
+from starlette.routing import Match
 from uvicorn.protocols.http.h11_impl import H11Protocol
+
+from .errors import error_response
 
 
 class HeaderTimeoutProtocol(H11Protocol):
@@ -41,3 +47,37 @@ class HeaderTimeoutProtocol(H11Protocol):
         if getattr(self, "_header_timer", None) is not None:
             self._header_timer.cancel()
         super().connection_lost(exc)
+
+
+class Options:
+    """Pure ASGI middleware: ``OPTIONS <path>`` answers 204 with ``Allow`` listing every method the routes offer
+    on that path (Starlette would answer 405 naming only the first matching route's methods), 404 if none."""
+
+    def __init__(self, app, routes):
+        self.app = app
+        self.routes = routes
+
+    async def __call__(self, scope, receive, send):
+        if scope["type"] != "http" or scope["method"] != "OPTIONS":
+            return await self.app(scope, receive, send)
+        methods: set[str] = set()
+        for route in _leaves(self.routes):
+            match, _ = route.matches({**scope, "method": "GET"})
+            if match != Match.NONE and getattr(route, "methods", None):
+                methods |= set(route.methods)
+        if not methods:
+            return await error_response(404, f"path: no resource at {scope['path'][:64]!r}", "not_found")(
+                scope, receive, send)
+        methods |= {"OPTIONS"} | ({"HEAD"} if "GET" in methods else set())
+        allow = ", ".join(sorted(methods))
+        await Response(status_code=204, headers={"Allow": allow})(scope, receive, send)
+
+
+def _leaves(routes):
+    """The routes themselves, through FastAPI's included routers."""
+    for route in routes:
+        inner = getattr(route, "original_router", None)
+        if inner is not None:
+            yield from _leaves(inner.routes)
+        else:
+            yield route

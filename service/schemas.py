@@ -26,9 +26,11 @@ from .errors import InvalidInput, echo
 #: longest name (of a robot, a joint) accepted in a request or kept from a URDF
 MAX_NAME = 128
 
-_NUMBERS = {"type": "array", "items": {"type": "number"}}
-_STATE_SCHEMA = {"anyOf": [_NUMBERS, {"type": "array", "items": _NUMBERS}],
-                 "description": "one state (list of numbers) or a batch (list of equal-length lists)"}
+_NUMBERS = {"type": "array", "items": {"type": "number"}, "minItems": 1}
+_STATE_SCHEMA = {"anyOf": [_NUMBERS, {"type": "array", "items": _NUMBERS, "minItems": 1}],
+                 "description": "one state (a list of nq or nv numbers) or a batch (a list of equal-length lists, "
+                                "at most DYNAMICS_MAX_BATCH); their sizes are the robot's (GET the robot): others "
+                                "are a 422 naming the argument"}
 
 
 def _array(value: Any, info: ValidationInfo) -> np.ndarray:
@@ -92,8 +94,11 @@ def validate(schema: type[BaseModel], payload: dict[str, Any]) -> BaseModel:
 
 
 Array = Annotated[Any, BeforeValidator(_array), WithJsonSchema(_STATE_SCHEMA)]
+_WRENCHES = {"type": "array", "minItems": 1, "items": {"type": "array", "items": {"type": "number"}, "minItems": 6,
+                                                       "maxItems": 6}}
 Array3 = Annotated[Any, BeforeValidator(_array), WithJsonSchema(
-    {"type": "array", "description": "(nbodies, 6) or (B, nbodies, 6): [force, torque] per body, body frame"})]
+    {"anyOf": [_WRENCHES, {"type": "array", "items": _WRENCHES, "minItems": 1}],
+     "description": "(nbodies, 6) or (B, nbodies, 6): [force, torque] per body, body frame"})]
 Vec3 = Annotated[Any, BeforeValidator(_array), WithJsonSchema(
     {"type": "array", "items": {"type": "number"}, "minItems": 3, "maxItems": 3})]
 Locked = Annotated[Optional[dict[str, Any]], BeforeValidator(_locked), WithJsonSchema({
@@ -106,7 +111,8 @@ Gains = Annotated[Any, BeforeValidator(_array), WithJsonSchema(
 
 
 class _Request(BaseModel):
-    model_config = ConfigDict(extra="forbid", arbitrary_types_allowed=True)
+    # strict: "yes" is no boolean and "1" or true no duration; inf and NaN are no tolerance or duration
+    model_config = ConfigDict(extra="forbid", arbitrary_types_allowed=True, strict=True, allow_inf_nan=False)
 
 
 class _Dynamics(_Request):
@@ -213,7 +219,8 @@ SIMULATE_OPTIONS = ("integrator", "rtol", "atol", "dt", "sample_dt", "gravity", 
 
 
 class UploadRequest(_Request):
-    urdf: str = Field(description="the URDF document")
+    urdf: str = Field(description="the URDF document: a <robot> element (other XML is a 422 naming urdf)",
+                      json_schema_extra={"pattern": r"^\s*(<\?xml[^>]*\?>\s*)?(<!--[\s\S]*?-->\s*)*<robot[\s>]"})
     name: Optional[str] = Field(None, max_length=128)
     floating_base: bool = False
 

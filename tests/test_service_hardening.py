@@ -308,3 +308,51 @@ def test_names_address_robots_and_reuploads_answer_200(http, chain):
 def test_echoed_ids_are_capped(http):
     r = http.get("/v1/robots/" + "a" * 10_000)
     assert refused(r, 404, "robot") and len(r.text) < 400
+
+
+# -- section 4: schema and protocol ----------------------------------------------------------------------------
+@pytest.mark.parametrize("payload, field", [
+    ({"urdf": "<robot name='a'><link name='b'/></robot>", "floating_base": "yes"}, "floating_base"),
+    ({"urdf": "<robot name='a'><link name='b'/></robot>", "floating_base": 1}, "floating_base"),
+])
+def test_upload_types_are_strict(http, payload, field):
+    refused(http.post("/v1/robots", json=payload), 422, field)
+
+
+@pytest.mark.parametrize("duration", ["1", True, 1e400])
+def test_simulate_duration_is_a_number(http, duration):
+    body = '{"q0": [0, 0], "v0": [0, 0], "duration": ' + json.dumps(duration).replace("Infinity", "1e400") + "}"
+    refused(http.post("/v1/robots/planar-2r/simulate", content=body, headers=JSON_H), 422, "duration")
+
+
+def test_content_type_without_a_media_type_is_refused(http):
+    for path, body in (("/v1/robots/planar-2r/gravity-torques", '{"q": [0, 0]}'), ("/v1/robots", '{"urdf": "x"}')):
+        refused(http.post(path, content=body, headers={"Content-Type": ";;;;"}), 415, "Content-Type")
+
+
+def test_options_lists_the_methods(http):
+    r = http.options("/v1/robots")
+    assert r.status_code == 204 and set(r.headers["allow"].split(", ")) == {"GET", "HEAD", "POST", "OPTIONS"}
+    r = http.options("/v1/robots/planar-2r")
+    assert set(r.headers["allow"].split(", ")) == {"GET", "HEAD", "DELETE", "OPTIONS"}
+    assert http.options("/v1/nothing").status_code == 404
+
+
+def test_small_compressed_npz_is_accepted(http):
+    content = npz_bytes(True, q=np.array([0.3, -0.2]))
+    assert len(content) < 400
+    r = http.post("/v1/robots/planar-2r/gravity-torques", content=content, headers={"Content-Type": NPZ})
+    assert r.status_code == 200 and len(r.json()["tau"]) == 2
+
+
+def test_extreme_urdf_values(http):
+    """An axis of 1e300 1e300 1e300 is the unit axis (1, 1, 1)/sqrt(3), not an overflow; NaN limits are refused."""
+    q = {"q": [0.4, -0.3]}
+    taus = []
+    for axis in ("1 1 1", "1e300 1e300 1e300"):
+        urdf = chain_urdf(2, name=f"axis{len(axis)}", axis=axis)
+        rid = http.post("/v1/robots", content=urdf, headers={"Content-Type": "application/xml"}).json()["id"]
+        taus.append(http.post(f"/v1/robots/{rid}/gravity-torques", json=q).json()["tau"])
+    assert np.allclose(taus[0], taus[1], rtol=1e-14, atol=1e-14) and np.abs(taus[0]).max() > 0.1
+    urdf = chain_urdf(2).replace('lower="-3.14"', 'lower="nan"')
+    refused(http.post("/v1/robots", content=urdf, headers={"Content-Type": "application/xml"}), 422, "urdf")

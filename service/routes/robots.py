@@ -18,7 +18,8 @@ from . import ERRORS
 router = APIRouter(prefix="/v1")
 
 _UPLOAD_BODY = {"requestBody": {"required": True, "content": {
-    "application/xml": {"schema": {"type": "string", "description": "the URDF document"}},
+    "application/xml": {"schema": {"type": "string", "description": "the URDF document: a <robot> element; other "
+                                   "XML, DTDs and entities are a 422 naming urdf"}},
     JSON: {"schema": {"$ref": "#/components/schemas/UploadRequest"}}}}}
 
 
@@ -32,14 +33,15 @@ async def upload(request: Request, name: Optional[str] = Query(None, max_length=
                  floating_base: bool = Query(False), d: Deps = Depends(deps),
                  owner: Optional[str] = Depends(caller)) -> Response:
     body = await read_body(request, d.settings.max_body_bytes)
-    kind = media_type(request.headers.get("content-type"))
+    header = request.headers.get("content-type")
+    kind = media_type(header)
     if kind in XML_TYPES:
         urdf = body
-    elif kind == JSON or not kind:
+    elif kind == JSON or header is None:  # (no Content-Type is JSON; one naming no type, ";;;;", is refused)
         req = schemas.validate(schemas.UploadRequest, decode(body, JSON, max_unpacked=0))
         urdf, name, floating_base = _utf8(req.urdf), req.name or name, req.floating_base
     else:
-        raise UnsupportedMediaType(f"Content-Type: {kind!r} is not accepted; send the URDF as application/xml, or "
+        raise UnsupportedMediaType(f"Content-Type: {kind or header!r:.64} is not accepted; send the URDF as application/xml, or "
                                    f"JSON {{\"urdf\": ...}}", "Content-Type")
     info, created = await d.compute.run(d.catalog.store_upload, urdf, name, floating_base, owner)
     return Response(json.dumps(info).encode(), status_code=201 if created else 200, media_type=JSON,
