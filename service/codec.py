@@ -13,6 +13,7 @@ import io
 import json
 import math
 import zipfile
+import zlib
 from typing import Any, Mapping
 
 import numpy as np
@@ -132,7 +133,8 @@ def decode_npz(body: bytes, *, max_unpacked: int) -> dict[str, Any]:
                 total += math.prod(shape) * max(8, dtype.itemsize)
             if total > max_unpacked:
                 raise _unpacks_too_large(total, max_unpacked)
-    except (zipfile.BadZipFile, zipfile.LargeZipFile, NotImplementedError, OSError, EOFError) as e:
+    except (zipfile.BadZipFile, zipfile.LargeZipFile, NotImplementedError, OSError, EOFError, ValueError,
+            RuntimeError, zlib.error) as e:  # (zipfile: ValueError, zlib.error, RuntimeError for "encrypted")
         raise InvalidInput(f"body: not a valid .npz archive ({str(e)[:200]})", "body") from None
     out: dict[str, Any] = {}
     buf.seek(0)  # (np.load reads the magic from where the headers were last read)
@@ -149,7 +151,7 @@ def decode_npz(body: bytes, *, max_unpacked: int) -> dict[str, Any]:
     except ValueError as e:  # object arrays (pickles) and malformed members
         raise InvalidInput(f"body: .npz member refused ({str(e)[:200]}); only numeric arrays are accepted",
                            "body") from None
-    except (OSError, EOFError, zipfile.BadZipFile, NotImplementedError) as e:
+    except (OSError, EOFError, zipfile.BadZipFile, NotImplementedError, RuntimeError, zlib.error) as e:
         raise InvalidInput(f"body: unreadable .npz archive ({str(e)[:200]})", "body") from None
     return out
 
