@@ -44,8 +44,6 @@ INLINE_NUMBERS = 512
 # writes at most 24 characters and a comma per float64, ~20 on average)
 NPZ_BYTES_PER_NUMBER = 8
 JSON_BYTES_PER_NUMBER = 21
-# Answers past this size are followed by a trim of the heap (service.memory)
-RELEASE_BYTES = 16 * 1024 * 1024
 
 
 @dataclass(frozen=True)

@@ -13,6 +13,8 @@ import ctypes.util
 import functools
 
 M_MMAP_THRESHOLD = -3
+#: answers past this size are followed by a trim of the heap once sent (service.codec.encode)
+RELEASE_BYTES = 16 * 1024 * 1024
 #: blocks from this size on are mmapped (and unmapped when freed): numpy arrays of states, answers, bodies
 MMAP_THRESHOLD = 1 << 20
 

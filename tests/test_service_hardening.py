@@ -19,7 +19,7 @@ import numpy as np
 import pytest
 
 from robots import chain_urdf
-from service_fixtures import ROBOTS, Server
+from service_fixtures import Server
 
 JSON_H = {"Content-Type": "application/json"}
 NPZ = "application/x-npz"

@@ -12,12 +12,11 @@ from typing import Optional
 
 from fastapi import APIRouter, Request
 from pydantic import BaseModel
-from starlette.background import BackgroundTask
 from starlette.responses import Response
 
-from .. import memory, schemas
+from .. import schemas
 from ..codec import NPZ, decode, encode, media_type, read_body
-from ..compute import INLINE_BYTES, OPERATIONS, RELEASE_BYTES, Budget, Operation, check_time
+from ..compute import INLINE_BYTES, OPERATIONS, Budget, Operation, check_time
 from ..auth import caller
 from ..deps import Deps, budget
 from . import ERRORS, body_doc
@@ -63,14 +62,10 @@ def _answer(d: Deps, op: Operation, schema: type[BaseModel], robot_id: str, body
 
 def _compute(d: Deps, op: Operation, robot_id: str, args: dict, accept: Optional[str],
              time_budget: Budget) -> Response:
-    """In a compute thread: compute (within the budget), encode if time is left; a large answer's memory is
-    given back to the system once it is sent."""
+    """In a compute thread: compute (within the budget), encode if time is left."""
     result = d.compute.dynamics(op, robot_id, args, time_budget, accept)
     check_time(time_budget, f"{op.name} (before encoding the answer)")
-    response = encode(result, accept)
-    if len(response.body) > RELEASE_BYTES:
-        response.background = BackgroundTask(memory.release)
-    return response
+    return encode(result, accept)
 
 
 for _segment, (_schema, _answer_schema, _summary) in ROUTES.items():

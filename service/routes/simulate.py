@@ -6,12 +6,11 @@ import json
 from typing import Any, Optional
 
 from fastapi import APIRouter, Depends, Request
-from starlette.background import BackgroundTask
 from starlette.responses import Response
 
-from .. import memory, schemas
+from .. import schemas
 from ..codec import decode, encode, read_body
-from ..compute import RELEASE_BYTES, Budget
+from ..compute import Budget
 from ..auth import caller
 from ..deps import Deps, budget, deps
 from ..errors import InvalidInput
@@ -35,14 +34,7 @@ async def simulate(robot_id: str, request: Request, d: Deps = Depends(deps),
                                             accept)
     del body
     trajectory = await d.compute.simulate(job, time_budget)
-    return await d.compute.run_within(time_budget, _encode, {**trajectory, "scene": scene}, accept)
-
-
-def _encode(answer: dict[str, Any], accept: Optional[str]) -> Response:
-    response = encode(answer, accept)
-    if len(response.body) > RELEASE_BYTES:
-        response.background = BackgroundTask(memory.release)
-    return response
+    return await d.compute.run_within(time_budget, encode, {**trajectory, "scene": scene}, accept)
 
 
 def _job(d: Deps, robot_id: str, body: bytes, content_type: Optional[str],
