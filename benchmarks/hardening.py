@@ -84,6 +84,13 @@ def cases(chain: str, heavy: bool):
         ("100k-link URDF", "/v1/robots",
          {"content": '<robot name="big">' + "".join(f'<link name="l{i}"/>' for i in range(100_000)) + "</robot>",
           "headers": {"Content-Type": "application/xml"}}),
+        ("504: 20,000 states, 20 ms budget", f"/v1/robots/{chain}/inverse-dynamics",
+         {"content": npz(True, **{k: np.zeros((20_000, 128)) for k in "qva"}),
+          "headers": {**x, "Accept": NPZ, "X-Time-Budget": "0.02"}}),
+        ("legal: mass matrix 1,000 states .npz (131 MB)", f"/v1/robots/{chain}/mass-matrix",
+         {"content": npz(True, q=np.zeros((1000, 128))), "headers": {**x, "Accept": NPZ}}),
+        ("legal: gravity 5,000 states JSON", f"/v1/robots/{chain}/gravity-torques",
+         {"content": npz(True, q=np.zeros((5000, 128))), "headers": x}),
     ]
     if heavy:
         out += [

@@ -23,8 +23,7 @@ from typing import Any, Callable, Iterator, Optional
 
 import numpy as np
 
-from . import memory
-from .errors import BudgetExceeded, Failed, InvalidInput, NotOffered, TooLarge, Unavailable, field_of
+from .errors import BudgetExceeded, Failed, InvalidInput, NotOffered, Problem, TooLarge, Unavailable, field_of
 from .codec import wants_npz
 from .library import lib, parallel
 from .models import Models, load_model, locked_key
@@ -68,14 +67,12 @@ def within(budget: Budget, what: str) -> Iterator[None]:
         with parallel().deadline(budget.deadline):
             yield
     except lib().DeadlineExceeded:
-        memory.release()
         raise BudgetExceeded(what, budget.seconds, "send smaller batches") from None
 
 
 def check_time(budget: Budget, what: str, hint: str = "send smaller batches") -> None:
     """A 504 when ``budget`` is spent: between the stages of a request (queued, decoded, computed, encoded)."""
     if budget.left() <= 0:
-        memory.release()
         raise BudgetExceeded(what, budget.seconds, hint)
 
 
@@ -179,7 +176,12 @@ class Compute:
         before any of its work starts."""
         def start() -> Any:
             check_time(budget, "the request, waiting for a compute thread,", "retry when the server is less busy")
-            return fn(*args)
+            try:
+                return fn(*args)
+            except Problem as e:  # (its traceback's frames would hold the request's arrays until a gc pass)
+                problem = e.with_traceback(None)
+                problem.__context__ = None
+            raise problem
         return await self.run(start)
 
     def warm_kernels(self) -> None:

@@ -21,9 +21,12 @@ from typing import Any
 
 from fastapi import FastAPI, Request
 from fastapi.exceptions import RequestValidationError
+from starlette.background import BackgroundTask
 from starlette.exceptions import HTTPException as StarletteHTTPException
 from starlette.requests import ClientDisconnect
 from starlette.responses import Response
+
+from . import memory
 
 log = logging.getLogger("service")
 
@@ -143,7 +146,10 @@ def error_response(status: int, detail: str, code: str, field: str | None = None
 
 def problem_response(problem: Problem) -> Response:
     status, code = STATUS[type(problem)]
-    return error_response(status, problem.detail, problem.code or code, problem.field, problem.headers)
+    response = error_response(status, problem.detail, problem.code or code, problem.field, problem.headers)
+    if isinstance(problem, BudgetExceeded):  # the stopped work's memory goes back to the system once answered
+        response.background = BackgroundTask(memory.release)
+    return response
 
 
 def is_library_input_error(exc: BaseException) -> bool:

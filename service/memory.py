@@ -2,8 +2,8 @@
 
 glibc's malloc raises its mmap threshold after a large block is freed (up to 32 MiB), so the next large arrays
 come from the heap and stay mapped after they are freed: a request that used 4 GB left the process at 4 GB.
-:func:`configure` fixes the threshold (large blocks always mmapped, returned on free) and :func:`release` trims
-what the heap still holds after a large or a stopped request. Both do nothing where glibc is absent.
+:func:`configure` fixes the threshold (large blocks always mmapped, returned on free) and :func:`release`
+collects cycles and trims the heap after a large answer or a 504, once the answer is sent. Both do nothing where glibc is absent.
 """
 
 from __future__ import annotations
@@ -11,6 +11,7 @@ from __future__ import annotations
 import ctypes
 import ctypes.util
 import functools
+import gc
 
 M_MMAP_THRESHOLD = -3
 #: answers past this size are followed by a trim of the heap once sent (service.codec.encode)
@@ -36,6 +37,9 @@ def configure() -> None:
 
 
 def release() -> None:
+    """Collect reference cycles first: a stopped request's arrays are held by its exception's traceback frames
+    until the cyclic collector runs."""
+    gc.collect()
     libc = _libc()
     if libc is not None:
         libc.malloc_trim(0)
