@@ -18,6 +18,7 @@ from .compute import compile_operations
 from .kinematics import OPERATIONS as KINEMATICS
 from .library import lib
 from .models import load_model
+from .protocol import HeaderTimeoutProtocol
 from .settings import Settings, configure_logging
 from .sim import worker
 from .store import RobotStore
@@ -74,9 +75,12 @@ def main(argv: list[str] | None = None) -> int:
     if args.warmup:
         configure_logging(args.log_level)
         return warmup()
+    # Slow clients: request headers within DYNAMICS_READ_TIMEOUT (HeaderTimeoutProtocol) and at most 16 KiB;
+    # idle keep-alive connections closed after 5 s.
     uvicorn.run("service.app:create_app", factory=True, host=args.host, port=args.port,
                 workers=max(1, args.workers), log_level=args.log_level, access_log=False,
-                timeout_graceful_shutdown=5)
+                timeout_graceful_shutdown=5, http=HeaderTimeoutProtocol, timeout_keep_alive=5,
+                h11_max_incomplete_event_size=16 * 1024)
     return 0
 
 

@@ -19,6 +19,7 @@ from . import __version__, errors, schemas
 from .auth import ApiKeys
 from .deps import Deps
 from .jobs.manager import Jobs
+from .protocol import Options
 from .routes import dynamics, health, jobs, kinematics, robots, simulate
 from .settings import Settings, configure_logging
 
@@ -56,7 +57,7 @@ def create_app(settings: Optional[Settings] = None) -> FastAPI:
     @asynccontextmanager
     async def lifespan(app: FastAPI):
         app.state.deps = Deps.start(settings)
-        app.state.jobs = Jobs.start(settings, app.state.deps.models)
+        app.state.jobs = Jobs.start(settings, app.state.deps.models, app.state.deps.catalog.resolve)
         try:
             yield
         finally:
@@ -70,5 +71,7 @@ def create_app(settings: Optional[Settings] = None) -> FastAPI:
     for module in (health, robots, dynamics, kinematics, simulate, jobs):
         app.include_router(module.router)
     app.add_middleware(ApiKeys, keys=settings.api_keys, open_paths=health.OPEN_PATHS)
+    app.add_middleware(Options, routes=app.router.routes)  # (before the key check: Allow tells no secret)
+    app.add_middleware(errors.RequestIds)  # added last: outermost, so that it sees every exception
     app.openapi = _openapi(app)
     return app

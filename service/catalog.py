@@ -13,13 +13,14 @@ import numpy as np
 from lxml import etree
 
 from .codec import finite_or_none, jsonable
-from .errors import Forbidden, InvalidInput, TooLarge
+from .errors import Conflict, Forbidden, InvalidInput, NotFound, TooLarge, echo
 from .models import Models, load_model
+from .schemas import MAX_NAME
 from .settings import Settings
-from .store import RobotStore
+from .store import IndexEntry, RobotStore, robot_id
 
 
-def check_xml(data: bytes, *, max_bytes: int, max_depth: int) -> None:
+def check_xml(data: bytes, *, max_bytes: int, max_depth: int, max_links: int = 1024) -> None:
     """Refuse what no URDF needs before the library sees it: oversize, DOCTYPE/ENTITY, deep nesting, bad XML.
 
     The library's own parser refuses DTDs and entities too; this is a second, independent wall, and it
@@ -33,13 +34,21 @@ def check_xml(data: bytes, *, max_bytes: int, max_depth: int) -> None:
     parser = etree.XMLPullParser(events=("start", "end"), resolve_entities=False, no_network=True,
                                  load_dtd=False, huge_tree=False, recover=False)
     depth = 0
+    counts = {"link": 0, "joint": 0}
     try:
         for start in range(0, len(data), 1 << 16):
             parser.feed(data[start:start + (1 << 16)])
-            for event, _ in parser.read_events():
+            for event, element in parser.read_events():
                 depth += 1 if event == "start" else -1
                 if depth > max_depth:
                     raise InvalidInput(f"urdf: XML nested deeper than {max_depth} elements", "urdf")
+                if event == "start" and depth == 2 and element.tag in counts:
+                    counts[element.tag] += 1
+                    if counts[element.tag] > max_links:
+                        raise TooLarge(f"urdf: more than {max_links} <{element.tag}> elements, over the limit "
+                                       f"(DYNAMICS_MAX_LINKS)", "urdf")
+                if event == "end" and depth == 1:
+                    element.clear()  # (a robot's children are not kept: memory stays flat)
         parser.close()
     except etree.XMLSyntaxError as e:
         raise InvalidInput(f"urdf: not well-formed XML ({e})", "urdf") from None
@@ -95,8 +104,14 @@ class Catalog:
         self.models = models
 
     def upload(self, urdf: bytes, name: Optional[str], floating_base: bool, owner: Optional[str]) -> dict[str, Any]:
+        return self.store_upload(urdf, name, floating_base, owner)[0]
+
+    def store_upload(self, urdf: bytes, name: Optional[str], floating_base: bool, owner: Optional[str]
+                     ) -> tuple[dict[str, Any], bool]:
+        """Check, load and store a URDF: (its description, whether it was created). The same upload again
+        (same key, document, name and options) is the same robot: (description, False)."""
         s = self.settings
-        check_xml(urdf, max_bytes=s.max_urdf_bytes, max_depth=s.max_xml_depth)
+        check_xml(urdf, max_bytes=s.max_urdf_bytes, max_depth=s.max_xml_depth, max_links=s.max_links)
         try:
             text = urdf.decode("utf-8")
         except UnicodeDecodeError:
@@ -105,14 +120,57 @@ class Catalog:
         if model.nv > s.max_dof:
             raise InvalidInput(f"urdf: {model.nv} degrees of freedom is over the limit of {s.max_dof} "
                                f"(DYNAMICS_MAX_DOF)", "urdf")
-        record, _created = self.store.put(text, name=name or model.name, floating_base=floating_base, owner=owner,
-                                          summary=_stored_summary(model))
+        explicit = name is not None
+        name = name or model.name[:MAX_NAME]  # (a URDF's name is capped like a given one)
+        rid = robot_id(text, name=name, floating_base=floating_base, owner=owner)
+        if self.store.lookup(rid) is None:
+            self._check_new(name, explicit, owner)
+        record, created = self.store.put(text, name=name, floating_base=floating_base, owner=owner,
+                                         summary=_stored_summary(model))
         self.models.keep(record.id, model)  # the model a request would build
         info = _public(record.id, record.name, False, record.floating_base, record.summary)
         info["summary"] = model_summary(model)
-        return info
+        return info, created
 
-    def list_robots(self) -> list[dict[str, Any]]:
+    def _check_new(self, name: str, explicit: bool, owner: Optional[str]) -> None:
+        """Before a new robot is stored: a name given at upload is unique per key (409), and the key's quotas."""
+        s = self.settings
+        if explicit:
+            taken = [e.id for e in self.store.index().values() if e.owner == owner and e.name == name]
+            if taken or name in self.store.bundled_ids():
+                raise Conflict(f"name: {echo(name)} is already the name of robot {(taken or [name])[0]}; delete it "
+                               f"first or choose another name", "name")
+        robots, size = self.store.usage(owner)
+        if robots >= s.max_robots_per_key:
+            raise TooLarge(f"robots: this key already stores {robots} robots, the limit "
+                           f"(DYNAMICS_MAX_ROBOTS_PER_KEY); delete some first", "robots", code="quota_exceeded")
+        if size >= s.max_store_bytes:
+            raise TooLarge(f"robots: this key's robots take {size} bytes, over the limit of {s.max_store_bytes} "
+                           f"(DYNAMICS_MAX_STORE_BYTES); delete some first", "robots", code="quota_exceeded")
+
+    # -- access: robots belong to the key that uploaded them -------------------------------------------------
+    def _visible(self, entry: IndexEntry, owner: Optional[str]) -> bool:
+        """Keys off: every robot. Keys on: the caller's, and those uploaded while keys were off (read-only)."""
+        return not self.settings.api_keys or entry.owner == owner or entry.owner is None
+
+    def resolve(self, ref: str, owner: Optional[str]) -> str:
+        """A robot's id from an id or a name, as the caller may see it; 404 otherwise (another key's robots are
+        not found rather than forbidden: their existence is not told). Reads no URDF: fit for the event loop."""
+        if ref in self.store.bundled_ids():
+            return ref
+        entry = self.store.lookup(ref) if len(ref) <= 64 else None
+        if entry is not None and self._visible(entry, owner):
+            return entry.id
+        named = [e for e in self.store.index().values() if e.name == ref and self._visible(e, owner)]
+        own = [e for e in named if e.owner == owner] or named
+        if len(own) == 1:
+            return own[0].id
+        if len(own) > 1:
+            raise Conflict(f"robot: {echo(ref)} names {len(own)} robots ({', '.join(e.id for e in own[:5])}); "
+                           f"use an id", "robot")
+        raise NotFound(f"robot: no robot with id or name {echo(ref)}", "robot")
+
+    def list_robots(self, owner: Optional[str] = None) -> list[dict[str, Any]]:
         out = []
         for rid in self.store.bundled_ids():
             try:
@@ -120,10 +178,9 @@ class Catalog:
             except InvalidInput:  # a bundled URDF the library refuses: leave it out rather than fail the list
                 continue
             out.append(_public(rid, rid, True, False, _stored_summary(model)))
-        for rid in self.store.uploaded_ids():
-            rec = self.store.get(rid)
-            if rec is not None:
-                out.append(_public(rec.id, rec.name, False, rec.floating_base, rec.summary))
+        for rid, e in sorted(self.store.index().items()):
+            if self._visible(e, owner):
+                out.append(_public(e.id, e.name, False, e.floating_base, e.summary))
         return out
 
     def describe(self, rid: str) -> dict[str, Any]:
@@ -141,7 +198,8 @@ class Catalog:
         if rec.bundled:
             raise Forbidden(f"robot: {rid!r} is bundled with the service and cannot be deleted", "robot",
                             code="read_only")
-        if self.settings.api_keys and rec.owner is not None and rec.owner != owner:
-            raise Forbidden(f"robot: {rid!r} was uploaded with another API key; only that key can delete it", "robot")
+        if self.settings.api_keys and rec.owner != owner:  # (resolve() already hid other keys' robots)
+            raise Forbidden(f"robot: {rid!r} was uploaded without an API key; with keys on it is read-only",
+                            "robot", code="read_only")
         self.store.delete(rid)
         self.models.forget(rid)

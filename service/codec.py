@@ -8,16 +8,22 @@ costs at most the limit in memory.
 
 from __future__ import annotations
 
+import asyncio
 import io
 import json
+import math
 import zipfile
+import zlib
 from typing import Any, Mapping
 
 import numpy as np
+import orjson
+from starlette.background import BackgroundTask
 from starlette.requests import Request
 from starlette.responses import Response
 
-from .errors import BadRequest, InvalidInput, TooLarge, UnsupportedMediaType
+from . import memory
+from .errors import BadRequest, InvalidInput, RequestTimeout, TooLarge, UnsupportedMediaType
 
 JSON = "application/json"
 NPZ = "application/x-npz"
@@ -38,9 +44,19 @@ async def read_body(request: Request, limit: int) -> bytes:
             raise BadRequest("Content-Length: not a number", "Content-Length") from None
         if n > limit:
             raise _too_large(limit)
+    deps = getattr(request.app.state, "deps", None)
+    timeout = deps.settings.read_timeout if deps is not None else None
     chunks: list[bytes] = []
     total = 0
-    async for chunk in request.stream():
+    stream = request.stream().__aiter__()
+    while True:
+        try:  # a client that stops sending mid-body is let go after DYNAMICS_READ_TIMEOUT, not held forever
+            chunk = await asyncio.wait_for(stream.__anext__(), timeout)
+        except StopAsyncIteration:
+            break
+        except asyncio.TimeoutError:
+            raise RequestTimeout(f"body: nothing received for {timeout:g} s (DYNAMICS_READ_TIMEOUT); send the body "
+                                 f"at once", "body", headers={"Connection": "close"}) from None
         total += len(chunk)
         if total > limit:
             raise _too_large(limit)
@@ -54,18 +70,22 @@ def _too_large(limit: int) -> TooLarge:
 
 
 def decode(body: bytes, content_type: str | None, *, max_unpacked: int) -> dict[str, Any]:
-    """A JSON object or an ``.npz`` archive -> dict of plain values and arrays."""
-    kind = media_type(content_type) or JSON
+    """A JSON object or an ``.npz`` archive -> dict of plain values and arrays.
+
+    No Content-Type means JSON; a header that names no media type (``;;;;``) is refused, not guessed."""
+    kind = media_type(content_type) if content_type is not None else JSON
     if kind == NPZ:
         return decode_npz(body, max_unpacked=max_unpacked)
     if kind != JSON and not kind.endswith("+json"):
-        raise UnsupportedMediaType(f"Content-Type: {kind!r} is not accepted here; send {JSON} or {NPZ}",
-                                   "Content-Type")
+        raise UnsupportedMediaType(f"Content-Type: {kind or content_type!r:.64} is not accepted here; send {JSON} "
+                                   f"or {NPZ}", "Content-Type")
     if not body:
         raise InvalidInput("body: empty; expected a JSON object", "body")
     try:
-        # NaN/Infinity literals are let through here so that the library's finiteness check names the field.
-        payload = json.loads(body)
+        # NaN/Infinity literals are let through here so that the library's finiteness check names the field; so
+        # are integers of thousands of digits (as floats, inf past 1e308: named by the same check), which
+        # Python's int() would refuse with a ValueError.
+        payload = json.loads(body, parse_int=_parse_int)
     except (UnicodeDecodeError, json.JSONDecodeError) as e:
         raise InvalidInput(f"body: not valid JSON ({e})", "body") from None
     except RecursionError:
@@ -75,18 +95,51 @@ def decode(body: bytes, content_type: str | None, *, max_unpacked: int) -> dict[
     return payload
 
 
+def _parse_int(text: str) -> int | float:
+    return int(text) if len(text) <= 18 else float(text)
+
+
+def _member_header(zf: zipfile.ZipFile, info: zipfile.ZipInfo) -> tuple[tuple[int, ...], np.dtype]:
+    """The shape and dtype an .npy member declares, checked against the bytes it holds, before it is read."""
+    name = info.filename.removesuffix(".npy")
+    with zf.open(info) as f:
+        try:
+            version = np.lib.format.read_magic(f)
+            read_header = np.lib.format.read_array_header_1_0 if version == (1, 0) else \
+                np.lib.format.read_array_header_2_0
+            shape, _, dtype = read_header(f, max_header_size=10_000)
+        except (ValueError, EOFError, SyntaxError, TypeError) as e:
+            raise InvalidInput(f"{name}: .npz member is not in .npy format ({str(e)[:200]})", name) from None
+        header = f.tell()
+    if dtype.hasobject:
+        raise InvalidInput(f"{name}: .npz member holds Python objects; only numeric arrays are accepted", name)
+    claimed = math.prod(shape) * dtype.itemsize
+    if claimed != info.file_size - header:
+        raise InvalidInput(f"{name}: .npz member declares shape {shape} of {dtype} ({claimed} bytes) but holds "
+                           f"{info.file_size - header} bytes", name)
+    return shape, dtype
+
+
 def decode_npz(body: bytes, *, max_unpacked: int) -> dict[str, Any]:
+    """An .npz archive -> its members; ``max_unpacked`` bounds what they occupy once read and made float64
+    (a few KB of compressed int8 can claim gigabytes of float64 states)."""
     buf = io.BytesIO(body)
     try:
         with zipfile.ZipFile(buf) as zf:
             infos = zf.infolist()
-            total = sum(i.file_size for i in infos)
+            if sum(i.file_size for i in infos) > max_unpacked:
+                raise _unpacks_too_large(sum(i.file_size for i in infos), max_unpacked)
+            total = 0
+            for info in infos:
+                shape, dtype = _member_header(zf, info)
+                total += math.prod(shape) * max(8, dtype.itemsize)
             if total > max_unpacked:
-                raise TooLarge(f"body: the .npz archive unpacks to {total} bytes, over the limit of "
-                               f"{max_unpacked}", "body")
-    except zipfile.BadZipFile:
-        raise InvalidInput("body: not a valid .npz archive", "body") from None
+                raise _unpacks_too_large(total, max_unpacked)
+    except (zipfile.BadZipFile, zipfile.LargeZipFile, NotImplementedError, OSError, EOFError, ValueError,
+            RuntimeError, zlib.error) as e:  # (zipfile: ValueError, zlib.error, RuntimeError for "encrypted")
+        raise InvalidInput(f"body: not a valid .npz archive ({str(e)[:200]})", "body") from None
     out: dict[str, Any] = {}
+    buf.seek(0)  # (np.load reads the magic from where the headers were last read)
     try:
         with np.load(buf, allow_pickle=False) as npz:
             for name in npz.files:
@@ -98,10 +151,16 @@ def decode_npz(body: bytes, *, max_unpacked: int) -> dict[str, Any]:
                 else:
                     out[name] = arr
     except ValueError as e:  # object arrays (pickles) and malformed members
-        raise InvalidInput(f"body: .npz member refused ({e}); only numeric arrays are accepted", "body") from None
-    except (OSError, EOFError, zipfile.BadZipFile) as e:
-        raise InvalidInput(f"body: unreadable .npz archive ({e})", "body") from None
+        raise InvalidInput(f"body: .npz member refused ({str(e)[:200]}); only numeric arrays are accepted",
+                           "body") from None
+    except (OSError, EOFError, zipfile.BadZipFile, NotImplementedError, RuntimeError, zlib.error) as e:
+        raise InvalidInput(f"body: unreadable .npz archive ({str(e)[:200]})", "body") from None
     return out
+
+
+def _unpacks_too_large(total: int, limit: int) -> TooLarge:
+    return TooLarge(f"body: the .npz archive unpacks to {total} bytes (as float64), over the limit of {limit}; "
+                    f"send smaller batches", "body")
 
 
 def to_array(value: Any, name: str) -> np.ndarray:
@@ -149,14 +208,21 @@ def encode(result: Mapping[str, Any], accept: str | None, status: int = 200) -> 
             else:
                 members[k] = np.array(json.dumps(v, default=jsonable))
         np.savez(buf, **members)
-        return Response(buf.getvalue(), status_code=status, media_type=NPZ)
-    body = json.dumps({k: (v.tolist() if isinstance(v, np.ndarray) else v) for k, v in result.items()},
-                      default=jsonable, allow_nan=False, separators=(",", ":"))
-    return Response(body.encode(), status_code=status, media_type=JSON)
+        return _released(Response(buf.getvalue(), status_code=status, media_type=NPZ))
+    # orjson writes float64 arrays straight from their memory (no tolist(), ~30x faster than json on 10k states)
+    body = orjson.dumps(dict(result), default=jsonable, option=orjson.OPT_SERIALIZE_NUMPY)
+    return _released(Response(body, status_code=status, media_type=JSON))
+
+
+def _released(response: Response) -> Response:
+    """A large answer's memory is given back to the system once it is sent (service.memory)."""
+    if len(response.body) > memory.RELEASE_BYTES:
+        response.background = BackgroundTask(memory.release)
+    return response
 
 
 def jsonable(obj: Any) -> Any:
-    if isinstance(obj, np.ndarray):
+    if isinstance(obj, np.ndarray):  # (orjson: arrays it does not write itself, e.g. non-contiguous)
         return obj.tolist()
     if isinstance(obj, (np.floating, np.integer, np.bool_)):
         return obj.item()

@@ -24,7 +24,8 @@ from typing import Any, Callable, Iterator, Optional
 
 import numpy as np
 
-from .errors import BudgetExceeded, Failed, InvalidInput, NotOffered, Unavailable, field_of
+from .errors import BudgetExceeded, Failed, InvalidInput, NotOffered, Problem, TooLarge, Unavailable, field_of
+from .codec import wants_npz
 from .library import lib, parallel
 from .models import Models, load_model, locked_key
 from .scene import Terms, simulation_scene, skipped
@@ -34,8 +35,15 @@ from .sim.job import Job, build_job
 from .sim.pool import PoolBusy, PoolTimeout, SimPool, WorkerCrashed
 from .warmup import WARMUP_URDF, Warmup
 
-# Requests with bodies up to this size may run on the event loop (see service.routes.dynamics).
+# Requests with bodies up to this size may run on the event loop (see service.routes.dynamics)...
 INLINE_BYTES = 2048
+# ... when their answer holds at most this many numbers (a 128-joint mass matrix, 16k numbers, takes ~1 ms of
+# CRBA and encoding: four clients sending those pushed /v1/health from 1 ms to 224 ms)
+INLINE_NUMBERS = 512
+# Bytes per number of an answer, to estimate its size before computing it: .npz (float64) and JSON (orjson
+# writes at most 24 characters and a comma per float64, ~20 on average)
+NPZ_BYTES_PER_NUMBER = 8
+JSON_BYTES_PER_NUMBER = 21
 
 
 @dataclass(frozen=True)
@@ -63,6 +71,29 @@ def within(budget: Budget, what: str) -> Iterator[None]:
         raise BudgetExceeded(what, budget.seconds, "send smaller batches") from None
 
 
+def check_time(budget: Budget, what: str, hint: str = "send smaller batches") -> None:
+    """A 504 when ``budget`` is spent: between the stages of a request (queued, decoded, computed, encoded)."""
+    if budget.left() <= 0:
+        raise BudgetExceeded(what, budget.seconds, hint)
+
+
+def answer_bytes(numbers: int, npz: bool) -> int:
+    return numbers * (NPZ_BYTES_PER_NUMBER if npz else JSON_BYTES_PER_NUMBER)
+
+
+def check_answer_size(numbers: int, npz: bool, settings: Settings, what: str) -> int:
+    """The estimated size of an answer of ``numbers`` float64, or a 413 naming the limit before any work."""
+    size = answer_bytes(numbers, npz)
+    limit, env = (settings.max_answer_bytes, "DYNAMICS_MAX_ANSWER_BYTES") if npz else \
+        (settings.max_json_answer_bytes, "DYNAMICS_MAX_JSON_ANSWER_BYTES")
+    if size > limit:
+        hint = "send smaller batches" if npz else \
+            "ask for .npz (Accept: application/x-npz, 8 bytes a number) or send smaller batches"
+        raise TooLarge(f"answer: {what} is {numbers} numbers, about {size} bytes as {'.npz' if npz else 'JSON'}, "
+                       f"over the limit of {limit} bytes ({env}); {hint}", "answer")
+    return size
+
+
 @dataclass(frozen=True)
 class Operation:
     """One dynamics endpoint: the library function, its state arguments, its keyword arguments, its answer."""
@@ -76,7 +107,7 @@ class Operation:
     #: them by key, in place of ``{answer: function(model, *states, **keywords)}`` (see service.kinematics)
     call: Optional[Callable[[Any, dict[str, Any]], dict[str, Any]]] = None
     #: numbers of the answer per state, ``per_state(model, args)``: a batch whose answer would be larger than
-    #: DYNAMICS_MAX_ANSWER_NUMBERS is refused before it is computed (None: small answers, not checked)
+    #: DYNAMICS_MAX_(JSON_)ANSWER_BYTES is refused before it is computed (None: nv, or nv^2 for a matrix)
     per_state: Optional[Callable[[Any, dict[str, Any]], int]] = None
     #: arguments that may carry a batch besides the states, with the dimensions of one item ({"target": 2})
     batched: tuple[tuple[str, int], ...] = ()
@@ -110,6 +141,13 @@ def layout(op: Operation, args: dict[str, Any]) -> tuple:
             tuple(k for k in op.keywords if args.get(k) is not None))
 
 
+def _numbers_per_state(op: Operation, model, args: dict[str, Any]) -> int:
+    """Numbers of the answer per state (the operation's own count, else nv or nv^2)."""
+    if op.per_state is not None:
+        return op.per_state(model, args)
+    return model.nv * model.nv if op.answer == "mass_matrix" else model.nv
+
+
 def compile_operations(model, operations: Optional[dict[str, Operation]] = None) -> list[tuple]:
     """Call every operation (of ``operations``, default :data:`OPERATIONS`) once with one state, then each with a
     batch of two: numba compiles (or loads from its disk cache) each kernel now rather than in a request. Returns
@@ -140,6 +178,16 @@ def _finite(out: Any) -> bool:
     return not isinstance(out, float) or math.isfinite(out)
 
 
+def _samples(req: SimulateRequest) -> int:
+    """How many samples a simulation answers (dynamics.simulate's rule): every sample_dt, else every step of a
+    fixed-step method, else 1001."""
+    if req.sample_dt is not None:
+        return int(min(req.duration / req.sample_dt, 1e15)) + 2
+    if req.dt is not None and req.integrator in ("euler", "rk4"):
+        return int(min(req.duration / req.dt, 1e15)) + 2
+    return 1001
+
+
 class Compute:
     """The thread pools, the simulation workers and the deadline logic, shared by all requests of one process."""
 
@@ -163,6 +211,19 @@ class Compute:
     async def run(self, fn: Callable[..., Any], *args: Any) -> Any:
         return await asyncio.get_running_loop().run_in_executor(self.executor, fn, *args)
 
+    async def run_within(self, budget: Budget, fn: Callable[..., Any], *args: Any) -> Any:
+        """:meth:`run` whose wait for a free thread counts in ``budget``: a request queued past it is a 504
+        before any of its work starts."""
+        def start() -> Any:
+            check_time(budget, "the request, waiting for a compute thread,", "retry when the server is less busy")
+            try:
+                return fn(*args)
+            except Problem as e:  # (its traceback's frames would hold the request's arrays until a gc pass)
+                problem = e.with_traceback(None)
+                problem.__context__ = None
+            raise problem
+        return await self.run(start)
+
     def warm_kernels(self) -> None:
         """Warm-up stage: compile every operation on a tiny robot, fixed and floating (quaternion checks)."""
         for floating_base in (False, True):
@@ -172,20 +233,27 @@ class Compute:
 
     # -- dynamics --------------------------------------------------------------------------------------------
     def can_inline(self, op: Operation, rid: str, args: dict[str, Any]) -> bool:
-        """True when this call is compiled and its model in memory: microseconds of work, fit for the event loop."""
-        return (not op.iterative and layout(op, args) in self._warm
-                and self.models.is_cached(rid, locked_key(args.get("locked"))))
+        """True when this call is compiled, its model in memory and its answer small: microseconds of work, fit
+        for the event loop."""
+        if op.iterative or layout(op, args) not in self._warm or any(args[s].ndim != 1 for s in op.states):
+            return False
+        entry = self.models.cache.peek((rid, locked_key(args.get("locked"))))
+        return entry is not None and _numbers_per_state(op, entry.model, args) <= INLINE_NUMBERS
 
-    def dynamics(self, op: Operation, rid: str, args: dict[str, Any], budget: Budget) -> dict[str, Any]:
-        """Run ``op`` on one state or a batch of robot ``rid``; a batch within ``budget``."""
+    def dynamics(self, op: Operation, rid: str, args: dict[str, Any], budget: Budget,
+                 accept: Optional[str] = None) -> dict[str, Any]:
+        """Run ``op`` on one state or a batch of robot ``rid``; a batch within ``budget``. The answer's size
+        (encoded as ``accept`` asks) is checked against the limits first."""
         entry = self.models.loaded(rid, locked_key(args.get("locked")))
         batch = self._batch_size(op, args)
-        if op.per_state is not None:  # (one state too: a request may name every frame many times)
-            self._check_answer_size(op, (batch or 1) * op.per_state(entry.model, args))
+        what = f"{op.name} of {batch or 1} state{'s' if batch else ''}"
+        # (one state too: a request may name every frame many times)
+        check_answer_size((batch or 1) * _numbers_per_state(op, entry.model, args), wants_npz(accept),
+                          self.settings, what)
         if batch is None and not op.iterative:  # one state cannot overrun a budget, and the deadline costs ~2 us
             result = call(op, entry.model, args)
         else:
-            with within(budget, f"{op.name} of {batch or 1} state{'s' if batch else ''}"):
+            with within(budget, what):
                 result = call(op, entry.model, args)
         for key, out in result.items():
             if not _finite(out):
@@ -193,12 +261,6 @@ class Compute:
                                    f"the inputs extreme?)", key)
         self._warm.add(layout(op, args))
         return {**result, "scene": entry.scene.answer(skipped(op.terms, args, entry.model.gravity))}
-
-    def _check_answer_size(self, op: Operation, numbers: int) -> None:
-        if numbers > self.settings.max_answer_numbers:
-            raise InvalidInput(f"{op.states[0]}: the answer would hold {numbers} numbers, over the limit of "
-                               f"{self.settings.max_answer_numbers} (DYNAMICS_MAX_ANSWER_NUMBERS); send smaller "
-                               f"batches", op.states[0])
 
     def _batch_size(self, op: Operation, args: dict[str, Any]) -> Optional[int]:
         """The largest batch among the arguments (None: one state), within the service's DYNAMICS_MAX_BATCH.
@@ -233,12 +295,17 @@ class Compute:
             raise Unavailable(f"simulate: {self.warmup.status()}; retry then", code="starting",
                               headers={"Retry-After": str(self.warmup.retry_after())})
 
-    def simulation_job(self, rid: str, req: SimulateRequest) -> tuple[Job, dict[str, Any]]:
-        """The job for a simulation worker, and the scene of its answer. An unknown robot (404) and a bad locked
-        set (422) are refused here, before a process is involved; the worker builds the same model."""
+    def simulation_job(self, rid: str, req: SimulateRequest, accept: Optional[str] = None
+                       ) -> tuple[Job, dict[str, Any]]:
+        """The job for a simulation worker, and the scene of its answer. An unknown robot (404), a bad locked
+        set (422) and an answer over the size limit (413) are refused here, before a process is involved; the
+        worker builds the same model."""
         locked = locked_key(req.locked)
         entry = self.models.loaded(rid, locked)
-        job = build_job(self.models.record(rid), locked, req, self.settings)
+        job = build_job(self.models.record(rid), locked, req, self.settings)  # (its step and sample limits first)
+        samples = _samples(req)
+        check_answer_size(samples * (1 + entry.model.nq + 2 * entry.model.nv), wants_npz(accept), self.settings,
+                          f"a trajectory of {samples} samples")
         return job, simulation_scene(entry.scene, entry.model.gravity, req.gravity)
 
     async def simulate(self, job: Job, budget: Budget) -> dict[str, Any]:

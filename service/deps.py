@@ -13,6 +13,7 @@ from typing import Optional
 
 from starlette.requests import Request
 
+from . import memory
 from .catalog import Catalog
 from .compute import OPERATIONS, Budget, Compute
 from .errors import InvalidInput
@@ -40,6 +41,7 @@ class Deps:
 
     @classmethod
     def start(cls, settings: Settings) -> "Deps":
+        memory.configure()  # large arrays freed go back to the system (the RSS returns to its baseline)
         store = RobotStore(settings.store_dir, settings.robots_dir)
         models = Models(store, settings.cache_size)
         pool = SimPool(settings.sim_workers) if settings.sim_workers > 0 else None  # workers compile at once

@@ -14,13 +14,19 @@ from __future__ import annotations
 
 import json
 import logging
+import re
 import sys
+import uuid
 from typing import Any
 
 from fastapi import FastAPI, Request
 from fastapi.exceptions import RequestValidationError
+from starlette.background import BackgroundTask
 from starlette.exceptions import HTTPException as StarletteHTTPException
+from starlette.requests import ClientDisconnect
 from starlette.responses import Response
+
+from . import memory
 
 log = logging.getLogger("service")
 
@@ -52,6 +58,14 @@ class Forbidden(Problem):
 
 class NotFound(Problem):
     """No such robot."""
+
+
+class Conflict(Problem):
+    """The name is taken by another robot of this key, or names several robots."""
+
+
+class RequestTimeout(Problem):
+    """The client took longer than DYNAMICS_READ_TIMEOUT to send its body."""
 
 
 class TooLarge(Problem):
@@ -89,7 +103,8 @@ class BudgetExceeded(Problem):
 #: each problem's HTTP status and default code
 STATUS: dict[type[Problem], tuple[int, str]] = {
     BadRequest: (400, "bad_request"), Unauthorized: (401, "unauthorized"), Forbidden: (403, "forbidden"),
-    NotFound: (404, "not_found"), TooLarge: (413, "too_large"), UnsupportedMediaType: (415, "unsupported_media_type"),
+    NotFound: (404, "not_found"), RequestTimeout: (408, "request_timeout"), Conflict: (409, "conflict"),
+    TooLarge: (413, "too_large"), UnsupportedMediaType: (415, "unsupported_media_type"),
     InvalidInput: (422, "invalid_input"), Failed: (500, "internal_error"), NotOffered: (501, "not_implemented"),
     Unavailable: (503, "busy"), BudgetExceeded: (504, "time_budget_exceeded"),
 }
@@ -98,6 +113,21 @@ STATUS: dict[type[Problem], tuple[int, str]] = {
 _CODES = {400: "bad_request", 401: "unauthorized", 403: "forbidden", 404: "not_found", 405: "method_not_allowed",
           406: "not_acceptable", 409: "conflict", 413: "too_large", 415: "unsupported_media_type",
           422: "invalid_input", 504: "time_budget_exceeded"}
+
+
+#: longest ``detail`` sent: a library message quoting a huge name or document is cut, never echoed whole
+MAX_DETAIL = 1000
+#: longest caller-given text (an id, a name) quoted in a detail
+MAX_ECHO = 64
+
+
+def echo(text: str) -> str:
+    """``repr(text)`` for a message, cut to :data:`MAX_ECHO` characters: a 10,000-character id is not echoed."""
+    return repr(text) if len(text) <= MAX_ECHO else repr(text[:MAX_ECHO]) + f"... ({len(text)} characters)"
+
+
+def bounded(detail: str) -> str:
+    return detail if len(detail) <= MAX_DETAIL else detail[:MAX_DETAIL] + f"... ({len(detail)} characters)"
 
 
 def field_of(message: str) -> str | None:
@@ -110,13 +140,16 @@ def field_of(message: str) -> str | None:
 
 def error_response(status: int, detail: str, code: str, field: str | None = None,
                    headers: dict[str, str] | None = None) -> Response:
-    body = json.dumps({"detail": detail, "code": code, "field": field}).encode()
+    body = json.dumps({"detail": bounded(detail), "code": code, "field": field and field[:MAX_DETAIL]}).encode()
     return Response(body, status_code=status, media_type="application/json", headers=headers)
 
 
 def problem_response(problem: Problem) -> Response:
     status, code = STATUS[type(problem)]
-    return error_response(status, problem.detail, problem.code or code, problem.field, problem.headers)
+    response = error_response(status, problem.detail, problem.code or code, problem.field, problem.headers)
+    if isinstance(problem, BudgetExceeded):  # the stopped work's memory goes back to the system once answered
+        response.background = BackgroundTask(memory.release)
+    return response
 
 
 def is_library_input_error(exc: BaseException) -> bool:
@@ -147,11 +180,58 @@ def install(app: FastAPI) -> None:
         return problem_response(InvalidInput(f"{name or 'request'}: {first.get('msg')}", name))
 
     async def unexpected(request: Request, exc: Exception) -> Response:  # pragma: no cover - a bug
-        log.exception("unexpected error on %s %s", request.method, request.url.path)
-        return problem_response(Failed(f"internal error: {type(exc).__name__}"))
+        return internal_error(request.scope, exc)
 
     app.add_exception_handler(Problem, problem)
     app.add_exception_handler(ValueError, value_error)
     app.add_exception_handler(StarletteHTTPException, http_error)
     app.add_exception_handler(RequestValidationError, validation_error)
-    app.add_exception_handler(Exception, unexpected)
+    # (no handler for Exception: RequestIds, outside every route, answers those once; Starlette's handler for
+    # Exception would answer and then re-raise, and uvicorn would log the traceback a second time)
+
+
+REQUEST_ID = "dynamics.request_id"
+_GIVEN_ID = re.compile(rb"^[A-Za-z0-9._-]{1,64}$")
+
+
+def internal_error(scope: dict, exc: BaseException) -> Response:
+    """A bug: logged once with its traceback and the request id; the caller gets a 500 quoting that id."""
+    rid = scope.get(REQUEST_ID, "-")
+    log.error("unexpected error on %s %s (request %s)", scope.get("method"), scope.get("path"), rid,
+              exc_info=(type(exc), exc, exc.__traceback__))
+    return error_response(500, f"internal error ({type(exc).__name__}); request id {rid}: this is a bug, "
+                               f"please report it with the id", "internal_error", None, {"X-Request-ID": rid})
+
+
+class RequestIds:
+    """Pure ASGI middleware, outermost: every answer carries ``X-Request-ID`` (the caller's if it sent a short
+    plain one, else a fresh one), and an exception escaping a route is answered here, 500 quoting that id, and
+    logged once. A client that hangs up mid-body (:class:`ClientDisconnect`) is not an error: nothing is logged."""
+
+    def __init__(self, app):
+        self.app = app
+
+    async def __call__(self, scope, receive, send):
+        if scope["type"] != "http":
+            return await self.app(scope, receive, send)
+        given = next((v for k, v in scope["headers"] if k == b"x-request-id"), b"")
+        rid = given.decode() if _GIVEN_ID.match(given) else uuid.uuid4().hex[:16]
+        scope[REQUEST_ID] = rid
+        started = False
+
+        async def send_with_id(message):
+            nonlocal started
+            if message["type"] == "http.response.start":
+                started = True
+                headers = [(k, v) for k, v in message.get("headers", []) if k.lower() != b"x-request-id"]
+                message = {**message, "headers": headers + [(b"x-request-id", rid.encode())]}
+            await send(message)
+
+        try:
+            await self.app(scope, receive, send_with_id)
+        except ClientDisconnect:
+            log.debug("request %s: the client disconnected before sending its whole body", rid)
+        except Exception as exc:
+            response = internal_error(scope, exc)
+            if not started:
+                await response(scope, receive, send)

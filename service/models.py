@@ -14,7 +14,7 @@ from collections import OrderedDict
 from dataclasses import dataclass
 from typing import Any, Callable, Hashable, Optional
 
-from .errors import InvalidInput, NotFound
+from .errors import InvalidInput, NotFound, echo
 from .library import lib
 from .scene import ModelScene
 from .store import RobotRecord, RobotStore
@@ -118,7 +118,7 @@ class Models:
     def record(self, rid: str) -> RobotRecord:
         rec = self.store.get(rid)
         if rec is None:
-            raise NotFound(f"robot: no robot with id {rid!r}", "robot")
+            raise NotFound(f"robot: no robot with id {echo(rid)}", "robot")
         return rec
 
     def loaded(self, rid: str, locked: tuple = ()) -> Loaded:
@@ -128,7 +128,7 @@ class Models:
         # A robot deleted through another server process must not keep answering from this one's cache.
         if not self.store.exists(rid):
             self.cache.discard(rid)
-            raise NotFound(f"robot: no robot with id {rid!r}", "robot")
+            raise NotFound(f"robot: no robot with id {echo(rid)}", "robot")
 
         def load() -> Loaded:
             rec = self.record(rid)

@@ -22,11 +22,16 @@ from pydantic import (BaseModel, BeforeValidator, ConfigDict, Field, ValidationE
                       create_model)
 
 from .codec import to_array
-from .errors import InvalidInput
+from .errors import InvalidInput, echo
 
-_NUMBERS = {"type": "array", "items": {"type": "number"}}
-_STATE_SCHEMA = {"anyOf": [_NUMBERS, {"type": "array", "items": _NUMBERS}],
-                 "description": "one state (list of numbers) or a batch (list of equal-length lists)"}
+#: longest name (of a robot, a joint) accepted in a request or kept from a URDF
+MAX_NAME = 128
+
+_NUMBERS = {"type": "array", "items": {"type": "number"}, "minItems": 1}
+_STATE_SCHEMA = {"anyOf": [_NUMBERS, {"type": "array", "items": _NUMBERS, "minItems": 1}],
+                 "description": "one state (a list of nq or nv numbers) or a batch (a list of equal-length lists, "
+                                "at most DYNAMICS_MAX_BATCH); their sizes are the robot's (GET the robot): others "
+                                "are a 422 naming the argument"}
 
 
 def _array(value: Any, info: ValidationInfo) -> np.ndarray:
@@ -46,17 +51,28 @@ def _locked(value: Any) -> Optional[dict[str, Any]]:
         raise InvalidInput(f"locked: expected an object {{joint name: value}}, got {type(value).__name__}", "locked")
     out: dict[str, Any] = {}
     for name, v in value.items():
+        where = f"locked[{echo(name)}]"
+        if len(name) > MAX_NAME:
+            raise InvalidInput(f"{where}: a joint name of {len(name)} characters; joint names have at most "
+                               f"{MAX_NAME}", where)
         if isinstance(v, (int, float)) and not isinstance(v, bool):
-            out[name] = float(v)
-        elif isinstance(v, (list, np.ndarray)) and all(
+            out[name] = _float(v, where)
+        elif isinstance(v, (list, np.ndarray)) and len(v) <= 7 and all(
                 isinstance(x, (int, float, np.floating, np.integer)) and not isinstance(x, (bool, np.bool_))
                 for x in (v.tolist() if isinstance(v, np.ndarray) else v)):
-            out[name] = [float(x) for x in v]
+            out[name] = [_float(x, where) for x in v]
         else:
-            where = f"locked[{name!r}]"
             raise InvalidInput(f"{where}: expected a number (1-dof joint) or a list of numbers (7 for a floating "
                                f"joint: x, y, z, qx, qy, qz, qw), got {v!r:.60}", where)
     return out
+
+
+def _float(x: Any, where: str) -> float:
+    try:
+        return float(x)
+    except OverflowError:  # an integer of hundreds of digits
+        raise InvalidInput(f"{where}: {str(x)[:20]}... is too large for a float; expected a finite number",
+                           where) from None
 
 
 def validate(schema: type[BaseModel], payload: dict[str, Any]) -> BaseModel:
@@ -103,8 +119,10 @@ def _models(annotation: Any) -> list[type[BaseModel]]:
 
 Array = Annotated[Any, BeforeValidator(_array), WithJsonSchema(_STATE_SCHEMA)]
 _MATRIX = {"type": "array", "items": _NUMBERS}
+_WRENCHES = {"type": "array", "minItems": 1, "items": {"type": "array", "items": {"type": "number"}, "minItems": 6,
+                                                       "maxItems": 6}}
 Array3 = Annotated[Any, BeforeValidator(_array), WithJsonSchema(
-    {"anyOf": [_MATRIX, {"type": "array", "items": _MATRIX}],
+    {"anyOf": [_WRENCHES, {"type": "array", "items": _WRENCHES, "minItems": 1}],
      "description": "(nbodies, 6) or (B, nbodies, 6): [force, torque] per body, body frame"})]
 Vec3 = Annotated[Any, BeforeValidator(_array), WithJsonSchema(
     {"type": "array", "items": {"type": "number"}, "minItems": 3, "maxItems": 3})]
@@ -135,7 +153,8 @@ def _example(**fields: Any) -> ConfigDict:
 
 
 class _Request(BaseModel):
-    model_config = ConfigDict(extra="forbid", arbitrary_types_allowed=True)
+    # strict: "yes" is no boolean and "1" or true no duration; inf and NaN are no tolerance or duration
+    model_config = ConfigDict(extra="forbid", arbitrary_types_allowed=True, strict=True, allow_inf_nan=False)
 
 
 class _Dynamics(_Request):
@@ -283,7 +302,8 @@ class UploadRequest(_Request):
         '<mass value="1"/><inertia ixx="0.01" iyy="0.01" izz="0.01" ixy="0" ixz="0" iyz="0"/></inertial></link>'
         '<joint name="swing" type="revolute"><parent link="base"/><child link="bob"/><axis xyz="0 1 0"/>'
         '<limit lower="-3" upper="3" effort="10" velocity="10"/></joint></robot>'))
-    urdf: str = Field(description="the URDF document")
+    urdf: str = Field(description="the URDF document: a <robot> element (other XML is a 422 naming urdf)",
+                      json_schema_extra={"pattern": r"^\s*(<\?xml[^>]*\?>\s*)?(<!--[\s\S]*?-->\s*)*<robot[\s>]"})
     name: Optional[str] = Field(None, max_length=128)
     floating_base: bool = False
 

@@ -52,9 +52,17 @@ class Settings:
     # Largest model (velocity coordinates) and largest batch (states per request).
     max_dof: int = 128
     max_batch: int = 200_000
-    # Largest answer of a batched kinematics or Coriolis request, in numbers (all frames of a big robot for many
-    # states would otherwise take gigabytes).
-    max_answer_numbers: int = 32 * 1024 * 1024
+    # Largest answer, estimated before computing (states x numbers per state x bytes per number): .npz answers,
+    # and JSON ones (about 24 bytes per float, and the text is built in memory: a smaller limit).
+    max_answer_bytes: int = 128 * 1024 * 1024
+    max_json_answer_bytes: int = 32 * 1024 * 1024
+    # Per API key (or for all uploads without keys): robots stored and bytes of URDF stored.
+    max_robots_per_key: int = 1000
+    max_store_bytes: int = 256 * 1024 * 1024
+    # URDF elements: links and joints (a 100k-link document is refused while it is parsed).
+    max_links: int = 1024
+    # Seconds a client may take to send its request headers, and between two pieces of its body.
+    read_timeout: float = 30.0
     # Simulation limits: integrator steps (duration / dt for fixed-step integrators) and stored samples.
     max_sim_steps: int = 1_000_000
     max_samples: int = 100_000
@@ -104,7 +112,12 @@ class Settings:
             max_xml_depth=int(_env("MAX_XML_DEPTH", str(defaults.max_xml_depth))),
             max_dof=int(_env("MAX_DOF", str(defaults.max_dof))),
             max_batch=int(_env("MAX_BATCH", str(defaults.max_batch))),
-            max_answer_numbers=int(_env("MAX_ANSWER_NUMBERS", str(defaults.max_answer_numbers))),
+            max_answer_bytes=int(_env("MAX_ANSWER_BYTES", str(defaults.max_answer_bytes))),
+            max_json_answer_bytes=int(_env("MAX_JSON_ANSWER_BYTES", str(defaults.max_json_answer_bytes))),
+            max_robots_per_key=int(_env("MAX_ROBOTS_PER_KEY", str(defaults.max_robots_per_key))),
+            max_store_bytes=int(_env("MAX_STORE_BYTES", str(defaults.max_store_bytes))),
+            max_links=int(_env("MAX_LINKS", str(defaults.max_links))),
+            read_timeout=float(_env("READ_TIMEOUT", str(defaults.read_timeout))),
             max_sim_steps=int(_env("MAX_SIM_STEPS", str(defaults.max_sim_steps))),
             max_samples=int(_env("MAX_SAMPLES", str(defaults.max_samples))),
             time_budget=float(_env("TIME_BUDGET", str(defaults.time_budget))),

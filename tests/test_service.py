@@ -196,9 +196,11 @@ def test_upload_same_content_same_id_then_delete(http):
     r1 = http.post("/v1/robots", content=text, headers={"Content-Type": "application/xml"},
                    params={"name": "my-arm"})
     r2 = http.post("/v1/robots", json={"urdf": text, "name": "my-arm"})
-    assert r1.status_code == r2.status_code == 201, r1.text
+    assert r1.status_code == 201 and r2.status_code == 200, r1.text  # the same robot again: 200, same id
     assert r1.json()["id"] == r2.json()["id"] and r1.headers["location"] == f"/v1/robots/{r1.json()['id']}"
-    r3 = http.post("/v1/robots", json={"urdf": text, "name": "my-arm", "floating_base": True})
+    r = http.post("/v1/robots", json={"urdf": text, "name": "my-arm", "floating_base": True})
+    assert r.status_code == 409 and r.json()["field"] == "name"  # names are unique per key
+    r3 = http.post("/v1/robots", json={"urdf": text, "name": "my-arm-floating", "floating_base": True})
     assert r3.status_code == 201 and r3.json()["id"] != r1.json()["id"] and r3.json()["nq"] == 7 + 2
     rid = r1.json()["id"]
     model = dynamics.load_urdf(text)

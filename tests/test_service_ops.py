@@ -33,7 +33,7 @@ def server(tmp_path_factory):
     s = Server(root / "store", env={"DYNAMICS_API_KEYS": f"{KEY_A}, {KEY_B}",
                                     "DYNAMICS_TIME_BUDGET": str(BUDGET),
                                     "DYNAMICS_MAX_BODY_BYTES": str(48 << 20),
-                                    "DYNAMICS_MAX_BATCH": "2000000"})
+                                    "DYNAMICS_MAX_BATCH": "2000000", "DYNAMICS_MAX_ANSWER_BYTES": str(512 << 20)})
     s.start()
     yield s
     s.stop()
@@ -57,12 +57,13 @@ def test_api_keys_and_owner_only_delete(server):
         ra = a.post("/v1/robots", content=text, headers={"Content-Type": "application/xml"})
         rb = b.post("/v1/robots", content=text, headers={"Content-Type": "application/xml"})
         assert ra.status_code == rb.status_code == 201
-        assert ra.json()["id"] != rb.json()["id"]  # one robot per owner: neither can delete the other's
-        assert b.delete(f"/v1/robots/{ra.json()['id']}").status_code == 403
+        assert ra.json()["id"] != rb.json()["id"]  # one robot per owner: neither sees the other's (issue 11)
+        assert b.delete(f"/v1/robots/{ra.json()['id']}").status_code == 404
         assert wrong.delete(f"/v1/robots/{ra.json()['id']}").status_code == 401
-        assert a.delete(f"/v1/robots/{rb.json()['id']}").status_code == 403
+        assert a.delete(f"/v1/robots/{rb.json()['id']}").status_code == 404
         assert b.delete(f"/v1/robots/{rb.json()['id']}").status_code == 204
-        assert b.get(f"/v1/robots/{ra.json()['id']}").status_code == 200  # every key can read
+        assert b.get(f"/v1/robots/{ra.json()['id']}").status_code == 404
+        assert a.get(f"/v1/robots/{ra.json()['id']}").status_code == 200
 
 
 def test_sigkill_and_restart_keeps_robots_and_numbers(server):
@@ -86,7 +87,7 @@ def test_sigkill_and_restart_keeps_robots_and_numbers(server):
         assert {rid, rid2} <= ids
         assert c.post(f"/v1/robots/{rid}/inverse-dynamics", json=fpayload).json()["tau"] == before
         assert c.post(f"/v1/robots/{rid2}/inverse-dynamics", json=payload).json()["tau"] == before2
-        assert b.delete(f"/v1/robots/{rid}").status_code == 403  # ownership survived the restart
+        assert b.delete(f"/v1/robots/{rid}").status_code == 404  # ownership survived the restart
     assert np.array_equal(before2, dynamics.inverse_dynamics(model, q, v, a))
     assert not list(server.store.glob(".*.tmp"))
 

@@ -13,7 +13,7 @@ import json
 import time
 import uuid
 from pathlib import Path
-from typing import Any, Optional
+from typing import Any, Callable, Optional
 
 import numpy as np
 from pydantic import TypeAdapter, ValidationError
@@ -50,16 +50,21 @@ _TORQUE = TypeAdapter(schemas.TorqueSpec)
 class Jobs:
     """The job store (database and files) and the executor of one server process."""
 
-    def __init__(self, settings: Settings, models: Models):
+    def __init__(self, settings: Settings, models: Models,
+                 resolve: Optional[Callable[[str, Optional[str]], str]] = None):
+        """``resolve(robot, owner)``: a robot's id from an id or a name as that owner may see it (404 otherwise;
+        service.catalog.Catalog.resolve), so that a job reaches only its key's robots and the shared ones."""
         self.settings = settings
         self.models = models
+        self.resolve = resolve
         self.files = JobFiles.under(settings.store_dir)
         self.db = JobDB(self.files.db)
         self.executor = Executor(self.files, self.db, settings) if settings.job_workers > 0 else None
 
     @classmethod
-    def start(cls, settings: Settings, models: Models) -> "Jobs":
-        jobs = cls(settings, models)
+    def start(cls, settings: Settings, models: Models,
+              resolve: Optional[Callable[[str, Optional[str]], str]] = None) -> "Jobs":
+        jobs = cls(settings, models, resolve)
         if jobs.executor is not None:
             jobs.executor.start()
         return jobs
@@ -84,6 +89,8 @@ class Jobs:
                               headers={"Retry-After": "10"})
         options = req.options.model_dump(exclude_none=True)
         locked = locked_key(options.pop("locked", None))
+        if self.resolve is not None:
+            req = req.model_copy(update={"robot": self.resolve(req.robot, owner or None)})
         model = self.models.loaded(req.robot, locked).model  # 404 for an unknown robot, 422 for a bad locked set
         arrays, spec = self._inputs(req, options, locked)
         problem = check_inputs(req.kind, model, arrays, spec)

@@ -16,8 +16,9 @@ from pydantic import BaseModel
 from starlette.responses import Response
 
 from .. import schemas
-from ..codec import decode, encode, read_body
-from ..compute import INLINE_BYTES, OPERATIONS, Budget, Operation
+from ..codec import NPZ, decode, encode, media_type, read_body
+from ..compute import INLINE_BYTES, OPERATIONS, Budget, Operation, check_time
+from ..auth import caller
 from ..deps import Deps, budget
 from . import ERRORS, body_doc
 
@@ -42,14 +43,16 @@ def _route(op: Operation, schema: type[BaseModel]):
     async def route(robot_id: str, request: Request) -> Response:
         d: Deps = request.app.state.deps  # (not Depends: it costs ~50 us on the hottest path)
         time_budget = budget(request)
+        robot_id = d.catalog.resolve(robot_id, caller(request))
         body = await read_body(request, d.settings.max_body_bytes)
         content_type, accept = request.headers.get("content-type"), request.headers.get("accept")
-        if len(body) <= INLINE_BYTES:
-            args = dict(schemas.validate(schema, decode(body, content_type, max_unpacked=INLINE_BYTES)))
+        if len(body) <= INLINE_BYTES and media_type(content_type) != NPZ:  # (small .npz may unpack to much)
+            args = dict(schemas.validate(schema, decode(body, content_type, max_unpacked=0)))
             if d.compute.can_inline(op, robot_id, args):
-                return encode(d.compute.dynamics(op, robot_id, args, time_budget), accept)
-            return encode(await d.compute.run(d.compute.dynamics, op, robot_id, args, time_budget), accept)
-        return await d.compute.run(_answer, d, op, schema, robot_id, body, content_type, accept, time_budget)
+                return encode(d.compute.dynamics(op, robot_id, args, time_budget, accept), accept)
+            return await d.compute.run_within(time_budget, _compute, d, op, robot_id, args, accept, time_budget)
+        return await d.compute.run_within(time_budget, _answer, d, op, schema, robot_id, body, content_type, accept,
+                                          time_budget)
 
     route.__name__ = op.function
     return route
@@ -59,7 +62,16 @@ def _answer(d: Deps, op: Operation, schema: type[BaseModel], robot_id: str, body
             content_type: Optional[str], accept: Optional[str], time_budget: Budget) -> Response:
     """In a compute thread: decode, compute (within the budget), encode."""
     args = dict(schemas.validate(schema, decode(body, content_type, max_unpacked=8 * d.settings.max_body_bytes)))
-    return encode(d.compute.dynamics(op, robot_id, args, time_budget), accept)
+    del body
+    return _compute(d, op, robot_id, args, accept, time_budget)
+
+
+def _compute(d: Deps, op: Operation, robot_id: str, args: dict, accept: Optional[str],
+             time_budget: Budget) -> Response:
+    """In a compute thread: compute (within the budget), encode if time is left."""
+    result = d.compute.dynamics(op, robot_id, args, time_budget, accept)
+    check_time(time_budget, f"{op.name} (before encoding the answer)")
+    return encode(result, accept)
 
 
 def add_routes(router: APIRouter, routes: dict[str, tuple[type[BaseModel], type[BaseModel], str]],

@@ -11,6 +11,7 @@ from starlette.responses import Response
 from .. import schemas
 from ..codec import decode, encode, read_body
 from ..compute import Budget
+from ..auth import caller
 from ..deps import Deps, budget, deps
 from ..errors import InvalidInput
 from ..sim.job import Job
@@ -25,14 +26,19 @@ router = APIRouter(prefix="/v1")
              summary="simulate from (q0, v0) for a duration under a torque law; runs in a worker process")
 async def simulate(robot_id: str, request: Request, d: Deps = Depends(deps),
                    time_budget: Budget = Depends(budget)) -> Response:
+    robot_id = d.catalog.resolve(robot_id, caller(request))
     body = await read_body(request, d.settings.max_body_bytes)
     await d.compute.await_workers(time_budget)
-    job, scene = await d.compute.run(_job, d, robot_id, body, request.headers.get("content-type"))
+    accept = request.headers.get("accept")
+    job, scene = await d.compute.run_within(time_budget, _job, d, robot_id, body, request.headers.get("content-type"),
+                                            accept)
+    del body
     trajectory = await d.compute.simulate(job, time_budget)
-    return await d.compute.run(encode, {**trajectory, "scene": scene}, request.headers.get("accept"))
+    return await d.compute.run_within(time_budget, encode, {**trajectory, "scene": scene}, accept)
 
 
-def _job(d: Deps, robot_id: str, body: bytes, content_type: Optional[str]) -> tuple[Job, dict[str, Any]]:
+def _job(d: Deps, robot_id: str, body: bytes, content_type: Optional[str],
+         accept: Optional[str]) -> tuple[Job, dict[str, Any]]:
     """In a compute thread: decode the request, then the job and the scene of its answer."""
     payload = decode(body, content_type, max_unpacked=8 * d.settings.max_body_bytes)
     if isinstance(payload.get("torque"), str):  # in .npz the torque spec travels as a JSON string
@@ -40,4 +46,4 @@ def _job(d: Deps, robot_id: str, body: bytes, content_type: Optional[str]) -> tu
             payload["torque"] = json.loads(payload["torque"])
         except json.JSONDecodeError:
             raise InvalidInput("torque: not a JSON object", "torque") from None
-    return d.compute.simulation_job(robot_id, schemas.validate(schemas.SimulateRequest, payload))
+    return d.compute.simulation_job(robot_id, schemas.validate(schemas.SimulateRequest, payload), accept)
