@@ -28,8 +28,8 @@ The second run costs 1-3x the first and is timed separately (``error_estimate_wa
 error estimates (adaptive methods only): cheap, but it can understate the global error of unstable or chaotic
 dynamics, whose local errors grow.  ``"none"`` skips it (``error_estimate`` is None).
 
-When the estimate is of order one (>= 0.1 times max(1, the largest |q| or |v| of the final state)) or,
-for adaptive methods, more than 1000 times the asked tolerance (atol + rtol times that magnitude), the
+When the estimate is of order one (q part >= 0.1 rad or m, or v part >= 0.1 max(1, the largest final |v|))
+or, for adaptive methods, more than 1000 times the asked tolerance (atol + rtol max(1, |q|, |v|)), the
 report's ``warnings`` say so: the status stays "ok" (the run did finish), but the numbers are not accurate.
 
 Energy balance
@@ -176,19 +176,29 @@ def robot_energy_scale(model, gravity):
 
 def accuracy_warnings(s, fields, qf, vf, warnings):
     """Warn when the error estimate says the final state is not accurate (module docs)."""
-    est = fields["error_estimate"]
+    est, est_q, est_v = fields["error_estimate"], fields.get("error_estimate_q"), fields.get("error_estimate_v")
     if est is None or not math.isfinite(est):
         return
-    size = max(1.0, float(np.max(np.abs(qf), initial=0.0)), float(np.max(np.abs(vf), initial=0.0)))
+    vsize = max(1.0, float(np.max(np.abs(vf), initial=0.0)))
+    size = max(vsize, float(np.max(np.abs(qf), initial=0.0)))  # the magnitude rtol is relative to
+    if est_q is not None and est_v is not None:
+        order_one = est_q >= 0.1 or est_v >= 0.1 * vsize  # q: rad or m, absolute (angles wrap)
+    else:
+        order_one = est >= 0.1 * vsize
     what = "the fixed step dt" if s.fixed else "the tolerance"
-    if est >= 0.1 * size:
-        warnings.append(f"error_estimate = {est:.3g} is of order one (the state's magnitude is {size:.3g}): the "
-                        f"final state is not accurate; reduce {what}"
+    tol = s.atol + s.rtol * size if not s.fixed else None
+    if order_one:
+        warnings.append(f"error_estimate = {est:.3g} is of order one (q error {_g(est_q)} rad or m, v error "
+                        f"{_g(est_v)} at speeds up to {vsize:.3g}): the final state is not accurate; reduce {what}"
                         + ("" if s.fixed else " or use integrator='radau' if the problem is stiff"))
-    elif not s.fixed and est > 1000 * (s.atol + s.rtol * size):
-        warnings.append(f"error_estimate = {est:.3g} is {est / (s.atol + s.rtol * size):.3g} times the asked "
-                        f"tolerance (atol + rtol |y| = {s.atol + s.rtol * size:.3g}): the dynamics amplify errors "
-                        "(chaotic or near-unstable motion, impacts); tighten rtol/atol to get the accuracy asked")
+    elif tol is not None and est > 1000 * tol:
+        warnings.append(f"error_estimate = {est:.3g} is {est / tol:.3g} times the asked tolerance (atol + rtol |y| = "
+                        f"{tol:.3g}): the dynamics amplify errors (chaotic or near-unstable motion, impacts); "
+                        "tighten rtol/atol to get the accuracy asked")
+
+
+def _g(x):
+    return "n/a" if x is None else f"{x:.3g}"
 
 
 def json_safe(report):
