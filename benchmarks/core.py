@@ -11,6 +11,9 @@ package, never copied; a generated 200-link chain), in one run:
   `pin.computeGeneralizedGravity` and `pin.nonLinearEffects` (Panda, UR5, Talos);
 * cold start in a fresh subprocess (import, load_urdf, first calls) with the numba cache warm and
   with NUMBA_CACHE_DIR pointed at an empty temporary directory;
+* cold start of the simulation (2R arm), each case in a fresh interpreter with an empty numba cache:
+  import + load_urdf + first inverse_dynamics, then the first default simulate, then the first rk4 one
+  (``--sim-cold-only`` runs just this table);
 * cost growth: per-state time of batched RNEA and ABA on chains of 20, 200 and 1000 links.
 
 Ratios are ours / Pinocchio's: below 1.0 we are faster.  Every timing is the best of --repeat runs
@@ -351,6 +354,55 @@ def bench_cold(urdf: str, repeat: int) -> dict:
     return {"warm": warm, "cold": cold}
 
 
+#: cold start of the simulation (issue 8, section 3): each case in its own interpreter with an empty cache
+SIM_COLD_SCRIPT = textwrap.dedent(
+    """
+    import json, resource, sys, time
+    t0 = time.perf_counter()
+    import numpy as np
+    import dynamics
+    arm = dynamics.load_urdf(sys.argv[1])
+    dynamics.inverse_dynamics(arm, np.zeros(2), np.zeros(2), np.zeros(2))
+    t1 = time.perf_counter()
+    if sys.argv[2] == "default":
+        dynamics.simulate(arm, [0.5, 0.2], [0.0, 0.0], 1.0)
+    elif sys.argv[2] == "rk4":
+        dynamics.simulate(arm, [0.5, 0.2], [0.0, 0.0], 1.0, integrator="rk4", dt=1e-3)
+    t2 = time.perf_counter()
+    cpu = resource.getrusage(resource.RUSAGE_SELF)
+    print(json.dumps({"library": t1 - t0, "simulate": t2 - t1, "cpu": cpu.ru_utime + cpu.ru_stime}))
+    """
+)
+
+SIM_COLD_CASES = (("library", "import + load_urdf + first inverse_dynamics"),
+                  ("default", "... + first simulate, default integrator (auto)"),
+                  ("rk4", "... + first simulate, integrator='rk4'"))
+
+
+def bench_cold_simulation(urdf: str) -> list[dict]:
+    """Each case of SIM_COLD_CASES in a fresh interpreter with NUMBA_CACHE_DIR a new empty directory: wall
+    seconds of the library part and of the first simulate, and the process's CPU seconds (on a shared,
+    loaded machine the CPU time is the steadier figure)."""
+    rows = []
+    for case, label in SIM_COLD_CASES:
+        with tempfile.TemporaryDirectory(prefix="numba-cold-") as d:
+            env = dict(os.environ, NUMBA_CACHE_DIR=d)
+            out = subprocess.run([sys.executable, "-c", SIM_COLD_SCRIPT, urdf, case], env=env, capture_output=True,
+                                 text=True, check=True)
+        r = json.loads(out.stdout.strip().splitlines()[-1])
+        rows.append(dict(r, case=case, label=label))
+    return rows
+
+
+def sim_cold_table(rows) -> list[str]:
+    L = ["## Cold start of the simulation (2R arm, fresh interpreter, empty numba cache)", "",
+         "| case | library part (s) | first simulate (s) | total wall (s) | CPU (s) |", "|---|---:|---:|---:|---:|"]
+    for r in rows:
+        sim = f"{r['simulate']:.1f}" if r["case"] != "library" else "-"
+        L.append(f"| {r['label']} | {r['library']:.1f} | {sim} | {r['library'] + r['simulate']:.1f} | {r['cpu']:.1f} |")
+    return L + [""]
+
+
 # ---------------------------------------------------------------------------------------------
 # Report
 # ---------------------------------------------------------------------------------------------
@@ -474,8 +526,13 @@ def main(argv=None) -> int:
     p.add_argument("--quick", action="store_true", help="1000 states, best of 2, chains up to 200")
     p.add_argument("--no-cold", action="store_true", help="skip the cold-start subprocesses")
     p.add_argument("--no-growth", action="store_true", help="skip the chain growth table")
+    p.add_argument("--sim-cold-only", action="store_true", help="only the simulation cold-start table")
     args = p.parse_args(argv)
     B, repeat = (1000, 2) if args.quick else (args.states, args.repeat)
+    arm = str(Path(__file__).resolve().parent.parent / "robots" / "planar_2r.urdf")
+    if args.sim_cold_only:
+        print("\n".join(sim_cold_table(bench_cold_simulation(arm))))
+        return 0
 
     import pinocchio as pin
 
@@ -497,6 +554,9 @@ def main(argv=None) -> int:
         print("... cold start", file=sys.stderr, flush=True)
         cold = bench_cold(benchmark_robots()[0].source, min(repeat, 3))
     report = tables(header, rows, growth, cold, cold_robot)
+    if not args.no_cold:
+        print("... cold start of the simulation", file=sys.stderr, flush=True)
+        report += "\n" + "\n".join(sim_cold_table(bench_cold_simulation(arm)))
     print(report)
     OUT.parent.mkdir(parents=True, exist_ok=True)
     OUT.write_text(report + "\n")

@@ -45,7 +45,7 @@ from pathlib import Path
 import numpy as np
 
 import dynamics
-from dynamics.simulate import simulate, state_error
+from dynamics.simulation import simulate, state_error
 from dynamics.torques import PD
 
 REPO = Path(__file__).resolve().parent.parent

@@ -32,7 +32,8 @@ from .assemble import assemble
 
 from . import plot, robots, torques
 from .configuration import integrate
-from .simulate import Trajectory, simulate
+from .simulation import Trajectory, simulate
+from .simulation.work_precision import WorkPrecision, work_precision
 from .sweeps import Trajectories, map_batches, simulate_many
 
 __all__ = [
@@ -40,7 +41,7 @@ __all__ = [
     "inverse_dynamics", "gravity_torques", "bias_forces", "mass_matrix", "forward_dynamics",
     "kinetic_energy", "potential_energy", "coriolis_matrix", "lock_joints", "reorder",
     "simulate", "Trajectory", "integrate", "torques", "robots", "plot",
-    "simulate_many", "Trajectories", "map_batches",
+    "simulate_many", "Trajectories", "map_batches", "work_precision", "WorkPrecision",
     "forward_kinematics", "frame_placement", "frame_velocity", "frame_acceleration", "frame_bias_acceleration",
     "frame_jacobian", "center_of_mass", "center_of_mass_velocity", "com_jacobian",
     "inverse_mass_matrix", "operational_space_inertia", "inverse_kinematics",

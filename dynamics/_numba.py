@@ -13,6 +13,10 @@ numba options.
 * :data:`generic_kernel`: not cached, for functions generic over a problem type (the ODE solvers): a cache
   index would pickle every problem type it saw (a test's ODE class too) and fail to load where that module is
   not importable.  They are compiled into a cached caller, whose cache holds the whole machine code.
+* :data:`generic_inline`: a generic function inlined (numba IR) into its caller: the solver layers between a
+  compiled entry point and the problem's right-hand side.  numba optimises each compiled function together
+  with every function it calls (their code is linked in and optimised again), so each extra compiled layer
+  above the ABA pays for optimising the ABA once more; inlined layers make one function per entry point.
 * :data:`gil_kernel`: cached but holding the GIL, for the one function that calls back into Python.
 
 Kernels read the model's arrays into locals once at their top (``parents, mass = tree.parents, tree.mass``):
@@ -43,6 +47,7 @@ GENERIC_OPTIONS = dict(nogil=True, error_model="numpy")
 kernel = njit(**JIT_OPTIONS)
 inline_kernel = njit(**JIT_OPTIONS, inline="always")
 generic_kernel = njit(**GENERIC_OPTIONS)
+generic_inline = njit(**GENERIC_OPTIONS, inline="always")
 gil_kernel = njit(cache=True, error_model="numpy")
 
 

@@ -17,7 +17,7 @@ import numpy as np
 
 from . import plot, robots
 from .errors import DynamicsError
-from .simulate import simulate
+from .simulation import simulate
 from .torques import PD
 from .urdf import load_urdf
 

@@ -13,7 +13,7 @@
 
   with the quaternion updated as ``quat (x) exp(theta)`` and renormalised, so it stays unit length.
 
-The steppers (:mod:`dynamics.integrators`) do not integrate q directly.  Every step works in a *chart*
+The solvers (:mod:`dynamics.simulation.solvers`) do not integrate q directly.  Every step works in a *chart*
 around the configuration ``q0`` at the start of the step: the step's unknown is a tangent vector
 ``delta`` (nv,), and ``q = retract(q0, delta)``:
 

@@ -18,7 +18,7 @@ import numpy as np
 from . import engines
 from .checks import check_model, real_number
 from .errors import InputError
-from .simulate import simulate
+from .simulation import simulate
 
 
 class Trajectories(NamedTuple):
@@ -65,6 +65,7 @@ def _torques(torque, B):
 def _run_one(model, item):
     """One simulate call; any refusal or failure becomes that run's report."""
     k, q0, v0, torque, options = item
+    options.setdefault("progress", False)  # the sweep has its own bar (runs)
     try:
         traj = simulate(model, q0, v0, options.pop("duration"), torque=torque, **options)
         return traj._replace(report=dict(traj.report, run=k))

@@ -10,7 +10,7 @@ from scipy.integrate import solve_ivp
 
 import dynamics
 from dynamics.configuration import integrate
-from dynamics.simulate import simulate, state_error
+from dynamics.simulation import simulate, state_error
 from dynamics.torques import PD, ComputedTorque, Table
 from robots import chain_urdf
 

@@ -1,4 +1,4 @@
-"""The steppers of dynamics.integrators on plain ODEs, against closed forms and scipy at rtol 1e-12.
+"""The solvers of dynamics.simulation.solvers on plain ODEs, against closed forms and scipy at rtol 1e-12.
 
 One problem type (a linear system z' = A z, or Van der Pol when ``mu`` > 0) so that each solver is
 compiled once for the whole module.
@@ -12,7 +12,8 @@ from numba import njit
 from scipy.integrate import solve_ivp
 from scipy.linalg import expm
 
-from dynamics import integrators as I
+from dynamics.simulation import solvers as S
+from dynamics.simulation.solvers import linalg
 
 
 class ODE(NamedTuple):
@@ -56,14 +57,38 @@ def _emit(p, j, t, z):
 ODE.rhs, ODE.rebase, ODE.euler_config, ODE.emit = _rhs, _rebase, _euler_config, _emit
 
 
+# cached callers, one per method (the solvers themselves are generic over the problem type, not cached)
 @njit(cache=True)
-def _fixed(p, method, z, t1, dt, out_t, iopt, fopt, ist, fst):
-    return I.solve_fixed(p, method, z, 0.0, t1, dt, out_t, iopt, fopt, ist, fst)
+def _euler(p, z, t1, out_t, opt, stats, sw):
+    return S.solve_euler(p, z, 0.0, t1, out_t, opt, stats, sw)
 
 
 @njit(cache=True)
-def _adaptive(p, method, z, t1, out_t, iopt, fopt, ist, fst, sw):
-    return I.solve_adaptive(p, method, z, 0.0, t1, out_t, iopt, fopt, ist, fst, sw)
+def _rk4(p, z, t1, out_t, opt, stats, sw):
+    return S.solve_rk4(p, z, 0.0, t1, out_t, opt, stats, sw)
+
+
+@njit(cache=True)
+def _rk45(p, z, t1, out_t, opt, stats, sw):
+    return S.solve_rk45(p, z, 0.0, t1, out_t, opt, stats, sw)
+
+
+@njit(cache=True)
+def _dop853(p, z, t1, out_t, opt, stats, sw):
+    return S.solve_dop853(p, z, 0.0, t1, out_t, opt, stats, sw)
+
+
+@njit(cache=True)
+def _radau(p, z, t1, out_t, opt, stats, sw):
+    return S.solve_radau(p, z, 0.0, t1, out_t, opt, stats, sw)
+
+
+@njit(cache=True)
+def _auto(p, z, t1, out_t, opt, stats, sw):
+    return S.solve_auto(p, z, 0.0, t1, out_t, opt, stats, sw)
+
+
+SOLVE = {"euler": _euler, "rk4": _rk4, "rk45": _rk45, "dop853": _dop853, "radau": _radau, "auto": _auto}
 
 
 def solve(method, z0, t1, *, A=None, mu=0.0, dt=0.01, rtol=1e-6, atol=1e-9, out_t=None, max_steps=10**6):
@@ -72,19 +97,13 @@ def solve(method, z0, t1, *, A=None, mu=0.0, dt=0.01, rtol=1e-6, atol=1e-9, out_
     A = np.zeros((n, n)) if A is None else np.asarray(A, float)
     out_t = np.array([0.0, t1]) if out_t is None else np.asarray(out_t, float)
     p = ODE(A, float(mu), np.zeros(len(out_t)), np.zeros((len(out_t), n)))
-    iopt = np.zeros(8, np.int64)
-    iopt[I.I_NC], iopt[I.I_NVEL], iopt[I.I_NE], iopt[I.I_MAXSTEPS] = n // 2, n - n // 2, n, max_steps
-    iopt[I.I_NSTEPS] = int(np.ceil(t1 / dt * (1 - 1e-12)))
-    fopt = np.zeros(8)
-    fopt[I.F_RTOL], fopt[I.F_ATOL], fopt[I.F_HMAX], fopt[I.F_BLOWUP] = rtol, atol, np.inf, 1e12
-    ist, fst, sw = np.zeros(8, np.int64), np.full(8, np.nan), np.zeros((I.MAX_SWITCHES, 4))
+    opt = S.Options(nc=n // 2, nvel=n - n // 2, ne=n, max_steps=max_steps, nsteps=int(np.ceil(t1 / dt * (1 - 1e-12))),
+                    dt=float(dt), rtol=rtol, atol=atol, h0=0.0, hmax=np.inf, blowup=1e12, probe=0)
+    stats, sw = S.new_stats(), S.new_switch_log()
     z = z0.copy()
-    m = I.METHOD_NAMES.index(method)
-    if method in ("euler", "rk4"):
-        _fixed(p, m, z, t1, dt, out_t, iopt, fopt, ist, fst)
-    else:
-        _adaptive(p, m, z, t1, out_t, iopt, fopt, ist, fst, sw)
-    return z, p, ist, fst, sw[:ist[I.S_NSWITCH]]
+    SOLVE[method](p, z, float(t1), out_t, opt, stats, sw)
+    st = stats[0]
+    return z, p, st, sw[:st["switches"]]
 
 
 OSC = np.array([[0.0, 1.0], [-1.0, 0.0]])  # x'' = -x
@@ -103,8 +122,8 @@ def test_fixed_step_order(method, order):
 def test_fixed_step_samples_and_last_step():
     # dt does not divide the duration: the last step is shortened and lands exactly on t1
     out = np.linspace(0, 1.05, 8)
-    z, p, ist, *_ = solve("rk4", [1, 0], 1.05, A=OSC, dt=0.1, out_t=out)
-    assert p.out_t[-1] == 1.05 and ist[I.S_STEPS] == 11
+    z, p, st, _ = solve("rk4", [1, 0], 1.05, A=OSC, dt=0.1, out_t=out)
+    assert p.out_t[-1] == 1.05 and st["steps"] == 11
     assert np.abs(p.out_z - exact_osc(out).T).max() < 1e-5  # Hermite samples between steps
 
 
@@ -115,45 +134,45 @@ def test_adaptive_accuracy_and_dense_output(method, tol):
     A = rng.normal(size=(4, 4)) - 0.5 * np.eye(4)
     z0 = rng.normal(size=4)
     out = np.linspace(0, 3, 31)
-    z, p, ist, *_ = solve(method, z0, 3.0, A=A, rtol=tol, atol=tol, out_t=out)
+    z, p, st, _ = solve(method, z0, 3.0, A=A, rtol=tol, atol=tol, out_t=out)
     exact = np.array([expm(A * t) @ z0 for t in out])
     assert np.abs(z - exact[-1]).max() < 200 * tol
     assert np.abs(p.out_z - exact).max() < 2000 * tol  # dense output, lower order between steps
-    assert ist[I.S_STATUS] == I.OK
+    assert st["status"] == S.OK
 
 
 def test_radau_on_stiff_linear_system_takes_few_steps():
     # eigenvalues -1e6 and -1 +- 10i: rk45 would need ~ 1e6 steps for 1 s
     A = np.array([[-1e6, 0, 0], [0, -1, 10], [0, -10, -1]])
     z0 = np.array([1.0, 1.0, 0.0])
-    z, p, ist, *_ = solve("radau", z0, 1.0, A=A, rtol=1e-8, atol=1e-10)
+    z, p, st, _ = solve("radau", z0, 1.0, A=A, rtol=1e-8, atol=1e-10)
     assert np.abs(z - expm(A) @ z0).max() < 1e-7
-    assert ist[I.S_STEPS] < 1000
+    assert st["steps"] < 1000
 
 
 def test_rk45_detects_stiffness_and_auto_switches_both_ways():
     mu = 1000.0
     ref = solve_ivp(lambda t, y: [y[1], mu * (1 - y[0] ** 2) * y[1] - y[0]], (0, 1000), [2, 0], method="Radau",
                     rtol=1e-12, atol=1e-12).y[:, -1]
-    z, _, ist, fst, switches = solve("auto", [2, 0], 1000.0, mu=mu, rtol=1e-8, atol=1e-8)
+    z, _, st, switches = solve("auto", [2, 0], 1000.0, mu=mu, rtol=1e-8, atol=1e-8)
     assert abs(z[0] - ref[0]) < 1e-4
-    to = switches[:, 1].astype(int).tolist()
-    assert to[0] == I.RADAU and I.RK45 in to  # stiff on the slow branch, explicit on the fast jumps
-    assert ist[I.S_STEPS] < 20000
+    to = switches["to"].tolist()
+    assert to[0] == S.RADAU and S.RK45 in to  # stiff on the slow branch, explicit on the fast jumps
+    assert st["steps"] < 20000
     # plain rk45 notices the stiffness (and says when), even if it does not switch
-    _, _, ist45, fst45, _ = solve("rk45", [2, 0], 50.0, mu=mu, rtol=1e-6, atol=1e-6)
-    assert 0 < fst45[I.FS_STIFF_T] < 50 and ist45[I.S_STIFF_HITS] >= 15
+    _, _, st45, _ = solve("rk45", [2, 0], 50.0, mu=mu, rtol=1e-6, atol=1e-6)
+    assert 0 < st45["stiff_t"] < 50 and st45["stiff_hits"] >= 15
 
 
 def test_fixed_step_blowup_is_reported():
     A = np.array([[-1e4, 0.0], [0.0, -1.0]])
-    z, _, ist, fst, _ = solve("rk4", [1.0, 1.0], 1.0, A=A, dt=0.01)
-    assert ist[I.S_STATUS] in (I.NONFINITE, I.BLOWUP) and fst[I.FS_T] < 1.0
+    z, _, st, _ = solve("rk4", [1.0, 1.0], 1.0, A=A, dt=0.01)
+    assert st["status"] in (S.interface.NONFINITE, S.interface.BLOWUP) and st["t"] < 1.0
 
 
 def test_max_steps_status():
-    _, _, ist, _, _ = solve("rk45", [1, 0], 100.0, A=OSC, rtol=1e-10, atol=1e-10, max_steps=50)
-    assert ist[I.S_STATUS] == I.MAX_STEPS
+    _, _, st, _ = solve("rk45", [1, 0], 100.0, A=OSC, rtol=1e-10, atol=1e-10, max_steps=50)
+    assert st["status"] == S.interface.MAX_STEPS
 
 
 def test_lu_solve_real_and_complex():
@@ -162,6 +181,6 @@ def test_lu_solve_real_and_complex():
         A = rng.normal(size=(7, 7)) + (1j * rng.normal(size=(7, 7)) if dtype is np.complex128 else 0)
         b = rng.normal(size=7).astype(dtype)
         LU, piv, x = A.astype(dtype).copy(), np.zeros(7, np.int64), b.copy()
-        I.lu_factor(LU, piv)
-        I.lu_solve(LU, piv, x)
+        linalg.lu_factor(LU, piv)
+        linalg.lu_solve(LU, piv, x)
         assert np.allclose(A @ x, b, atol=1e-12)

@@ -1,0 +1,154 @@
+"""The robot as an ODE for the solvers: the state, the right-hand side, and what is kept per sample.
+
+The equations of motion (Featherstone 2008, eq. 1.1, solved by the ABA, :mod:`dynamics.aba`):
+
+    M(q) v' + C(q, v) v + g(q) = tau_source(t, q, v) + tau_passive(q, v),      q' = v  (on the manifold)
+
+The integrated state is z = [delta (nv), v (nv), W_source, W_passive]: delta is the chart coordinate of q
+around ``base``, the configuration at the start of the current step (:mod:`dynamics.configuration`;
+re-centred after every step by ``rebase`` so free-flyer quaternions stay unit length), and the two
+quadratures integrate the power of the source and of the passive torques, W' = v . tau, for the energy
+balance.
+
+:class:`RobotProblem` carries the four functions of the solvers' problem interface
+(:mod:`.solvers.interface`) as class attributes.  They read the problem by field name, so a second problem
+type with the same fields plus its own (for instance constrained dynamics: a KKT solve after ABA/CRBA)
+reuses ``rebase``, ``euler_config`` and ``emit`` and brings only its own ``rhs``, built from
+:func:`applied_torques` and :func:`chart_and_velocity`; the solvers and the run entry points
+(:mod:`.run`) take it unchanged.
+"""
+
+from typing import NamedTuple
+
+import numpy as np
+
+from ..aba import aba_into
+from ..aba import workspace as aba_workspace
+from .._numba import inline_kernel, kernel
+from ..configuration import chart_rate, integrate_delta, retract
+from ..joints import JOINT_FREE
+from ..rnea import workspace as rnea_workspace
+from ..torques import passive_torques, torque_eval
+
+NQUAD = 2  # W_source, W_passive
+
+
+class RobotProblem(NamedTuple):
+    """Everything the compiled loop reads and writes, by name."""
+
+    tree: object  # the model's Tree
+    passive: object  # torques.Passive (also holds gravity and the external forces)
+    source: object  # torques.Source
+    base: np.ndarray  # (nq,) configuration at the start of the current step (the chart's base)
+    qbuf: np.ndarray  # (nq,) scratch: the configuration of the state being evaluated
+    tau_s: np.ndarray  # (nv,) scratch: source torques
+    tau_p: np.ndarray  # (nv,) scratch: passive, then total torques
+    ws_aba: tuple  # ABA workspace
+    ws_src: tuple  # torque-source workspace (RNEA workspace, 4 scratch (nv,) rows)
+    out_t: np.ndarray  # (T,) sample times
+    out_q: np.ndarray  # (T, nq) or (0, nq) when q is not kept
+    out_v: np.ndarray  # (T, nv) or (0, nv)
+    out_tau: np.ndarray  # (T, nv) or (0, nv): applied source torques
+    out_w: np.ndarray  # (T, 2) work of the source and passive torques
+    count: np.ndarray  # (1,) int64: samples written (also read by the progress bar while the run goes)
+
+
+def robot_problem(model, passive, source, q0, out_t, outputs):
+    """A :class:`RobotProblem` for a run from q0 that keeps ``outputs`` (of "q", "v", "tau") at ``out_t``."""
+    nv, nq, nb = model.nv, model.nq, model.tree.parents.shape[0]
+    T = out_t.shape[0]
+    return RobotProblem(
+        model.tree, passive, source, q0.copy(), np.empty(nq), np.empty(nv), np.empty(nv),
+        aba_workspace(nb, nv), (rnea_workspace(nb), np.empty((4, nv))), out_t,
+        np.zeros((T if "q" in outputs else 0, nq)), np.zeros((T if "v" in outputs else 0, nv)),
+        np.zeros((T if "tau" in outputs else 0, nv)), np.zeros((T, NQUAD)), np.zeros(1, np.int64))
+
+
+@kernel
+def source_torques(src, tree, ps, t, q, v, ws, tau):
+    """torques.torque_eval behind one call: inlined once here, not into every caller (compile time)."""
+    torque_eval(src, tree, ps, t, q, v, ws, tau)
+
+
+@inline_kernel
+def applied_torques(p, t, q, v):
+    """p.tau_p = source + passive torques at (t, q, v); returns the powers (v . tau_source, v . tau_passive)."""
+    tau_s, tau_p = p.tau_s, p.tau_p
+    source_torques(p.source, p.tree, p.passive, t, q, v, p.ws_src, tau_s)
+    passive_torques(p.passive, q, v, tau_p)
+    power_s = 0.0
+    power_p = 0.0
+    for k in range(v.shape[0]):
+        power_s += v[k] * tau_s[k]
+        power_p += v[k] * tau_p[k]
+        tau_p[k] += tau_s[k]
+    return power_s, power_p
+
+
+@inline_kernel
+def chart_and_velocity(p, z, dz):
+    """p.qbuf = the configuration of z; dz's chart part = the chart rate of v.  Returns (q, v) views."""
+    nv = p.tau_s.shape[0]
+    retract(p.tree, p.base, z[:nv], p.qbuf)
+    chart_rate(p.tree, p.qbuf, z[:nv], z[nv:2 * nv], dz[:nv])
+    return p.qbuf, z[nv:2 * nv]
+
+
+@kernel
+def rhs(p, t, z, dz):
+    """dz = f(t, z): chart rate, ABA accelerations (NaN when the articulated inertia is singular), powers."""
+    nv = p.tau_s.shape[0]
+    q, v = chart_and_velocity(p, z, dz)
+    power_s, power_p = applied_torques(p, t, q, v)
+    if aba_into(p.tree, q, v, p.tau_p, p.passive.gravity, p.passive.f_ext, p.ws_aba, dz[nv:2 * nv]) >= 0:
+        dz[nv:2 * nv] = np.nan
+    dz[2 * nv] = power_s
+    dz[2 * nv + 1] = power_p
+
+
+@kernel
+def rebase(p, z, dz, mag):
+    """Fold the chart coordinates into ``base``, rewrite dz's chart part for the new chart, and the
+    magnitudes of the state for the relative tolerance (|q| per 1-dof coordinate and free-flyer position)."""
+    tree, base = p.tree, p.base
+    nv = p.tau_s.shape[0]
+    retract(tree, base, z[:nv], p.qbuf)
+    base[:] = p.qbuf
+    z[:nv] = 0.0
+    chart_rate(tree, base, z[:nv], z[nv:2 * nv], dz[:nv])
+    for i in range(tree.jtype.shape[0]):
+        k = tree.v_idx[i]
+        if tree.jtype[i] == JOINT_FREE:
+            for r in range(3):
+                mag[k + r] = abs(base[tree.q_idx[i] + r])
+                mag[k + 3 + r] = 0.0
+        else:
+            mag[k] = abs(base[tree.q_idx[i]])
+
+
+@kernel
+def euler_config(p, z, h):
+    nv = p.tau_s.shape[0]
+    integrate_delta(p.tree, p.base, z[nv:2 * nv], h, z[:nv])
+
+
+@kernel
+def emit(p, j, t, z):
+    """Write sample j.  An output the caller did not ask for has zero rows: it is neither kept nor, for the
+    torques, computed."""
+    nv = p.tau_s.shape[0]
+    p.out_t[j] = t
+    q = p.out_q[j] if p.out_q.shape[0] > 0 else p.qbuf  # qbuf is free between right-hand-side evaluations
+    retract(p.tree, p.base, z[:nv], q)
+    if p.out_v.shape[0] > 0:
+        p.out_v[j] = z[nv:2 * nv]
+    if p.out_tau.shape[0] > 0:
+        source_torques(p.source, p.tree, p.passive, t, q, z[nv:2 * nv], p.ws_src, p.out_tau[j])
+    p.out_w[j] = z[2 * nv:]
+    p.count[0] = j + 1
+
+
+RobotProblem.rhs = rhs
+RobotProblem.rebase = rebase
+RobotProblem.euler_config = euler_config
+RobotProblem.emit = emit

@@ -1,0 +1,232 @@
+"""The report of a simulation (``Trajectory.report``, a JSON-serialisable dict): status, switches, the error
+estimate of the final state and the energy balance.
+
+Fields: ``integrator`` (the method asked for), ``switches`` (for ``auto``: each switch's time, from, to and
+reason), ``status`` ("ok", or why the run stopped early: "unstable: ..."), ``t_final``, ``steps`` (accepted),
+``rejected_steps``, ``rhs_evals`` (ABA calls, Jacobian columns included), ``jacobian_evals``,
+``lu_decompositions``, ``wall_time_s`` (the integration run alone), the error fields below, ``energy_drift``,
+``energy_drift_max``, ``work_torque``, ``work_passive``, ``energy_initial``, ``energy_final``, ``stability``
+(fixed-step methods: dt * spectral radius of the Jacobian at t0, and the method's stability limit),
+``warnings``.  Non-finite numbers are reported as None (strict JSON); the warnings say why.
+
+How ``error_estimate`` is computed
+----------------------------------
+``error_estimate`` estimates the *global* error of the returned final state, as the max-norm over
+``difference(q_final, q_true)`` (rad or m per velocity coordinate; :func:`dynamics.configuration.difference`)
+and ``v_final - v_true`` (rad/s or m/s).  ``error_estimate_q`` and ``error_estimate_v`` are the two parts.
+It is measured, not modelled, by a second run of the same method on the same problem (``error_estimate=
+"rerun"``, the default):
+
+* adaptive methods (``rk45``, ``dop853``, ``radau``, ``auto``): a second run with rtol and atol divided by 32.
+  With tolerance proportionality (global error ~ C tol^a, a in [0.8, 1] for these methods) the tighter run's
+  error is 16-32x smaller, so ``|y(tol) - y(tol/32)|`` is the error of y(tol) to within ~6%.
+* fixed-step methods (``euler``, ``rk4``, order p = 1, 4): a second run with dt/2, and Richardson's estimate
+  ``|y(dt) - y(dt/2)| * 2^p / (2^p - 1)``.
+
+The second run costs 1-3x the first and is timed separately (``error_estimate_wall_time_s``).  With
+``error_estimate="local"`` the report gives instead the sum over accepted steps of the max-norm of the local
+error estimates (adaptive methods only): cheap, but it can understate the global error of unstable or chaotic
+dynamics, whose local errors grow.  ``"none"`` skips it (``error_estimate`` is None).
+
+When the estimate is of order one (q part >= 0.1 rad or m, or v part >= 0.1 max(1, the largest final |v|))
+or, for adaptive methods, more than 1000 times the asked tolerance (atol + rtol max(1, |q|, |v|)), the
+report's ``warnings`` say so: the status stays "ok" (the run did finish), but the numbers are not accurate.
+
+Energy balance
+--------------
+``energy_drift = |E(T) - E(0) - W_source(T) - W_passive(T)| / scale``, E = kinetic + potential energy, with
+
+    scale = max(max_t K, max_t U - min_t U, |W_source(T)|, |W_passive(T)|, m L max(|g|, 1 m/s^2))
+
+over the samples: every term is independent of the potential's arbitrary zero, and the last one, the
+robot's own energy scale (total mass m, size L = the sum of its joint offsets plus its largest centre-of-mass
+offset), keeps a robot that hardly moves (held still by PD and gravity compensation: K, the range of U and
+the work all ~0) from dividing rounding noise by ~0.  ``energy_drift_max`` is the largest balance residual
+over all samples, on the same scale (samples between steps come from dense output and are less accurate
+than step points).  The scale used is reported as ``energy_scale`` (J).
+"""
+
+import math
+
+import numpy as np
+
+from .._numba import borrowed, kernel
+from ..configuration import difference
+from ..energy import kinetic_energy_kernel, potential_energy_kernel
+from ..errors import InputError
+from .solvers import OK, RADAU, STATUS_NAMES, SWITCH_STIFF
+
+WHY = {"nonfinite": "a NaN/inf appeared in the state or its derivative",
+       "blowup": "a joint velocity exceeded {blowup:.3g}",
+       "step_too_small": "the step size collapsed below the time resolution"}
+
+
+def run_status(st, s, blowup, stability, warnings):
+    """The report's status for the run's statistics; raises InputError when the step budget ran out."""
+    status = STATUS_NAMES[st["status"]]
+    t_final = float(st["t"]) if s.duration > 0 else 0.0
+    if status == "max_steps":
+        raise InputError(f"max_steps: step budget of {s.max_steps} exhausted at t={t_final:.6g} s of "
+                         f"{s.duration:g} s; raise max_steps, loosen rtol/atol, or use integrator='radau' if "
+                         "the problem is stiff")
+    if status != "ok":
+        status = f"unstable: {WHY[status].format(blowup=blowup)} at t={t_final:.6g} s"
+        warnings.append(f"simulation stopped early, {status}; the trajectory ends at the last good sample")
+        if s.fixed and stability and stability["dt_times_spectral_radius"] <= stability["limit"]:
+            warnings.append(f"{s.integrator}: consider a smaller dt or integrator='radau'")
+    if s.integrator == "rk45" and st["stiff_t"] >= 0:
+        warnings.append(f"rk45: the problem looks stiff from t={st['stiff_t']:.6g} s (h*|lambda| > 3.25 on "
+                        "15 accepted steps, DOPRI5's test); integrator='radau' or 'auto' will be cheaper")
+    return status, t_final
+
+
+def switches(log):
+    """The auto switch log as a list of dicts (time, from, to, reason)."""
+    out = []
+    for rec in log:
+        to = "radau" if rec["to"] == RADAU else "rk45"
+        if rec["reason"] == SWITCH_STIFF:
+            reason = f"stiffness detected: h*|lambda| = {rec['value']:.3g} > 3.25 on 15 accepted rk45 steps"
+        else:
+            reason = f"no longer stiff: h*rho(J) = {rec['value']:.3g} < 2 on 20 accepted radau steps"
+        out.append({"t": float(rec["t"]), "from": "radau" if to == "rk45" else "rk45", "to": to, "reason": reason})
+    return out
+
+
+def statistics(st, wall):
+    return {"steps": int(st["steps"]), "rejected_steps": int(st["rejected"]), "rhs_evals": int(st["rhs_evals"]),
+            "jacobian_evals": int(st["jacobian_evals"]), "lu_decompositions": int(st["lu_decompositions"]),
+            "wall_time_s": wall}
+
+
+def error_estimate(model, s, run, rerun, order, warnings):
+    """The error fields of the report.  ``rerun(dt, rtol, atol, max_steps)`` runs the same problem again and
+    returns its result (or None when the budget forbids it)."""
+    est = est_q = est_v = None
+    wall = 0.0
+    method = s.error_estimate
+    ok = run.stats["status"] == OK
+    if method == "rerun" and ok and s.duration > 0:
+        if s.fixed and 2 * math.ceil(s.duration / s.dt) > s.max_steps:
+            warnings.append("error_estimate: the dt/2 rerun would exceed max_steps; no estimate")
+            method = "none"
+        else:
+            if s.fixed:
+                r2 = rerun(s.dt / 2, s.rtol, s.atol, s.max_steps)
+                factor = 2 ** order / (2 ** order - 1)
+            else:
+                r2 = rerun(None, max(s.rtol / 32, 1e-14), s.atol / 32, 4 * s.max_steps)
+                factor = 1.0
+            wall = r2.wall
+            if r2.stats["status"] != OK:
+                est = est_q = est_v = float("inf")
+                warnings.append(f"error_estimate: the tighter rerun failed ({STATUS_NAMES[r2.stats['status']]}); "
+                                "estimate set to inf")
+            else:
+                eq, ev = _state_error(model.tree, run.qf, run.vf, r2.qf, r2.vf)
+                est_q, est_v = eq * factor, ev * factor
+                est = max(est_q, est_v)
+    elif method == "local" and not s.fixed:
+        est = float(run.stats["local_error"])
+    elif method == "local":
+        warnings.append("error_estimate='local' needs an adaptive integrator; no estimate")
+        method = "none"
+    elif s.duration == 0:
+        est = est_q = est_v = 0.0
+    return {"error_estimate": est, "error_estimate_q": est_q, "error_estimate_v": est_v,
+            "error_estimate_method": method, "error_estimate_wall_time_s": wall}
+
+
+def energy_balance(model, s, t, q, v, w, run):
+    """The energy fields of the report: at every sample when q and v were kept, else between the first and
+    last states (then ``energy_drift_max`` is None)."""
+    cnt = len(t)
+    per_sample = "q" in s.outputs and "v" in s.outputs
+    if not per_sample and cnt:
+        q = np.array([s.q0, run.qf])
+        v = np.array([s.v0, run.vf])
+        w = w[[0, cnt - 1]]
+    K = np.empty(len(q))
+    U = np.empty(len(q))
+    _energies(model.tree, q, v, s.gravity, K, U)
+    E = K + U
+    W = w.sum(axis=1) if cnt else np.zeros(0)
+    scale = float("nan")
+    if cnt:
+        scale = max(float(K.max()), float(U.max() - U.min()), float(np.abs(w[-1]).max()),
+                    robot_energy_scale(model, s.gravity))
+        resid = np.abs(E - E[0] - W)
+        drift, drift_max = float(resid[-1] / scale), float(resid.max() / scale)
+    else:
+        drift = drift_max = float("nan")
+    return {"energy_drift": drift, "energy_drift_max": drift_max if per_sample else None, "energy_scale": scale,
+            "work_torque": float(w[-1, 0]) if cnt else 0.0, "work_passive": float(w[-1, 1]) if cnt else 0.0,
+            "energy_initial": float(E[0]) if cnt else float("nan"),
+            "energy_final": float(E[-1]) if cnt else float("nan")}
+
+
+def robot_energy_scale(model, gravity):
+    """m L max(|g|, 1 m/s^2) (J): total mass, size = sum of joint offsets + the largest centre-of-mass offset."""
+    tree = model.tree
+    mass = float(np.sum(tree.mass))
+    com = np.linalg.norm(tree.h, axis=1) / np.maximum(tree.mass, 1e-300) if len(tree.mass) else np.zeros(1)
+    size = float(np.sum(np.linalg.norm(tree.Xpos, axis=1))) + float(np.max(com, initial=0.0))
+    return max(mass * size * max(float(np.linalg.norm(gravity)), 1.0), 1e-300)
+
+
+def accuracy_warnings(s, fields, qf, vf, warnings):
+    """Warn when the error estimate says the final state is not accurate (module docs)."""
+    est, est_q, est_v = fields["error_estimate"], fields.get("error_estimate_q"), fields.get("error_estimate_v")
+    if est is None or not math.isfinite(est):
+        return
+    vsize = max(1.0, float(np.max(np.abs(vf), initial=0.0)))
+    size = max(vsize, float(np.max(np.abs(qf), initial=0.0)))  # the magnitude rtol is relative to
+    if est_q is not None and est_v is not None:
+        order_one = est_q >= 0.1 or est_v >= 0.1 * vsize  # q: rad or m, absolute (angles wrap)
+    else:
+        order_one = est >= 0.1 * vsize
+    what = "the fixed step dt" if s.fixed else "the tolerance"
+    tol = s.atol + s.rtol * size if not s.fixed else None
+    if order_one:
+        warnings.append(f"error_estimate = {est:.3g} is of order one (q error {_g(est_q)} rad or m, v error "
+                        f"{_g(est_v)} at speeds up to {vsize:.3g}): the final state is not accurate; reduce {what}"
+                        + ("" if s.fixed else " or use integrator='radau' if the problem is stiff"))
+    elif tol is not None and est > 1000 * tol:
+        warnings.append(f"error_estimate = {est:.3g} is {est / tol:.3g} times the asked tolerance (atol + rtol |y| = "
+                        f"{tol:.3g}): the dynamics amplify errors (chaotic or near-unstable motion, impacts); "
+                        "tighten rtol/atol to get the accuracy asked")
+
+
+def _g(x):
+    return "n/a" if x is None else f"{x:.3g}"
+
+
+def json_safe(report):
+    """Non-finite floats become None (strict JSON)."""
+    return {k: (None if isinstance(x, float) and not math.isfinite(x) else x) for k, x in report.items()}
+
+
+@kernel
+def _energies(tree, Q, V, gravity, K, U):
+    tree = borrowed(tree)  # the caller owns the model; one kernel call per sample without atomics
+    for j in range(Q.shape[0]):
+        K[j] = kinetic_energy_kernel(tree, Q[j], V[j])
+        U[j] = potential_energy_kernel(tree, Q[j], gravity)
+
+
+@kernel
+def _state_error(tree, q1, v1, q2, v2):
+    d = np.empty(v1.shape[0])
+    difference(tree, q2, q1, d)
+    eq = 0.0
+    ev = 0.0
+    for k in range(d.shape[0]):
+        eq = max(eq, abs(d[k]))
+        ev = max(ev, abs(v1[k] - v2[k]))
+    return eq, ev
+
+
+def state_error(model, q1, v1, q2, v2):
+    """(max |q1 - q2| on the manifold, max |v1 - v2|) between two states (used by tests and benchmarks)."""
+    return _state_error(model.tree, np.ascontiguousarray(q1, float), np.ascontiguousarray(v1, float),
+                        np.ascontiguousarray(q2, float), np.ascontiguousarray(v2, float))

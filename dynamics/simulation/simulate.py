@@ -1,0 +1,273 @@
+"""Forward simulation: q(t), v(t) from q0, v0 under joint torques, with an honest report.
+
+``simulate`` is four steps: check the arguments (:class:`Settings`), build the problem (:mod:`.problem`:
+the equations of motion, torque source, passive torques), run the compiled loop of the chosen method
+(:mod:`.run`, :mod:`.solvers`), and write the report (:mod:`.report`: status, error estimate, energy
+balance).  The whole loop (stepper, torque source, passive torques, ABA, output sampling) is compiled; only a
+Python-callable torque leaves compiled code (through ``numba.objmode``, once per right-hand-side evaluation).
+"""
+
+import math
+from typing import NamedTuple
+
+import numpy as np
+
+from ..aba import aba_into
+from ..aba import workspace as aba_workspace
+from ..checks import check_model, real_number, vector
+from ..configuration import retract
+from ..errors import InputError
+from ..joints import JOINT_FREE
+from .. import plot
+from ..torques import Passive, make_source, release_callable
+from . import report as R
+from .problem import NQUAD, robot_problem
+from .progress import check as check_progress
+from .progress import watcher
+from .run import run
+from .solvers import ADAPTIVE, FIXED, ORDER, STABILITY_LIMIT, Options
+
+__all__ = ["simulate", "Trajectory", "INTEGRATORS", "OUTPUTS"]
+
+INTEGRATORS = ("euler", "rk4", "rk45", "radau", "auto", "dop853")
+#: what a simulation can keep per sample (besides t)
+OUTPUTS = ("q", "v", "tau")
+
+
+class Trajectory(NamedTuple):
+    """t (T,), q (T, nq), v (T, nv), tau (T, nv) applied source torques, report (dict)."""
+
+    t: np.ndarray
+    q: np.ndarray
+    v: np.ndarray
+    tau: np.ndarray
+    report: dict
+
+    def plot(self, path=None, *, joint_names=None, show=False):
+        """q, v and tau against t with the report's verdict in the title (:func:`dynamics.plot.trajectory`;
+        needs matplotlib).  Saves to ``path`` if given; returns the matplotlib Figure."""
+        return plot.trajectory(self, path, joint_names=joint_names, show=show)
+
+
+class Settings(NamedTuple):
+    """The checked arguments of one simulate call."""
+
+    integrator: str
+    fixed: bool
+    q0: np.ndarray
+    v0: np.ndarray
+    duration: float
+    rtol: float
+    atol: float
+    dt: object  # float or None
+    gravity: np.ndarray
+    max_steps: int
+    outputs: tuple
+    error_estimate: str
+    out_t: np.ndarray  # sample times
+
+
+class RunResult(NamedTuple):
+    problem: object  # the RobotProblem, holding the samples
+    stats: np.void  # the solver's statistics record (solvers.STATS)
+    switches: np.ndarray  # the auto switch log (solvers.SWITCH rows)
+    wall: float
+    qf: np.ndarray  # final state
+    vf: np.ndarray
+
+
+def simulate(model, q0, v0, duration, *, torque=None, integrator="auto", rtol=1e-6, atol=1e-8, dt=None,
+             sample_dt=None, gravity=None, max_steps=1_000_000, limits=None, limit_stiffness=1e4,
+             limit_damping=100.0, friction_eps=1e-3, error_estimate="rerun", outputs=OUTPUTS, progress=None):
+    """Simulate the robot from (q0, v0) for ``duration`` seconds; returns a :class:`Trajectory`.
+
+    torque: None, an (nv,) constant, :class:`dynamics.torques.Table`, :class:`~dynamics.torques.PD`,
+        :class:`~dynamics.torques.ComputedTorque`, or a callable f(t, q, v) -> (nv,) (module docs).
+    integrator: "euler" | "rk4" (fixed step ``dt``, required) | "rk45" | "dop853" | "radau" | "auto" (adaptive,
+        ``rtol`` and ``atol`` on each component of (q, v); ``dt`` if given is the first step).
+    sample_dt: output spacing (the last sample is always t = duration).  Default: every step for fixed-step
+        methods, duration/1000 for adaptive ones (dense output between steps).
+    gravity: (3,) world gravity, default ``model.gravity``.  max_steps: budget of attempted steps.
+    limits: None or "spring" (Hunt-Crossley spring-damper at the URDF position limits, ``limit_stiffness``
+        N m/rad, ``limit_damping`` N m s/rad^2).  friction_eps: velocity scale of the regularised Coulomb
+        friction.  error_estimate: "rerun" (default), "local" or "none" (:mod:`dynamics.simulation.report`).
+    outputs: which of "q", "v", "tau" to keep per sample (``t`` always); the others come back as empty
+        (0, n) arrays and are not computed (the applied torques) or stored.  Without q and v per sample the
+        energy balance is taken between the first and last states only (``energy_drift_max`` is None).
+    progress: None (a bar on a terminal for runs longer than a second), True, False, or a callable
+        ``progress(t_reached, duration)`` (:mod:`dynamics.simulation.progress`).
+
+    Raises InputError for bad arguments and when the step budget is exceeded; a run that goes unstable
+    stops, returns the samples up to the failure and says so in ``report["status"]`` and ``warnings``.
+    """
+    warnings = []
+    progress = check_progress(progress)
+    s = _settings(model, q0, v0, duration, integrator, rtol, atol, dt, sample_dt, gravity, max_steps,
+                  error_estimate, outputs, warnings)
+    ps = _passive(model, s, limits, limit_stiffness, limit_damping, friction_eps)
+    src = make_source(model, torque)
+    try:
+        main = _one_run(model, s, ps, src, s.dt, s.out_t, s.rtol, s.atol, max_steps, s.outputs,
+                        h0=s.dt if not s.fixed else 0.0, watch=watcher(progress, s.duration), probe=True)
+        stability = _stability(s, main.stats["rho0"], warnings)
+        return _trajectory(model, s, ps, src, main, stability, warnings)
+    finally:
+        if src.slot >= 0:
+            release_callable(src.slot)
+
+
+def _trajectory(model, s, ps, src, main, stability, warnings):
+    """The report around the samples of the main run (and the error-estimate rerun)."""
+    report = {"integrator": s.integrator, "rtol": None if s.fixed else s.rtol, "atol": None if s.fixed else s.atol,
+              "dt": s.dt}
+    blowup = _blowup(s.v0)
+    status, t_final = R.run_status(main.stats, s, blowup, stability, warnings)
+    report.update(status=status, t_final=t_final, switches=R.switches(main.switches))
+    report.update(R.statistics(main.stats, main.wall))
+    if stability is not None:
+        report["stability"] = stability
+
+    def rerun(dt, rtol, atol, max_steps):
+        return _one_run(model, s, ps, src, dt, np.array([0.0]), rtol, atol, max_steps, ())
+
+    errors = R.error_estimate(model, s, main, rerun, ORDER.get(s.integrator, 0), warnings)
+    R.accuracy_warnings(s, errors, main.qf, main.vf, warnings)
+    report.update(errors)
+    p = main.problem
+    cnt = int(p.count[0])
+    t, q, v, tau, w = p.out_t[:cnt], p.out_q[:cnt], p.out_v[:cnt], p.out_tau[:cnt], p.out_w[:cnt]
+    report.update(R.energy_balance(model, s, t, q, v, w, main))
+    report["warnings"] = warnings
+    return Trajectory(t.copy(), q.copy(), v.copy(), tau.copy(), R.json_safe(report))
+
+
+def _one_run(model, s, ps, src, dt, out_t, rtol, atol, max_steps, outputs, h0=0.0, watch=None, probe=False):
+    """One compiled run of s.integrator from (q0, v0); samples kept at out_t (``outputs`` of q, v, tau)."""
+    nv = model.nv
+    p = robot_problem(model, ps, src, s.q0, out_t, outputs)
+    z = np.zeros(2 * nv + NQUAD)
+    z[nv:2 * nv] = s.v0
+    nsteps = max(1, math.ceil(s.duration / dt * (1 - 1e-12))) if s.fixed and s.duration > 0 else 0
+    opt = Options(nc=nv, nvel=nv, ne=2 * nv, max_steps=int(max_steps), nsteps=nsteps, dt=float(dt or 0.0),
+                  rtol=float(rtol), atol=float(atol), h0=float(h0 or 0.0), hmax=np.inf, blowup=_blowup(s.v0),
+                  probe=int(probe and s.fixed and s.duration > 0))
+    st, sw, wall = run(s.integrator, p, z, s.duration, opt, watch=watch)
+    qf = np.empty(model.nq)
+    retract(model.tree, p.base, z[:nv], qf)
+    return RunResult(p, st, sw, wall, qf, z[nv:2 * nv].copy())
+
+
+def _blowup(v0):
+    return max(1e6, 1e4 * float(np.max(np.abs(v0), initial=0.0)))
+
+
+def _stability(s, rho, warnings):
+    """Fixed-step methods: dt * spectral radius of the Jacobian at t0 against the method's stability limit
+    (rho is measured by the run itself, before its first step)."""
+    if not s.fixed or s.duration <= 0 or not rho >= 0:
+        return None
+    rho = float(rho)
+    limit = STABILITY_LIMIT[s.integrator]
+    if s.dt * rho > limit:
+        warnings.insert(0, f"dt={s.dt:g} exceeds the stability limit of {s.integrator} for this problem at t=0 "
+                        f"(dt * spectral radius = {s.dt * rho:.3g} > {limit}): expect blow-up; use "
+                        f"dt < {limit / rho:.3g} or integrator='radau'")
+    return {"dt_times_spectral_radius": s.dt * rho, "limit": limit, "spectral_radius": rho}
+
+
+# ---------------------------------------------------------------------------------------------------
+# checks
+def _settings(model, q0, v0, duration, integrator, rtol, atol, dt, sample_dt, gravity, max_steps,
+              error_estimate, outputs, warnings):
+    """Check every argument once, with an error that names it; returns :class:`Settings`."""
+    check_model(model)
+    if integrator not in INTEGRATORS:
+        raise InputError(f"integrator: expected one of {INTEGRATORS}, got {integrator!r}")
+    q0 = _check_q(model, q0, warnings)
+    v0 = vector("v0", v0, model.nv)
+    duration = real_number("duration", duration, lo=0.0)
+    rtol = real_number("rtol", rtol, lo=1e-14, hi=1.0)
+    atol = real_number("atol", atol, lo=0.0)
+    fixed = integrator in FIXED
+    dt = real_number("dt", dt, lo=0.0, lo_open=True, allow_none=True)
+    if fixed and dt is None:
+        raise InputError(f"dt: required (> 0) for the fixed-step integrator {integrator!r}")
+    sample_dt = real_number("sample_dt", sample_dt, lo=0.0, lo_open=True, allow_none=True)
+    g = vector("gravity", model.gravity if gravity is None else gravity, 3)
+    if isinstance(max_steps, bool) or not isinstance(max_steps, (int, np.integer)) or max_steps < 1:
+        raise InputError(f"max_steps: expected a positive int, got {max_steps!r}")
+    if isinstance(outputs, str) or not set(outputs) <= set(OUTPUTS):
+        raise InputError(f"outputs: expected a subset of {OUTPUTS}, got {outputs!r}")
+    if error_estimate not in ("rerun", "local", "none"):
+        raise InputError(f"error_estimate: expected 'rerun', 'local' or 'none', got {error_estimate!r}")
+    if fixed:
+        nsteps = math.ceil(duration / dt * (1 - 1e-12)) if duration > 0 else 0
+        if nsteps > max_steps:
+            raise InputError(f"max_steps: dt={dt:g} needs {nsteps} steps over {duration:g} s, more than "
+                             f"max_steps={max_steps}")
+    _check_not_singular(model, q0, v0, g)
+    return Settings(integrator, fixed, q0, v0, duration, rtol, atol, dt, g, int(max_steps),
+                    tuple(o for o in OUTPUTS if o in outputs), error_estimate,
+                    _sample_times(duration, dt, sample_dt, fixed))
+
+
+def _check_not_singular(model, q0, v0, g):
+    """A joint that moves no mass makes M singular: say which, now, rather than NaN in the first step (the
+    ABA kernel the right-hand side uses anyway, not the public forward_dynamics: no second compilation)."""
+    nv, nb = model.nv, model.tree.parents.shape[0]
+    body = aba_into(model.tree, q0, v0, np.zeros(nv), g, np.zeros((0, 6)), aba_workspace(nb, nv), np.empty(nv))
+    if body >= 0:
+        raise InputError(f"q0: the mass matrix is singular at joint {model.joint_names[body]!r}: it moves no mass "
+                         "or inertia (add mass below it, lock it with dynamics.lock_joints, or remove it)")
+
+
+def _passive(model, s, limits, limit_stiffness, limit_damping, friction_eps):
+    if limits not in (None, "spring"):
+        raise InputError(f"limits: expected None or 'spring', got {limits!r}")
+    limit_stiffness = real_number("limit_stiffness", limit_stiffness, lo=0.0)
+    limit_damping = real_number("limit_damping", limit_damping, lo=0.0)
+    friction_eps = real_number("friction_eps", friction_eps, lo=0.0, lo_open=True)
+    return Passive(np.ascontiguousarray(model.damping, float), np.ascontiguousarray(model.friction, float),
+                   friction_eps, 1 if limits == "spring" else 0, np.ascontiguousarray(model.lower, float),
+                   np.ascontiguousarray(model.upper, float), _qpos_map(model), limit_stiffness, limit_damping,
+                   s.gravity, np.zeros((0, 6)))
+
+
+def _check_q(model, q0, warnings):
+    q = vector("q0", q0, model.nq)
+    tree = model.tree
+    for i, code in enumerate(tree.jtype):
+        if code == JOINT_FREE:
+            k = int(tree.q_idx[i]) + 3
+            nrm = float(np.linalg.norm(q[k:k + 4]))
+            if nrm < 1e-6:
+                raise InputError(f"q0: the quaternion q0[{k}:{k + 4}] (x, y, z, w) of joint "
+                                 f"{model.joint_names[i]!r} is zero")
+            if abs(nrm - 1.0) > 1e-6:
+                warnings.append(f"q0: quaternion (x, y, z, w) of joint {model.joint_names[i]!r} had norm "
+                                f"{nrm:.6g}; normalised")
+            q[k:k + 4] /= nrm
+    return q
+
+
+def _qpos_map(model):
+    qpos = np.full(model.nv, -1, np.int64)
+    tree = model.tree
+    for i, code in enumerate(tree.jtype):
+        if code != JOINT_FREE:
+            qpos[tree.v_idx[i]] = tree.q_idx[i]
+    return qpos
+
+
+def _sample_times(duration, dt, sample_dt, fixed):
+    if sample_dt is None:
+        if fixed:
+            n = max(1, math.ceil(duration / dt * (1 - 1e-12))) if duration > 0 else 0
+            t = np.minimum(np.arange(n + 1) * dt, duration)
+            t[-1] = duration
+            return t
+        sample_dt = duration / 1000 if duration > 0 else 1.0
+    n = math.floor(duration / sample_dt * (1 + 1e-12))
+    t = np.arange(n + 1) * sample_dt
+    t = t[t < duration * (1 - 1e-12)] if duration > 0 else t[:1]
+    return np.append(t, duration) if duration > 0 else t

@@ -1,0 +1,94 @@
+"""The adaptive driver: step-size bookkeeping, output sampling from dense output, chart re-centring.
+
+The method (rk45, dop853, radau or auto, see :mod:`.interface`) decides whether an attempted step is
+accepted and proposes the next step size; the driver does what every method shares: the first step
+(Hairer's heuristic), the step budget, the smallest representable step, landing on t_end exactly, the
+state checks, the samples in each accepted step, and the re-centring of the chart after it.
+"""
+
+import numpy as np
+
+from ..._numba import generic_inline
+from .interface import (MAX_STEPS, OK, STEP_TOO_SMALL, problem_emit, problem_rebase, problem_rhs, stepper_attempt,
+                        stepper_dense, stepper_order)
+from .linalg import initial_step, max_abs, state_status
+
+
+@generic_inline
+def solve_adaptive(p, m, z, t0, t_end, out_t, opt, stats, switches):
+    """Integrate z from t0 to t_end with error control by the method m; returns the status (also in stats)."""
+    st = stats[0]
+    n = z.shape[0]
+    mag = np.zeros(n)
+    f0 = np.empty(n)  # f(t, z) in the current chart
+    fnew = np.empty(n)
+    znew = np.empty(n)
+    zold = np.empty(n)
+    errv = np.empty(n)
+    zi = np.empty(n)
+    problem_rebase(p, z, f0, mag)  # magnitudes of the initial state (z's chart part is zero)
+    problem_rhs(p, t0, z, f0)
+    st.rhs_evals += 1
+    status = state_status(f0, 0, 0, opt.blowup)
+    t = t0
+    j = 0
+    if status == OK:
+        j = _emit(p, m, j, out_t, t, 0.0, zold, z, zi, st)
+    h = opt.h0
+    if h <= 0:
+        h = initial_step(p, t, z, f0, stepper_order(m), opt.rtol, opt.atol, mag, opt.ne, t_end, st)
+    h = min(h, opt.hmax)
+    local_err = 0.0
+    total = 0
+    rejected_last = False
+    while status == OK and t < t_end:
+        if total >= opt.max_steps:
+            status = MAX_STEPS
+            break
+        min_step = 10.0 * abs(np.nextafter(t, np.inf) - t)
+        if h < min_step:
+            status = STEP_TOO_SMALL
+            break
+        h = min(h, opt.hmax)
+        tn = t + h
+        if tn >= t_end or t_end - tn < min_step:
+            tn = t_end
+        h = tn - t
+        total += 1
+        accepted, hnew = stepper_attempt(m, p, t, h, z, f0, znew, fnew, errv, mag, opt, st, switches,
+                                         rejected_last)
+        rejected_last = not accepted
+        if not accepted:
+            st.rejected += 1
+            h = hnew
+            continue
+        st.steps += 1
+        local_err += max_abs(errv, opt.ne)
+        zold[:] = z
+        z[:] = znew
+        f0[:] = fnew
+        t = tn
+        status = state_status(z, opt.nc, opt.nvel, opt.blowup)
+        if status != OK:
+            break
+        j = _emit(p, m, j, out_t, t, h, zold, z, zi, st)
+        problem_rebase(p, z, f0, mag)  # re-centre the chart; f0 = f(t, z) in the new chart
+        h = hnew
+    st.status = status
+    st.t = t
+    st.local_error = local_err
+    st.h = h
+    return status
+
+
+@generic_inline
+def _emit(p, m, j, out_t, t, h, zold, z, zi, st):
+    """Emit the samples in (t - h, t] from the dense output of the step zold -> z (h = 0: the state at t)."""
+    while j < out_t.shape[0] and out_t[j] <= t:
+        if out_t[j] >= t or h == 0.0:
+            problem_emit(p, j, t, z)
+        else:
+            stepper_dense(m, p, t - h, h, (out_t[j] - (t - h)) / h, zold, z, zi, st)
+            problem_emit(p, j, out_t[j], zi)
+        j += 1
+    return j

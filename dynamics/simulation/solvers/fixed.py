@@ -1,0 +1,64 @@
+"""The fixed-step driver (``euler``, ``rk4``): steps of size dt from t0 to t_end, the last one shortened to
+land on t_end exactly, samples from the stepper's interpolant.
+
+The slope at the end of a step serves the interpolant of that step and, re-expressed in the new chart by
+``rebase``, the first stage of the next one.
+"""
+
+import numpy as np
+
+from ..._numba import generic_inline
+from .interface import NONFINITE, OK, problem_emit, problem_rebase, problem_rhs, stepper_fixed_dense, stepper_step
+from .linalg import jacobian_spectral_radius, state_status
+
+
+@generic_inline
+def solve_fixed(p, m, z, t0, t_end, out_t, opt, stats):
+    """Integrate z from t0 to t_end with the fixed-step method m; returns the status (also in stats)."""
+    st = stats[0]
+    n = z.shape[0]
+    mag = np.zeros(n)
+    f0 = np.empty(n)  # slope at the start of the step
+    f1 = np.empty(n)  # slope at its end
+    z0 = np.empty(n)
+    zi = np.empty(n)
+    problem_rhs(p, t0, z, f0)
+    st.rhs_evals += 1
+    status = OK if state_status(f0, 0, 0, opt.blowup) == OK else NONFINITE
+    if opt.probe and status == OK:
+        st.rho0 = jacobian_spectral_radius(p, t0, z, f0, opt.ne)
+    j = 0
+    while status == OK and j < out_t.shape[0] and out_t[j] <= t0:  # the initial state
+        problem_emit(p, j, t0, z)
+        j += 1
+    t = t0
+    for i in range(opt.nsteps if status == OK else 0):
+        ta = t  # this step: from ta to t
+        t = t_end if i == opt.nsteps - 1 else min(t0 + (i + 1) * opt.dt, t_end)
+        h = t - ta
+        z0[:] = z
+        stepper_step(m, p, ta, h, z, f0, st)
+        st.steps += 1
+        status = state_status(z, opt.nc, opt.nvel, opt.blowup)
+        if status != OK:
+            break
+        problem_rhs(p, t, z, f1)
+        st.rhs_evals += 1
+        if state_status(f1, 0, 0, opt.blowup) != OK:
+            status = NONFINITE
+            break
+        while j < out_t.shape[0] and out_t[j] <= t:  # samples in (ta, t]
+            if out_t[j] >= t:
+                problem_emit(p, j, t, z)
+            else:
+                stepper_fixed_dense(m, (out_t[j] - ta) / h, h, z0, f0, z, f1, zi)
+                problem_emit(p, j, out_t[j], zi)
+            j += 1
+        problem_rebase(p, z, f1, mag)
+        f0[:] = f1
+    st.status = status
+    st.t = t
+    st.h = opt.dt
+    st.local_error = np.nan  # fixed-step methods have no embedded error estimate
+    return status
+
