@@ -37,7 +37,7 @@ def _rhs(p, t, z, dz):
 
 
 @njit(cache=True)
-def _rebase(p, z, dz, mag):
+def _rebase(p, t, z, dz, mag):
     pass
 
 

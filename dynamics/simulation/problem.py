@@ -107,7 +107,7 @@ def rhs(p, t, z, dz):
 
 
 @kernel
-def rebase(p, z, dz, mag):
+def rebase(p, t, z, dz, mag):
     """Fold the chart coordinates into ``base``, rewrite dz's chart part for the new chart, and the
     magnitudes of the state for the relative tolerance (|q| per 1-dof coordinate and free-flyer position)."""
     tree, base = p.tree, p.base

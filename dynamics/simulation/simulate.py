@@ -21,27 +21,36 @@ from ..joints import JOINT_FREE
 from .. import plot
 from ..torques import Passive, make_source, release_callable
 from . import report as R
+from ..constrained import (DEFAULT_BAUMGARTE, baumgarte_gains, project_position_kernel,
+                           project_velocity_kernel)
+from ..constrained import workspace as constrained_workspace
+from ..constraints import arrays
+from .constrained_problem import PROJECT_TOL, constrained_problem
 from .problem import NQUAD, robot_problem
 from .progress import check as check_progress
 from .progress import watcher
 from .run import run
 from .solvers import ADAPTIVE, FIXED, ORDER, STABILITY_LIMIT, Options
 
-__all__ = ["simulate", "Trajectory", "INTEGRATORS", "OUTPUTS"]
+__all__ = ["simulate", "Trajectory", "INTEGRATORS", "OUTPUTS", "DEFAULT_OUTPUTS"]
 
 INTEGRATORS = ("euler", "rk4", "rk45", "radau", "auto", "dop853")
-#: what a simulation can keep per sample (besides t)
-OUTPUTS = ("q", "v", "tau")
+#: what a simulation can keep per sample (besides t); "lambda": the multipliers of a constrained model
+OUTPUTS = ("q", "v", "tau", "lambda")
+DEFAULT_OUTPUTS = ("q", "v", "tau")
 
 
 class Trajectory(NamedTuple):
-    """t (T,), q (T, nq), v (T, nv), tau (T, nv) applied source torques, report (dict)."""
+    """t (T,), q (T, nq), v (T, nv), tau (T, nv) applied source torques, report (dict), lam (T, m): the
+    constraint multipliers per sample (rows and frames of :mod:`dynamics.constraints`), None unless
+    ``outputs`` asked for "lambda"."""
 
     t: np.ndarray
     q: np.ndarray
     v: np.ndarray
     tau: np.ndarray
     report: dict
+    lam: object = None
 
     def plot(self, path=None, *, joint_names=None, show=False):
         """q, v and tau against t with the report's verdict in the title (:func:`dynamics.plot.trajectory`;
@@ -65,6 +74,9 @@ class Settings(NamedTuple):
     outputs: tuple
     error_estimate: str
     out_t: np.ndarray  # sample times
+    constrained: bool  # model.constraints non-empty: the KKT right-hand side (.constrained_problem)
+    baumgarte: tuple  # (alpha, beta) in 1/s
+    project: bool
 
 
 class RunResult(NamedTuple):
@@ -78,7 +90,8 @@ class RunResult(NamedTuple):
 
 def simulate(model, q0, v0, duration, *, torque=None, integrator="auto", rtol=1e-6, atol=1e-8, dt=None,
              sample_dt=None, gravity=None, max_steps=1_000_000, limits=None, limit_stiffness=1e4,
-             limit_damping=100.0, friction_eps=1e-3, error_estimate="rerun", outputs=OUTPUTS, progress=None):
+             limit_damping=100.0, friction_eps=1e-3, error_estimate="rerun", outputs=DEFAULT_OUTPUTS, progress=None,
+             baumgarte=None, project=False):
     """Simulate the robot from (q0, v0) for ``duration`` seconds; returns a :class:`Trajectory`.
 
     torque: None, an (nv,) constant, :class:`dynamics.torques.Table`, :class:`~dynamics.torques.PD`,
@@ -91,11 +104,17 @@ def simulate(model, q0, v0, duration, *, torque=None, integrator="auto", rtol=1e
     limits: None or "spring" (Hunt-Crossley spring-damper at the URDF position limits, ``limit_stiffness``
         N m/rad, ``limit_damping`` N m s/rad^2).  friction_eps: velocity scale of the regularised Coulomb
         friction.  error_estimate: "rerun" (default), "local" or "none" (:mod:`dynamics.simulation.report`).
-    outputs: which of "q", "v", "tau" to keep per sample (``t`` always); the others come back as empty
-        (0, n) arrays and are not computed (the applied torques) or stored.  Without q and v per sample the
+    outputs: which of "q", "v", "tau", "lambda" to keep per sample (``t`` always); the others come back as
+        empty (0, n) arrays (``lam``: None) and are not computed (the applied torques) or stored.  Without q and v per sample the
         energy balance is taken between the first and last states only (``energy_drift_max`` is None).
     progress: None (a bar on a terminal for runs longer than a second), True, False, or a callable
         ``progress(t_reached, duration)`` (:mod:`dynamics.simulation.progress`).
+    baumgarte, project: constrained models only (``model.constraints``; ignored otherwise).  The accelerations
+        come from the KKT system of :func:`dynamics.constrained_forward_dynamics` with Baumgarte gains
+        ``baumgarte=(alpha, beta)`` (1/s; default :data:`dynamics.constrained.DEFAULT_BAUMGARTE`, (0, 0): none).
+        ``project=True`` projects (q, v) onto phi = 0, Phi_q v = 0 at the start and after every accepted step
+        (:mod:`dynamics.simulation.constrained_problem`).  The report adds ``constraint_drift``: the largest
+        max|phi| ("position", m or rad) and max|Phi_q v| ("velocity") over the accepted steps and the samples.
 
     Raises InputError for bad arguments and when the step budget is exceeded; a run that goes unstable
     stops, returns the samples up to the failure and says so in ``report["status"]`` and ``warnings``.
@@ -103,7 +122,7 @@ def simulate(model, q0, v0, duration, *, torque=None, integrator="auto", rtol=1e
     warnings = []
     progress = check_progress(progress)
     s = _settings(model, q0, v0, duration, integrator, rtol, atol, dt, sample_dt, gravity, max_steps,
-                  error_estimate, outputs, warnings)
+                  error_estimate, outputs, warnings, baumgarte, project)
     ps = _passive(model, s, limits, limit_stiffness, limit_damping, friction_eps)
     src = make_source(model, torque)
     try:
@@ -137,14 +156,28 @@ def _trajectory(model, s, ps, src, main, stability, warnings):
     cnt = int(p.count[0])
     t, q, v, tau, w = p.out_t[:cnt], p.out_q[:cnt], p.out_v[:cnt], p.out_tau[:cnt], p.out_w[:cnt]
     report.update(R.energy_balance(model, s, t, q, v, w, main))
+    lam = None
+    if s.constrained:
+        report["constraint_drift"] = {"position": float(p.drift[0]), "velocity": float(p.drift[1]),
+                                      "baumgarte": list(s.baumgarte), "project": s.project}
+        if p.project_failures[0]:
+            warnings.append(f"project: {int(p.project_failures[0])} position projections did not converge; those "
+                            "steps went on from the unprojected configuration (see constraint_drift)")
+        lam = p.out_lam[:cnt].copy() if "lambda" in s.outputs else None
+    elif "lambda" in s.outputs:
+        lam = np.zeros((cnt, 0))
     report["warnings"] = warnings
-    return Trajectory(t.copy(), q.copy(), v.copy(), tau.copy(), R.json_safe(report))
+    return Trajectory(t.copy(), q.copy(), v.copy(), tau.copy(), R.json_safe(report), lam)
 
 
 def _one_run(model, s, ps, src, dt, out_t, rtol, atol, max_steps, outputs, h0=0.0, watch=None, probe=False):
     """One compiled run of s.integrator from (q0, v0); samples kept at out_t (``outputs`` of q, v, tau)."""
     nv = model.nv
-    p = robot_problem(model, ps, src, s.q0, out_t, outputs)
+    if s.constrained:
+        alpha, beta = s.baumgarte
+        p = constrained_problem(model, ps, src, s.q0, out_t, outputs, alpha, beta, s.project)
+    else:
+        p = robot_problem(model, ps, src, s.q0, out_t, outputs)
     z = np.zeros(2 * nv + NQUAD)
     z[nv:2 * nv] = s.v0
     nsteps = max(1, math.ceil(s.duration / dt * (1 - 1e-12))) if s.fixed and s.duration > 0 else 0
@@ -178,7 +211,7 @@ def _stability(s, rho, warnings):
 # ---------------------------------------------------------------------------------------------------
 # checks
 def _settings(model, q0, v0, duration, integrator, rtol, atol, dt, sample_dt, gravity, max_steps,
-              error_estimate, outputs, warnings):
+              error_estimate, outputs, warnings, baumgarte, project):
     """Check every argument once, with an error that names it; returns :class:`Settings`."""
     check_model(model)
     if integrator not in INTEGRATORS:
@@ -206,9 +239,31 @@ def _settings(model, q0, v0, duration, integrator, rtol, atol, dt, sample_dt, gr
             raise InputError(f"max_steps: dt={dt:g} needs {nsteps} steps over {duration:g} s, more than "
                              f"max_steps={max_steps}")
     _check_not_singular(model, q0, v0, g)
+    constrained = bool(getattr(model, "constraints", ()))
+    gains = baumgarte_gains(DEFAULT_BAUMGARTE if baumgarte is None else baumgarte)
+    if not isinstance(project, (bool, np.bool_)):
+        raise InputError(f"project: expected True or False, got {project!r}")
+    if constrained and project:
+        q0, v0 = _project_initial(model, q0, v0, warnings)
     return Settings(integrator, fixed, q0, v0, duration, rtol, atol, dt, g, int(max_steps),
                     tuple(o for o in OUTPUTS if o in outputs), error_estimate,
-                    _sample_times(duration, dt, sample_dt, fixed))
+                    _sample_times(duration, dt, sample_dt, fixed), constrained, gains, bool(project))
+
+
+def _project_initial(model, q0, v0, warnings):
+    """project=True: start on the constraint manifold (the steps then stay on it); say how far (q0, v0) moved."""
+    C, m = arrays(model)
+    ws = constrained_workspace(model.tree.parents.shape[0], model.nv, m)
+    q, v = np.empty(model.nq), np.empty(model.nv)
+    err = project_position_kernel(model.tree, C, q0, ws, PROJECT_TOL, 50, q)
+    if not err <= PROJECT_TOL:
+        raise InputError(f"q0: the constraints cannot be closed near q0 (max |phi| = {err:.3g} after projection); "
+                         "start from dynamics.assemble(model, q0)")
+    project_velocity_kernel(model.tree, C, q, v0, ws, v)
+    moved = max(float(np.max(np.abs(q - q0), initial=0.0)), float(np.max(np.abs(v - v0), initial=0.0)))
+    if moved > 1e-9:
+        warnings.append(f"project: (q0, v0) moved onto the constraints by up to {moved:.3g}")
+    return q, v
 
 
 def _check_not_singular(model, q0, v0, g):

@@ -26,7 +26,7 @@ def solve_adaptive(p, m, z, t0, t_end, out_t, opt, stats, switches):
     zold = np.empty(n)
     errv = np.empty(n)
     zi = np.empty(n)
-    problem_rebase(p, z, f0, mag)  # magnitudes of the initial state (z's chart part is zero)
+    problem_rebase(p, t0, z, f0, mag)  # magnitudes of the initial state (z's chart part is zero)
     problem_rhs(p, t0, z, f0)
     st.rhs_evals += 1
     status = state_status(f0, 0, 0, opt.blowup)
@@ -72,7 +72,7 @@ def solve_adaptive(p, m, z, t0, t_end, out_t, opt, stats, switches):
         if status != OK:
             break
         j = _emit(p, m, j, out_t, t, h, zold, z, zi, st)
-        problem_rebase(p, z, f0, mag)  # re-centre the chart; f0 = f(t, z) in the new chart
+        problem_rebase(p, t, z, f0, mag)  # re-centre the chart; f0 = f(t, z) in the new chart
         h = hnew
     st.status = status
     st.t = t

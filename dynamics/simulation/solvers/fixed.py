@@ -54,7 +54,7 @@ def solve_fixed(p, m, z, t0, t_end, out_t, opt, stats):
                 stepper_fixed_dense(m, (out_t[j] - ta) / h, h, z0, f0, z, f1, zi)
                 problem_emit(p, j, out_t[j], zi)
             j += 1
-        problem_rebase(p, z, f1, mag)
+        problem_rebase(p, t, z, f1, mag)
         f0[:] = f1
     st.status = status
     st.t = t

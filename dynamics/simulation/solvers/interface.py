@@ -7,7 +7,7 @@ compile time from ``type(p)`` (static calls, so the callers stay cacheable, whic
 arguments would not):
 
 * ``rhs(p, t, z, dz)``: write dz = f(t, z);
-* ``rebase(p, z, dz, mag)``: called after every accepted step.  A problem that integrates in a moving chart
+* ``rebase(p, t, z, dz, mag)``: called after every accepted step (t: the time reached).  A problem that integrates in a moving chart
   (the robot's configuration, see :mod:`dynamics.configuration`) re-centres it here: it folds the chart
   coordinates of z into its base point and zeroes them, rewrites the chart part of ``dz = f(t, z)`` for the
   new chart, and stores in ``mag`` the magnitude of every state component (|q| for a chart coordinate) for
@@ -111,7 +111,7 @@ def problem_rhs(p, t, z, dz):
     raise NotImplementedError
 
 
-def problem_rebase(p, z, dz, mag):
+def problem_rebase(p, t, z, dz, mag):
     """Re-centre the chart after an accepted step (compiled code only)."""
     raise NotImplementedError
 
@@ -133,9 +133,9 @@ def _ov_rhs(p, t, z, dz):
 
 
 @overload(problem_rebase, jit_options=GENERIC_OPTIONS, inline=INLINE)
-def _ov_rebase(p, z, dz, mag):
+def _ov_rebase(p, t, z, dz, mag):
     fn = _bound(p, "rebase")
-    return lambda p, z, dz, mag: fn(p, z, dz, mag)
+    return lambda p, t, z, dz, mag: fn(p, t, z, dz, mag)
 
 
 @overload(problem_euler_config, jit_options=GENERIC_OPTIONS, inline=INLINE)

@@ -1,0 +1,122 @@
+"""A constrained robot (closed loops, coupled joints) as an ODE for the solvers.
+
+Same state and functions as :mod:`.problem`, with the ABA of the right-hand side replaced by the KKT solve of
+:mod:`dynamics.constrained` (the lectures' formula with Baumgarte's stabilisation):
+
+    M a + C v + g = tau + Phi_q^T lambda,    Phi_q a + Phi_q_dot v = -(2 alpha Phi_q v + beta^2 phi)
+
+After every accepted step ``rebase`` optionally projects the state onto the constraint manifold (positions by
+Gauss-Newton, velocities in the kinetic-energy metric; :func:`dynamics.constrained.project_position_kernel`)
+and re-evaluates f there, so the next step starts on the manifold.  It also tracks the largest position and
+velocity residuals (max |phi|, max |Phi_q v|) at every accepted step (after projection) and at every sample:
+``constraint_drift`` of the report.
+
+This module is imported by :func:`dynamics.simulate` only when the model has constraints, and its kernels
+compile (with the solvers' specialisation for :class:`ConstrainedProblem`) only then: an unconstrained run
+neither pays for nor sees it.
+"""
+
+from typing import NamedTuple
+
+import numpy as np
+
+from .._numba import kernel
+from ..constrained import (constrained_accel_kernel, drift_kernel, project_position_kernel,
+                           project_velocity_kernel)
+from ..constrained import workspace as constrained_workspace
+from ..configuration import retract
+from ..constraints import arrays
+from .problem import RobotProblem, applied_torques, chart_and_velocity, emit, euler_config, rebase, robot_problem
+
+#: Gauss-Newton of the position projection: stop below this max |phi| (m or rad), after at most PROJECT_ITER steps
+PROJECT_TOL = 1e-12
+PROJECT_ITER = 8
+
+ConstrainedProblem = NamedTuple("ConstrainedProblem", list(RobotProblem.__annotations__.items()) + [
+    ("C", object),  # constraints.ConstraintArrays
+    ("alpha", float),  # Baumgarte gains (1/s)
+    ("beta", float),
+    ("project", bool),  # project onto the manifold after accepted steps
+    ("ws_con", tuple),  # constrained.workspace(nb, nv, m)
+    ("lam", np.ndarray),  # (m,) scratch: multipliers of the last rhs evaluation
+    ("abuf", np.ndarray),  # (nv,) scratch: accelerations at a sample
+    ("vbuf", np.ndarray),  # (nv,) scratch: projected velocity
+    ("out_lam", np.ndarray),  # (T, m) or (0, m): multipliers per sample
+    ("drift", np.ndarray),  # (2,) largest max|phi| and max|Phi_q v| seen (accepted steps and samples)
+    ("project_failures", np.ndarray),  # (1,) int64: position projections that did not reach PROJECT_TOL
+])
+ConstrainedProblem.__doc__ = """RobotProblem's fields (read by name by the reused functions) and the constraints'."""
+
+
+def constrained_problem(model, passive, source, q0, out_t, outputs, alpha, beta, project):
+    """A :class:`ConstrainedProblem`: :func:`.problem.robot_problem` plus the constraints, Baumgarte gains
+    alpha, beta (1/s), ``project`` and, when "lambda" is in ``outputs``, the multipliers per sample."""
+    C, m = arrays(model)
+    nv, nb = model.nv, model.tree.parents.shape[0]
+    T = out_t.shape[0]
+    return ConstrainedProblem(
+        *robot_problem(model, passive, source, q0, out_t, outputs), C, float(alpha), float(beta), bool(project),
+        constrained_workspace(nb, nv, m), np.zeros(m), np.empty(nv), np.empty(nv),
+        np.zeros((T if "lambda" in outputs else 0, m)), np.zeros(2), np.zeros(1, np.int64))
+
+
+@kernel
+def constrained_rhs(p, t, z, dz):
+    """dz = f(t, z) with the constrained accelerations (NaN when M is singular); p.lam = the multipliers."""
+    nv = p.tau_s.shape[0]
+    q, v = chart_and_velocity(p, z, dz)
+    power_s, power_p = applied_torques(p, t, q, v)
+    if constrained_accel_kernel(p.tree, p.C, p.passive.gravity, q, v, p.tau_p, p.alpha, p.beta, p.ws_con,
+                                dz[nv:2 * nv], p.lam) >= 0:
+        dz[nv:2 * nv] = np.nan
+    dz[2 * nv] = power_s
+    dz[2 * nv + 1] = power_p
+
+
+@kernel
+def _track_drift(p, q, v):
+    pos, vel = drift_kernel(p.tree, p.C, q, v, p.ws_con)
+    p.drift[0] = max(p.drift[0], pos)
+    p.drift[1] = max(p.drift[1], vel)
+
+
+@kernel
+def constrained_rebase(p, t, z, dz, mag):
+    """:func:`.problem.rebase`, then (``p.project``) the projection onto phi = 0, Phi_q v = 0 and f(t, z) again
+    at the projected state; then the drift of the state the next step starts from."""
+    nv = p.tau_s.shape[0]
+    rebase(p, t, z, dz, mag)
+    v = z[nv:2 * nv]
+    if p.project:
+        err = project_position_kernel(p.tree, p.C, p.base, p.ws_con, PROJECT_TOL, PROJECT_ITER, p.qbuf)
+        if err <= PROJECT_TOL:
+            p.base[:] = p.qbuf
+        else:  # keep the step's configuration; the drift and the report say how far off it is
+            p.project_failures[0] += 1
+        if project_velocity_kernel(p.tree, p.C, p.base, v, p.ws_con, p.vbuf) < 0:
+            v[:] = p.vbuf
+        constrained_rhs(p, t, z, dz)
+        rebase(p, t, z, dz, mag)  # the magnitudes of the projected state (z's chart part is zero)
+    _track_drift(p, p.base, v)
+
+
+@kernel
+def constrained_emit(p, j, t, z):
+    """:func:`.problem.emit`, the drift at the sample and, when kept, its multipliers (those the simulation
+    applies there: Baumgarte terms included)."""
+    nv = p.tau_s.shape[0]
+    emit(p, j, t, z)
+    q = p.qbuf
+    retract(p.tree, p.base, z[:nv], q)  # the sample's configuration (emit kept it in out_q or qbuf)
+    v = z[nv:2 * nv]
+    _track_drift(p, q, v)
+    if p.out_lam.shape[0] > 0:
+        applied_torques(p, t, q, v)
+        constrained_accel_kernel(p.tree, p.C, p.passive.gravity, q, v, p.tau_p, p.alpha, p.beta, p.ws_con, p.abuf,
+                                 p.out_lam[j])
+
+
+ConstrainedProblem.rhs = constrained_rhs
+ConstrainedProblem.rebase = constrained_rebase
+ConstrainedProblem.euler_config = euler_config
+ConstrainedProblem.emit = constrained_emit
