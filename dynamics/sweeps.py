@@ -24,7 +24,8 @@ from .simulation import simulate
 class Trajectories(NamedTuple):
     """Runs sampled on a shared time grid: ``t`` (T,), ``q`` (B, T, nq), ``v`` (B, T, nv), ``tau`` (B, T, nv),
     ``reports`` (B dicts as from simulate, plus "run").  A run that stopped early is NaN after its last good
-    sample; ``counts`` (B,) says how many samples each run has."""
+    sample; ``counts`` (B,) says how many samples each run has.  ``lam`` (B, T, m): the constraint multipliers
+    of a constrained model when ``outputs`` asked for "lambda", else None."""
 
     t: np.ndarray
     q: np.ndarray
@@ -32,6 +33,7 @@ class Trajectories(NamedTuple):
     tau: np.ndarray
     reports: list
     counts: np.ndarray
+    lam: object = None
 
     @property
     def ok(self):
@@ -86,6 +88,8 @@ def _stack(model, results, B):
     T = max((len(t) for t in grids), default=0)
     t = next((g for g in grids if len(g) == T), np.zeros(0))
     q, v, tau = (np.full((B, T, n), np.nan) for n in (model.nq, model.nv, model.nv))
+    m = next((r.lam.shape[1] for r in results if not isinstance(r, _Failed) and r.lam is not None), None)
+    lam = None if m is None else np.full((B, T, m), np.nan)
     counts, reports = np.zeros(B, np.int64), []
     for k, r in enumerate(results):
         if isinstance(r, _Failed):
@@ -93,11 +97,11 @@ def _stack(model, results, B):
             continue
         n = len(r.t)
         counts[k] = n
-        for dst, src in ((q, r.q), (v, r.v), (tau, r.tau)):
-            if src.shape[0] == n:
+        for dst, src in ((q, r.q), (v, r.v), (tau, r.tau), (lam, r.lam)):
+            if src is not None and src.shape[0] == n:
                 dst[k, :n] = src
         reports.append(r.report)
-    return Trajectories(t, q, v, tau, reports, counts)
+    return Trajectories(t, q, v, tau, reports, counts, lam)
 
 
 def simulate_many(model, q0, v0, duration, *, torque=None, engine="threads", progress=None, ray_address=None,

@@ -127,10 +127,11 @@ def test_simulate_many_on_a_constrained_model(four_bar):
     model, q0, v0 = four_bar
     q1 = dynamics.assemble(model, np.array([1.0, 0.5, 1.5]), fixed=["theta1"])
     Q0, V0 = np.array([q0, q1]), np.array([v0, np.zeros(3)])
-    many = dynamics.simulate_many(model, Q0, V0, 1.0, sample_dt=0.1)
+    many = dynamics.simulate_many(model, Q0, V0, 1.0, sample_dt=0.1, outputs=("q", "lambda"))
     for k in range(2):
-        one = dynamics.simulate(model, Q0[k], V0[k], 1.0, sample_dt=0.1)
+        one = dynamics.simulate(model, Q0[k], V0[k], 1.0, sample_dt=0.1, outputs=("q", "lambda"))
         np.testing.assert_array_equal(many.q[k], one.q)
+        np.testing.assert_array_equal(many.lam[k], one.lam)
         assert many.reports[k]["constraint_drift"] == one.report["constraint_drift"]
 
 
