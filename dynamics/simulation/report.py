@@ -7,7 +7,9 @@ reason), ``status`` ("ok", or why the run stopped early: "unstable: ..."), ``t_f
 ``lu_decompositions``, ``wall_time_s`` (the integration run alone), the error fields below, ``energy_drift``,
 ``energy_drift_max``, ``work_torque``, ``work_passive``, ``energy_initial``, ``energy_final``, ``stability``
 (fixed-step methods: dt * spectral radius of the Jacobian at t0, and the method's stability limit),
-``warnings``.  Non-finite numbers are reported as None (strict JSON); the warnings say why.
+``constraint_drift`` (constrained models: the largest max |phi| and max |Phi_q v| over the accepted steps and
+the samples, the Baumgarte gains, whether steps were projected; :mod:`.constrained_problem`), ``warnings``.
+Non-finite numbers are reported as None (strict JSON); the warnings say why.
 
 How ``error_estimate`` is computed
 ----------------------------------

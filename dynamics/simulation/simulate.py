@@ -1,10 +1,11 @@
 """Forward simulation: q(t), v(t) from q0, v0 under joint torques, with an honest report.
 
 ``simulate`` is four steps: check the arguments (:class:`Settings`), build the problem (:mod:`.problem`:
-the equations of motion, torque source, passive torques), run the compiled loop of the chosen method
-(:mod:`.run`, :mod:`.solvers`), and write the report (:mod:`.report`: status, error estimate, energy
-balance).  The whole loop (stepper, torque source, passive torques, ABA, output sampling) is compiled; only a
-Python-callable torque leaves compiled code (through ``numba.objmode``, once per right-hand-side evaluation).
+the equations of motion, torque source, passive torques; :mod:`.constrained_problem` for a model with
+constraints), run the compiled loop of the chosen method (:mod:`.run`, :mod:`.solvers`), and write the
+report (:mod:`.report`: status, error estimate, energy balance, constraint drift).  The whole loop (stepper,
+torque source, passive torques, ABA or KKT solve, output sampling) is compiled; only a Python-callable torque
+leaves compiled code (through ``numba.objmode``, once per right-hand-side evaluation).
 """
 
 import math
@@ -90,8 +91,8 @@ class RunResult(NamedTuple):
 
 def simulate(model, q0, v0, duration, *, torque=None, integrator="auto", rtol=1e-6, atol=1e-8, dt=None,
              sample_dt=None, gravity=None, max_steps=1_000_000, limits=None, limit_stiffness=1e4,
-             limit_damping=100.0, friction_eps=1e-3, error_estimate="rerun", outputs=DEFAULT_OUTPUTS, progress=None,
-             baumgarte=None, project=False):
+             limit_damping=100.0, friction_eps=1e-3, error_estimate="rerun", outputs=DEFAULT_OUTPUTS,
+             progress=None, baumgarte=None, project=False):
     """Simulate the robot from (q0, v0) for ``duration`` seconds; returns a :class:`Trajectory`.
 
     torque: None, an (nv,) constant, :class:`dynamics.torques.Table`, :class:`~dynamics.torques.PD`,
@@ -105,8 +106,9 @@ def simulate(model, q0, v0, duration, *, torque=None, integrator="auto", rtol=1e
         N m/rad, ``limit_damping`` N m s/rad^2).  friction_eps: velocity scale of the regularised Coulomb
         friction.  error_estimate: "rerun" (default), "local" or "none" (:mod:`dynamics.simulation.report`).
     outputs: which of "q", "v", "tau", "lambda" to keep per sample (``t`` always); the others come back as
-        empty (0, n) arrays (``lam``: None) and are not computed (the applied torques) or stored.  Without q and v per sample the
-        energy balance is taken between the first and last states only (``energy_drift_max`` is None).
+        empty (0, n) arrays (``lam``: None) and are not computed (the applied torques) or stored.  Without q
+        and v per sample the energy balance is taken between the first and last states only
+        (``energy_drift_max`` is None).
     progress: None (a bar on a terminal for runs longer than a second), True, False, or a callable
         ``progress(t_reached, duration)`` (:mod:`dynamics.simulation.progress`).
     baumgarte, project: constrained models only (``model.constraints``; ignored otherwise).  The accelerations
