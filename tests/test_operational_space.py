@@ -22,7 +22,10 @@ def arm2():
 
 @pytest.fixture(scope="module")
 def panda():
-    return dynamics.load_urdf(erd("panda_description/urdf/panda.urdf"))
+    """The open tree (fingers independent): the controller models the tree's dynamics, and these tests check
+    that it tracks them to 1e-6.  With the default mimic coupling simulate integrates the coupled fingers,
+    whose coupling force the controller does not model (the hand then tracks to ~3e-5 m)."""
+    return dynamics.load_urdf(erd("panda_description/urdf/panda.urdf"), mimic="independent")
 
 
 def circle(t, centre, r, w, u=(1.0, 0.0, 0.0), n=(0.0, 0.0, 1.0)):
