@@ -297,8 +297,8 @@ SIMULATE_OPTIONS = ("integrator", "rtol", "atol", "dt", "sample_dt", "gravity", 
 
 
 class UploadRequest(_Request):
-    model_config = _example(name="pendulum", floating_base=False, urdf=(
-        '<robot name="pendulum"><link name="base"/><link name="bob"><inertial><origin xyz="0 0 -1"/>'
+    model_config = _example(name="my-pendulum", floating_base=False, urdf=(
+        '<robot name="my-pendulum"><link name="base"/><link name="bob"><inertial><origin xyz="0 0 -1"/>'
         '<mass value="1"/><inertia ixx="0.01" iyy="0.01" izz="0.01" ixy="0" ixz="0" iyz="0"/></inertial></link>'
         '<joint name="swing" type="revolute"><parent link="base"/><child link="bob"/><axis xyz="0 1 0"/>'
         '<limit lower="-3" upper="3" effort="10" velocity="10"/></joint></robot>'))
