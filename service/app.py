@@ -18,7 +18,7 @@ from fastapi_offline import FastAPIOffline
 from . import __version__, errors, schemas
 from .auth import ApiKeys
 from .deps import Deps
-from .routes import dynamics, health, kinematics, robots, simulate
+from .routes import constraints, dynamics, health, kinematics, robots, simulate
 from .settings import Settings, configure_logging
 
 DESCRIPTION = ("Rigid-body dynamics of URDF robots: inverse and forward dynamics, mass matrix, Coriolis matrix, "
@@ -35,7 +35,7 @@ def _openapi(app: FastAPI):
             return app.openapi_schema
         doc = get_openapi(title=app.title, version=app.version, description=app.description, routes=app.routes)
         components = doc.setdefault("components", {}).setdefault("schemas", {})
-        requests = [schema for routes in (dynamics.ROUTES, kinematics.ROUTES) for schema, _, _ in routes.values()]
+        requests = [schema for routes in (dynamics.ROUTES, kinematics.ROUTES, constraints.ROUTES) for schema, _, _ in routes.values()]
         requests += [schemas.SimulateRequest, schemas.UploadRequest]
         for model in requests:
             js = model.model_json_schema(ref_template="#/components/schemas/{model}")
@@ -64,7 +64,7 @@ def create_app(settings: Optional[Settings] = None) -> FastAPI:
     # /static-offline-docs: they work without internet access (FastAPI's own pages load them from a CDN)
     app = FastAPIOffline(title="dynamics", version=__version__, lifespan=lifespan, description=DESCRIPTION)
     errors.install(app)
-    for module in (health, robots, dynamics, kinematics, simulate):
+    for module in (health, robots, dynamics, kinematics, constraints, simulate):
         app.include_router(module.router)
     app.add_middleware(ApiKeys, keys=settings.api_keys, open_paths=health.OPEN_PATHS)
     app.openapi = _openapi(app)

@@ -13,6 +13,7 @@ import numpy as np
 from lxml import etree
 
 from .codec import finite_or_none, jsonable
+from .constraints import check_closed, constraints_info, declare
 from .errors import Forbidden, InvalidInput, TooLarge
 from .models import Models, load_model
 from .settings import Settings
@@ -94,9 +95,13 @@ class Catalog:
         self.store = store
         self.models = models
 
-    def upload(self, urdf: bytes, name: Optional[str], floating_base: bool, owner: Optional[str]) -> dict[str, Any]:
+    def upload(self, urdf: bytes, name: Optional[str], floating_base: bool, owner: Optional[str],
+               constraints: Optional[list[Any]] = None, mimic: Optional[str] = None) -> dict[str, Any]:
+        """``constraints`` (schemas.ConstraintSpec) and ``mimic`` are written into the stored document
+        (service.constraints.declare)."""
         s = self.settings
         check_xml(urdf, max_bytes=s.max_urdf_bytes, max_depth=s.max_xml_depth)
+        urdf = declare(urdf, floating_base, constraints, mimic)
         try:
             text = urdf.decode("utf-8")
         except UnicodeDecodeError:
@@ -105,11 +110,13 @@ class Catalog:
         if model.nv > s.max_dof:
             raise InvalidInput(f"urdf: {model.nv} degrees of freedom is over the limit of {s.max_dof} "
                                f"(DYNAMICS_MAX_DOF)", "urdf")
+        check_closed(model)
         record, _created = self.store.put(text, name=name or model.name, floating_base=floating_base, owner=owner,
                                           summary=_stored_summary(model))
         self.models.keep(record.id, model)  # the model a request would build
         info = _public(record.id, record.name, False, record.floating_base, record.summary)
         info["summary"] = model_summary(model)
+        info["constraints"] = constraints_info(model)
         return info
 
     def list_robots(self) -> list[dict[str, Any]]:
@@ -134,6 +141,7 @@ class Catalog:
         info["gravity"] = [float(x) for x in model.gravity]
         info.update(_inertial(model))
         info["summary"] = model_summary(model)
+        info["constraints"] = constraints_info(model)
         return info
 
     def delete(self, rid: str, owner: Optional[str]) -> None:

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import json
-from typing import Optional
+from typing import Literal, Optional
 
 from fastapi import APIRouter, Depends, Query, Request
 from starlette.responses import Response
@@ -27,19 +27,22 @@ _UPLOAD_BODY = {"requestBody": {"required": True, "content": {
              openapi_extra=_UPLOAD_BODY,
              summary="upload a URDF; the id derives from content and options (same upload, same id)")
 async def upload(request: Request, name: Optional[str] = Query(None, max_length=128),
-                 floating_base: bool = Query(False), d: Deps = Depends(deps),
+                 floating_base: bool = Query(False),
+                 mimic: Optional[Literal["coupling", "independent"]] = Query(None), d: Deps = Depends(deps),
                  owner: Optional[str] = Depends(caller)) -> Response:
     body = await read_body(request, d.settings.max_body_bytes)
     kind = media_type(request.headers.get("content-type"))
+    constraints = None
     if kind in XML_TYPES:
         urdf = body
     elif kind == JSON or not kind:
         req = schemas.validate(schemas.UploadRequest, decode(body, JSON, max_unpacked=0))
         urdf, name, floating_base = req.urdf.encode("utf-8"), req.name or name, req.floating_base
+        constraints, mimic = req.constraints, req.mimic or mimic
     else:
         raise UnsupportedMediaType(f"Content-Type: {kind!r} is not accepted; send the URDF as application/xml, or "
                                    f"JSON {{\"urdf\": ...}}", "Content-Type")
-    info = await d.compute.run(d.catalog.upload, urdf, name, floating_base, owner)
+    info = await d.compute.run(d.catalog.upload, urdf, name, floating_base, owner, constraints, mimic)
     return Response(json.dumps(info).encode(), status_code=201, media_type=JSON,
                     headers={"Location": f"/v1/robots/{info['id']}"})
 
