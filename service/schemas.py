@@ -635,14 +635,14 @@ MAX_ASSEMBLE_ITER = 1_000
 
 class ConstraintResidualRequest(_Request):
     """phi(q), zero when every loop is closed and every coupling holds (dynamics.constraint_residual)."""
-    model_config = _example(q=[0.3, 0.5, 1.5])
+    model_config = _example(q=[0.3, -0.5])
     locked: Locked = None
     q: Array
 
 
 class AssembleRequest(_Request):
     """A configuration closing every loop near q_guess, by Gauss-Newton (dynamics.assemble)."""
-    model_config = _example(q_guess=[0.3, 0.5, 1.5], fixed=["theta1"])
+    model_config = _example(q_guess=[0.3, -0.5], fixed=["joint1"])
     locked: Locked = None
     q_guess: Array
     fixed: Fixed = Field(None, description="joints kept at their value in q_guess (a list of names), or "
@@ -653,7 +653,7 @@ class AssembleRequest(_Request):
 
 class ConstrainedForwardDynamicsRequest(_Dynamics):
     """(a, lambda) of the constrained model (dynamics.constrained_forward_dynamics)."""
-    model_config = _example(q=[0.3, 0.5, 1.5], v=[0.0, 0.0, 0.0], tau=[0.2, 0.0, 0.0])
+    model_config = _example(q=[0.3, -0.5], v=[1.0, 2.0], tau=[10.0, 2.0], baumgarte=[10.0, 10.0])
     q: Array
     v: Array
     tau: Array
@@ -663,7 +663,7 @@ class ConstrainedForwardDynamicsRequest(_Dynamics):
 
 class ConstrainedInverseDynamicsRequest(_Dynamics):
     """Torques of the actuated joints for a motion the loops allow (dynamics.constrained_inverse_dynamics)."""
-    model_config = _example(q=[0.3, 0.5, 1.5], v=[0.0, 0.0, 0.0], a=[0.0, 0.0, 0.0], actuated=["theta1"])
+    model_config = _example(q=[0.3, -0.5], v=[1.0, 2.0], a=[0.5, -1.0], actuated=["joint1", "joint2"])
     q: Array
     v: Array
     a: Array
