@@ -187,11 +187,17 @@ def _all_joints(model, args: dict[str, Any]) -> dict[str, Any]:
     return {"actuated": list(model.joint_names)}
 
 
+def _guess(model, args: dict[str, Any]) -> dict[str, Any]:
+    """The warm-up's arguments: its q as the guess."""
+    return {"q_guess": args["q"]}
+
+
 #: the closed-loop endpoints, by URL segment (routes in service.routes.constraints)
 OPERATIONS: dict[str, Operation] = {
     "constraint-residual": Operation("constraint residual", "constraint_residual", ("q",), (), "residual",
                                      per_state=_rows),
-    "assemble": Operation("assembly", "assemble", ("q_guess",), ("fixed", "tol", "max_iter"), "q", iterative=True),
+    "assemble": Operation("assembly", "assemble", ("q_guess",), ("fixed", "tol", "max_iter"), "q", iterative=True,
+                          sample=_guess),
     "constrained-forward-dynamics": Operation("constrained forward dynamics", "constrained_forward_dynamics",
                                               ("q", "v", "tau"), ("baumgarte", "gravity"), "a", call=forward,
                                               per_state=lambda model, args: model.nv + _rows(model, args)),

@@ -4,6 +4,7 @@ its batched path, equal to constrained_forward_dynamics (no Baumgarte); f_ext en
 RNEA-family functions keep their tree meaning (documented in the README), checked here against identities."""
 
 import os
+import time
 
 import numpy as np
 import pytest
@@ -96,3 +97,11 @@ def test_bad_input_on_a_constrained_model_names_the_argument():
         dynamics.forward_dynamics(fb, np.zeros(3), np.zeros(3), np.zeros(2))
     with pytest.raises(dynamics.InputError, match="q"):
         dynamics.forward_dynamics(fb, np.zeros(4), np.zeros(3), np.zeros(3))
+
+
+def test_assemble_of_a_batch_stops_at_the_deadline():
+    fb = dynamics.load_urdf(FOUR_BAR)
+    with dynamics.parallel.deadline(time.monotonic() - 1.0):
+        with pytest.raises(dynamics.DeadlineExceeded):
+            dynamics.assemble(fb, [[0.3, 0.5, 1.5]] * 3, fixed=["theta1"])
+    assert dynamics.assemble(fb, [[0.3, 0.5, 1.5]] * 3, fixed=["theta1"]).shape == (3, 3)

@@ -204,21 +204,38 @@ def test_bad_requests_are_422_naming_the_problem(app_client, four_bar):
 
 def test_client_methods_have_the_library_names(app_client, four_bar):
     fb, Q, V = four_bar
-    with Client("http://testserver") as client:
-        client._http = app_client  # the in-process app as the transport
-        robot = client.robot("four-bar")
-        assert np.array_equal(robot.constraint_residual(Q), dynamics.constraint_residual(fb, Q))
-        assert np.array_equal(robot.assemble([0.3, 0.5, 1.5], fixed=["theta1"]),
-                              dynamics.assemble(fb, [0.3, 0.5, 1.5], fixed=["theta1"]))
-        tau = np.tile([0.2, 0.0, 0.0], (3, 1))
-        a, lam = robot.constrained_forward_dynamics(Q, V, tau, baumgarte=(2.0, 3.0))
-        a_ref, lam_ref = dynamics.constrained_forward_dynamics(fb, Q, V, tau, baumgarte=(2.0, 3.0))
-        assert np.array_equal(a, a_ref) and np.array_equal(lam, lam_ref)
-        a, _ = dynamics.constrained_forward_dynamics(fb, Q, V, tau)
-        assert np.array_equal(robot.constrained_inverse_dynamics(Q, V, a, actuated=["theta1"]),
-                              dynamics.constrained_inverse_dynamics(fb, Q, V, a, actuated=["theta1"]))
-        uploaded = client.upload(bare("four_bar.urdf"), constraints=[fb.constraints[0]])
-        assert uploaded.info["constraints"]["rows"] == 5
-        with pytest.raises(ServiceError) as e:
-            client.upload(bare("four_bar.urdf"), constraints=[{"type": "point", "frame_a": "x", "frame_b": "link3"}])
-        assert e.value.status == 422
+    client = Client("http://testserver")
+    client._http.close()
+    client._http = app_client  # the in-process app as the transport (not closed here: the module shares it)
+    robot = client.robot("four-bar")
+    assert np.array_equal(robot.constraint_residual(Q), dynamics.constraint_residual(fb, Q))
+    assert np.array_equal(robot.assemble([0.3, 0.5, 1.5], fixed=["theta1"]),
+                          dynamics.assemble(fb, [0.3, 0.5, 1.5], fixed=["theta1"]))
+    tau = np.tile([0.2, 0.0, 0.0], (3, 1))
+    a, lam = robot.constrained_forward_dynamics(Q, V, tau, baumgarte=(2.0, 3.0))
+    a_ref, lam_ref = dynamics.constrained_forward_dynamics(fb, Q, V, tau, baumgarte=(2.0, 3.0))
+    assert np.array_equal(a, a_ref) and np.array_equal(lam, lam_ref)
+    a, _ = dynamics.constrained_forward_dynamics(fb, Q, V, tau)
+    assert np.array_equal(robot.constrained_inverse_dynamics(Q, V, a, actuated=["theta1"]),
+                          dynamics.constrained_inverse_dynamics(fb, Q, V, a, actuated=["theta1"]))
+    uploaded = client.upload(bare("four_bar.urdf"), constraints=[fb.constraints[0]])
+    assert uploaded.info["constraints"]["rows"] == 5
+    with pytest.raises(ServiceError) as e:
+        client.upload(bare("four_bar.urdf"), constraints=[{"type": "point", "frame_a": "x", "frame_b": "link3"}])
+    assert e.value.status == 422
+
+
+def test_assemble_runs_within_the_time_budget(app_client):
+    guesses = np.tile([0.3, 0.5, 1.5], (2000, 1))
+    r = app_client.post("/v1/robots/four-bar/assemble", json={"q_guess": guesses.tolist(), "fixed": ["theta1"]},
+                        headers={"X-Time-Budget": "0.05"})
+    assert r.status_code == 504, r.text
+
+
+def test_the_warm_up_compiles_the_closed_loop_operations(app_client):
+    from service.constraints import OPERATIONS
+    from service.compute import compile_operations
+    model = dynamics.load_urdf(str(ROBOTS / "planar_2r.urdf"))
+    assert {layout[0] for layout in compile_operations(model, OPERATIONS)} == {op.function for op in OPERATIONS.values()}
+    r = app_client.get("/v1/ready")
+    assert r.status_code == 200, r.text
