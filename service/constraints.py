@@ -84,8 +84,8 @@ def declare(urdf: bytes, floating_base: bool, specs: Optional[list[Any]], mimic:
 
 def _write(root, model, links: set, k: int, c) -> None:
     if type(c).__name__ == "JointCoupling":
-        joint = root.find(f"joint[@name='{c.follower}']") if "'" not in c.follower else None
-        if joint is None or joint.find("mimic") is not None:
+        joint = next(j for j in root.findall("joint") if j.get("name") == c.follower)  # (a movable joint: checked)
+        if joint.find("mimic") is not None:
             raise InvalidInput(f"constraints[{k}]: joint {c.follower!r} already follows another joint (<mimic>); "
                                f"a joint can follow one leader", f"constraints[{k}]")
         etree.SubElement(joint, "mimic", joint=c.leader, multiplier=repr(c.multiplier), offset=repr(c.offset))
