@@ -19,10 +19,12 @@ import numpy as np
 from . import checks
 from ._numba import VECTOR, Entry, Kernel, inline_kernel, keep_alive, kernel, scratch, single_signature, view
 from .checks import DONE, F64, GENERAL, NOT_ARRAYS, config_ok, nonzero, vector_ok
+from .constrained import constrained_forward_dynamics
 from .errors import InputError
 from .joints import joint_motion, joint_transform
 from .model import unpack
 from .parallel import run_chunks
+from .rnea import bias_forces, inverse_dynamics
 from .spatial import (add, add_inertia6_to_parent, cross_force, cross_motion, force_to_parent, inertia_times,
                       joint_gram, load3, load33, motion_to_child, spd_inverse, store3, store33, store_inertia6)
 
@@ -223,7 +225,13 @@ def forward_dynamics(model, q, v, tau, *, gravity=None, f_ext=None):
 
     Shapes as :func:`dynamics.inverse_dynamics` with tau in place of a.  Raises InputError naming the
     joint when the mass matrix is singular (a joint that moves no mass or inertia).
+
+    On a constrained model (``model.constraints``: loops, a gripper's mimic couplings) the accelerations honour
+    the constraints: the ``a`` of :func:`dynamics.constrained_forward_dynamics` without Baumgarte terms (use that
+    function for the multipliers or stabilisation), with f_ext entering as its generalised force J^T f_ext.
     """
+    if getattr(model, "constraints", None):
+        return _constrained(model, q, v, tau, gravity, f_ext)
     try:  # one state of float64 vectors: one compiled call, which checks them too (dynamics.checks.F64)
         if gravity is None and f_ext is None and q.dtype is v.dtype is tau.dtype is F64 \
                 and q.ndim == v.ndim == tau.ndim == 1:
@@ -245,3 +253,15 @@ def forward_dynamics(model, q, v, tau, *, gravity=None, f_ext=None):
             f"forward dynamics: the mass matrix is singular at joint {name!r}: it moves no mass or inertia "
             f"(add mass below it, lock it with dynamics.lock_joints, or remove it)") from None
     return out if batched else out[0]
+
+
+def _constrained(model, q, v, tau, gravity, f_ext):
+    """forward_dynamics on a constrained model.  f_ext's generalised force J^T f_ext is read off the RNEA:
+    ID(q, v, 0) - ID(q, v, 0, f_ext) (the same gravity in both, so it cancels)."""
+    if f_ext is not None:
+        ext = bias_forces(model, q, v, gravity=gravity) - inverse_dynamics(model, q, v, np.zeros(model.nv),
+                                                                          gravity=gravity, f_ext=f_ext)
+        tau = np.asarray(tau, dtype=float)
+        if tau.shape[-1:] == (model.nv,):  # (otherwise constrained_forward_dynamics names the bad shape)
+            tau = tau + ext
+    return constrained_forward_dynamics(model, q, v, tau, gravity=gravity)[0]

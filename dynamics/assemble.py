@@ -14,6 +14,7 @@ import numpy as np
 from . import checks
 from .constraints import arrays, close_loops
 from .errors import InputError
+from .parallel import check_deadline
 
 def _fixed_mask(model, q, fixed):
     """(q with fixed values set, (nv,) 1.0 at free coordinates)."""
@@ -37,7 +38,8 @@ def assemble(model, q_guess, *, fixed=None, tol=1e-12, max_iter=100):
 
     ``fixed``: joint names kept at their value in q_guess, or a mapping joint name -> value.  Raises
     InputError when a loop cannot close from the guess (the residual left and the state are named).
-    Batches are solved one guess after another (assembly is not a per-step operation).
+    Batches are solved one guess after another (assembly is not a per-step operation), checking the deadline
+    of :func:`dynamics.parallel.deadline` between guesses.
     """
     checks.check_model(model)
     Q, batched = checks.configurations(model, q_guess, "q_guess")
@@ -45,6 +47,7 @@ def assemble(model, q_guess, *, fixed=None, tol=1e-12, max_iter=100):
     C, m = arrays(model)
     out = np.array(Q)
     for b in range(Q.shape[0]):
+        check_deadline(b, Q.shape[0])  # (inside dynamics.parallel.deadline, as the service runs it)
         q, free = _fixed_mask(model, out[b].copy(), fixed)
         q, err = close_loops(model, C, m, q, free, tol, int(max_iter)) if m else (q, 0.0)
         if err > tol:

@@ -66,6 +66,15 @@ def deadline(t):
         _deadline.reset(token)
 
 
+def check_deadline(done, total):
+    """For a Python loop over a batch (:func:`dynamics.assemble`): raise DeadlineExceeded once the deadline of
+    the enclosing :func:`deadline` block has passed, ``done`` of ``total`` states being done."""
+    t_end = _deadline.get()
+    if t_end is not None and time.monotonic() > t_end:
+        raise DeadlineExceeded(f"the batch of {total} states ran past its deadline; {done} were done",
+                               done=done, total=total)
+
+
 def _rows(batched, B, lo, hi):
     return [x[lo:hi] if x.shape[0] == B else x for x in batched]
 

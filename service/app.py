@@ -20,7 +20,7 @@ from .auth import ApiKeys
 from .deps import Deps
 from .jobs.manager import Jobs
 from .protocol import Options
-from .routes import dynamics, health, jobs, kinematics, robots, simulate
+from .routes import constraints, dynamics, health, jobs, kinematics, robots, simulate
 from .settings import Settings, configure_logging
 
 DESCRIPTION = ("Rigid-body dynamics of URDF robots: inverse and forward dynamics, mass matrix, Coriolis matrix, "
@@ -37,7 +37,8 @@ def _openapi(app: FastAPI):
             return app.openapi_schema
         doc = get_openapi(title=app.title, version=app.version, description=app.description, routes=app.routes)
         components = doc.setdefault("components", {}).setdefault("schemas", {})
-        requests = [schema for routes in (dynamics.ROUTES, kinematics.ROUTES) for schema, _, _ in routes.values()]
+        requests = [schema for routes in (dynamics.ROUTES, kinematics.ROUTES, constraints.ROUTES)
+                    for schema, _, _ in routes.values()]
         requests += [schemas.SimulateRequest, schemas.UploadRequest, schemas.JobRequest]
         for model in requests:
             js = model.model_json_schema(ref_template="#/components/schemas/{model}")
@@ -68,7 +69,7 @@ def create_app(settings: Optional[Settings] = None) -> FastAPI:
     # /static-offline-docs: they work without internet access (FastAPI's own pages load them from a CDN)
     app = FastAPIOffline(title="dynamics", version=__version__, lifespan=lifespan, description=DESCRIPTION)
     errors.install(app)
-    for module in (health, robots, dynamics, kinematics, simulate, jobs):
+    for module in (health, robots, dynamics, kinematics, constraints, simulate, jobs):
         app.include_router(module.router)
     app.add_middleware(ApiKeys, keys=settings.api_keys, open_paths=health.OPEN_PATHS)
     app.add_middleware(Options, routes=app.router.routes)  # (before the key check: Allow tells no secret)

@@ -13,6 +13,7 @@ import numpy as np
 from lxml import etree
 
 from .codec import finite_or_none, jsonable
+from .constraints import check_closed, constraints_info, declare
 from .errors import Conflict, Forbidden, InvalidInput, NotFound, TooLarge, echo
 from .models import Models, load_model
 from .schemas import MAX_NAME
@@ -103,15 +104,19 @@ class Catalog:
         self.store = store
         self.models = models
 
-    def upload(self, urdf: bytes, name: Optional[str], floating_base: bool, owner: Optional[str]) -> dict[str, Any]:
-        return self.store_upload(urdf, name, floating_base, owner)[0]
+    def upload(self, urdf: bytes, name: Optional[str], floating_base: bool, owner: Optional[str],
+               constraints: Optional[list[Any]] = None, mimic: Optional[str] = None) -> dict[str, Any]:
+        return self.store_upload(urdf, name, floating_base, owner, constraints, mimic)[0]
 
-    def store_upload(self, urdf: bytes, name: Optional[str], floating_base: bool, owner: Optional[str]
+    def store_upload(self, urdf: bytes, name: Optional[str], floating_base: bool, owner: Optional[str],
+                     constraints: Optional[list[Any]] = None, mimic: Optional[str] = None
                      ) -> tuple[dict[str, Any], bool]:
         """Check, load and store a URDF: (its description, whether it was created). The same upload again
-        (same key, document, name and options) is the same robot: (description, False)."""
+        (same key, document, name and options) is the same robot: (description, False). ``constraints``
+        (schemas.ConstraintSpec) and ``mimic`` are written into the stored document (service.constraints.declare)."""
         s = self.settings
         check_xml(urdf, max_bytes=s.max_urdf_bytes, max_depth=s.max_xml_depth, max_links=s.max_links)
+        urdf = declare(urdf, floating_base, constraints, mimic)
         try:
             text = urdf.decode("utf-8")
         except UnicodeDecodeError:
@@ -120,6 +125,7 @@ class Catalog:
         if model.nv > s.max_dof:
             raise InvalidInput(f"urdf: {model.nv} degrees of freedom is over the limit of {s.max_dof} "
                                f"(DYNAMICS_MAX_DOF)", "urdf")
+        check_closed(model)
         explicit = name is not None
         name = name or model.name[:MAX_NAME]  # (a URDF's name is capped like a given one)
         rid = robot_id(text, name=name, floating_base=floating_base, owner=owner)
@@ -130,6 +136,7 @@ class Catalog:
         self.models.keep(record.id, model)  # the model a request would build
         info = _public(record.id, record.name, False, record.floating_base, record.summary)
         info["summary"] = model_summary(model)
+        info["constraints"] = constraints_info(model)
         return info, created
 
     def _check_new(self, name: str, explicit: bool, owner: Optional[str]) -> None:
@@ -191,6 +198,7 @@ class Catalog:
         info["gravity"] = [float(x) for x in model.gravity]
         info.update(_inertial(model))
         info["summary"] = model_summary(model)
+        info["constraints"] = constraints_info(model)
         return info
 
     def delete(self, rid: str, owner: Optional[str]) -> None:

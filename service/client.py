@@ -129,17 +129,29 @@ class Client:
         return self.request("GET", "/v1/robots").json()["robots"]
 
     def upload(self, path_or_text: Union[str, bytes, os.PathLike], *, floating_base: bool = False,
-               name: Optional[str] = None) -> "Robot":
-        """Upload a URDF (a path, or the document as str/bytes); the same upload twice gives the same robot."""
+               name: Optional[str] = None, constraints: Optional[list[Any]] = None,
+               mimic: Optional[str] = None) -> "Robot":
+        """Upload a URDF (a path, or the document as str/bytes); the same upload twice gives the same robot.
+
+        ``constraints``: ``dynamics.PointConstraint``, ``WeldConstraint``, ``RevoluteConstraint``,
+        ``JointCoupling`` objects or their JSON form ({"type": "point", "frame_a": ...}); ``mimic``: "coupling"
+        (default) or "independent"."""
         if isinstance(path_or_text, bytes):
             data = path_or_text
         elif isinstance(path_or_text, str) and path_or_text.lstrip().startswith("<"):
             data = path_or_text.encode("utf-8")
         else:
             data = Path(path_or_text).read_bytes()
+        if constraints:
+            body = {"urdf": data.decode("utf-8"), "floating_base": floating_base, "name": name, "mimic": mimic,
+                    "constraints": [constraint_spec(c) for c in constraints]}
+            return Robot(self, self.request("POST", "/v1/robots", json={k: v for k, v in body.items()
+                                                                         if v is not None}).json())
         params: dict[str, Any] = {"floating_base": "true" if floating_base else "false"}
         if name:
             params["name"] = name
+        if mimic:
+            params["mimic"] = mimic
         r = self.request("POST", "/v1/robots", content=data, params=params,
                          headers={"Content-Type": "application/xml"})
         return Robot(self, r.json())
@@ -317,6 +329,32 @@ class Robot:
             report = json.loads(report)
         return ans["q"], {k: (np.asarray(v) if isinstance(v, list) else v) for k, v in report.items()}
 
+    # -- closed loops and coupled joints -----------------------------------------------------------------------
+    def constraint_residual(self, q, *, locked=None) -> np.ndarray:
+        """phi(q): (m,) or (B, m), as ``dynamics.constraint_residual``."""
+        return self._call("constraint-residual", {"q": _as_array(q), "locked": self._locked(locked)})["residual"]
+
+    def assemble(self, q_guess, *, fixed=None, tol: Optional[float] = None, max_iter: Optional[int] = None,
+                 locked=None) -> np.ndarray:
+        """``fixed``: joint names kept at their value in q_guess, or a mapping joint name -> value."""
+        fixed = None if fixed is None else (_plain_tree(dict(fixed)) if isinstance(fixed, Mapping) else list(fixed))
+        return self._call("assemble", {"q_guess": _as_array(q_guess), "fixed": fixed, "tol": tol,
+                                       "max_iter": max_iter, "locked": self._locked(locked)})["q"]
+
+    def constrained_forward_dynamics(self, q, v, tau, *, baumgarte=None, gravity=None,
+                                     locked=None) -> tuple[np.ndarray, np.ndarray]:
+        """(a, lam) as ``dynamics.constrained_forward_dynamics``."""
+        ans = self._call("constrained-forward-dynamics", {
+            "q": _as_array(q), "v": _as_array(v), "tau": _as_array(tau), "gravity": self._opt(gravity),
+            "baumgarte": None if baumgarte is None else [float(x) for x in baumgarte],
+            "locked": self._locked(locked)})
+        return ans["a"], ans["lambda"]
+
+    def constrained_inverse_dynamics(self, q, v, a, *, actuated, gravity=None, locked=None) -> np.ndarray:
+        return self._call("constrained-inverse-dynamics", {
+            "q": _as_array(q), "v": _as_array(v), "a": _as_array(a), "actuated": list(actuated),
+            "gravity": self._opt(gravity), "locked": self._locked(locked)})["tau"]
+
     def simulate(self, q0, v0, duration: float, *, torque: Any = None,
                  integrator: Optional[str] = None, rtol: Optional[float] = None, atol: Optional[float] = None,
                  dt: Optional[float] = None, sample_dt: Optional[float] = None, gravity=None,
@@ -415,6 +453,23 @@ class Job:
     def cancel(self) -> dict[str, Any]:
         """Cancel it if it is queued or running; remove it (and its result) if it has finished."""
         return self.client.request("DELETE", f"/v1/jobs/{self.id}").json()
+
+
+#: the library's constraint classes (dynamics.constraints) -> their HTTP type
+CONSTRAINT_TYPES = {"PointConstraint": "point", "WeldConstraint": "weld", "RevoluteConstraint": "revolute",
+                    "JointCoupling": "coupling"}
+
+
+def constraint_spec(c: Any) -> dict[str, Any]:
+    """A constraint declaration of the library (read by its attributes: no import of ``dynamics``) or its HTTP
+    form -> the HTTP form."""
+    if isinstance(c, Mapping):
+        return _plain_tree(dict(c))
+    kind = CONSTRAINT_TYPES.get(type(c).__name__)
+    if kind is None:
+        raise TypeError(f"constraints: expected dynamics constraint declarations or dicts, got {type(c).__name__}")
+    out = {k: _plain_tree(v) for k, v in vars(c).items() if v is not None and not (k == "name" and not v)}
+    return {"type": kind, **out}
 
 
 def decode_answer(r: httpx.Response) -> dict[str, Any]:

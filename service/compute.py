@@ -235,7 +235,8 @@ class Compute:
     def can_inline(self, op: Operation, rid: str, args: dict[str, Any]) -> bool:
         """True when this call is compiled, its model in memory and its answer small: microseconds of work, fit
         for the event loop."""
-        if op.iterative or layout(op, args) not in self._warm or any(args[s].ndim != 1 for s in op.states):
+        if op.iterative or layout(op, args) not in self._warm or any(
+                args.get(s) is not None and args[s].ndim != 1 for s in op.states):
             return False
         entry = self.models.cache.peek((rid, locked_key(args.get("locked"))))
         return entry is not None and _numbers_per_state(op, entry.model, args) <= INLINE_NUMBERS

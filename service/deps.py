@@ -17,6 +17,7 @@ from . import memory
 from .catalog import Catalog
 from .compute import OPERATIONS, Budget, Compute
 from .errors import InvalidInput
+from .constraints import OPERATIONS as CONSTRAINTS
 from .kinematics import OPERATIONS as KINEMATICS
 from .library import lib
 from .models import Models
@@ -46,7 +47,7 @@ class Deps:
         models = Models(store, settings.cache_size)
         pool = SimPool(settings.sim_workers) if settings.sim_workers > 0 else None  # workers compile at once
         warmup = Warmup(settings.store_dir / WARMUP_RECORD)
-        compute = Compute(settings, models, pool, warmup, (OPERATIONS, KINEMATICS))
+        compute = Compute(settings, models, pool, warmup, (OPERATIONS, KINEMATICS, CONSTRAINTS))
         stages = [Stage("importing the library", lib), Stage("compiling dynamics kernels", compute.warm_kernels)]
         if pool is not None:
             plural = "es" if pool.size > 1 else ""

@@ -297,8 +297,8 @@ SIMULATE_OPTIONS = ("integrator", "rtol", "atol", "dt", "sample_dt", "gravity", 
 
 
 class UploadRequest(_Request):
-    model_config = _example(name="pendulum", floating_base=False, urdf=(
-        '<robot name="pendulum"><link name="base"/><link name="bob"><inertial><origin xyz="0 0 -1"/>'
+    model_config = _example(name="my-pendulum", floating_base=False, urdf=(
+        '<robot name="my-pendulum"><link name="base"/><link name="bob"><inertial><origin xyz="0 0 -1"/>'
         '<mass value="1"/><inertia ixx="0.01" iyy="0.01" izz="0.01" ixy="0" ixz="0" iyz="0"/></inertial></link>'
         '<joint name="swing" type="revolute"><parent link="base"/><child link="bob"/><axis xyz="0 1 0"/>'
         '<limit lower="-3" upper="3" effort="10" velocity="10"/></joint></robot>'))
@@ -306,6 +306,11 @@ class UploadRequest(_Request):
                       json_schema_extra={"pattern": r"^\s*(<\?xml[^>]*\?>\s*)?(<!--[\s\S]*?-->\s*)*<robot[\s>]"})
     name: Optional[str] = Field(None, max_length=128)
     floating_base: bool = False
+    constraints: Optional[list["ConstraintSpec"]] = Field(
+        None, max_length=256, description="closed loops and joint couplings added to the URDF's own (its <loop> and "
+                                          "<mimic> elements); stored in the robot's document as such elements")
+    mimic: Optional[Literal["coupling", "independent"]] = Field(
+        None, description="URDF <mimic>: 'coupling' (default, a JointCoupling constraint) or 'independent' (ignored)")
 
 
 # -- answers (documented in OpenAPI; the routes write them directly, arrays never go through pydantic) ---------
@@ -380,6 +385,7 @@ class RobotSummary(BaseModel):
 
 class UploadAnswer(RobotSummary):
     summary: ModelSummary
+    constraints: Optional["ConstraintsInfo"] = Field(None, description="loops and couplings; absent when none")
 
 
 class JointInfo(BaseModel):
@@ -416,6 +422,7 @@ class RobotInfo(RobotSummary):
     frames: list[FrameInfo] = Field(description="every frame (URDF links and joints), in the order of the "
                                                 "kinematics answers")
     summary: ModelSummary
+    constraints: Optional["ConstraintsInfo"] = Field(None, description="loops and couplings; absent when none")
 
 
 class RobotList(BaseModel):
@@ -655,3 +662,150 @@ class JobStatus(BaseModel):
 
 class JobList(BaseModel):
     jobs: list[JobStatus]
+
+
+
+# -- closed loops and coupled joints (issue 10) ------------------------------------------------------------------
+class PointSpec(_Request):
+    """dynamics.PointConstraint: point_a on frame_a coincides with point_b on frame_b (3 rows)."""
+    type: Literal["point"]
+    frame_a: str
+    frame_b: str
+    point_a: Optional[Vec3] = Field(None, description="in frame_a's coordinates, default its origin")
+    point_b: Optional[Vec3] = Field(None, description="in frame_b's coordinates, default its origin")
+    name: Optional[str] = Field(None, max_length=64)
+
+
+class WeldSpec(_Request):
+    """dynamics.WeldConstraint: frame_b keeps the pose ``placement`` in frame_a (6 rows)."""
+    type: Literal["weld"]
+    frame_a: str
+    frame_b: str
+    placement: Optional[Pose] = Field(None, description="(4, 4); default the relative pose at the neutral q")
+    name: Optional[str] = Field(None, max_length=64)
+
+
+class RevoluteSpec(_Request):
+    """dynamics.RevoluteConstraint: a hinge closure (5 rows)."""
+    type: Literal["revolute"]
+    frame_a: str
+    frame_b: str
+    axis: Vec3 = Field(description="the hinge axis in frame_a's coordinates")
+    point_a: Optional[Vec3] = None
+    point_b: Optional[Vec3] = None
+    axis_b: Optional[Vec3] = Field(None, description="the axis in frame_b's coordinates, default the same numbers")
+    name: Optional[str] = Field(None, max_length=64)
+
+
+class CouplingSpec(_Request):
+    """dynamics.JointCoupling: q_follower = multiplier q_leader + offset (1 row), what URDF <mimic> means."""
+    type: Literal["coupling"]
+    follower: str
+    leader: str
+    multiplier: float = 1.0
+    offset: float = 0.0
+    name: Optional[str] = Field(None, max_length=64)
+
+
+ConstraintSpec = Annotated[Union[PointSpec, WeldSpec, RevoluteSpec, CouplingSpec], Field(discriminator="type")]
+UploadRequest.model_rebuild()
+
+
+def _json_value(value: Any) -> Any:
+    """A list or an object; in .npz a JSON string (as the client sends it) or an array of names."""
+    if isinstance(value, str) and value.lstrip()[:1] in ("[", "{"):
+        try:
+            return json.loads(value)
+        except json.JSONDecodeError:
+            return value
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    return value
+
+
+Fixed = Annotated[Optional[Union[list[str], dict[str, Union[float, list[float]]]]], BeforeValidator(_json_value)]
+#: the most Gauss-Newton iterations an assembly request may ask per guess
+MAX_ASSEMBLE_ITER = 1_000
+
+
+class ConstraintResidualRequest(_Request):
+    """phi(q), zero when every loop is closed and every coupling holds (dynamics.constraint_residual)."""
+    model_config = _example(q=[0.3, -0.5])
+    locked: Locked = None
+    q: Array
+
+
+class AssembleRequest(_Request):
+    """A configuration closing every loop near q_guess, by Gauss-Newton (dynamics.assemble)."""
+    model_config = _example(q_guess=[0.3, -0.5], fixed=["joint1"])
+    locked: Locked = None
+    q_guess: Array
+    fixed: Fixed = Field(None, description="joints kept at their value in q_guess (a list of names), or "
+                                           "{name: value}")
+    tol: Optional[float] = Field(None, gt=0, description="on max |phi|, default 1e-12")
+    max_iter: Optional[int] = Field(None, ge=1, le=MAX_ASSEMBLE_ITER, description="per guess, default 100")
+
+
+class ConstrainedForwardDynamicsRequest(_Dynamics):
+    """(a, lambda) of the constrained model (dynamics.constrained_forward_dynamics)."""
+    model_config = _example(q=[0.3, -0.5], v=[1.0, 2.0], tau=[10.0, 2.0], baumgarte=[10.0, 10.0])
+    q: Array
+    v: Array
+    tau: Array
+    baumgarte: Optional[list[float]] = Field(None, min_length=2, max_length=2,
+                                             description="(alpha, beta) in 1/s; default none")
+
+
+class ConstrainedInverseDynamicsRequest(_Dynamics):
+    """Torques of the actuated joints for a motion the loops allow (dynamics.constrained_inverse_dynamics)."""
+    model_config = _example(q=[0.3, -0.5], v=[1.0, 2.0], a=[0.5, -1.0], actuated=["joint1", "joint2"])
+    q: Array
+    v: Array
+    a: Array
+    actuated: Annotated[list[str], BeforeValidator(_json_list)] = Field(description="the actuated joints' names")
+
+
+class ConstraintResidualAnswer(BaseModel):
+    residual: Answer(1, "(m,) phi(q): m, rad, or a joint's units for couplings")
+    scene: Scene
+
+
+class AssembleAnswer(BaseModel):
+    q: Answer(1, "(nq,) a configuration with max |phi| <= tol")
+    scene: Scene
+
+
+class ConstrainedForwardDynamicsAnswer(BaseModel):
+    a: Answer(1, "(nv,) accelerations")
+    lam: Answer(1, "(m,) minimum-norm multipliers in physical units (world axes; force on frame_a's body at its "
+                   "anchor, N; torques, N m)") = Field(alias="lambda")
+    scene: Scene
+
+
+class ConstraintItem(BaseModel):
+    type: Literal["point", "weld", "revolute", "coupling"]
+    name: str
+    rows: int
+    frame_a: Optional[str] = None
+    frame_b: Optional[str] = None
+    point_a: Optional[list[float]] = None
+    point_b: Optional[list[float]] = None
+    axis: Optional[list[float]] = None
+    axis_b: Optional[list[float]] = None
+    placement: Optional[list[list[float]]] = None
+    follower: Optional[str] = None
+    leader: Optional[str] = None
+    multiplier: Optional[float] = None
+    offset: Optional[float] = None
+
+
+class ConstraintsInfo(BaseModel):
+    """The model's constraints (dynamics.Model.constraints, in the order of phi's rows) and their rank."""
+    items: list[ConstraintItem]
+    rows: int
+    rank: int = Field(description="of Phi_q where the loops close near the neutral configuration")
+    mobility: int = Field(description="nv - rank: the mechanism's degrees of freedom")
+
+
+UploadAnswer.model_rebuild()
+RobotInfo.model_rebuild()

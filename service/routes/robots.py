@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import json
-from typing import Optional
+from typing import Literal, Optional
 
 from fastapi import APIRouter, Depends, Query, Request
 from starlette.responses import Response
@@ -31,20 +31,23 @@ _UPLOAD_BODY = {"requestBody": {"required": True, "content": {
              openapi_extra=_UPLOAD_BODY,
              summary="upload a URDF; 201 with its id, or 200 with the existing id when it is already stored")
 async def upload(request: Request, name: Optional[str] = Query(None, max_length=128),
-                 floating_base: bool = Query(False), d: Deps = Depends(deps),
+                 floating_base: bool = Query(False),
+                 mimic: Optional[Literal["coupling", "independent"]] = Query(None), d: Deps = Depends(deps),
                  owner: Optional[str] = Depends(caller)) -> Response:
     body = await read_body(request, d.settings.max_body_bytes)
     header = request.headers.get("content-type")
     kind = media_type(header)
+    constraints = None
     if kind in XML_TYPES:
         urdf = body
     elif kind == JSON or header is None:  # (no Content-Type is JSON; one naming no type, ";;;;", is refused)
         req = schemas.validate(schemas.UploadRequest, decode(body, JSON, max_unpacked=0))
         urdf, name, floating_base = _utf8(req.urdf), req.name or name, req.floating_base
+        constraints, mimic = req.constraints, req.mimic or mimic
     else:
         raise UnsupportedMediaType(f"Content-Type: {kind or header!r:.64} is not accepted; send the URDF as application/xml, or "
                                    f"JSON {{\"urdf\": ...}}", "Content-Type")
-    info, created = await d.compute.run(d.catalog.store_upload, urdf, name, floating_base, owner)
+    info, created = await d.compute.run(d.catalog.store_upload, urdf, name, floating_base, owner, constraints, mimic)
     return Response(json.dumps(info).encode(), status_code=201 if created else 200, media_type=JSON,
                     headers={"Location": f"/v1/robots/{info['id']}"})
 

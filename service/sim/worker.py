@@ -27,6 +27,9 @@ from ..models import ModelCache, load_model, reduce_model
 from ..warmup import WARMUP_URDF
 from .job import Job, Outcome
 
+#: the integrators besides the default ('auto') whose loops the warm-up compiles (schemas.SimulateRequest's)
+WARM_INTEGRATORS = ("rk4", "dop853", "rk45", "radau", "euler")
+
 
 def build_torque(spec: dict[str, Any] | None):
     """The HTTP torque spec -> the ``torque=`` argument of dynamics.simulate (see dynamics.torques).
@@ -115,10 +118,16 @@ def handle(job: Job, cache: ModelCache) -> Outcome:
 
 
 def warm_up() -> None:
-    """One tiny simulation per torque kind: numba compiles the integration loop (or loads it from its cache)."""
+    """One tiny simulation per integrator the service accepts, and per torque kind with the default one: numba
+    compiles each method's integration loop (or loads it from its cache) before the worker says "ready", so that
+    no request's time budget runs into a compilation (each method is compiled on its own since the simulation
+    split: a request naming dop853 would otherwise compile it inside its budget)."""
     model = load_model(WARMUP_URDF, floating_base=False)
+    q0, v0 = np.array([0.1]), np.zeros(1)
     for spec in ({"type": "zero"}, {"type": "pd", "q_target": np.zeros(1), "kp": 1.0, "kd": 1.0}):
-        lib().simulate(model, np.array([0.1]), np.zeros(1), 0.01, torque=build_torque(spec))
+        lib().simulate(model, q0, v0, 0.01, torque=build_torque(spec))
+    for integrator in WARM_INTEGRATORS:
+        lib().simulate(model, q0, v0, 0.01, integrator=integrator, dt=0.005)
 
 
 def main(fd: int) -> None:
