@@ -128,6 +128,11 @@ def warm_up() -> None:
         lib().simulate(model, q0, v0, 0.01, torque=build_torque(spec))
     for integrator in WARM_INTEGRATORS:
         lib().simulate(model, q0, v0, 0.01, integrator=integrator, dt=0.005)
+    # a closed loop (the bundled four-bar): constrained models integrate another problem type, compiled once
+    dyn = lib()
+    four_bar = dyn.load_urdf(dyn.robots.path("four_bar"))
+    q = dyn.assemble(four_bar, [0.3, 0.5, 1.5], fixed={"theta1": 0.3})
+    dyn.simulate(four_bar, q, np.zeros(four_bar.nv), 0.01)
 
 
 def main(fd: int) -> None:
