@@ -2,9 +2,9 @@
 named options and statistics, and the statuses.
 
 **Problem.** A problem ``p`` is an instance of a ``typing.NamedTuple`` subclass that carries four njit
-functions as class attributes; the solvers reach them through the overloaded stubs below, resolved at
-compile time from ``type(p)`` (static calls, so the callers stay cacheable, which passing functions as
-arguments would not):
+functions as class attributes; the solvers reach them through the static calls below
+(:func:`_static_call`), resolved at compile time from ``type(p)`` (so the callers stay cacheable, which
+passing functions as arguments would not):
 
 * ``rhs(p, t, z, dz)``: write dz = f(t, z);
 * ``rebase(p, t, z, dz, mag)``: called after every accepted step (t: the time reached).  A problem that integrates in a moving chart
@@ -37,13 +37,8 @@ compiled caller holds only the methods it can run.
 from typing import NamedTuple
 
 import numpy as np
-from numba.extending import overload
-
-from ..._numba import GENERIC_OPTIONS
-
-# The stubs are inlined into their callers (numba IR inlining): each is one call to the bound function, and a
-# separate compiled layer per stub would copy the problem tuple (tens of arrays) once more per call site.
-INLINE = "always"
+from numba.core import types
+from numba.extending import intrinsic
 
 OK, NONFINITE, BLOWUP, MAX_STEPS, STEP_TOO_SMALL = 0, 1, 2, 3, 4
 STATUS_NAMES = ("ok", "nonfinite", "blowup", "max_steps", "step_too_small")
@@ -104,105 +99,58 @@ def _bound(obj, name):
     return fn
 
 
-# ---------------------------------------------------------------------------------------------------
-# the problem interface
-def problem_rhs(p, t, z, dz):
-    """dz = f(t, z) (compiled code only)."""
-    raise NotImplementedError
+def _call_typer(name, typingctx, argtys):
+    fnty = types.Dispatcher(_bound(argtys[0], name))
+    sig = typingctx.resolve_function_type(fnty, argtys, {})
+    if sig is None:
+        return None
+
+    def codegen(context, builder, _sig, llargs):
+        vals = [context.cast(builder, v, a, b) for v, a, b in zip(llargs, argtys, sig.args)]
+        return context.get_function(fnty, sig)(builder, vals)
+    return sig.return_type(*argtys), codegen
 
 
-def problem_rebase(p, t, z, dz, mag):
-    """Re-centre the chart after an accepted step (compiled code only)."""
-    raise NotImplementedError
+def _static_call(name, nargs):
+    """An intrinsic ``call(obj, a0, .., a<nargs-1>)`` that calls ``type(obj).<name>(obj, a0, ...)``: the njit
+    function is resolved at compile time from the NamedTuple class of ``obj`` and called directly, as if the
+    caller had named it.
 
-
-def problem_euler_config(p, z, h):
-    """Symplectic Euler's configuration update (compiled code only)."""
-    raise NotImplementedError
-
-
-def problem_emit(p, j, t, z):
-    """Record output sample j (compiled code only)."""
-    raise NotImplementedError
-
-
-@overload(problem_rhs, jit_options=GENERIC_OPTIONS, inline=INLINE)
-def _ov_rhs(p, t, z, dz):
-    fn = _bound(p, "rhs")
-    return lambda p, t, z, dz: fn(p, t, z, dz)
-
-
-@overload(problem_rebase, jit_options=GENERIC_OPTIONS, inline=INLINE)
-def _ov_rebase(p, t, z, dz, mag):
-    fn = _bound(p, "rebase")
-    return lambda p, t, z, dz, mag: fn(p, t, z, dz, mag)
-
-
-@overload(problem_euler_config, jit_options=GENERIC_OPTIONS, inline=INLINE)
-def _ov_euler_config(p, z, h):
-    fn = _bound(p, "euler_config")
-    return lambda p, z, h: fn(p, z, h)
-
-
-@overload(problem_emit, jit_options=GENERIC_OPTIONS, inline=INLINE)
-def _ov_emit(p, j, t, z):
-    fn = _bound(p, "emit")
-    return lambda p, j, t, z: fn(p, j, t, z)
+    Why not an ``@overload(inline="always")`` stub: numba compiles an inlined overload's implementation in
+    full (LLVM included) only to learn its return type, then inlines its IR and compiles it again in the
+    caller, and every compiled layer re-optimises all the code it links in (the ABA, the torque source): the
+    stubs cost more compile time than the solvers.  Here the bound function is compiled once, as itself, and
+    linked into the caller (numba's own lowering of a call to a dispatcher).  numba's intrinsics take a fixed
+    number of arguments, hence the generated signature."""
+    params = ", ".join(f"a{i}" for i in range(nargs))
+    ns = {}
+    exec(f"def {name}(typingctx, obj, {params}):\n    return typer(typingctx, (obj, {params}))",
+         {"typer": lambda typingctx, argtys: _call_typer(name, typingctx, argtys)}, ns)
+    return intrinsic(ns[name])
 
 
 # ---------------------------------------------------------------------------------------------------
-# the stepper interface
-def stepper_attempt(m, p, t, h, z, f0, znew, fnew, errv, mag, opt, st, sw, rejected_last):
-    """One attempted adaptive step (compiled code only)."""
-    raise NotImplementedError
+# the problem interface (compiled code only)
+#: ``problem_rhs(p, t, z, dz)``: dz = f(t, z)
+problem_rhs = _static_call("rhs", 3)
+#: ``problem_rebase(p, t, z, dz, mag)``: re-centre the chart after an accepted step (t: the time reached, for
+#: a problem that projects the state and re-evaluates dz there)
+problem_rebase = _static_call("rebase", 4)
+#: ``problem_euler_config(p, z, h)``: symplectic Euler's configuration update
+problem_euler_config = _static_call("euler_config", 2)
+#: ``problem_emit(p, j, t, z)``: record output sample j
+problem_emit = _static_call("emit", 3)
 
-
-def stepper_dense(m, p, t0, h, x, z0, z1, out, st):
-    """Dense output of the last accepted adaptive step (compiled code only)."""
-    raise NotImplementedError
-
-
-def stepper_order(m):
-    """Order for the starting-step heuristic (compiled code only)."""
-    raise NotImplementedError
-
-
-def stepper_step(m, p, t, h, z, f0, st):
-    """One fixed step (compiled code only)."""
-    raise NotImplementedError
-
-
-def stepper_fixed_dense(m, x, h, z0, f0, z1, f1, out):
-    """Interpolation inside a fixed step (compiled code only)."""
-    raise NotImplementedError
-
-
-@overload(stepper_attempt, jit_options=GENERIC_OPTIONS, inline=INLINE)
-def _ov_attempt(m, p, t, h, z, f0, znew, fnew, errv, mag, opt, st, sw, rejected_last):
-    fn = _bound(m, "attempt")
-    return (lambda m, p, t, h, z, f0, znew, fnew, errv, mag, opt, st, sw, rejected_last:
-            fn(m, p, t, h, z, f0, znew, fnew, errv, mag, opt, st, sw, rejected_last))
-
-
-@overload(stepper_dense, jit_options=GENERIC_OPTIONS, inline=INLINE)
-def _ov_dense(m, p, t0, h, x, z0, z1, out, st):
-    fn = _bound(m, "dense")
-    return lambda m, p, t0, h, x, z0, z1, out, st: fn(m, p, t0, h, x, z0, z1, out, st)
-
-
-@overload(stepper_order, jit_options=GENERIC_OPTIONS, inline=INLINE)
-def _ov_order(m):
-    fn = _bound(m, "order")
-    return lambda m: fn(m)
-
-
-@overload(stepper_step, jit_options=GENERIC_OPTIONS, inline=INLINE)
-def _ov_step(m, p, t, h, z, f0, st):
-    fn = _bound(m, "step")
-    return lambda m, p, t, h, z, f0, st: fn(m, p, t, h, z, f0, st)
-
-
-@overload(stepper_fixed_dense, jit_options=GENERIC_OPTIONS, inline=INLINE)
-def _ov_fixed_dense(m, x, h, z0, f0, z1, f1, out):
-    fn = _bound(m, "fixed_dense")
-    return lambda m, x, h, z0, f0, z1, f1, out: fn(m, x, h, z0, f0, z1, f1, out)
+# ---------------------------------------------------------------------------------------------------
+# the stepper interface (compiled code only)
+#: ``stepper_attempt(m, p, t, h, z, f0, znew, fnew, errv, mag, opt, st, sw, rejected_last)``: one attempted
+#: adaptive step
+stepper_attempt = _static_call("attempt", 13)
+#: ``stepper_dense(m, p, t0, h, x, z0, z1, out, st)``: dense output of the last accepted adaptive step
+stepper_dense = _static_call("dense", 8)
+#: ``stepper_order(m)``: order for the starting-step heuristic
+stepper_order = _static_call("order", 0)
+#: ``stepper_step(m, p, t, h, z, f0, st)``: one fixed step
+stepper_step = _static_call("step", 6)
+#: ``stepper_fixed_dense(m, x, h, z0, f0, z1, f1, out)``: interpolation inside a fixed step
+stepper_fixed_dense = _static_call("fixed_dense", 7)
