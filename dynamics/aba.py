@@ -71,7 +71,12 @@ def aba_into(tree, q, v, tau, gravity, f_ext, ws, qdd):
 
 @inline_kernel
 def aba_terms(tree, q, v, tau, gravity, f_ext, ws, qdd, with_v):
-    """ABA for one state; ``with_v=False`` (v is zero) skips the velocity products c_i and v x* I v."""
+    """ABA for one state; ``with_v=False`` (v is zero) skips the velocity products c_i and v x* I v.
+
+    Longer than our ~80-line rule on purpose: it is Featherstone's three passes (RBDA Table 7.1) in one kernel,
+    each pass a plain loop over the bodies with the 1-dof and free-joint cases written out, reading like the
+    book from top to bottom; split into three functions, the passes would trade the same 14 workspace arrays
+    and the reader would lose the one place where the recursion is whole."""
     parents, mass, hs, Ios, S, v_idx, nv_j = tree.parents, tree.mass, tree.h, tree.Io, tree.S, tree.v_idx, tree.nv_j
     Rs, ps, vel, c, IA, pA, U, Dinv, u, acc, Ia, D, pa, t = ws
     nb = parents.shape[0]

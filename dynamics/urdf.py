@@ -226,8 +226,34 @@ def load_urdf(source, *, floating_base: bool = False, strict_inertia: bool = Tru
     warnings = []
     name = root.get("name") or "robot"
     _check_name("robot", name)
+    links = _read_links(root, warnings)
+    joints = _read_joints(root, warnings)
+    parent_joint, children, root_link = _tree(links, joints)
+    bodies, frames, merged_fixed, couplings = _walk(links, children, root_link, floating_base, mimic,
+                                                    strict_inertia, warnings)
+    info = {
+        "urdf_links": len(links),
+        "urdf_joints": len(joints),
+        "fixed_joints_merged": merged_fixed,
+        "links_pruned": _pruned(links, children, parent_joint, frames, root_link),
+        "massless_bodies": [b.name for b in bodies if b.mass == 0.0],
+        "locked_joints": {},
+        "meshes_loaded": 0,
+    }
+    model = build_model(name, bodies, floating_base=floating_base or any(
+        b.joint_type == "floating" for b in bodies), warnings=warnings, frames=frames, info=info)
+    constraints = _couplings(couplings, model) + _loops(root, links)
+    if not constraints:
+        return model
+    try:
+        return with_constraints(model, constraints)
+    except DynamicsError as e:
+        raise URDFError(f"URDF constraints: {e}") from None
 
-    links, joints = {}, []
+
+def _read_links(root, warnings) -> dict:
+    """The <link> elements by name, their inertials read (visuals and collisions, meshes, are never parsed)."""
+    links = {}
     for el in root.findall("link"):
         lname = el.get("name")
         if not lname:
@@ -251,7 +277,12 @@ def load_urdf(source, *, floating_base: bool = False, strict_inertia: bool = Tru
             raise URDFError(f"link {lname!r}: cannot read it ({e})") from None
     if not links:
         raise URDFError("URDF has no <link>")
-    seen = set()
+    return links
+
+
+def _read_joints(root, warnings) -> list:
+    """The <joint> elements in document order, each checked for a name, a known type, a parent and a child."""
+    joints, seen = [], set()
     for el in root.findall("joint"):
         jname = el.get("name")
         if not jname:
@@ -272,8 +303,11 @@ def load_urdf(source, *, floating_base: bool = False, strict_inertia: bool = Tru
             joints.append(URDF._parse_joint(el))
         except Exception as e:
             raise URDFError(f"joint {jname!r}: cannot read it ({e})") from None
+    return joints
 
-    # --- tree structure ---------------------------------------------------------------------------
+
+def _tree(links, joints):
+    """(parent joint of each link, child joints of each link, the root link): one tree, or a URDFError."""
     parent_joint, children = {}, {n: [] for n in links}
     for j in joints:
         for role, lname in (("parent", j.parent), ("child", j.child)):
@@ -292,11 +326,15 @@ def load_urdf(source, *, floating_base: bool = False, strict_inertia: bool = Tru
         raise URDFError("URDF kinematic graph has a cycle: every link has a parent")
     if len(roots) > 1:
         raise URDFError(f"URDF has more than one root link: {_names(roots)}; expected one tree")
-    root_link = roots[0]
+    return parent_joint, children, roots[0]
 
-    # --- walk the tree depth first, merging fixed joints ------------------------------------------
+
+def _walk(links, children, root_link, floating_base, mimic, strict_inertia, warnings):
+    """Walk the tree depth first from the root, children in document order: one body per movable joint, fixed
+    joints merged into their parent body. (bodies, frames {name: (body, pose in it)}, merged fixed joints, the
+    mimic joints to couple)."""
     bodies, frames = [], {}
-    merged_fixed, massless, couplings = [], [], []
+    merged_fixed, couplings = [], []
     if floating_base:
         bodies.append(BodySpec(name=root_link, joint_name="root_joint", joint_type="floating", parent=-1,
                                placement=np.eye(4), axis=np.zeros(3)))
@@ -331,34 +369,16 @@ def load_urdf(source, *, floating_base: bool = False, strict_inertia: bool = Tru
     if visited != len(links):
         lost = sorted(set(links) - set(frames))
         raise URDFError(f"URDF kinematic graph has a cycle through links {_names(lost)}")
-    for b in bodies:
-        if b.mass == 0.0:
-            massless.append(b.name)
-    # links that carry no mass and have no moving joint below them are dropped (merged as bare frames)
+    return bodies, frames, merged_fixed, couplings
+
+
+def _pruned(links, children, parent_joint, frames, root_link):
+    """Links that carry no mass and have no moving joint below them: dropped (kept as bare frames)."""
     moving_below = {}
     for lname in reversed([n for n in frames if n in links]):  # depth-first order: children after parents
         moving_below[lname] = any(j.type != "fixed" or moving_below[j.child] for j in children[lname])
-    pruned = [n for n in frames if n in links and n != root_link and parent_joint[n].type == "fixed"
-              and not moving_below[n] and _massless(links[n])]
-
-    info = {
-        "urdf_links": len(links),
-        "urdf_joints": len(joints),
-        "fixed_joints_merged": merged_fixed,
-        "links_pruned": pruned,
-        "massless_bodies": massless,
-        "locked_joints": {},
-        "meshes_loaded": 0,
-    }
-    model = build_model(name, bodies, floating_base=floating_base or any(
-        b.joint_type == "floating" for b in bodies), warnings=warnings, frames=frames, info=info)
-    constraints = _couplings(couplings, model) + _loops(root, links)
-    if not constraints:
-        return model
-    try:
-        return with_constraints(model, constraints)
-    except DynamicsError as e:
-        raise URDFError(f"URDF constraints: {e}") from None
+    return [n for n in frames if n in links and n != root_link and parent_joint[n].type == "fixed"
+            and not moving_below[n] and _massless(links[n])]
 
 
 def _couplings(joints, model):
