@@ -45,3 +45,13 @@ def test_full_length_q_on_a_locked_model(solo_fixed):
     with pytest.raises(dynamics.InputError, match=r"'FL_HFE', 'FL_KFE'\] locked") as err:
         dynamics.gravity_torques(locked, np.zeros(12))
     assert "10 coordinates" in str(err.value)
+
+
+def test_a_batch_given_to_simulate_points_to_simulate_many():
+    import numpy as np
+    import dynamics
+    model = dynamics.load_urdf(dynamics.robots.path("planar_2r"))
+    with pytest.raises(dynamics.InputError, match=r"q0: expected shape \(2,\), got \(3, 2\).*simulate_many"):
+        dynamics.simulate(model, np.zeros((3, 2)), np.zeros(2), 0.1)
+    with pytest.raises(dynamics.InputError, match=r"v0: .*simulate_many"):
+        dynamics.simulate(model, np.zeros(2), [[0.0, 0.0]] * 4, 0.1)

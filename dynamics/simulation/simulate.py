@@ -218,6 +218,7 @@ def _settings(model, q0, v0, duration, integrator, rtol, atol, dt, sample_dt, gr
     check_model(model)
     if integrator not in INTEGRATORS:
         raise InputError(f"integrator: expected one of {INTEGRATORS}, got {integrator!r}")
+    _not_a_batch(model, q0, v0)
     q0 = _check_q(model, q0, warnings)
     v0 = vector("v0", v0, model.nv)
     duration = real_number("duration", duration, lo=0.0)
@@ -288,6 +289,15 @@ def _passive(model, s, limits, limit_stiffness, limit_damping, friction_eps):
                    friction_eps, 1 if limits == "spring" else 0, np.ascontiguousarray(model.lower, float),
                    np.ascontiguousarray(model.upper, float), _qpos_map(model), limit_stiffness, limit_damping,
                    s.gravity, np.zeros((0, 6)))
+
+
+def _not_a_batch(model, q0, v0):
+    """A batch of initial states (B, nq) is a mistake here: say so and point to simulate_many."""
+    for name, x, n in (("q0", q0, model.nq), ("v0", v0, model.nv)):
+        shape = np.shape(x) if isinstance(x, (np.ndarray, list, tuple)) else ()
+        if len(shape) == 2 and shape[1] == n:
+            raise InputError(f"{name}: expected shape ({n},), got {shape}: one run per call; for a batch of "
+                             f"{shape[0]} runs use dynamics.simulate_many(model, q0, v0, duration, ...)")
 
 
 def _check_q(model, q0, warnings):
