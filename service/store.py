@@ -12,6 +12,7 @@ Bundled robots (``robots/*.urdf``) are read-only and named by their file stem wi
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import json
 import os
@@ -21,7 +22,7 @@ import threading
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, BinaryIO, Iterator
 
 ID_PATTERN = re.compile(r"^[a-z0-9][a-z0-9._-]{0,63}$")
 _RECORD_VERSION = 1
@@ -59,7 +60,8 @@ def bundled_name(path: Path) -> str:
     return path.stem.replace("_", "-").lower()
 
 
-def _fsync_dir(path: Path) -> None:
+def fsync_dir(path: Path) -> None:
+    """Make a directory's entries (a rename, an unlink) durable."""
     fd = os.open(path, os.O_RDONLY)
     try:
         os.fsync(fd)
@@ -67,12 +69,14 @@ def _fsync_dir(path: Path) -> None:
         os.close(fd)
 
 
-def atomic_write(path: Path, data: bytes) -> None:
-    """Write ``data`` to ``path`` so that a crash at any moment leaves either the old file or the new one."""
+@contextlib.contextmanager
+def atomic_file(path: Path) -> Iterator[BinaryIO]:
+    """A file object whose content replaces ``path`` only once it is complete and on disk: a crash at any
+    moment leaves either the old file or the new one."""
     fd, tmp = tempfile.mkstemp(prefix="." + path.name + ".", suffix=".tmp", dir=path.parent)
     try:
         with os.fdopen(fd, "wb") as f:
-            f.write(data)
+            yield f
             f.flush()
             os.fsync(f.fileno())
         os.replace(tmp, path)
@@ -82,7 +86,13 @@ def atomic_write(path: Path, data: bytes) -> None:
         except FileNotFoundError:
             pass
         raise
-    _fsync_dir(path.parent)
+    fsync_dir(path.parent)
+
+
+def atomic_write(path: Path, data: bytes) -> None:
+    """Write ``data`` to ``path`` atomically and durably (:func:`atomic_file`)."""
+    with atomic_file(path) as f:
+        f.write(data)
 
 
 @dataclass(frozen=True)
@@ -204,5 +214,5 @@ class RobotStore:
             return False
         with self._lock:
             self._index.pop(rid, None)
-        _fsync_dir(self.dir)
+        fsync_dir(self.dir)
         return True

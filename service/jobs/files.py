@@ -15,17 +15,16 @@ report) is a 0-d string array holding JSON, as in the service's .npz answers.
 
 from __future__ import annotations
 
-import contextlib
-import os
 import shutil
-import tempfile
 import zipfile
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, BinaryIO, Iterable, Iterator, Mapping, NamedTuple
+from typing import Any, Iterable, Mapping, NamedTuple
 
 import numpy as np
 from numpy.lib import format as npformat
+
+from ..store import atomic_file
 
 
 @dataclass(frozen=True)
@@ -66,14 +65,6 @@ class JobFiles:
                 pass
 
 
-def fsync_dir(path: Path) -> None:
-    fd = os.open(path, os.O_RDONLY)
-    try:
-        os.fsync(fd)
-    finally:
-        os.close(fd)
-
-
 class Stacked(NamedTuple):
     """A member written chunk by chunk (C order, along the first axis): the result of a job stacked from its
     parts without holding it whole in memory."""
@@ -82,30 +73,11 @@ class Stacked(NamedTuple):
     chunks: Iterable[np.ndarray]
 
 
-@contextlib.contextmanager
-def _atomic(path: Path) -> Iterator[BinaryIO]:
-    """A file object whose content replaces ``path`` only once it is complete and on disk."""
-    fd, tmp = tempfile.mkstemp(prefix="." + path.name + ".", suffix=".tmp", dir=path.parent)
-    try:
-        with os.fdopen(fd, "wb") as f:
-            yield f
-            f.flush()
-            os.fsync(f.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        try:
-            os.unlink(tmp)
-        except FileNotFoundError:
-            pass
-        raise
-    fsync_dir(path.parent)
-
-
 def write_npz(path: Path, arrays: Mapping[str, Any]) -> int:
     """An .npz archive (uncompressed, as ``np.savez``) at ``path``, atomically and durably; its size in bytes.
     A :class:`Stacked` member is streamed from its chunks; any other value is written as ``np.asarray``."""
     path = Path(path)
-    with _atomic(path) as f, zipfile.ZipFile(f, "w", compression=zipfile.ZIP_STORED, allowZip64=True) as zf:
+    with atomic_file(path) as f, zipfile.ZipFile(f, "w", compression=zipfile.ZIP_STORED, allowZip64=True) as zf:
         for name, value in arrays.items():
             with zf.open(name + ".npy", "w", force_zip64=True) as member:
                 if isinstance(value, Stacked):
