@@ -188,6 +188,14 @@ def _samples(req: SimulateRequest) -> int:
     return 1001
 
 
+def _columns(model, outputs: Optional[list[str]]) -> int:
+    """Numbers per sample of a simulation answer: t and the asked outputs (default q, v, tau)."""
+    outputs = ("q", "v", "tau") if outputs is None else outputs
+    size = {"q": model.nq, "v": model.nv, "tau": model.nv,
+            "lambda": sum(c.rows for c in getattr(model, "constraints", ()))}
+    return 1 + sum(size[o] for o in set(outputs))
+
+
 class Compute:
     """The thread pools, the simulation workers and the deadline logic, shared by all requests of one process."""
 
@@ -305,7 +313,7 @@ class Compute:
         entry = self.models.loaded(rid, locked)
         job = build_job(self.models.record(rid), locked, req, self.settings)  # (its step and sample limits first)
         samples = _samples(req)
-        check_answer_size(samples * (1 + entry.model.nq + 2 * entry.model.nv), wants_npz(accept), self.settings,
+        check_answer_size(samples * _columns(entry.model, req.outputs), wants_npz(accept), self.settings,
                           f"a trajectory of {samples} samples")
         return job, simulation_scene(entry.scene, entry.model.gravity, req.gravity)
 

@@ -289,11 +289,20 @@ class SimulateRequest(_Request):
     friction_eps: Optional[float] = Field(None, gt=0)
     error_estimate: Optional[Literal["rerun", "local", "none"]] = Field(
         None, description="how report.error_estimate is measured; 'rerun' (default) costs a second run")
+    outputs: Optional[list[Literal["q", "v", "tau", "lambda"]]] = Field(
+        None, max_length=4, description="what to keep per sample besides t, default [q, v, tau]; the others come "
+                                        "back empty. 'lambda': the constraint multipliers of a robot with closed "
+                                        "loops or couplings (K, m), in the units of constrained-forward-dynamics")
+    baumgarte: Optional[list[float]] = Field(None, min_length=2, max_length=2,
+                                             description="robots with constraints: (alpha, beta) in 1/s, default "
+                                                         "(10, 10); [0, 0] for none")
+    project: Optional[bool] = Field(None, description="robots with constraints: project (q, v) onto the constraint "
+                                                      "manifold after every accepted step (default false)")
 
 
 #: the SimulateRequest fields passed on to dynamics.simulate as keyword arguments (None = library default)
 SIMULATE_OPTIONS = ("integrator", "rtol", "atol", "dt", "sample_dt", "gravity", "limits", "limit_stiffness",
-                    "limit_damping", "friction_eps", "error_estimate")
+                    "limit_damping", "friction_eps", "error_estimate", "outputs", "baumgarte", "project")
 
 
 class UploadRequest(_Request):
@@ -348,6 +357,8 @@ class TrajectoryAnswer(BaseModel):
     q: list[list[float]] = Field(description="(K, nq) configurations at the samples")
     v: list[list[float]] = Field(description="(K, nv) velocities")
     tau: list[list[float]] = Field(description="(K, nv) applied joint torques")
+    lam: Optional[list[list[float]]] = Field(None, alias="lambda",
+                                             description="(K, m) constraint multipliers, when outputs has 'lambda'")
     report: dict[str, Any] = Field(description="dynamics.Trajectory.report: status, integrator, steps, "
                                                "error_estimate, energy_drift, warnings, wall time, ...")
     scene: Scene

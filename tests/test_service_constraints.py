@@ -17,7 +17,7 @@ from lxml import etree
 
 import dynamics
 from service.client import Client, ServiceError
-from service_fixtures import ROBOTS, in_process_app
+from service_fixtures import ROBOTS, in_process_app, shared_server, while_simulation_starts
 
 LEG_ACTUATED = ["hip_roll", "hip_yaw", "hip_pitch", "knee", "toe", "rod_pitch"]
 
@@ -239,3 +239,51 @@ def test_the_warm_up_compiles_the_closed_loop_operations(app_client):
     assert {layout[0] for layout in compile_operations(model, OPERATIONS)} == {op.function for op in OPERATIONS.values()}
     r = app_client.get("/v1/ready")
     assert r.status_code == 200, r.text
+
+
+
+@pytest.fixture(scope="module")
+def sim_client(tmp_path_factory):
+    """simulate needs a worker process: the session's shared server (its warm-up runs the four-bar)."""
+    with Client(shared_server(tmp_path_factory.getbasetemp()).url) as c:
+        yield c
+
+
+def test_simulate_returns_the_multipliers_per_sample(sim_client, four_bar):
+    fb, Q, V = four_bar
+    kw = dict(duration=0.5, sample_dt=0.05, baumgarte=[5.0, 8.0], project=True, error_estimate="none")
+    state = {"q0": Q[0].tolist(), "v0": V[0].tolist()}
+    ans = while_simulation_starts(lambda: sim_client.call("/v1/robots/four-bar/simulate",
+                                                          {**state, **kw, "outputs": ["q", "v", "lambda"]}))
+    tr = dynamics.simulate(fb, Q[0], V[0], outputs=("q", "v", "lambda"), **kw)
+    lam = np.array(ans["lambda"])
+    assert lam.shape == tr.lam.shape == (len(tr.t), 5)
+    np.testing.assert_allclose(lam, tr.lam, rtol=0, atol=1e-12 * np.abs(tr.lam).max())
+    np.testing.assert_allclose(ans["q"], tr.q, rtol=0, atol=1e-12)
+    assert np.array(ans["tau"]).size == 0  # not asked for
+    drift = ans["report"]["constraint_drift"]
+    assert drift == tr.report["constraint_drift"] and drift["baumgarte"] == [5.0, 8.0] and drift["project"] is True
+    # the multipliers are the constrained forward dynamics' at each sample (no torque: tau = 0)
+    _, ref = dynamics.constrained_forward_dynamics(fb, tr.q, tr.v, np.zeros_like(tr.v), baumgarte=(5.0, 8.0))
+    np.testing.assert_allclose(lam, ref, rtol=0, atol=1e-9 * np.abs(ref).max())
+    # without "lambda" there is no lambda member; on a robot without constraints it is an empty (K, 0)
+    ans = while_simulation_starts(lambda: sim_client.call("/v1/robots/four-bar/simulate", {**state, **kw}))
+    assert "lambda" not in ans and len(ans["tau"]) == len(tr.t)
+    ans = while_simulation_starts(lambda: sim_client.call(
+        "/v1/robots/planar-2r/simulate", {"q0": [0.1, 0.2], "v0": [0.0, 0.0], "duration": 0.1,
+                                          "outputs": ["lambda"], "error_estimate": "none"}))
+    assert np.array(ans["lambda"]).size == 0 and np.array(ans["q"]).size == 0
+    with pytest.raises(ServiceError) as e:
+        sim_client.call("/v1/robots/four-bar/simulate", {**state, "duration": 0.1, "outputs": ["qdd"]})
+    assert e.value.status == 422 and "outputs" in str(e.value)
+
+
+def test_client_simulate_returns_lam(sim_client, four_bar):
+    fb, Q, V = four_bar
+    robot = sim_client.robot("four-bar")
+    kw = dict(sample_dt=0.1, outputs=("q", "v", "lambda"), baumgarte=(0.0, 0.0))
+    tr = while_simulation_starts(lambda: robot.simulate(Q[1], V[1], 0.3, **kw))
+    ref = dynamics.simulate(fb, Q[1], V[1], 0.3, **kw)
+    np.testing.assert_allclose(tr.lam, ref.lam, rtol=0, atol=1e-12 * np.abs(ref.lam).max())
+    assert tr.report["constraint_drift"]["baumgarte"] == [0.0, 0.0]
+    assert while_simulation_starts(lambda: robot.simulate(Q[1], V[1], 0.1)).lam is None

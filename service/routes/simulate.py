@@ -41,9 +41,10 @@ def _job(d: Deps, robot_id: str, body: bytes, content_type: Optional[str],
          accept: Optional[str]) -> tuple[Job, dict[str, Any]]:
     """In a compute thread: decode the request, then the job and the scene of its answer."""
     payload = decode(body, content_type, max_unpacked=8 * d.settings.max_body_bytes)
-    if isinstance(payload.get("torque"), str):  # in .npz the torque spec travels as a JSON string
-        try:
-            payload["torque"] = json.loads(payload["torque"])
-        except json.JSONDecodeError:
-            raise InvalidInput("torque: not a JSON object", "torque") from None
+    for name, kind in (("torque", "object"), ("outputs", "list")):  # in .npz these travel as JSON strings
+        if isinstance(payload.get(name), str) and payload[name].lstrip()[:1] in ("{", "["):
+            try:
+                payload[name] = json.loads(payload[name])
+            except json.JSONDecodeError:
+                raise InvalidInput(f"{name}: not a JSON {kind}", name) from None
     return d.compute.simulation_job(robot_id, schemas.validate(schemas.SimulateRequest, payload), accept)

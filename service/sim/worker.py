@@ -97,6 +97,8 @@ def simulate(model, job: Job) -> dict[str, Any]:
     # in the time budget's 504.
     traj = lib().simulate(model, job.q0, job.v0, job.duration, max_steps=job.max_steps, **options)
     out = {name: np.asarray(getattr(traj, name)) for name in ("t", "q", "v", "tau")}
+    if traj.lam is not None:
+        out["lambda"] = np.asarray(traj.lam)
     out["report"] = finite_report(dict(traj.report or {}))
     return out
 
