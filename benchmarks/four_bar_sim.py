@@ -18,9 +18,9 @@ difference over the run is printed as the reference's accuracy.
 The tools, all from the same URDF numbers:
 
 * ours: ``dynamics.simulate`` (Baumgarte (10, 10) 1/s, the default), methods auto, dop853, rk45, radau at
-  rtol 1e-4 ... 1e-12 (atol = rtol / 100), and auto, dop853 with ``project=True``;
-* SciPy + Pinocchio: ``solve_ivp`` (DOP853, RK45, Radau at rtol 1e-4 ... 1e-10, atol = rtol / 100, t_eval the
-  samples) over ``pin.constraintDynamics`` (a 3-D point closure, its Baumgarte corrector Kp = 100, Kd = 20,
+  rtol 1e-3 ... 1e-12 (atol = rtol / 100), and auto, dop853 with ``project=True``;
+* SciPy + Pinocchio: ``solve_ivp`` (DOP853, RK45 at rtol 1e-3 ... 1e-12, Radau to 1e-10, atol = rtol / 100,
+  t_eval the samples) over ``pin.constraintDynamics`` (a 3-D point closure, its Baumgarte corrector Kp = 100, Kd = 20,
   the same as ours; proximal mu = 1e-10: the planar loop's third row is redundant);
 * MuJoCo: the MJCF written by :func:`mjcf` from the URDF (same masses, inertias, lengths, gravity, no
   damping, no contacts), the loop an ``<equality><connect site1 site2>`` constraint, stepped by
@@ -288,20 +288,19 @@ class Job(NamedTuple):
 
 
 def jobs(model, q0, v0, xml, quick=False):
-    tols = (1e-4, 1e-6, 1e-8, 1e-10, 1e-12)
-    scipy_tols = (1e-4, 1e-6, 1e-8, 1e-10)
+    tols = (1e-3, 1e-4, 1e-6, 1e-8, 1e-10, 1e-12)
     dts = (1e-2, 5e-3, 2e-3, 1e-3, 5e-4, 2e-4, 1e-4)
     if quick:
-        tols, scipy_tols, dts = tols[::2], scipy_tols[::2], dts[::3]
+        tols, dts = tols[1::2], dts[::3]
     out = []
     for integ, project in (("auto", False), ("dop853", False), ("rk45", False), ("radau", False), ("auto", True),
                            ("dop853", True)):
         label = f"ours {integ}" + (" + project" if project else "")
         out += [Job("ours", label, f"rtol {tol:.0e}", ours_runner(model, q0, v0, integ, tol, project)) for tol in tols]
     rhs = pinocchio_rhs(model)
-    for method in ("DOP853", "RK45", "Radau"):
+    for method in ("DOP853", "RK45", "Radau"):  # Radau at 1e-12: ~40 s a run here, left out
         out += [Job("pin", f"SciPy {method} + Pinocchio", f"rtol {tol:.0e}", scipy_runner(rhs, q0, v0, method, tol))
-                for tol in scipy_tols]
+                for tol in tols if method != "Radau" or tol > 1e-11]
     for integ in ("Euler", "RK4"):
         for soft in ("default", "stiff"):
             for dt in dts:
@@ -447,10 +446,10 @@ def figure(results, path):
     bx.set_xlabel("time (s)")
     bx.set_ylabel("closure residual |phi(q)| (m)")
     bx.grid(alpha=0.3, which="major")
-    bx.legend(fontsize=6)
+    bx.legend(fontsize=6, loc="center", bbox_to_anchor=(0.5, 0.6))  # the empty band between the tools' drifts
     fig.suptitle("Four-bar crank-rocker, passive, 10 s: error against run time, and drift", fontsize=9)
     fig.tight_layout()
-    fig.savefig(path, dpi=90)
+    fig.savefig(path, dpi=80)
 
 
 def header(repeat, load_start):
@@ -467,7 +466,7 @@ def header(repeat, load_start):
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--repeat", type=int, default=3, help="rounds of the round robin (best time of each run)")
+    ap.add_argument("--repeat", type=int, default=5, help="rounds of the round robin (best time of each run)")
     ap.add_argument("--quick", action="store_true", help="fewer settings, one round, no copy into docs/")
     args = ap.parse_args(argv)
     repeat = 1 if args.quick else args.repeat
