@@ -486,8 +486,8 @@ def main(argv=None) -> int:
                            ("dop853", True)):  # compile (or load from the cache) before timing
         ours_runner(model, q0, v0, integ, 1e-6, project, duration=0.05)()
     results = round_robin(model, jobs(model, q0, v0, xml, args.quick), q_ref, repeat, log)
-    log("MuJoCo softness sweep (RK4, dt 1e-4, untimed):")
     soft_dt = 1e-3 if args.quick else 1e-4
+    log(f"MuJoCo softness sweep (RK4, dt {soft_dt:g}, untimed):")
     soft = softness_sweep(model, xml, q0, v0, q_ref, log, soft_dt)
     lines = ["# Four-bar simulation (`python -m benchmarks.four_bar_sim`)", ""] + header(repeat, load_start) + [
         "", f"Initial state q0 = {np.array2string(q0, precision=6)} rad, v0 = {np.array2string(v0, precision=6)} "
