@@ -17,7 +17,7 @@ from numba import types
 
 from . import checks
 from ._numba import MATRIX, VECTOR, Entry, Kernel, int_view, keep_alive, kernel, scratch, single_signature, view
-from .checks import DONE, F64, GENERAL, NOT_ARRAYS, config_ok
+from .checks import DONE, F64, GENERAL, NOT_ARRAYS, REFERENCES, config_ok
 from .kinematics import LOCAL, WORLD, frame_pose, support, world_poses
 from .model import unpack, unpack_frames
 from .parallel import run_chunks
@@ -58,23 +58,30 @@ def jacobian_batch(tree, Q, frames, f, ref, point, out):
 
 
 @kernel
-def jacobian_single(packed, q, f, ref, point, J):
-    """One state from Python into a zeroed J, q checked in the call (status codes of dynamics.checks)."""
+def jacobian_single(packed, q, f, ref, J):
+    """One state from Python at the frame origin into J (6, nv), zeroed here; q, the frame index f (-1: not
+    found) and the reference code are checked in the call (status codes of dynamics.checks)."""
     tree, gravity, nq = unpack(packed)
+    frames = unpack_frames(packed)
     nb = tree.parents.shape[0]
-    if not config_ok(tree, nq, q):
+    if not (0 <= f < frames.body.shape[0] and 0 <= ref <= 2 and config_ok(tree, nq, q)):
         return GENERAL
+    for r in range(6):
+        for k in range(J.shape[1]):
+            J[r, k] = 0.0
     buf = scratch(13 * nb)
-    jacobian_into(tree, unpack_frames(packed), q, f, ref, (point[0], point[1], point[2]), int_view(buf, 12 * nb, nb),
-                  view(buf, 0, (nb, 3, 3)), view(buf, 9 * nb, (nb, 3)), J)
+    jacobian_into(tree, frames, q, f, ref, (0.0, 0.0, 0.0), int_view(buf, 12 * nb, nb), view(buf, 0, (nb, 3, 3)),
+                  view(buf, 9 * nb, (nb, 3)), J)
     keep_alive(buf)
     return DONE
 
 
 # -- public entry point ----------------------------------------------------------------------------
 _jacobian_batch = Kernel(jacobian_batch)
-_jacobian_single = Entry(jacobian_single, single_signature(VECTOR, types.int64, types.int64, VECTOR, MATRIX))
+_jacobian_single = Entry(jacobian_single, single_signature(VECTOR, types.int64, types.int64, MATRIX))
 _ORIGIN = np.zeros(3)
+#: the frame types the single call resolves with one lookup in ``model.frame_lookup`` (not bool, not float)
+FAST_FRAMES = (str, int)
 
 
 def frame_jacobian(model, q, frame, *, reference="local_world_aligned", point=None):
@@ -85,11 +92,11 @@ def frame_jacobian(model, q, frame, *, reference="local_world_aligned", point=No
     three, same meaning.  ``point``: (3,) offset of a point fixed on the frame, in the frame's axes; the
     linear rows are then that point's velocity (the "world" Jacobian does not depend on it).
     """
-    try:  # one float64 q at the frame origin: one compiled call, which checks q too (dynamics.checks.F64)
-        if point is None and q.dtype is F64 and q.ndim == 1:
-            f, ref = checks.frame(model, frame), checks.reference(reference)
-            J = np.zeros((6, model.nv))
-            if _jacobian_single.call(model.packed, q, f, ref, _ORIGIN, J) == DONE:
+    try:  # one float64 q at the frame origin: one compiled call, which checks q, the frame and the reference
+        if point is None and q.dtype is F64 and q.ndim == 1 and type(frame) in FAST_FRAMES:  # dynamics.checks.F64
+            J = np.empty((6, model.nv))
+            if _jacobian_single.call(model.packed, q, model.frame_lookup.get(frame, -1), REFERENCES.get(reference, -1),
+                                     J) == DONE:
                 return J
     except NOT_ARRAYS:
         pass

@@ -82,8 +82,18 @@ def frame_pose(frames, f, oR, op):
     R, p = load33(frames.R, f), load3(frames.p, f)
     if b < 0:
         return R, p
-    Rb = load33(oR, b)
-    return matmul(Rb, R), add(rot(Rb, p), load3(op, b))
+    Rb, pb = load33(oR, b), load3(op, b)
+    if is_identity(R):  # most frames (a link's, its joint's): the body's own axes, no product needed
+        if p[0] == 0.0 and p[1] == 0.0 and p[2] == 0.0:
+            return Rb, pb
+        return Rb, add(rot(Rb, p), pb)
+    return matmul(Rb, R), add(rot(Rb, p), pb)
+
+
+@inline_kernel
+def is_identity(R):
+    return (R[0] == 1.0 and R[4] == 1.0 and R[8] == 1.0 and R[1] == 0.0 and R[2] == 0.0 and R[3] == 0.0
+            and R[5] == 0.0 and R[6] == 0.0 and R[7] == 0.0)
 
 
 @inline_kernel

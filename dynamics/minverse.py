@@ -10,6 +10,9 @@ columns; A_i (6 x nv, same storage) the acceleration:
     backward (leaves in):  U_i = I^A_i S_i,  D_i = S_i^T U_i,
                            M^-1[i, sub(i)] = D_i^-1 (E_i - S_i^T F_i)           (E_i: the identity at i's dofs)
                            I^A_p += I^A_i - U_i D_i^-1 U_i^T,   F_p += F_i + U_i M^-1[i, sub(i)]
+
+(the children's sub(i) are disjoint, so F_p on sub(i) is simply set from child i, and F_i is zero at i's own
+columns, never stored: F needs no clearing)
     forward (root out):    M^-1[i, c] -= (U_i D_i^-1)^T A_p[:, c],   A_i = A_p + S_i M^-1[i, c]   (c >= i)
 
 sub(i) are the velocity coordinates of the subtree of i, contiguous from i's own (depth-first order).  The
@@ -83,10 +86,6 @@ def minverse_into(tree, q, ws, Minv):
     for i in range(nb - 1, -1, -1):
         if parents[i] >= 0:
             nsub[parents[i]] += nsub[i]
-    for i in range(nb):
-        for c in range(v_idx[i], v_idx[i] + nsub[i]):
-            for r in range(6):
-                F[i, c, r] = 0.0
 
     for i in range(nb - 1, -1, -1):  # backward pass
         k0, nj, ns, par = v_idx[i], nv_j[i], nsub[i], parents[i]
@@ -146,12 +145,15 @@ def minverse_into(tree, q, ws, Minv):
 
 @inline_kernel
 def _backward_columns(Sw, U, Dinv, F, Minv, scratch, i, k0, nj, ns, par):
-    """M^-1[i, sub(i)] = D^-1 (E - S^T F_i), then F_p += F_i + U M^-1[i, sub(i)] (any joint)."""
+    """M^-1[i, sub(i)] = D^-1 (E - S^T F_i), then F_p = F_i + U M^-1[i, sub(i)] on sub(i) (any joint; F_i is
+    zero at i's own columns, which F does not hold)."""
     for c in range(k0, k0 + ns):
+        own = c < k0 + nj
         for b in range(nj):
             x = 1.0 if c == k0 + b else 0.0
-            for r in range(6):
-                x -= Sw[k0 + b, r] * F[i, c, r]
+            if not own:
+                for r in range(6):
+                    x -= Sw[k0 + b, r] * F[i, c, r]
             scratch[0, b] = x
         for a in range(nj):
             x = 0.0
@@ -160,11 +162,12 @@ def _backward_columns(Sw, U, Dinv, F, Minv, scratch, i, k0, nj, ns, par):
             Minv[k0 + a, c] = x
     if par >= 0:
         for c in range(k0, k0 + ns):
+            own = c < k0 + nj
             for r in range(6):
-                x = F[i, c, r]
+                x = 0.0 if own else F[i, c, r]
                 for a in range(nj):
                     x += U[k0 + a, r] * Minv[k0 + a, c]
-                F[par, c, r] += x
+                F[par, c, r] = x
 
 
 @inline_kernel
@@ -203,22 +206,20 @@ def _backward_1dof_body(IA, Sw, U, UD, Dinv, F, Minv, i, k0, ns, par):
 
 @inline_kernel
 def _backward_1dof(Sw, U, dinv, F, Minv, i, k0, ns, par):
-    """_backward_columns for a 1-dof joint, with S and U held in locals (no reloads through aliasing arrays)."""
+    """_backward_columns for a 1-dof joint, one pass over the columns with S and U held in locals."""
     s0, s1, s2, s3, s4, s5 = _vec6(Sw, k0)
+    u0, u1, u2, u3, u4, u5 = _vec6(U, k0)
     Minv[k0, k0] = dinv
+    if par >= 0:  # F_i is zero at i's own column
+        F[par, k0, 0], F[par, k0, 1], F[par, k0, 2] = u0 * dinv, u1 * dinv, u2 * dinv
+        F[par, k0, 3], F[par, k0, 4], F[par, k0, 5] = u3 * dinv, u4 * dinv, u5 * dinv
     for c in range(k0 + 1, k0 + ns):
-        Minv[k0, c] = -dinv * (s0 * F[i, c, 0] + s1 * F[i, c, 1] + s2 * F[i, c, 2] + s3 * F[i, c, 3]
-                               + s4 * F[i, c, 4] + s5 * F[i, c, 5])
-    if par >= 0:
-        u0, u1, u2, u3, u4, u5 = _vec6(U, k0)
-        for c in range(k0, k0 + ns):
-            x = Minv[k0, c]
-            F[par, c, 0] += F[i, c, 0] + u0 * x
-            F[par, c, 1] += F[i, c, 1] + u1 * x
-            F[par, c, 2] += F[i, c, 2] + u2 * x
-            F[par, c, 3] += F[i, c, 3] + u3 * x
-            F[par, c, 4] += F[i, c, 4] + u4 * x
-            F[par, c, 5] += F[i, c, 5] + u5 * x
+        f0, f1, f2, f3, f4, f5 = F[i, c, 0], F[i, c, 1], F[i, c, 2], F[i, c, 3], F[i, c, 4], F[i, c, 5]
+        x = -dinv * (s0 * f0 + s1 * f1 + s2 * f2 + s3 * f3 + s4 * f4 + s5 * f5)
+        Minv[k0, c] = x
+        if par >= 0:
+            F[par, c, 0], F[par, c, 1], F[par, c, 2] = f0 + u0 * x, f1 + u1 * x, f2 + u2 * x
+            F[par, c, 3], F[par, c, 4], F[par, c, 5] = f3 + u3 * x, f4 + u4 * x, f5 + u5 * x
 
 
 @inline_kernel
@@ -243,9 +244,13 @@ def _forward_1dof(Sw, UD, A, Minv, i, k0, ns, par, nv):
 @kernel
 def minverse_batch(tree, Q, out, status):
     """out[b] = M^-1 at Q[b]; status[b] = -1 or a body whose joint makes M singular."""
-    ws = workspace(tree.parents.shape[0], tree.S.shape[0])
+    nv = tree.S.shape[0]
+    ws, Minv = workspace(tree.parents.shape[0], nv), np.empty((nv, nv))
     for b in range(Q.shape[0]):
-        status[b] = minverse_into(tree, Q[b], ws, out[b])
+        # into a matrix that stays in cache, then one sequential copy: the kernel's row and column (mirror)
+        # writes straight into a large batch's fresh output memory cost ~10% more
+        status[b] = minverse_into(tree, Q[b], ws, Minv)
+        out[b] = Minv
 
 
 # -- public entry point ----------------------------------------------------------------------------

@@ -121,6 +121,9 @@ class Model:
     coordinate arrays (shape (nv,)): ``damping`` (N m s/rad or N s/m), ``friction`` (Coulomb, N m or N),
     ``effort_limit``, ``velocity_limit`` (inf when absent), ``lower``/``upper`` position limits of 1-dof
     joints (-inf/inf when absent, for continuous joints and for the free joint's coordinates).
+
+    Built with the model for the single-state entry points: ``packed`` (the arrays as one, module docstring)
+    and ``frame_lookup`` (a frame's name or int index -> its index: one dict lookup per call).
     """
 
     name: str
@@ -150,6 +153,10 @@ class Model:
 
     def __post_init__(self):
         object.__setattr__(self, "packed", pack(self.tree, self.gravity, self.frame_arrays))
+        # frame name or index -> index, one dict lookup for the single-call entry points (bools excluded by them)
+        lookup = {n: k for k, n in enumerate(self.frames)}
+        lookup.update({k: k for k in range(len(self.frames))})
+        object.__setattr__(self, "frame_lookup", lookup)
 
     # -- sizes ---------------------------------------------------------------------------------------
     @property
@@ -249,13 +256,9 @@ class Model:
     def frame_index(self, name: str) -> int:
         """Index of the frame named ``name`` in :attr:`frame_names`; an unknown name is an
         :class:`~dynamics.InputError` listing the closest names."""
-        index = self.__dict__.get("_frame_index")
-        if index is None:
-            index = {n: k for k, n in enumerate(self.frames)}
-            object.__setattr__(self, "_frame_index", index)
-        k = index.get(name) if isinstance(name, str) else None
+        k = self.frame_lookup.get(name) if isinstance(name, str) else None
         if k is None:
-            raise reorder.closest(name, list(index), "frame")
+            raise reorder.closest(name, list(self.frames), "frame")
         return k
 
     @property
