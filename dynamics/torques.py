@@ -40,12 +40,13 @@ import warnings
 from typing import NamedTuple
 
 import numpy as np
-from numba import objmode
+from numba import objmode, types
 from numba.core.errors import NumbaWarning
+from numba.extending import overload
 
 from . import checks
 from .errors import InputError
-from ._numba import gil_kernel, inline_kernel, kernel
+from ._numba import JIT_OPTIONS, gil_kernel, inline_kernel, kernel
 from .configuration import difference
 from .crba import mass_matrix
 from .operational_space import operational_space_into
@@ -64,7 +65,9 @@ KIND_NAMES = ("zero", "constant", "table_linear", "table_zoh", "pd", "computed_t
 
 
 class Source(NamedTuple):
-    """Compiled form of a torque source (identical numba type for every kind)."""
+    """Compiled form of a torque source: one numba type for every kind except the operational space, whose
+    workspace ``ws`` is None in the others, so a simulation compiles the operational-space controller (the
+    largest source by far: a mass-matrix inverse, a Jacobian, an r x r solve) only when it uses one."""
 
     kind: int
     times: np.ndarray  # (N,) table or reference times
@@ -79,7 +82,8 @@ class Source(NamedTuple):
     task_gains: np.ndarray  # (2, 6): Kp, Kd per task row
     orientation: np.ndarray  # (N, 12): reference orientation R_k (9) and psi_k = log(R_k+1 R_k^T) (3)
     damping: float  # added to the diagonal of J M^-1 J^T
-    ws: tuple  # operational_space.workspace: scratch, so one Source serves one simulation at a time (as it does)
+    ws: object  # operational_space.workspace (None for the other kinds): scratch, so one Source serves one
+    #             simulation at a time (as it does)
 
 
 class Passive(NamedTuple):
@@ -269,6 +273,30 @@ def _torque_callable(slot, t, q, v, tau):
         _call_torque(slot, t, q, v, tau)
 
 
+@kernel
+def _operational_space_eval(src, tree, ps, t, q, v, ws, tau):
+    x_ref = np.empty((3, 3))
+    reference_at(src.times, src.table, 3, t, x_ref[0], x_ref[1], x_ref[2])
+    if t < src.times[0] or t > src.times[-1]:  # hold the end position at rest
+        x_ref[1:] = 0.0
+    pas = ws[1][3]
+    passive_torques(ps, q, v, pas)
+    operational_space_into(src, tree, ps.gravity, ps.f_ext, t, q, v, x_ref, pas, ws[0], tau)
+
+
+def _operational_space_torques(src, tree, ps, t, q, v, ws, tau):
+    """The OPERATIONAL_SPACE branch of :func:`torque_eval` (compiled code only): nothing is compiled for a
+    Source without the operational-space workspace (never of that kind)."""
+    raise NotImplementedError
+
+
+@overload(_operational_space_torques, jit_options=JIT_OPTIONS)
+def _ov_operational_space_torques(src, tree, ps, t, q, v, ws, tau):
+    if isinstance(src.types[src.fields.index("ws")], types.NoneType):
+        return lambda src, tree, ps, t, q, v, ws, tau: None
+    return lambda src, tree, ps, t, q, v, ws, tau: _operational_space_eval(src, tree, ps, t, q, v, ws, tau)
+
+
 @inline_kernel
 def torque_eval(src, tree, ps, t, q, v, ws, tau):
     """tau = the source's applied torques at (t, q, v).  ws: (rnea workspace, 4 scratch (nv,) rows)."""
@@ -311,13 +339,7 @@ def torque_eval(src, tree, ps, t, q, v, ws, tau):
         for i in range(nv):
             tau[i] -= pas[i]
     elif kind == OPERATIONAL_SPACE:
-        x_ref = np.empty((3, 3))
-        reference_at(src.times, src.table, 3, t, x_ref[0], x_ref[1], x_ref[2])
-        if t < src.times[0] or t > src.times[-1]:  # hold the end position at rest
-            x_ref[1:] = 0.0
-        pas = ws[1][3]
-        passive_torques(ps, q, v, pas)
-        operational_space_into(src, tree, ps.gravity, ps.f_ext, t, q, v, x_ref, pas, ws[0], tau)
+        _operational_space_torques(src, tree, ps, t, q, v, ws, tau)
     else:
         _torque_callable(src.slot, t, q, v, tau)
 
@@ -354,10 +376,9 @@ def _times(name, t):
 def _source_for(model):
     """Source(...) with the operational-space fields set to placeholders of the right types."""
     frames, rows, task_gains, orientation = model.frame_arrays, np.zeros(0, np.int64), np.zeros((2, 6)), _IDENTITY
-    ws = operational_space_workspace(0, 0, 0)
 
     def build(kind, times, table, gains, qref, slot):
-        return Source(kind, times, table, gains, qref, slot, frames, -1, rows, task_gains, orientation, 0.0, ws)
+        return Source(kind, times, table, gains, qref, slot, frames, -1, rows, task_gains, orientation, 0.0, None)
     return build
 
 

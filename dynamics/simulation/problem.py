@@ -24,7 +24,7 @@ import numpy as np
 
 from ..aba import aba_into
 from ..aba import workspace as aba_workspace
-from .._numba import inline_kernel, kernel
+from .._numba import deref, inline_kernel, kernel
 from ..configuration import chart_rate, integrate_delta, retract
 from ..joints import JOINT_FREE
 from ..rnea import workspace as rnea_workspace
@@ -97,6 +97,7 @@ def chart_and_velocity(p, z, dz):
 @kernel
 def rhs(p, t, z, dz):
     """dz = f(t, z): chart rate, ABA accelerations (NaN when the articulated inertia is singular), powers."""
+    p = deref(p)
     nv = p.tau_s.shape[0]
     q, v = chart_and_velocity(p, z, dz)
     power_s, power_p = applied_torques(p, t, q, v)
@@ -110,6 +111,7 @@ def rhs(p, t, z, dz):
 def rebase(p, t, z, dz, mag):
     """Fold the chart coordinates into ``base``, rewrite dz's chart part for the new chart, and the
     magnitudes of the state for the relative tolerance (|q| per 1-dof coordinate and free-flyer position)."""
+    p = deref(p)
     tree, base = p.tree, p.base
     nv = p.tau_s.shape[0]
     retract(tree, base, z[:nv], p.qbuf)
@@ -128,6 +130,7 @@ def rebase(p, t, z, dz, mag):
 
 @kernel
 def euler_config(p, z, h):
+    p = deref(p)
     nv = p.tau_s.shape[0]
     integrate_delta(p.tree, p.base, z[nv:2 * nv], h, z[:nv])
 
@@ -136,6 +139,7 @@ def euler_config(p, z, h):
 def emit(p, j, t, z):
     """Write sample j.  An output the caller did not ask for has zero rows: it is neither kept nor, for the
     torques, computed."""
+    p = deref(p)
     nv = p.tau_s.shape[0]
     p.out_t[j] = t
     q = p.out_q[j] if p.out_q.shape[0] > 0 else p.qbuf  # qbuf is free between right-hand-side evaluations
