@@ -75,22 +75,33 @@ def _auto(h, z, t0, t_end, out_t, opt, stats, sw):
 ENTRY = {"euler": _euler, "rk4": _rk4, "rk45": _rk45, "dop853": _dop853, "radau": _radau, "auto": _auto}
 
 
-#: seconds to compile each entry point from an empty cache (2R arm, measured on a loaded 2-core machine)
-COMPILE_SECONDS = {"euler": 10, "rk4": 10, "rk45": 15, "dop853": 20, "radau": 20, "auto": 20}
+#: seconds to compile a method's entry point and the problem's functions from an empty cache (2R arm, measured
+#: on a loaded 2-core machine, process CPU time less the library's)
+COMPILE_SECONDS = {"euler": 20, "rk4": 20, "rk45": 30, "dop853": 30, "radau": 35, "auto": 35}
+#: the problem functions a method calls (euler_config serves the symplectic Euler method alone)
+NEEDS = {"euler": ("rhs", "rebase", "emit", "euler_config")}
 
 
-def _announce(dispatcher, name, args):
-    """Say once, before numba compiles ``dispatcher`` for these arguments, that it is about to and for how
-    long; a kernel already compiled in this process or found in numba's on-disk cache says nothing."""
-    if dispatcher.overloads:
-        return
+def _loaded(dispatcher, argtypes):
+    """Whether ``dispatcher`` is compiled for ``argtypes`` in this process or in numba's on-disk cache (then
+    loaded now)."""
+    if tuple(argtypes) in dispatcher.overloads:
+        return True
     try:
-        sig = tuple(dispatcher.typeof_pyval(a) for a in args)
-        cres = dispatcher._cache.load_overload(sig, dispatcher.targetctx)  # numba's own cache lookup
+        cres = dispatcher._cache.load_overload(tuple(argtypes), dispatcher.targetctx)  # numba's own cache lookup
     except Exception:  # numba internals moved: stay quiet rather than fail a simulation
-        return
-    if cres is not None:
-        dispatcher.add_overload(cres)
+        return True
+    if cres is None:
+        return False
+    dispatcher.add_overload(cres)
+    return True
+
+
+def _announce(dispatcher, name, args, also=()):
+    """Say once, before numba compiles ``dispatcher`` for these arguments (or a (dispatcher, argument types)
+    pair of ``also``), that it is about to and for how long; kernels already compiled in this process or found
+    in numba's on-disk cache say nothing."""
+    if all(_loaded(d, types_) for d, types_ in ((dispatcher, tuple(map(dispatcher.typeof_pyval, args))), *also)):
         return
     log.warning("compiling the simulation kernels for %r (first run, about %d s; cached afterwards)", name,
                 COMPILE_SECONDS.get(name, 20))
@@ -102,9 +113,13 @@ def run(method, p, z, t_end, opt, t0=0.0, watch=None):
     log's used rows, wall time of the run)."""
     entry = ENTRY[method]
     stats, sw = solvers.new_stats(), solvers.new_switch_log()
-    h, buf = handle(p, ("rhs", "rebase", "emit", "euler_config") if method == "euler" else ("rhs", "rebase", "emit"))
+    needs = NEEDS.get(method, ("rhs", "rebase", "emit"))
+    ty = typeof(p)
+    problem_fns = [(getattr(type(p), n), (types.CPointer(ty), *BY_REFERENCE[n])) for n in needs] + [(pack, (ty,))]
+    _announce(entry, method, (Handle(0, 0, 0, 0, 0), z, float(t0), float(t_end), p.out_t, opt, stats, sw),
+              problem_fns)
+    h, buf = handle(p, needs)
     args = (h, z, float(t0), float(t_end), p.out_t, opt, stats, sw)
-    _announce(entry, method, args)
     tic = time.perf_counter()
     if watch is None:
         entry(*args)
@@ -115,4 +130,3 @@ def run(method, p, z, t_end, opt, t0=0.0, watch=None):
     del buf  # held (with p) until the entry point returned
     st = stats[0]
     return st, sw[:st["switches"]], wall
-

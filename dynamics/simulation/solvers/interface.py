@@ -4,7 +4,10 @@ named options and statistics, and the statuses.
 **Problem.** A problem ``p`` is an instance of a ``typing.NamedTuple`` subclass that carries four njit
 functions as class attributes; the solvers reach them through the static calls below
 (:func:`_static_call`), resolved at compile time from ``type(p)`` (so the callers stay cacheable, which
-passing functions as arguments would not):
+passing functions as arguments would not).  Or ``p`` is a :class:`Handle`: the address of a problem value and
+of its functions compiled for a pointer to it (:func:`dynamics.simulation.run.handle`); the same calls then go
+through those addresses, so a solver compiled for a Handle serves every problem type and holds none of the
+problem's code (the library's simulations run this way; the plain form serves the solvers' own tests):
 
 * ``rhs(p, t, z, dz)``: write dz = f(t, z);
 * ``rebase(p, t, z, dz, mag)``: called after every accepted step (t: the time reached).  A problem that integrates in a moving chart
