@@ -52,6 +52,7 @@ from .crba import mass_matrix
 from .operational_space import operational_space_into
 from .operational_space import workspace as operational_space_workspace
 from .rnea import rnea_into
+from .rnea import workspace as rnea_workspace
 from .spatial import rotation_log
 
 
@@ -67,7 +68,8 @@ KIND_NAMES = ("zero", "constant", "table_linear", "table_zoh", "pd", "computed_t
 class Source(NamedTuple):
     """Compiled form of a torque source: one numba type for every kind except the operational space, whose
     workspace ``ws`` is None in the others, so a simulation compiles the operational-space controller (the
-    largest source by far: a mass-matrix inverse, a Jacobian, an r x r solve) only when it uses one."""
+    largest source by far: a mass-matrix inverse, a Jacobian, an r x r solve) only when it uses one (and
+    the computed torque's RNEA only with an RNEA workspace, :func:`source_workspace`)."""
 
     kind: int
     times: np.ndarray  # (N,) table or reference times
@@ -274,6 +276,35 @@ def _torque_callable(slot, t, q, v, tau):
 
 
 @kernel
+def _computed_torque_eval(src, tree, ps, t, q, v, ws, tau):
+    nv = v.shape[0]
+    qr = ws[1][0]
+    vr = ws[1][1]
+    ar = ws[1][2]
+    reference_at(src.times, src.table, nv, t, qr, vr, ar)
+    for i in range(nv):
+        ar[i] += src.gains[1, i] * (vr[i] - v[i]) + src.gains[0, i] * (qr[i] - q[i])
+    rnea_into(tree, q, v, ar, ps.gravity, ps.f_ext, ws[0], tau)
+    pas = ws[1][3]
+    passive_torques(ps, q, v, pas)
+    for i in range(nv):
+        tau[i] -= pas[i]
+
+
+def _computed_torques(src, tree, ps, t, q, v, ws, tau):
+    """The COMPUTED_TORQUE branch of :func:`torque_eval` (compiled code only): nothing is compiled when the
+    source workspace has no RNEA workspace (:func:`source_workspace`: a source of another kind)."""
+    raise NotImplementedError
+
+
+@overload(_computed_torques, jit_options=JIT_OPTIONS)
+def _ov_computed_torques(src, tree, ps, t, q, v, ws, tau):
+    if isinstance(ws.types[0], types.NoneType):
+        return lambda src, tree, ps, t, q, v, ws, tau: None
+    return lambda src, tree, ps, t, q, v, ws, tau: _computed_torque_eval(src, tree, ps, t, q, v, ws, tau)
+
+
+@kernel
 def _operational_space_eval(src, tree, ps, t, q, v, ws, tau):
     x_ref = np.empty((3, 3))
     reference_at(src.times, src.table, 3, t, x_ref[0], x_ref[1], x_ref[2])
@@ -327,17 +358,7 @@ def torque_eval(src, tree, ps, t, q, v, ws, tau):
         for i in range(nv):
             tau[i] = src.gains[0, i] * e[i] + src.gains[1, i] * (src.gains[2, i] - v[i]) + src.gains[3, i]
     elif kind == COMPUTED_TORQUE:
-        qr = ws[1][0]
-        vr = ws[1][1]
-        ar = ws[1][2]
-        reference_at(src.times, src.table, nv, t, qr, vr, ar)
-        for i in range(nv):
-            ar[i] += src.gains[1, i] * (vr[i] - v[i]) + src.gains[0, i] * (qr[i] - q[i])
-        rnea_into(tree, q, v, ar, ps.gravity, ps.f_ext, ws[0], tau)
-        pas = ws[1][3]
-        passive_torques(ps, q, v, pas)
-        for i in range(nv):
-            tau[i] -= pas[i]
+        _computed_torques(src, tree, ps, t, q, v, ws, tau)
     elif kind == OPERATIONAL_SPACE:
         _operational_space_torques(src, tree, ps, t, q, v, ws, tau)
     else:
@@ -454,6 +475,14 @@ def _operational_space_source(model, spec):
     return Source(OPERATIONAL_SPACE, times, np.ascontiguousarray(np.concatenate([p, pd, pdd], 1)), gains, qref,
                   -1, model.frame_arrays, f, rows.astype(np.int64), task_gains, otab, float(damping),
                   operational_space_workspace(model.tree.parents.shape[0], nv, nq))
+
+
+def source_workspace(source, nb, nv):
+    """Scratch for :func:`torque_eval`: (an RNEA workspace, 4 (nv,) rows).  The RNEA workspace is None unless
+    the source runs the RNEA (computed torque, operational space): the numba type then tells that the
+    computed-torque branch is not used, and it is not compiled (the RNEA and the reference interpolation)."""
+    uses_rnea = source.kind in (COMPUTED_TORQUE, OPERATIONAL_SPACE)
+    return (rnea_workspace(nb) if uses_rnea else None, np.empty((4, nv)))
 
 
 def make_source(model, torque):

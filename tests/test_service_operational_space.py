@@ -109,5 +109,5 @@ def test_a_request_for_a_source_still_compiling_gets_503_saying_how_long(monkeyp
     pool = SimpleNamespace(run=lambda job, deadline: out)
     with pytest.raises(Unavailable) as e:
         Compute._simulate(SimpleNamespace(pool=pool), job, Budget.starting_now(10.0))
-    assert "still compiling the operational-space" in str(e.value) and e.value.headers["Retry-After"].isdigit()
+    assert "still compiling the simulation kernels of the operational-space" in str(e.value) and e.value.headers["Retry-After"].isdigit()
     assert isinstance(out, Outcome)

@@ -27,8 +27,7 @@ from ..aba import workspace as aba_workspace
 from .._numba import deref, inline_kernel, kernel
 from ..configuration import chart_rate, integrate_delta, retract
 from ..joints import JOINT_FREE
-from ..rnea import workspace as rnea_workspace
-from ..torques import passive_torques, torque_eval
+from ..torques import passive_torques, source_workspace, torque_eval
 
 NQUAD = 2  # W_source, W_passive
 
@@ -44,7 +43,7 @@ class RobotProblem(NamedTuple):
     tau_s: np.ndarray  # (nv,) scratch: source torques
     tau_p: np.ndarray  # (nv,) scratch: passive, then total torques
     ws_aba: tuple  # ABA workspace
-    ws_src: tuple  # torque-source workspace (RNEA workspace, 4 scratch (nv,) rows)
+    ws_src: tuple  # torque-source workspace (RNEA workspace or None, 4 scratch (nv,) rows)
     out_t: np.ndarray  # (T,) sample times
     out_q: np.ndarray  # (T, nq) or (0, nq) when q is not kept
     out_v: np.ndarray  # (T, nv) or (0, nv)
@@ -59,7 +58,7 @@ def robot_problem(model, passive, source, q0, out_t, outputs):
     T = out_t.shape[0]
     return RobotProblem(
         model.tree, passive, source, q0.copy(), np.empty(nq), np.empty(nv), np.empty(nv),
-        aba_workspace(nb, nv), (rnea_workspace(nb), np.empty((4, nv))), out_t,
+        aba_workspace(nb, nv), source_workspace(source, nb, nv), out_t,
         np.zeros((T if "q" in outputs else 0, nq)), np.zeros((T if "v" in outputs else 0, nv)),
         np.zeros((T if "tau" in outputs else 0, nv)), np.zeros((T, NQUAD)), np.zeros(1, np.int64))
 

@@ -151,16 +151,20 @@ def warm_up_later() -> None:
     torque = build_torque({"type": "operational_space", "frame": "arm", "position": [0.2, 0.0, -0.4],
                            "kp": 1.0, "kd": 1.0, "rows": [0, 2]})
     lib().simulate(model, np.array([0.1]), np.zeros(1), 0.01, torque=torque)
+    t = np.array([0.0, 0.01])
+    torque = build_torque({"type": "computed_torque", "t": t, "q": np.zeros((2, 1)), "v": np.zeros((2, 1)),
+                           "a": np.zeros((2, 1)), "kp": 1.0, "kd": 1.0})
+    lib().simulate(model, np.array([0.1]), np.zeros(1), 0.01, torque=torque)
 
 
 class LateWarmup:
-    """The simulations compiled after the worker says "ready", in a background thread: the operational-space
-    torque source is its own problem type (its controller is compiled only for it), so the other requests need
-    not wait for it.  A request that needs it waits until its deadline (less a second to answer), then is told
+    """The simulations compiled after the worker says "ready", in a background thread: the operational-space and
+    computed-torque sources are problem types of their own (their controller, their RNEA are compiled only for
+    them), so the other requests need not wait for them.  A request that needs it waits until its deadline (less a second to answer), then is told
     how long it should still take."""
 
     #: the torque types it compiles
-    kinds = ("operational_space",)
+    kinds = ("operational_space", "computed_torque")
     #: seconds it takes from an empty numba cache (2-core machine, loaded); from the cache well under one
     SECONDS = 30.0
 
@@ -187,7 +191,8 @@ class LateWarmup:
     def unavailable(self) -> Outcome:
         elapsed = time.monotonic() - self.started
         left = max(1.0, self.SECONDS - elapsed)
-        return Outcome(unavailable=f"this worker is still compiling the operational-space simulation kernels (for "
+        return Outcome(unavailable=f"this worker is still compiling the simulation kernels of the operational-space "
+                                  f"and computed-torque sources (for "
                                   f"{elapsed:.0f} s, about {left:.0f} s left, once after the service starts "
                                   "with an empty cache); retry then", retry_after=left)
 
