@@ -1,11 +1,11 @@
 """The simulation worker process: ``python -m service.sim.worker FD`` (started by :mod:`service.sim.pool`).
 
 It compiles the simulation kernels first (:func:`warm_up`: a tiny simulation per integrator and problem type),
-says "ready", compiles the operational-space torque source in a background thread (:class:`LateWarmup`), then
-reads :class:`~service.sim.job.Job` records from the connection on file descriptor FD, runs ``dynamics.simulate``
-and sends an :class:`~service.sim.job.Outcome` back. Models are cached per worker by robot id and locked set, as
-in the server. A library error becomes ``input_error`` (the server answers 422 naming the field); the process
-only ends when its connection closes or the server kills it.
+says "ready", compiles the operational-space and computed-torque sources in a background thread
+(:class:`LateWarmup`), then reads :class:`~service.sim.job.Job` records from the connection on file descriptor
+FD, runs ``dynamics.simulate`` and sends an :class:`~service.sim.job.Outcome` back. Models are cached per worker
+by robot id and locked set, as in the server. A library error becomes ``input_error`` (the server answers 422
+naming the field); the process only ends when its connection closes or the server kills it.
 
 The HTTP torque spec (``{"type": "zero" | "constant" | "table" | "pd" | "computed_torque" |
 "operational_space", ...}``) is turned into
@@ -160,13 +160,14 @@ def warm_up_later() -> None:
 class LateWarmup:
     """The simulations compiled after the worker says "ready", in a background thread: the operational-space and
     computed-torque sources are problem types of their own (their controller, their RNEA are compiled only for
-    them), so the other requests need not wait for them.  A request that needs it waits until its deadline (less a second to answer), then is told
-    how long it should still take."""
+    them), so the other requests need not wait for them.  A request that needs them waits until its deadline
+    (less a second to answer), then is told how long they should still take."""
 
     #: the torque types it compiles
     kinds = ("operational_space", "computed_torque")
-    #: seconds it takes from an empty numba cache (2-core machine, loaded); from the cache well under one
-    SECONDS = 30.0
+    #: seconds it takes from an empty numba cache (CPU seconds on a loaded 2-core machine); from the cache well
+    #: under one
+    SECONDS = 45.0
 
     def __init__(self) -> None:
         self.done = threading.Event()
@@ -192,9 +193,8 @@ class LateWarmup:
         elapsed = time.monotonic() - self.started
         left = max(1.0, self.SECONDS - elapsed)
         return Outcome(unavailable=f"this worker is still compiling the simulation kernels of the operational-space "
-                                  f"and computed-torque sources (for "
-                                  f"{elapsed:.0f} s, about {left:.0f} s left, once after the service starts "
-                                  "with an empty cache); retry then", retry_after=left)
+                                  f"and computed-torque sources (for {elapsed:.0f} s, about {left:.0f} s left, once "
+                                  "after the service starts with an empty cache); retry then", retry_after=left)
 
 
 LATER = LateWarmup()
