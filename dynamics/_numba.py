@@ -31,6 +31,11 @@ such borrowed arrays directly: a C-contiguous window of a flat buffer, with no c
 rule applies to the buffer.  :func:`stack_array` is scratch on the kernel's own stack (a heap array costs
 ~0.2 us to allocate): never return it or keep it past the kernel that made it.
 
+**Calls through an address.** :func:`pack` copies a value (a tuple of arrays, borrowed) into a buffer whose
+address :func:`deref` reads back in a function compiled for ``types.CPointer`` of its type; :func:`native_address`
+gives such a function's address and :func:`call_address` calls it from an intrinsic.  The simulation's solvers
+call the problem this way (:mod:`dynamics.simulation.run`), so they compile without the problem's code.
+
 :class:`Kernel` calls a compiled function through its native entry point once its single overload exists,
 skipping the dispatcher's type resolution (~4 us for a model's tuple of arrays).  :class:`Entry` does the same
 for one fixed signature (:func:`single_signature`), the single-state entry points' way in (~60 ns per array).
