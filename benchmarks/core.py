@@ -368,6 +368,9 @@ SIM_COLD_SCRIPT = textwrap.dedent(
         dynamics.simulate(arm, [0.5, 0.2], [0.0, 0.0], 1.0)
     elif sys.argv[2] == "rk4":
         dynamics.simulate(arm, [0.5, 0.2], [0.0, 0.0], 1.0, integrator="rk4", dt=1e-3)
+    elif sys.argv[2] == "os":
+        target = dynamics.torques.Target("tip", [1.2, 0.0, 0.9], kp=100.0, kd=20.0, rows=[0, 2])
+        dynamics.simulate(arm, [0.5, 0.2], [0.0, 0.0], 1.0, torque=target, integrator="rk4", dt=1e-3)
     t2 = time.perf_counter()
     cpu = resource.getrusage(resource.RUSAGE_SELF)
     print(json.dumps({"library": t1 - t0, "simulate": t2 - t1, "cpu": cpu.ru_utime + cpu.ru_stime}))
@@ -376,7 +379,8 @@ SIM_COLD_SCRIPT = textwrap.dedent(
 
 SIM_COLD_CASES = (("library", "import + load_urdf + first inverse_dynamics"),
                   ("default", "... + first simulate, default integrator (auto)"),
-                  ("rk4", "... + first simulate, integrator='rk4'"))
+                  ("rk4", "... + first simulate, integrator='rk4'"),
+                  ("os", "... + first simulate, rk4, operational-space torque (Target)"))
 
 
 def bench_cold_simulation(urdf: str) -> list[dict]:

@@ -31,6 +31,11 @@ such borrowed arrays directly: a C-contiguous window of a flat buffer, with no c
 rule applies to the buffer.  :func:`stack_array` is scratch on the kernel's own stack (a heap array costs
 ~0.2 us to allocate): never return it or keep it past the kernel that made it.
 
+**Calls through an address.** :func:`pack` copies a value (a tuple of arrays, borrowed) into a buffer whose
+address :func:`deref` reads back in a function compiled for ``types.CPointer`` of its type; :func:`native_address`
+gives such a function's address and :func:`call_address` calls it from an intrinsic.  The simulation's solvers
+call the problem this way (:mod:`dynamics.simulation.run`), so they compile without the problem's code.
+
 :class:`Kernel` calls a compiled function through its native entry point once its single overload exists,
 skipping the dispatcher's type resolution (~4 us for a model's tuple of arrays).  :class:`Entry` does the same
 for one fixed signature (:func:`single_signature`), the single-state entry points' way in (~60 ns per array).
@@ -210,3 +215,71 @@ class Entry:
     def call(self, *args):
         self.call = self.dispatcher.compile(self.signature)
         return self.call(*args)
+
+
+# ---------------------------------------------------------------------------------------------------
+# Calls through an address (an opaque boundary for the compiler)
+#
+# numba links the code of every function a compiled function calls into it and optimises the whole again: a
+# solver that calls the robot's right-hand side directly re-optimises the ABA and the torque source once per
+# solver entry point.  The devices below let a caller hold a value of any type as a plain address
+# (:func:`pack`, :func:`deref`) and call a compiled function through its address (:func:`call_address`), so
+# the caller compiles without the callee's code and once for every problem type.  The rule: whoever holds
+# the address keeps the packed value's owner (and the arrays it refers to) alive while the call runs.
+
+@intrinsic
+def _sizeof(typingctx, x):
+    def codegen(context, builder, sig, args):
+        return context.get_constant(types.intp, context.get_abi_sizeof(context.get_data_type(sig.args[0])))
+    return types.intp(x), codegen
+
+
+@intrinsic
+def _store(typingctx, buf, x):
+    def codegen(context, builder, sig, args):
+        data = context.make_array(sig.args[0])(context, builder, args[0]).data
+        ptr = builder.bitcast(data, context.get_data_type(sig.args[1]).as_pointer())
+        context.pack_value(builder, sig.args[1], _borrow_value(context, builder, sig.args[1], args[1]), ptr)
+        return context.get_dummy_value()
+    return types.none(buf, x), codegen
+
+
+@kernel
+def pack(x):
+    """A copy of the value ``x`` (a tuple of arrays, nested) in an int64 buffer, its arrays borrowed (NULL
+    owner): ``buf.ctypes.data`` is a pointer :func:`deref` reads back.  Keep ``x`` alive while it is used."""
+    buf = np.empty((_sizeof(x) + 7) // 8, np.int64)
+    _store(buf, x)
+    return buf
+
+
+@intrinsic
+def deref(typingctx, ptr):
+    """The value a ``types.CPointer(T)`` argument points to (written by :func:`pack`); any other value is
+    returned as it is, so one function serves a value and a pointer to it."""
+    if not isinstance(ptr, types.CPointer):
+        return ptr(ptr), lambda context, builder, sig, args: args[0]
+
+    def codegen(context, builder, sig, args):
+        return context.unpack_value(builder, sig.return_type, args[0])
+    return ptr.dtype(ptr), codegen
+
+
+def native_address(dispatcher, signature):
+    """The address of ``dispatcher``'s compiled function for ``signature`` (compiled, or loaded from the cache,
+    now) in numba's native calling convention, for :func:`call_address`."""
+    dispatcher.compile(signature)
+    cres = dispatcher.overloads[tuple(signature.args)]
+    return cres.library.get_pointer_to_function(cres.fndesc.llvm_func_name)
+
+
+def call_address(context, builder, address, signature, args):
+    """Lower a call of the function at ``address`` (an i64 from :func:`native_address`) whose numba signature
+    is ``signature`` (the first argument a pointer: ``types.voidptr`` here, ``CPointer(T)`` in the callee);
+    an exception raised by the callee propagates.  For intrinsics' codegen."""
+    fnty = context.call_conv.get_function_type(signature.return_type, signature.args)
+    fn = builder.inttoptr(address, fnty.as_pointer())
+    status, out = context.call_conv.call_function(builder, fn, signature.return_type, signature.args, args)
+    with cgutils.if_unlikely(builder, status.is_error):
+        context.call_conv.return_status_propagate(builder, status)
+    return out

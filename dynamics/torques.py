@@ -40,17 +40,19 @@ import warnings
 from typing import NamedTuple
 
 import numpy as np
-from numba import objmode
+from numba import objmode, types
 from numba.core.errors import NumbaWarning
+from numba.extending import overload
 
 from . import checks
 from .errors import InputError
-from ._numba import gil_kernel, inline_kernel, kernel
+from ._numba import JIT_OPTIONS, gil_kernel, inline_kernel, kernel
 from .configuration import difference
 from .crba import mass_matrix
 from .operational_space import operational_space_into
 from .operational_space import workspace as operational_space_workspace
 from .rnea import rnea_into
+from .rnea import workspace as rnea_workspace
 from .spatial import rotation_log
 
 
@@ -64,7 +66,10 @@ KIND_NAMES = ("zero", "constant", "table_linear", "table_zoh", "pd", "computed_t
 
 
 class Source(NamedTuple):
-    """Compiled form of a torque source (identical numba type for every kind)."""
+    """Compiled form of a torque source: one numba type for every kind except the operational space, whose
+    workspace ``ws`` is None in the others, so a simulation compiles the operational-space controller (the
+    largest source by far: a mass-matrix inverse, a Jacobian, an r x r solve) only when it uses one (and
+    the computed torque's RNEA only with an RNEA workspace, :func:`source_workspace`)."""
 
     kind: int
     times: np.ndarray  # (N,) table or reference times
@@ -79,7 +84,8 @@ class Source(NamedTuple):
     task_gains: np.ndarray  # (2, 6): Kp, Kd per task row
     orientation: np.ndarray  # (N, 12): reference orientation R_k (9) and psi_k = log(R_k+1 R_k^T) (3)
     damping: float  # added to the diagonal of J M^-1 J^T
-    ws: tuple  # operational_space.workspace: scratch, so one Source serves one simulation at a time (as it does)
+    ws: object  # operational_space.workspace (None for the other kinds): scratch, so one Source serves one
+    #             simulation at a time (as it does)
 
 
 class Passive(NamedTuple):
@@ -269,6 +275,59 @@ def _torque_callable(slot, t, q, v, tau):
         _call_torque(slot, t, q, v, tau)
 
 
+@kernel
+def _computed_torque_eval(src, tree, ps, t, q, v, ws, tau):
+    nv = v.shape[0]
+    qr = ws[1][0]
+    vr = ws[1][1]
+    ar = ws[1][2]
+    reference_at(src.times, src.table, nv, t, qr, vr, ar)
+    for i in range(nv):
+        ar[i] += src.gains[1, i] * (vr[i] - v[i]) + src.gains[0, i] * (qr[i] - q[i])
+    rnea_into(tree, q, v, ar, ps.gravity, ps.f_ext, ws[0], tau)
+    pas = ws[1][3]
+    passive_torques(ps, q, v, pas)
+    for i in range(nv):
+        tau[i] -= pas[i]
+
+
+def _computed_torques(src, tree, ps, t, q, v, ws, tau):
+    """The COMPUTED_TORQUE branch of :func:`torque_eval` (compiled code only): nothing is compiled when the
+    source workspace has no RNEA workspace (:func:`source_workspace`: a source of another kind)."""
+    raise NotImplementedError
+
+
+@overload(_computed_torques, jit_options=JIT_OPTIONS)
+def _ov_computed_torques(src, tree, ps, t, q, v, ws, tau):
+    if isinstance(ws.types[0], types.NoneType):
+        return lambda src, tree, ps, t, q, v, ws, tau: None
+    return lambda src, tree, ps, t, q, v, ws, tau: _computed_torque_eval(src, tree, ps, t, q, v, ws, tau)
+
+
+@kernel
+def _operational_space_eval(src, tree, ps, t, q, v, ws, tau):
+    x_ref = np.empty((3, 3))
+    reference_at(src.times, src.table, 3, t, x_ref[0], x_ref[1], x_ref[2])
+    if t < src.times[0] or t > src.times[-1]:  # hold the end position at rest
+        x_ref[1:] = 0.0
+    pas = ws[1][3]
+    passive_torques(ps, q, v, pas)
+    operational_space_into(src, tree, ps.gravity, ps.f_ext, t, q, v, x_ref, pas, ws[0], tau)
+
+
+def _operational_space_torques(src, tree, ps, t, q, v, ws, tau):
+    """The OPERATIONAL_SPACE branch of :func:`torque_eval` (compiled code only): nothing is compiled for a
+    Source without the operational-space workspace (never of that kind)."""
+    raise NotImplementedError
+
+
+@overload(_operational_space_torques, jit_options=JIT_OPTIONS)
+def _ov_operational_space_torques(src, tree, ps, t, q, v, ws, tau):
+    if isinstance(src.types[src.fields.index("ws")], types.NoneType):
+        return lambda src, tree, ps, t, q, v, ws, tau: None
+    return lambda src, tree, ps, t, q, v, ws, tau: _operational_space_eval(src, tree, ps, t, q, v, ws, tau)
+
+
 @inline_kernel
 def torque_eval(src, tree, ps, t, q, v, ws, tau):
     """tau = the source's applied torques at (t, q, v).  ws: (rnea workspace, 4 scratch (nv,) rows)."""
@@ -299,25 +358,9 @@ def torque_eval(src, tree, ps, t, q, v, ws, tau):
         for i in range(nv):
             tau[i] = src.gains[0, i] * e[i] + src.gains[1, i] * (src.gains[2, i] - v[i]) + src.gains[3, i]
     elif kind == COMPUTED_TORQUE:
-        qr = ws[1][0]
-        vr = ws[1][1]
-        ar = ws[1][2]
-        reference_at(src.times, src.table, nv, t, qr, vr, ar)
-        for i in range(nv):
-            ar[i] += src.gains[1, i] * (vr[i] - v[i]) + src.gains[0, i] * (qr[i] - q[i])
-        rnea_into(tree, q, v, ar, ps.gravity, ps.f_ext, ws[0], tau)
-        pas = ws[1][3]
-        passive_torques(ps, q, v, pas)
-        for i in range(nv):
-            tau[i] -= pas[i]
+        _computed_torques(src, tree, ps, t, q, v, ws, tau)
     elif kind == OPERATIONAL_SPACE:
-        x_ref = np.empty((3, 3))
-        reference_at(src.times, src.table, 3, t, x_ref[0], x_ref[1], x_ref[2])
-        if t < src.times[0] or t > src.times[-1]:  # hold the end position at rest
-            x_ref[1:] = 0.0
-        pas = ws[1][3]
-        passive_torques(ps, q, v, pas)
-        operational_space_into(src, tree, ps.gravity, ps.f_ext, t, q, v, x_ref, pas, ws[0], tau)
+        _operational_space_torques(src, tree, ps, t, q, v, ws, tau)
     else:
         _torque_callable(src.slot, t, q, v, tau)
 
@@ -354,10 +397,9 @@ def _times(name, t):
 def _source_for(model):
     """Source(...) with the operational-space fields set to placeholders of the right types."""
     frames, rows, task_gains, orientation = model.frame_arrays, np.zeros(0, np.int64), np.zeros((2, 6)), _IDENTITY
-    ws = operational_space_workspace(0, 0, 0)
 
     def build(kind, times, table, gains, qref, slot):
-        return Source(kind, times, table, gains, qref, slot, frames, -1, rows, task_gains, orientation, 0.0, ws)
+        return Source(kind, times, table, gains, qref, slot, frames, -1, rows, task_gains, orientation, 0.0, None)
     return build
 
 
@@ -433,6 +475,14 @@ def _operational_space_source(model, spec):
     return Source(OPERATIONAL_SPACE, times, np.ascontiguousarray(np.concatenate([p, pd, pdd], 1)), gains, qref,
                   -1, model.frame_arrays, f, rows.astype(np.int64), task_gains, otab, float(damping),
                   operational_space_workspace(model.tree.parents.shape[0], nv, nq))
+
+
+def source_workspace(source, nb, nv):
+    """Scratch for :func:`torque_eval`: (an RNEA workspace, 4 (nv,) rows).  The RNEA workspace is None unless
+    the source runs the RNEA (computed torque, operational space): the numba type then tells that the
+    computed-torque branch is not used, and it is not compiled (the RNEA and the reference interpolation)."""
+    uses_rnea = source.kind in (COMPUTED_TORQUE, OPERATIONAL_SPACE)
+    return (rnea_workspace(nb) if uses_rnea else None, np.empty((4, nv)))
 
 
 def make_source(model, torque):

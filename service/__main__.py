@@ -57,6 +57,7 @@ def warmup() -> int:
                                                          f"robots", dynamics_kernels)]
     if settings.sim_workers > 0:  # no simulation, no warming
         stages.append(Stage("compiling simulation kernels", worker.warm_up))
+        stages.append(Stage("compiling the operational-space simulation kernels", worker.warm_up_later))
     run = Warmup()
     run.run(stages)
     print(f"warmup: compiled kernels on {len(robots)} bundled robots in {run.seconds:.1f} s")

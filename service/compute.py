@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
+import dataclasses
 import math
 import time
 from concurrent.futures import ThreadPoolExecutor
@@ -323,7 +324,7 @@ class Compute:
 
     def _simulate(self, job: Job, budget: Budget) -> dict[str, Any]:
         try:
-            outcome = self.pool.run(job, budget.deadline)
+            outcome = self.pool.run(dataclasses.replace(job, deadline=budget.deadline), budget.deadline)
         except PoolTimeout:
             raise BudgetExceeded(f"the simulation of {job.duration:g} s", budget.seconds,
                                  "shorten the duration, loosen rtol/atol or use a larger dt") from None
@@ -335,4 +336,7 @@ class Compute:
             raise InvalidInput(outcome.input_error, field_of(outcome.input_error))
         if outcome.error is not None:
             raise Failed(f"simulate: {outcome.error}")
+        if outcome.unavailable is not None:  # a kernel the worker compiles in the background (sim/worker.py)
+            raise Unavailable(f"simulate: {outcome.unavailable}", code="starting",
+                              headers={"Retry-After": str(int(min(60, max(1, math.ceil(outcome.retry_after)))))})
         return outcome.trajectory

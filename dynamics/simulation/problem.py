@@ -24,11 +24,10 @@ import numpy as np
 
 from ..aba import aba_into
 from ..aba import workspace as aba_workspace
-from .._numba import inline_kernel, kernel
+from .._numba import deref, inline_kernel, kernel
 from ..configuration import chart_rate, integrate_delta, retract
 from ..joints import JOINT_FREE
-from ..rnea import workspace as rnea_workspace
-from ..torques import passive_torques, torque_eval
+from ..torques import passive_torques, source_workspace, torque_eval
 
 NQUAD = 2  # W_source, W_passive
 
@@ -44,7 +43,7 @@ class RobotProblem(NamedTuple):
     tau_s: np.ndarray  # (nv,) scratch: source torques
     tau_p: np.ndarray  # (nv,) scratch: passive, then total torques
     ws_aba: tuple  # ABA workspace
-    ws_src: tuple  # torque-source workspace (RNEA workspace, 4 scratch (nv,) rows)
+    ws_src: tuple  # torque-source workspace (RNEA workspace or None, 4 scratch (nv,) rows)
     out_t: np.ndarray  # (T,) sample times
     out_q: np.ndarray  # (T, nq) or (0, nq) when q is not kept
     out_v: np.ndarray  # (T, nv) or (0, nv)
@@ -59,7 +58,7 @@ def robot_problem(model, passive, source, q0, out_t, outputs):
     T = out_t.shape[0]
     return RobotProblem(
         model.tree, passive, source, q0.copy(), np.empty(nq), np.empty(nv), np.empty(nv),
-        aba_workspace(nb, nv), (rnea_workspace(nb), np.empty((4, nv))), out_t,
+        aba_workspace(nb, nv), source_workspace(source, nb, nv), out_t,
         np.zeros((T if "q" in outputs else 0, nq)), np.zeros((T if "v" in outputs else 0, nv)),
         np.zeros((T if "tau" in outputs else 0, nv)), np.zeros((T, NQUAD)), np.zeros(1, np.int64))
 
@@ -97,6 +96,7 @@ def chart_and_velocity(p, z, dz):
 @kernel
 def rhs(p, t, z, dz):
     """dz = f(t, z): chart rate, ABA accelerations (NaN when the articulated inertia is singular), powers."""
+    p = deref(p)
     nv = p.tau_s.shape[0]
     q, v = chart_and_velocity(p, z, dz)
     power_s, power_p = applied_torques(p, t, q, v)
@@ -110,6 +110,7 @@ def rhs(p, t, z, dz):
 def rebase(p, t, z, dz, mag):
     """Fold the chart coordinates into ``base``, rewrite dz's chart part for the new chart, and the
     magnitudes of the state for the relative tolerance (|q| per 1-dof coordinate and free-flyer position)."""
+    p = deref(p)
     tree, base = p.tree, p.base
     nv = p.tau_s.shape[0]
     retract(tree, base, z[:nv], p.qbuf)
@@ -128,6 +129,7 @@ def rebase(p, t, z, dz, mag):
 
 @kernel
 def euler_config(p, z, h):
+    p = deref(p)
     nv = p.tau_s.shape[0]
     integrate_delta(p.tree, p.base, z[nv:2 * nv], h, z[:nv])
 
@@ -136,6 +138,7 @@ def euler_config(p, z, h):
 def emit(p, j, t, z):
     """Write sample j.  An output the caller did not ask for has zero rows: it is neither kept nor, for the
     torques, computed."""
+    p = deref(p)
     nv = p.tau_s.shape[0]
     p.out_t[j] = t
     q = p.out_q[j] if p.out_q.shape[0] > 0 else p.qbuf  # qbuf is free between right-hand-side evaluations

@@ -7,6 +7,7 @@ turns it into a ``dynamics.simulate`` call (:mod:`service.sim.worker`), where th
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Any, Optional
 
@@ -30,14 +31,18 @@ class Job:
     options: dict[str, Any]       # keyword arguments of dynamics.simulate that the request gave
     torque: Optional[dict[str, Any]]  # the HTTP torque spec ({"type": "pd", ...}), None for no torque
     max_steps: int                # the service's step budget, whatever the request says
+    deadline: float = math.inf    # the request's deadline on time.monotonic's clock (the same in every process)
 
 
 @dataclass(frozen=True)
 class Outcome:
-    """A worker's answer: the trajectory (t, q, v, tau, report), or the library's input error, or a failure."""
+    """A worker's answer: the trajectory (t, q, v, tau, report), or the library's input error, or a failure, or
+    ``unavailable``: what the worker still compiles and for how long (``retry_after`` seconds, about)."""
     trajectory: Optional[dict[str, Any]] = None
     input_error: Optional[str] = None
     error: Optional[str] = None
+    unavailable: Optional[str] = None
+    retry_after: float = 0.0
 
 
 def build_job(record: RobotRecord, locked: tuple, req: SimulateRequest, settings: Settings) -> Job:

@@ -1,10 +1,11 @@
 """The simulation worker process: ``python -m service.sim.worker FD`` (started by :mod:`service.sim.pool`).
 
-It compiles the simulation kernels first (:func:`warm_up`: a tiny simulation per torque kind), says "ready", then
-reads :class:`~service.sim.job.Job` records from the connection on file descriptor FD, runs ``dynamics.simulate``
-and sends an :class:`~service.sim.job.Outcome` back. Models are cached per worker by robot id and locked set, as
-in the server. A library error becomes ``input_error`` (the server answers 422 naming the field); the process
-only ends when its connection closes or the server kills it.
+It compiles the simulation kernels first (:func:`warm_up`: a tiny simulation per integrator and problem type),
+says "ready", compiles the operational-space and computed-torque sources in a background thread
+(:class:`LateWarmup`), then reads :class:`~service.sim.job.Job` records from the connection on file descriptor
+FD, runs ``dynamics.simulate`` and sends an :class:`~service.sim.job.Outcome` back. Models are cached per worker
+by robot id and locked set, as in the server. A library error becomes ``input_error`` (the server answers 422
+naming the field); the process only ends when its connection closes or the server kills it.
 
 The HTTP torque spec (``{"type": "zero" | "constant" | "table" | "pd" | "computed_torque" |
 "operational_space", ...}``) is turned into
@@ -15,6 +16,8 @@ from __future__ import annotations
 
 import math
 import sys
+import threading
+import time
 import traceback
 from multiprocessing.connection import Connection
 from typing import Any
@@ -88,9 +91,15 @@ def finite_report(obj: Any) -> Any:
     return str(obj)
 
 
-def simulate(model, job: Job) -> dict[str, Any]:
+def simulate(model, job: Job) -> dict[str, Any] | Outcome:
+    """The trajectory of ``job``, or (a torque source still compiling past the job's deadline) the Outcome
+    that says so."""
     options = dict(job.options)
     torque = build_torque(job.torque)
+    if job.torque is not None and job.torque["type"] in LATER.kinds and not LATER.done.is_set():
+        lib().torques.make_source(model, torque)  # a bad spec is answered (422) at once, not after the wait
+        if not LATER.wait(job.deadline):
+            return LATER.unavailable()
     if torque is not None:
         options["torque"] = torque
     # The step budget is the service's: a runaway adaptive run ends in a clear "max_steps: ..." 422 rather than
@@ -109,7 +118,8 @@ def handle(job: Job, cache: ModelCache) -> Outcome:
         if job.locked:
             full = model
             model = cache.get_or_load((job.robot_id, job.locked), lambda: reduce_model(full, job.locked))
-        return Outcome(trajectory=simulate(model, job))
+        out = simulate(model, job)
+        return out if isinstance(out, Outcome) else Outcome(trajectory=out)
     except InvalidInput as e:  # our own reading of the request (a URDF refused, an unknown torque type)
         return Outcome(input_error=e.detail)
     except ValueError as e:  # the library's InputError, URDFError, DynamicsError: the message names the field
@@ -137,6 +147,61 @@ def warm_up() -> None:
     dyn.simulate(four_bar, q, np.zeros(four_bar.nv), 0.01)
 
 
+def warm_up_later() -> None:
+    """The simulations :class:`LateWarmup` compiles (``python -m service --warmup`` runs it too)."""
+    model = load_model(WARMUP_URDF, floating_base=False)
+    torque = build_torque({"type": "operational_space", "frame": "arm", "position": [0.2, 0.0, -0.4],
+                           "kp": 1.0, "kd": 1.0, "rows": [0, 2]})
+    lib().simulate(model, np.array([0.1]), np.zeros(1), 0.01, torque=torque)
+    t = np.array([0.0, 0.01])
+    torque = build_torque({"type": "computed_torque", "t": t, "q": np.zeros((2, 1)), "v": np.zeros((2, 1)),
+                           "a": np.zeros((2, 1)), "kp": 1.0, "kd": 1.0})
+    lib().simulate(model, np.array([0.1]), np.zeros(1), 0.01, torque=torque)
+
+
+class LateWarmup:
+    """The simulations compiled after the worker says "ready", in a background thread: the operational-space and
+    computed-torque sources are problem types of their own (their controller, their RNEA are compiled only for
+    them), so the other requests need not wait for them.  A request that needs them waits until its deadline
+    (less a second to answer), then is told how long they should still take."""
+
+    #: the torque types it compiles
+    kinds = ("operational_space", "computed_torque")
+    #: seconds it takes from an empty numba cache (CPU seconds on a loaded 2-core machine); from the cache well
+    #: under one
+    SECONDS = 45.0
+
+    def __init__(self) -> None:
+        self.done = threading.Event()
+        self.started = time.monotonic()
+
+    def start(self) -> None:
+        self.started = time.monotonic()
+        threading.Thread(target=self._run, daemon=True, name="late-warm-up").start()
+
+    def _run(self) -> None:
+        try:
+            warm_up_later()
+        except Exception:  # noqa: BLE001 - the requests that need it compile it themselves and report
+            traceback.print_exc()
+        finally:
+            self.done.set()
+
+    def wait(self, deadline: float) -> bool:
+        """Whether it is done, waiting for it until ``deadline`` (time.monotonic) less a second."""
+        return self.done.is_set() or self.done.wait(max(0.0, deadline - time.monotonic() - 1.0))
+
+    def unavailable(self) -> Outcome:
+        elapsed = time.monotonic() - self.started
+        left = max(1.0, self.SECONDS - elapsed)
+        return Outcome(unavailable=f"this worker is still compiling the simulation kernels of the operational-space "
+                                  f"and computed-torque sources (for {elapsed:.0f} s, about {left:.0f} s left, once "
+                                  "after the service starts with an empty cache); retry then", retry_after=left)
+
+
+LATER = LateWarmup()
+
+
 def main(fd: int) -> None:
     conn = Connection(fd)
     cache = ModelCache(16)
@@ -150,6 +215,7 @@ def main(fd: int) -> None:
         conn.send("ready")
     except OSError:
         return
+    LATER.start()
     while True:
         try:
             job = conn.recv()

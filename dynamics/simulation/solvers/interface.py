@@ -4,7 +4,10 @@ named options and statistics, and the statuses.
 **Problem.** A problem ``p`` is an instance of a ``typing.NamedTuple`` subclass that carries four njit
 functions as class attributes; the solvers reach them through the static calls below
 (:func:`_static_call`), resolved at compile time from ``type(p)`` (so the callers stay cacheable, which
-passing functions as arguments would not):
+passing functions as arguments would not).  Or ``p`` is a :class:`Handle`: the address of a problem value and
+of its functions compiled for a pointer to it (:func:`dynamics.simulation.run.handle`); the same calls then go
+through those addresses, so a solver compiled for a Handle serves every problem type and holds none of the
+problem's code (the library's simulations run this way; the plain form serves the solvers' own tests):
 
 * ``rhs(p, t, z, dz)``: write dz = f(t, z);
 * ``rebase(p, t, z, dz, mag)``: called after every accepted step (t: the time reached).  A problem that integrates in a moving chart
@@ -39,6 +42,8 @@ from typing import NamedTuple
 import numpy as np
 from numba.core import types
 from numba.extending import intrinsic
+
+from ..._numba import call_address
 
 OK, NONFINITE, BLOWUP, MAX_STEPS, STEP_TOO_SMALL = 0, 1, 2, 3, 4
 STATUS_NAMES = ("ok", "nonfinite", "blowup", "max_steps", "step_too_small")
@@ -99,7 +104,47 @@ def _bound(obj, name):
     return fn
 
 
+class Handle(NamedTuple):
+    """A problem behind an opaque boundary: the address of the problem value (:func:`dynamics._numba.pack`) and
+    of its four functions compiled for a pointer to it (:data:`BY_REFERENCE`).  The solvers compiled for a
+    Handle call the problem through these addresses: they compile once, whatever the problem type, and
+    without the problem's code (the ABA and the torque source are optimised in the problem's functions only)."""
+
+    problem: int
+    rhs: int
+    rebase: int
+    euler_config: int
+    emit: int
+
+
+_VEC = types.float64[::1]
+#: the arguments after the problem of the problem functions called through a :class:`Handle` (the callers'
+#: arguments are cast to these)
+BY_REFERENCE = {"rhs": (types.float64, _VEC, _VEC), "rebase": (types.float64, _VEC, _VEC, _VEC),
+                "euler_config": (_VEC, types.float64), "emit": (types.int64, types.float64, _VEC)}
+_FIELD = {name: Handle._fields.index(name) for name in BY_REFERENCE}
+
+
+def _is_handle(ty):
+    return getattr(ty, "instance_class", None) is Handle
+
+
+def _handle_typer(name, argtys):
+    args = BY_REFERENCE[name]
+    callee = types.none(types.voidptr, *args)
+
+    def codegen(context, builder, sig, llargs):
+        h = llargs[0]
+        ptr = builder.inttoptr(builder.extract_value(h, 0), context.get_value_type(types.voidptr))
+        vals = [ptr] + [context.cast(builder, v, a, b) for v, a, b in zip(llargs[1:], argtys[1:], args)]
+        call_address(context, builder, builder.extract_value(h, _FIELD[name]), callee, vals)
+        return context.get_dummy_value()
+    return types.none(*argtys), codegen
+
+
 def _call_typer(name, typingctx, argtys):
+    if _is_handle(argtys[0]):
+        return _handle_typer(name, argtys)
     fnty = types.Dispatcher(_bound(argtys[0], name))
     sig = typingctx.resolve_function_type(fnty, argtys, {})
     if sig is None:
