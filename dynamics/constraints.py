@@ -37,7 +37,7 @@ from typing import NamedTuple
 import numpy as np
 
 from . import checks
-from ._numba import Kernel, inline_kernel, kernel
+from ._numba import Kernel, inline_kernel, kernel, view
 from .configuration import integrate_q
 from .errors import InputError
 from .kinematics import frame_placement, world_pose
@@ -323,6 +323,14 @@ def close_loops(model, C, m, q, free, tol, max_iter):
 def workspace(nb, nv):
     """World poses, motion axes oS (nv, 6), body velocities V and bias accelerations A (nb, 6) at the origin."""
     return np.empty((nb, 3, 3)), np.empty((nb, 3)), np.empty((nv, 6)), np.empty((nb, 6)), np.empty((nb, 6))
+
+
+@inline_kernel
+def workspace_in(buf, nb, nv):
+    """The same scratch as :func:`workspace`, borrowed from ``buf`` (24 nb + 6 nv floats, kept alive by the
+    caller)."""
+    return (view(buf, 0, (nb, 3, 3)), view(buf, 9 * nb, (nb, 3)), view(buf, 12 * nb, (nv, 6)),
+            view(buf, 12 * nb + 6 * nv, (nb, 6)), view(buf, 18 * nb + 6 * nv, (nb, 6)))
 
 
 @inline_kernel

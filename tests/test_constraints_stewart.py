@@ -209,6 +209,14 @@ def test_redundant_ball_joint_and_locked_actuators(model):
     np.testing.assert_allclose(a2, a1, rtol=0, atol=1e-9 * np.abs(a1).max())
     expect = np.r_[lam1[:3] / 2, lam1[3:], lam1[:3] / 2]
     np.testing.assert_allclose(lam2, expect, rtol=0, atol=1e-9 * np.abs(lam1).max())
+    # and the lectures' formula with numpy's pseudo-inverse of the singular Delassus matrix K = J M^-1 J^T
+    J, gamma = dynamics.constraint_jacobian(twice, q), dynamics.constraint_bias(twice, q, v)
+    M = dynamics.mass_matrix(model, q)
+    f = tau - dynamics.inverse_dynamics(model, q, v, np.zeros(model.nv))
+    K = J @ np.linalg.solve(M, J.T)
+    lam_ref = np.linalg.pinv(K, rcond=1e-12, hermitian=True) @ -(J @ np.linalg.solve(M, f) + gamma)
+    np.testing.assert_allclose(lam2, lam_ref, rtol=0, atol=1e-9 * np.abs(lam_ref).max())
+    np.testing.assert_allclose(a2, np.linalg.solve(M, f + J.T @ lam_ref), rtol=0, atol=1e-9 * np.abs(a1).max())
     # the actuators locked: 18 independent rows on 18 coordinates, nothing can move
     with pytest.raises(dynamics.InputError, match=r"over-constrained.*rank 18 = nv = 18"):
         dynamics.lock_joints(model, {n: 0.0 for n in ACTUATORS})
