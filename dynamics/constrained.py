@@ -46,16 +46,19 @@ with the model) and one ``ws = workspace(model.nbodies, model.nv, m)`` per threa
 """
 
 import numpy as np
+from numba import types
 
 from . import checks
-from ._numba import Kernel, borrowed, inline_kernel, keep_alive, kernel, scratch, view
+from ._numba import (PACKED, VECTOR, Entry, Kernel, borrowed, inline_kernel, keep_alive, kernel, scratch,
+                     single_signature, view)
 from .configuration import integrate_q
-from .constraints import arrays, constraint_terms
+from .constraints import arrays, constraint_terms, packed
+from .constraints import unpack as unpack_constraints
 from .constraints import workspace as terms_workspace
 from .constraints import workspace_in as terms_workspace_in
-from .checks import config_ok, vector_ok
+from .checks import DONE, F64, GENERAL, NOT_ARRAYS, config_ok, vector_ok
 from .errors import InputError
-from .model import Model
+from .model import Model, unpack
 from .crba import crba_into
 from .crba import workspace as crba_workspace
 from .crba import workspace_in as crba_workspace_in
@@ -377,23 +380,22 @@ def constrained_fd_batch(tree, Q, V, T, C, gravity, alpha, beta, out, status):
 
 
 @kernel
-def constrained_fd_single(tree, C, gravity, q, v, tau, alpha, beta):
-    """One state with its inputs checked in the same compiled call: (a, lam, status); status -2: a non-finite
-    input or a zero quaternion (the general path then says which), else as constrained_accel_kernel."""
-    nb, nv, m = tree.parents.shape[0], tree.S.shape[0], C_rows(C)
-    a, lam = np.empty(nv), np.empty(m)
-    if not (config_ok(tree, q.shape[0], q) and vector_ok(v, nv) and vector_ok(tau, nv)):
-        return a, lam, -2
+def constrained_fd_single(packed, packed_C, q, v, tau, alpha, beta, a, lam):
+    """One state from Python into a (nv,) and lam (m,), inputs checked in the same compiled call: DONE, or
+    GENERAL for a non-finite input, a zero quaternion or a singular M (the general path then says which).  The
+    model and its constraints come packed (two arrays to unbox, not nineteen) and the scratch is one buffer."""
+    tree, gravity, nq = unpack(packed)
+    C = unpack_constraints(packed_C)
+    nb, nv, m = tree.parents.shape[0], tree.S.shape[0], lam.shape[0]
+    if not (config_ok(tree, nq, q) and vector_ok(v, nv) and vector_ok(tau, nv)):
+        return GENERAL
     buf = scratch(workspace_size(nb, nv, m))  # one buffer (on the stack when small), not ~30 arrays
     ints = np.empty(nv + m, np.int64)
-    ws = workspace_in(buf, nb, nv, m, ints[:nv], ints[nv:])
-    status = constrained_accel_kernel(borrowed(tree), borrowed(C), gravity, q, v, tau, alpha, beta, borrowed(ws),
-                                      a, lam)  # borrowed: as in constrained_fd_batch
-    keep_alive(tree)
-    keep_alive(C)
+    status = constrained_accel_kernel(tree, C, gravity, q, v, tau, alpha, beta,
+                                      workspace_in(buf, nb, nv, m, ints[:nv], ints[nv:]), a, lam)
     keep_alive(buf)
     keep_alive(ints)
-    return a, lam, status
+    return DONE if status < 0 else GENERAL
 
 
 @kernel
@@ -555,7 +557,8 @@ class _Checked:
 
 
 _fd_batch = _Checked(constrained_fd_batch, -1)
-_fd_single = Kernel(constrained_fd_single)
+_fd_single = Entry(constrained_fd_single, single_signature(PACKED, VECTOR, VECTOR, VECTOR, types.float64,
+                                                           types.float64, VECTOR, VECTOR))
 _project_batch = _Checked(project_batch, -1)
 _id_batch = _Checked(constrained_id_batch, 0)
 
@@ -585,11 +588,13 @@ def constrained_forward_dynamics(model, q, v, tau, *, baumgarte=None, gravity=No
     anchor [N], torques [N m], coupling generalised forces).  A model without constraints gives the ABA's a.
     """
     alpha, beta = baumgarte_gains(baumgarte)
-    if (gravity is None and type(model) is Model and checks.is_state(q, model.nq) and checks.is_state(v, model.nv)
-            and checks.is_state(tau, model.nv)):  # one state: checked and solved in one compiled call
-        a, lam, status = _fd_single(model.tree, arrays(model)[0], model.gravity, q, v, tau, alpha, beta)
-        if status == -1:
-            return a, lam
+    try:  # one state of float64 vectors: checked and solved in one compiled call (dynamics.checks.F64)
+        if gravity is None and q.dtype is v.dtype is tau.dtype is F64 and q.ndim == v.ndim == tau.ndim == 1:
+            a, lam = np.empty(model.nv), np.empty(arrays(model)[1])
+            if _fd_single.call(model.packed, packed(model), q, v, tau, alpha, beta, a, lam) == DONE:
+                return a, lam
+    except NOT_ARRAYS:
+        pass
     Q, (V, T), B, batched = checks.state_batch(model, q, (("v", v, model.nv), ("tau", tau, model.nv)))
     C, m = arrays(model)
     out = np.empty((B, model.nv + m))

@@ -37,7 +37,7 @@ from typing import NamedTuple
 import numpy as np
 
 from . import checks
-from ._numba import Kernel, inline_kernel, kernel, view
+from ._numba import Kernel, float_view, inline_kernel, kernel, view
 from .configuration import integrate_q
 from .errors import InputError
 from .kinematics import frame_placement, world_pose
@@ -225,6 +225,30 @@ def arrays(model):
         cached = resolve(model, model.constraints, weld_T)
         object.__setattr__(model, "_constraint_arrays", cached)
     return cached
+
+
+def packed(model):
+    """The model's :class:`ConstraintArrays` as one read-only int64 array (kept with the model), for a
+    single-state entry point (one argument to unbox instead of seven): [nc, kind, row, body, idx, then the float64
+    bits of R, p, coef]; :func:`unpack` reads it back as views."""
+    cached = model.__dict__.get("_constraint_packed")
+    if cached is None:
+        C, _ = arrays(model)
+        floats = np.concatenate([np.ravel(C.R), np.ravel(C.p), np.ravel(C.coef)]).astype(np.float64)
+        cached = _frozen(np.concatenate([[C.kind.shape[0]], C.kind, C.row, np.ravel(C.body), np.ravel(C.idx),
+                                         floats.view(np.int64)]), np.int64)
+        object.__setattr__(model, "_constraint_packed", cached)
+    return cached
+
+
+@inline_kernel
+def unpack(packed):
+    """:class:`ConstraintArrays` from :func:`packed`: borrowed views, living as long as the call."""
+    nc = packed[0]
+    f = 1 + 8 * nc  # the floats start after nc, kind, row, body (2 nc), idx (4 nc)
+    return ConstraintArrays(view(packed, 1, nc), view(packed, 1 + nc, nc), view(packed, 1 + 2 * nc, (nc, 2)),
+                            float_view(packed, f, (nc, 2, 3, 3)), float_view(packed, f + 18 * nc, (nc, 2, 3)),
+                            view(packed, 1 + 4 * nc, (nc, 4)), float_view(packed, f + 24 * nc, (nc, 2)))
 
 
 def with_constraints(model, constraints, *, at=None):
