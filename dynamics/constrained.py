@@ -202,6 +202,45 @@ def delassus(L, lam, J, Y, K):
 
 
 @kernel
+def cholesky(A, n, tol):
+    """A[:n, :n] = L L^T in place (lower triangle, the upper one not read).  False when a pivot is <= tol."""
+    for j in range(n):
+        d = A[j, j]
+        for k in range(j):
+            d -= A[j, k] * A[j, k]
+        if not d > tol:
+            return False
+        d = np.sqrt(d)
+        A[j, j] = d
+        for r in range(j + 1, n):
+            y = A[r, j]
+            for k in range(j):
+                y -= A[r, k] * A[j, k]
+            A[r, j] = y / d
+    return True
+
+
+@kernel
+def lower_solve(L, n, x):
+    """x[:n] = L[:n, :n]^-1 x[:n] in place (forward substitution)."""
+    for r in range(n):
+        y = x[r]
+        for k in range(r):
+            y -= L[r, k] * x[k]
+        x[r] = y / L[r, r]
+
+
+@kernel
+def upper_solve(L, n, x):
+    """x[:n] = L[:n, :n]^-T x[:n] in place (back substitution)."""
+    for r in range(n - 1, -1, -1):
+        y = x[r]
+        for k in range(r + 1, n):
+            y -= L[k, r] * x[k]
+        x[r] = y / L[r, r]
+
+
+@kernel
 def pinv_solve(K, rhs, rtol, x, L, piv, t):
     """x = K^+ rhs for a symmetric positive semidefinite K (the minimum-norm solution); returns the rank.  No
     allocation: L (m, m), piv (m,) int and t (m,) are scratch, K is overwritten when rows are dependent.
@@ -218,68 +257,25 @@ def pinv_solve(K, rhs, rtol, x, L, piv, t):
     dmax = 0.0
     for r in range(m):
         dmax = max(dmax, K[r, r])
-    full = dmax > 0.0
-    for j in range(m):
-        if not full:
-            break
-        d = K[j, j]
-        for k in range(j):
-            d -= L[j, k] * L[j, k]
-        if d <= CHOLESKY_RTOL * dmax:
-            full = False
-            break
-        d = np.sqrt(d)
-        L[j, j] = d
-        for r in range(j + 1, m):
-            y = K[r, j]
-            for k in range(j):
-                y -= L[r, k] * L[j, k]
-            L[r, j] = y / d
-    if full:
-        for r in range(m):  # L y = rhs, then L^T x = y
-            y = rhs[r]
-            for k in range(r):
-                y -= L[r, k] * x[k]
-            x[r] = y / L[r, r]
-        for r in range(m - 1, -1, -1):
-            y = x[r]
-            for k in range(r + 1, m):
-                y -= L[k, r] * x[k]
-            x[r] = y / L[r, r]
+    L[:, :] = K
+    if dmax > 0.0 and cholesky(L, m, CHOLESKY_RTOL * dmax):
+        x[:] = rhs
+        lower_solve(L, m, x)
+        upper_solve(L, m, x)
         return m
     rank = pivoted_cholesky(K, rtol * dmax, L, piv)
-    for r in range(rank):  # z = L1^-1 (P^T rhs)[:r]
-        y = rhs[piv[r]]
-        for k in range(r):
-            y -= L[r, k] * t[k]
-        t[r] = y / L[r, r]
-    for a in range(rank):  # G = L^T L (rank x rank) in K, then G = C C^T in place
+    for r in range(rank):  # z = L1^-1 (P^T rhs)[:r] in t
+        t[r] = rhs[piv[r]]
+    lower_solve(L, rank, t)
+    for a in range(rank):  # G = L^T L (rank x rank, lower triangle) in K
         for b in range(a + 1):
             y = 0.0
             for r in range(m):
                 y += L[r, a] * L[r, b]
             K[a, b] = y
-    for j in range(rank):
-        d = K[j, j]
-        for k in range(j):
-            d -= K[j, k] * K[j, k]
-        d = np.sqrt(d)
-        K[j, j] = d
-        for r in range(j + 1, rank):
-            y = K[r, j]
-            for k in range(j):
-                y -= K[r, k] * K[j, k]
-            K[r, j] = y / d
-    for r in range(rank):  # w = G^-1 z in t
-        y = t[r]
-        for k in range(r):
-            y -= K[r, k] * t[k]
-        t[r] = y / K[r, r]
-    for r in range(rank - 1, -1, -1):
-        y = t[r]
-        for k in range(r + 1, rank):
-            y -= K[k, r] * t[k]
-        t[r] = y / K[r, r]
+    cholesky(K, rank, 0.0)  # positive definite: L's r columns are independent
+    lower_solve(K, rank, t)  # w = G^-1 z
+    upper_solve(K, rank, t)
     for r in range(m):  # x = P L w
         y = 0.0
         for a in range(rank):
