@@ -385,9 +385,12 @@ def constrained_fd_single(packed, packed_C, q, v, tau, alpha, beta, a, lam):
     nb, nv, m = tree.parents.shape[0], tree.S.shape[0], lam.shape[0]
     if not (config_ok(tree, nq, q) and vector_ok(v, nv) and vector_ok(tau, nv)):
         return GENERAL
-    buf = scratch(workspace_size(nb, nv, m))  # one buffer (on the stack when small), not ~30 arrays
+    n = workspace_size(nb, nv, m)
+    buf = scratch(n + 3)  # one buffer (on the stack when small), not ~30 arrays
     ints = np.empty(nv + m, np.int64)
-    status = constrained_accel_kernel(tree, C, gravity, q, v, tau, alpha, beta,
+    g = view(buf, n, 3)  # gravity as a writable array: the batch's type, so both share one compiled kernel
+    g[0], g[1], g[2] = gravity[0], gravity[1], gravity[2]
+    status = constrained_accel_kernel(tree, C, g, q, v, tau, alpha, beta,
                                       workspace_in(buf, nb, nv, m, ints[:nv], ints[nv:]), a, lam)
     keep_alive(buf)
     keep_alive(ints)
