@@ -3,13 +3,14 @@
 Constrained forward dynamics per state, ours (``constrained_forward_dynamics``: KKT through M^-1 with
 minimum-norm multipliers) against Pinocchio's ``constraintDynamics`` (RigidConstraintModel, proximal
 Cholesky), on the lectures' four-bar (robots/four_bar.urdf: a 3-D point closure of a planar loop, one row
-redundant, so Pinocchio needs its proximal damping mu > 0 and iterations) and on the Cassie-like leg
-(robots/cassie_like_leg.urdf, fixed and floating base, a full-rank point closure).  Batched: B states, ours on
-all threads, Pinocchio in a Python loop over one Data (it has no batched form); single calls from Python.
+redundant, so Pinocchio needs its proximal damping mu > 0 and iterations), the Cassie-like leg
+(robots/cassie_like_leg.urdf, fixed and floating base, a full-rank point closure) and the 6-6 Stewart platform
+(robots/stewart_platform.urdf: six point closures, 18 independent rows on 24 coordinates).  Batched: B states,
+ours on all threads, Pinocchio in a Python loop over one Data (it has no batched form); single calls from Python.
 Both sides of a ratio are timed alternately, best of --repeat (the machine is shared).  Before timing, the
 accelerations are compared (the "check" column: largest relative difference).  A last table times the two
-ways to get M for the KKT in a compiled loop (the O(n^2) articulated-body M^-1, against the CRBA and a
-Cholesky factor, which the kernel uses).
+ways to get M for the KKT in a compiled loop (the O(n^2) articulated-body M^-1, against the CRBA and the
+sparse L^T L factor, which the kernel uses).
 Tables are printed and written to benchmarks/out/constraints.md.
 """
 
@@ -29,15 +30,18 @@ OUT = Path(__file__).resolve().parent / "out" / "constraints.md"
 
 
 def cases(dyn):
-    """(name, model with its closure, URDF path, floating, closure frames and points, redundant rows)."""
+    """(name, model with its closures, URDF path or text, floating, redundant rows, closed_states)."""
     fb_text = re.sub(r"<loop .*?</loop>", "", (ROOT / "robots/four_bar.urdf").read_text(), flags=re.S)
     fb = dyn.with_constraints(dyn.load_urdf(fb_text), [dyn.PointConstraint("link2", "link3", (0.35, 0, 0),
                                                                            (0.3, 0, 0))])
     leg = str(ROOT / "robots/cassie_like_leg.urdf")
-    out = [("four-bar (point closure)", fb, fb_text, False, True)]
+    stewart = str(ROOT / "robots/stewart_platform.urdf")
+    out = [("four-bar (point closure)", fb, fb_text, False, True, closed_states)]
     for floating in (False, True):
         out.append((f"Cassie-like leg{' (floating)' if floating else ''}", dyn.load_urdf(leg, floating_base=floating),
-                    leg, floating, False))
+                    leg, floating, False, closed_states))
+    out.append(("Stewart platform (6 point closures)", dyn.load_urdf(stewart), stewart, False, False,
+                stewart_states))
     return out
 
 
@@ -61,24 +65,39 @@ def closed_states(dyn, model, B, rng):
     return Q, V, T
 
 
+def stewart_states(dyn, model, B, rng):
+    """The Stewart platform: 16 platform poses within 5 cm and 0.1 rad of home, the legs assembled to each."""
+    Q = np.empty((B, model.nq))
+    for b in range(min(B, 16)):
+        rotvec = rng.uniform(-0.1, 0.1, 3)
+        angle = np.linalg.norm(rotvec)
+        pose = np.r_[rng.uniform(-0.05, 0.05, 3), np.sin(angle / 2) * rotvec / angle, np.cos(angle / 2)]
+        Q[b] = dyn.assemble(model, model.neutral(), fixed={"platform_joint": pose})
+    base = min(B, 16)
+    Q[base:] = Q[np.arange(base, B) % base]
+    V = dyn.project_velocity(model, Q, rng.normal(size=(B, model.nv)))
+    T = rng.normal(scale=20.0, size=(B, model.nv))
+    return Q, V, T
+
+
 def pinocchio_side(pin, model, source, floating):
     build = pin.buildModelFromXML if source.lstrip().startswith("<") else pin.buildModelFromUrdf
     pm = build(source, pin.JointModelFreeFlyer()) if floating else build(source)
-    con = model.constraints[0]
-    A, B = pin.SE3(np.eye(3), np.array(con.point_a)), pin.SE3(np.eye(3), np.array(con.point_b))
-    fa, fb = pm.frames[pm.getFrameId(con.frame_a)], pm.frames[pm.getFrameId(con.frame_b)]
-    rcm = pin.RigidConstraintModel(pin.ContactType.CONTACT_3D, pm, fa.parentJoint, fa.placement * A,
-                                   fb.parentJoint, fb.placement * B, pin.LOCAL_WORLD_ALIGNED)
     cm, cd = pin.StdVec_RigidConstraintModel(), pin.StdVec_RigidConstraintData()
-    cm.append(rcm)
-    cd.append(rcm.createData())
+    for con in model.constraints:  # every closure is a point closure: CONTACT_3D
+        A, B = pin.SE3(np.eye(3), np.array(con.point_a)), pin.SE3(np.eye(3), np.array(con.point_b))
+        fa, fb = pm.frames[pm.getFrameId(con.frame_a)], pm.frames[pm.getFrameId(con.frame_b)]
+        rcm = pin.RigidConstraintModel(pin.ContactType.CONTACT_3D, pm, fa.parentJoint, fa.placement * A,
+                                       fb.parentJoint, fb.placement * B, pin.LOCAL_WORLD_ALIGNED)
+        cm.append(rcm)
+        cd.append(rcm.createData())
     pd = pm.createData()
     pin.initConstraintDynamics(pm, pd, cm, cd)
     return pm, pd, cm, cd
 
 
-def bench_case(dyn, pin, name, model, source, floating, redundant, B, repeat, rng):
-    Q, V, T = closed_states(dyn, model, B, rng)
+def bench_case(dyn, pin, name, model, source, floating, redundant, states, B, repeat, rng):
+    Q, V, T = states(dyn, model, B, rng)
     pm, pd, cm, cd = pinocchio_side(pin, model, source, floating)
     pmap = PinMap(model, pm)
     Qp, Vp, Tp = pmap.q(Q), pmap.v(V), pmap.v(T)
@@ -104,9 +123,9 @@ def bench_case(dyn, pin, name, model, source, floating, redundant, B, repeat, rn
             "ours_b": t_ours_b / B, "pin_b": t_pin_b / B, "ours_1": t_ours_1, "pin_1": t_pin_1}
 
 
-def bench_minverse(dyn, model, B, repeat, rng):
+def bench_minverse(dyn, model, states, B, repeat, rng):
     """What the KKT needs of M, per state inside a compiled loop (no call overhead): the O(n^2)
-    articulated-body M^-1 (minverse_into) against the CRBA and the in-kernel Cholesky (mass_factor, used)."""
+    articulated-body M^-1 (minverse_into) against the CRBA and the in-kernel L^T L factor (mass_factor, used)."""
     from numba import njit
 
     from dynamics.constrained import mass_factor
@@ -120,16 +139,17 @@ def bench_minverse(dyn, model, B, repeat, rng):
             minverse_into(tree, Q[b], ws, out)
 
     @njit
-    def factor_loop(tree, Q, ws, out):
+    def factor_loop(tree, Q, ws, out, lam):
         for b in range(Q.shape[0]):
-            mass_factor(tree, Q[b], ws, out)
+            mass_factor(tree, Q[b], ws, out, lam)
 
-    Q = closed_states(dyn, model, B, rng)[0]
-    out = np.empty((model.nv, model.nv))
+    Q = states(dyn, model, B, rng)[0]
+    out, lam = np.empty((model.nv, model.nv)), np.empty(model.nv, np.int64)
     wm, wc = minv_ws(model.nbodies, model.nv), crba_ws(model.nbodies)
     minv_loop(model.tree, Q[:2], wm, out)
-    factor_loop(model.tree, Q[:2], wc, out)
-    ta, tb = best_pair(lambda: minv_loop(model.tree, Q, wm, out), lambda: factor_loop(model.tree, Q, wc, out), repeat)
+    factor_loop(model.tree, Q[:2], wc, out, lam)
+    ta, tb = best_pair(lambda: minv_loop(model.tree, Q, wm, out), lambda: factor_loop(model.tree, Q, wc, out, lam),
+                       repeat)
     return ta / B, tb / B
 
 
@@ -146,8 +166,8 @@ def table(header, rows, mrows) -> str:
                  f"{r['ours_b'] / r['pin_b']:.2f} | {us(r['ours_1'])} | {us(r['pin_1'])} | "
                  f"{r['ours_1'] / r['pin_1']:.2f} |")
     L += ["", "M for the KKT, per state in a compiled loop: the articulated-body M^-1 (the first version) against the "
-          "CRBA and a Cholesky factor (used):", "",
-          "| mechanism | articulated-body M^-1 (us) | CRBA + Cholesky (us) |", "|---|---|---|"]
+          "CRBA and the sparse L^T L factor (used):", "",
+          "| mechanism | articulated-body M^-1 (us) | CRBA + L^T L (us) |", "|---|---|---|"]
     for name, ta, tb in mrows:
         L.append(f"| {name} | {us(ta)} | {us(tb)} |")
     return "\n".join(L) + "\n"
@@ -164,9 +184,10 @@ def main(argv=None) -> int:
 
     rng = np.random.default_rng(0)
     rows, mrows = [], []
-    for name, model, source, floating, redundant in cases(dyn):
-        rows.append(bench_case(dyn, pin, name, model, source, floating, redundant, args.batch, args.repeat, rng))
-        mrows.append((name, *bench_minverse(dyn, model, args.batch, args.repeat, rng)))
+    for name, model, source, floating, redundant, states in cases(dyn):
+        rows.append(bench_case(dyn, pin, name, model, source, floating, redundant, states, args.batch, args.repeat,
+                               rng))
+        mrows.append((name, *bench_minverse(dyn, model, states, args.batch, args.repeat, rng)))
     header = machine_header(args.batch, args.repeat)
     header[1] = re.sub(r"Pinocchio \d+ \(ModelPool\)", "Pinocchio in a Python loop over one Data", header[1])
     text = table(header, rows, mrows)

@@ -128,7 +128,8 @@ class PinMap:
         self.v_perm = np.empty(pm.nv, dtype=np.int64)  # pin v index -> our v index
         pin_ids = {name: i for i, name in enumerate(pm.names)}
         for j, name in enumerate(model.joint_names):
-            pj = pm.joints[pin_ids["root_joint" if model.joint_types[j] == "floating" else name]]
+            # a floating joint inside the URDF keeps its name on both sides; an added root is "root_joint"
+            pj = pm.joints[pin_ids[name] if name in pin_ids else pin_ids["root_joint"]]
             qi, vi, nvj = int(model.q_index[j]), int(model.v_index[j]), int(model.nv_joint[j])
             self.q_pairs.append((qi, pj.idx_q, int(model.nq_joint[j]), pj.nq == 2 and pj.nv == 1))
             self.v_perm[pj.idx_v : pj.idx_v + nvj] = np.arange(vi, vi + nvj)

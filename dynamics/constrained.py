@@ -11,17 +11,27 @@ Eliminating a with f = tau - C v - g (the lectures' formula):
     K = J M^-1 J^T (the Delassus matrix),   K lambda = -(J M^-1 f + gamma + 2 alpha J v + beta^2 phi),
     a = M^-1 (f + J^T lambda).
 
-M comes from the CRBA and is factored M = L L^T in the kernel (Y = L^-1 J^T, K = Y^T Y, a = L^-T (L^-1 f + Y
-lambda)); C v + g from the RNEA at a = 0.  Measured (benchmarks/constraints.py): on the Cassie-like leg the
-CRBA and a Cholesky cost less than the O(n^2) articulated-body M^-1 of :mod:`dynamics.minverse`, which the
-first version used.  Redundant rows are normal (a planar loop closed by a 3-D point or hinge
-closure): K is then singular, a stays unique, and lambda is the minimum-norm multiplier, lambda = K^+ rhs,
-with K^+ from K's eigen-decomposition keeping eigenvalues above :data:`RANK_RTOL` times the largest (the
-discarded ones are round-off of exactly dependent rows, ~1e-16 relative).  lambda's rows and frames are those
-of :mod:`dynamics.constraints` (world axes, force on body a at its anchor, torques, coupling forces).
+M comes from the CRBA and is factored M = L^T L with no fill-in (Featherstone 2008, sec. 6.5: L[k, c] != 0
+only where coordinate c is k or an ancestor of k), so that with Y = (L^-T J^T)^T (m, nv): K = Y Y^T,
+J M^-1 f = Y (L^-T f), a = L^-1 (L^-T f + Y^T lambda); C v + g from the RNEA at a = 0.  Measured
+(benchmarks/constraints.py): the CRBA and a factor cost less than the O(n^2) articulated-body M^-1 of
+:mod:`dynamics.minverse`, which the first version used; the L^T L factor rather than a dense Cholesky
+because a branched tree's M is sparse (the Stewart platform's is block diagonal: 1.2 us against 1.8 us per
+state, K 2 us against 4 us), at ~0.1 us more on a floating chain.
 
-Simulation hook (for :mod:`dynamics.simulation`; compiled, single state, no allocation except the eigen-
-decomposition of dependent rows).  With ``C, m = dynamics.constraints.arrays(model)`` (resolved once and kept
+Redundant rows are normal (a planar loop closed by a 3-D point or hinge closure, a closure declared twice): K
+is then singular, a stays unique, and lambda is the minimum-norm multiplier lambda = K^+ rhs.  A Cholesky
+factor of K serves when its pivots stay above :data:`CHOLESKY_RTOL`; otherwise Cholesky with diagonal
+pivoting stops at the rank (the pivots left below :data:`RANK_RTOL` times K's largest diagonal entry are the
+round-off of exactly dependent rows, ~1e-16 relative) and the minimum-norm solution follows from the r x r
+Gram matrix of the factor (:func:`pinv_solve`): no eigen-decomposition, no allocation.  It equals K^+ rhs for
+a right-hand side in K's range, which a closed loop's is (J M^-1 f and J v lie in J's range, and dependent
+rows have dependent gamma and phi); the tests compare it with numpy's pinv(K) rhs and with the even split
+of a closure declared twice, to 1e-9 relative.
+lambda's rows and frames are those of :mod:`dynamics.constraints` (world axes, force on body a at its
+anchor, torques, coupling forces).
+
+Simulation hook (for :mod:`dynamics.simulation`; compiled, single state, no allocation).  With ``C, m = dynamics.constraints.arrays(model)`` (resolved once and kept
 with the model) and one ``ws = workspace(model.nbodies, model.nv, m)`` per thread:
 
 * ``constrained_accel_kernel(tree, C, gravity, q, v, tau, alpha, beta, ws, a_out, lam_out) -> int``: the
@@ -36,24 +46,30 @@ with the model) and one ``ws = workspace(model.nbodies, model.nv, m)`` per threa
 """
 
 import numpy as np
+from numba import types
 
 from . import checks
-from ._numba import Kernel, kernel
+from ._numba import (PACKED, VECTOR, Entry, Kernel, borrowed, inline_kernel, keep_alive, kernel, scratch,
+                     single_signature, view)
 from .configuration import integrate_q
-from .constraints import arrays, constraint_terms
+from .constraints import arrays, constraint_terms, packed
+from .constraints import unpack as unpack_constraints
 from .constraints import workspace as terms_workspace
-from .checks import config_ok, vector_ok
+from .constraints import workspace_in as terms_workspace_in
+from .checks import DONE, F64, GENERAL, NOT_ARRAYS, config_ok, vector_ok
 from .errors import InputError
-from .model import Model
+from .model import Model, unpack
 from .crba import crba_into
 from .crba import workspace as crba_workspace
+from .crba import workspace_in as crba_workspace_in
 from .parallel import run_chunks
 from .rnea import rnea_terms
 from .rnea import workspace as rnea_workspace
+from .rnea import workspace_in as rnea_workspace_in
 
-#: eigenvalues of K (and singular values in the inverse dynamics) below this times the largest are dependent rows
+#: pivots of K's pivoted Cholesky factor below this times K's largest diagonal entry are dependent rows
 RANK_RTOL = 1e-12
-#: a Cholesky pivot of K below this times K's largest diagonal entry sends the solve to the eigen-decomposition
+#: a Cholesky pivot of K below this times K's largest diagonal entry sends the solve to the pivoted factor
 CHOLESKY_RTOL = 1e-10
 #: default Baumgarte gains of a simulation (1/s): a critically damped phi_dd + 2 alpha phi_d + beta^2 phi = 0
 DEFAULT_BAUMGARTE = (10.0, 10.0)
@@ -61,43 +77,153 @@ DEFAULT_BAUMGARTE = (10.0, 10.0)
 
 @kernel
 def workspace(nb, nv, m):
-    """Scratch of one state: kinematics, CRBA, RNEA, then L (nv, nv; M's Cholesky factor), J (m, nv), phi,
-    gamma (m,), f (nv,), Y = L^-1 J^T (nv, m), K (m, m), rhs (m,), an empty f_ext, K's Cholesky factor."""
+    """Scratch of one state: kinematics, CRBA, RNEA, then L (nv, nv; M = L^T L), J (m, nv), phi, gamma (m,),
+    f (nv,), Y = (L^-T J^T)^T (m, nv), K (m, m), rhs (m,), an empty f_ext, K's Cholesky factor (m, m), the
+    parent of each velocity coordinate (nv,), K's pivot order (m,) and an m-vector."""
     return (terms_workspace(nb, nv), crba_workspace(nb), rnea_workspace(nb), np.empty((nv, nv)),
-            np.empty((m, nv)), np.empty(m), np.empty(m), np.empty(nv), np.empty((nv, m)), np.empty((m, m)),
-            np.empty(m), np.zeros((0, 6)), np.empty((m, m)))
+            np.empty((m, nv)), np.empty(m), np.empty(m), np.empty(nv), np.empty((m, nv)), np.empty((m, m)),
+            np.empty(m), np.zeros((0, 6)), np.empty((m, m)), np.empty(nv, np.int64), np.empty(m, np.int64),
+            np.empty(m))
+
+
+@inline_kernel
+def workspace_size(nb, nv, m):
+    """Floats of :func:`workspace_in`'s buffer."""
+    return 79 * nb + 6 * nv + nv * nv + 2 * m * nv + 2 * m * m + 4 * m + nv
+
+
+@inline_kernel
+def workspace_in(buf, nb, nv, m, lam, piv):
+    """The same scratch as :func:`workspace` as views of one buffer (``workspace_size`` floats, kept alive by the
+    caller; lam (nv,) and piv (m,) int64 given): one allocation, or none on the stack, for a single call."""
+    o = 79 * nb + 6 * nv
+    return (terms_workspace_in(buf, nb, nv), crba_workspace_in(view(buf, 24 * nb + 6 * nv, 25 * nb), nb),
+            rnea_workspace_in(view(buf, 49 * nb + 6 * nv, 30 * nb), nb), view(buf, o, (nv, nv)),
+            view(buf, o + nv * nv, (m, nv)), view(buf, o + nv * nv + m * nv, m),
+            view(buf, o + nv * nv + m * nv + m, m), view(buf, o + nv * nv + m * nv + 2 * m, nv),
+            view(buf, o + nv * nv + m * nv + 2 * m + nv, (m, nv)),
+            view(buf, o + nv * nv + 2 * m * nv + 2 * m + nv, (m, m)),
+            view(buf, o + nv * nv + 2 * m * nv + m * m + 2 * m + nv, m), view(buf, 0, (0, 6)),
+            view(buf, o + nv * nv + 2 * m * nv + m * m + 3 * m + nv, (m, m)), lam, piv,
+            view(buf, o + nv * nv + 2 * m * nv + 2 * m * m + 3 * m + nv, m))
 
 
 @kernel
-def mass_factor(tree, q, ws, L):
-    """L = the Cholesky factor of M(q) (lower triangle; M from the CRBA).  Returns -1, or the body whose joint
-    has a non-positive pivot (M singular: the joint moves no mass)."""
+def dof_parents(tree, lam):
+    """lam[k]: the velocity coordinate before k on the path to the root, -1 at the root (Featherstone's
+    lambda over coordinates: the previous coordinate of a multi-coordinate joint, else the parent joint's last)."""
+    parents, v_idx, nv_j = tree.parents, tree.v_idx, tree.nv_j
+    for i in range(parents.shape[0]):
+        p = parents[i]
+        prev = v_idx[p] + nv_j[p] - 1 if p >= 0 else -1
+        for k in range(v_idx[i], v_idx[i] + nv_j[i]):
+            lam[k] = prev
+            prev = k
+
+
+@kernel
+def mass_factor(tree, q, ws, L, lam):
+    """M(q) = L^T L, L lower triangular with L[k, c] != 0 only where c is k or an ancestor coordinate of k: the
+    LTL factorisation of Featherstone 2008, sec. 6.5, Table 6.3, which a tree's M factors with no fill-in
+    (M from the CRBA; lam from :func:`dof_parents`).  Cost sum_k depth(k)^2 rather than nv^3 / 6.  Only the
+    entries at (k, k) and (k, ancestor of k) are L; the others are left as they were (never read).  Returns -1,
+    or the body whose joint has a non-positive pivot (M singular: the joint moves no mass)."""
     nv = L.shape[0]
-    L[:, :] = 0.0
-    crba_into(tree, q, ws, L)
-    for j in range(nv):
-        d = L[j, j]
-        for k in range(j):
-            d -= L[j, k] * L[j, k]
+    crba_into(tree, q, ws, L)  # writes the entries of coordinate pairs on one path to the root, the only ones read
+    dof_parents(tree, lam)
+    for k in range(nv - 1, -1, -1):
+        d = L[k, k]
         if not d > 0.0:
             for i in range(tree.v_idx.shape[0]):
-                if tree.v_idx[i] <= j < tree.v_idx[i] + tree.nv_j[i]:
+                if tree.v_idx[i] <= k < tree.v_idx[i] + tree.nv_j[i]:
                     return i
             return 0
         d = np.sqrt(d)
-        L[j, j] = d
-        for r in range(j + 1, nv):
-            y = L[r, j]
-            for k in range(j):
-                y -= L[r, k] * L[j, k]
-            L[r, j] = y / d
+        L[k, k] = d
+        i = lam[k]
+        while i >= 0:
+            L[k, i] /= d
+            i = lam[i]
+        i = lam[k]
+        while i >= 0:
+            j = i
+            while j >= 0:
+                L[i, j] -= L[k, i] * L[k, j]
+                j = lam[j]
+            i = lam[i]
     return -1
 
 
 @kernel
-def lower_solve(L, x):
-    """x = L^-1 x in place (forward substitution)."""
-    for r in range(x.shape[0]):
+def ltl_solve_t(L, lam, x):
+    """x = L^-T x in place (M^-1 = L^-1 L^-T; from the leaves to the root)."""
+    for i in range(x.shape[0] - 1, -1, -1):
+        x[i] /= L[i, i]
+        j = lam[i]
+        while j >= 0:
+            x[j] -= L[i, j] * x[i]
+            j = lam[j]
+
+
+@kernel
+def ltl_solve(L, lam, x):
+    """x = L^-1 x in place (from the root to the leaves)."""
+    for i in range(x.shape[0]):
+        y = x[i]
+        j = lam[i]
+        while j >= 0:
+            y -= L[i, j] * x[j]
+            j = lam[j]
+        x[i] = y / L[i, i]
+
+
+@kernel
+def delassus(L, lam, J, Y, K):
+    """Y = (L^-T J^T)^T (m, nv; row r = L^-T J[r]) and K = Y Y^T = J M^-1 J^T (m, m)."""
+    m, nv = Y.shape[0], Y.shape[1]
+    for r in range(m):  # ltl_solve_t on each row, written out (no views), skipping the zeros of sparse rows
+        for k in range(nv):
+            Y[r, k] = J[r, k]
+        for i in range(nv - 1, -1, -1):
+            y = Y[r, i] / L[i, i]
+            Y[r, i] = y
+            if y != 0.0:
+                j = lam[i]
+                while j >= 0:
+                    Y[r, j] -= L[i, j] * y
+                    j = lam[j]
+    for r in range(m):
+        for s in range(r, m):
+            y = 0.0
+            for k in range(nv):
+                y += Y[r, k] * Y[s, k]
+            K[r, s] = y
+            K[s, r] = y
+
+
+@kernel
+def cholesky(A, n, tol):
+    """A[:n, :n] = L L^T in place (lower triangle, the upper one not read).  False when a pivot is <= tol."""
+    for j in range(n):
+        d = A[j, j]
+        for k in range(j):
+            d -= A[j, k] * A[j, k]
+        if not d > tol:
+            return False
+        d = np.sqrt(d)
+        A[j, j] = d
+        for r in range(j + 1, n):
+            y = A[r, j]
+            for k in range(j):
+                y -= A[r, k] * A[j, k]
+            A[r, j] = y / d
+    return True
+
+
+@kernel
+def lower_solve(L, n, x):
+    """x[:n] = L[:n, :n]^-1 x[:n] in place (forward substitution)."""
+    for r in range(n):
         y = x[r]
         for k in range(r):
             y -= L[r, k] * x[k]
@@ -105,121 +231,125 @@ def lower_solve(L, x):
 
 
 @kernel
-def upper_solve(L, x):
-    """x = L^-T x in place (back substitution)."""
-    for r in range(x.shape[0] - 1, -1, -1):
+def upper_solve(L, n, x):
+    """x[:n] = L[:n, :n]^-T x[:n] in place (back substitution)."""
+    for r in range(n - 1, -1, -1):
         y = x[r]
-        for k in range(r + 1, x.shape[0]):
+        for k in range(r + 1, n):
             y -= L[k, r] * x[k]
         x[r] = y / L[r, r]
 
 
 @kernel
-def delassus(L, J, Y, K):
-    """Y = L^-1 J^T (nv, m) and K = Y^T Y = J M^-1 J^T (m, m)."""
-    nv, m = Y.shape[0], Y.shape[1]
-    for r in range(m):
-        for k in range(nv):
-            y = J[r, k]
-            for c in range(k):
-                y -= L[k, c] * Y[c, r]
-            Y[k, r] = y / L[k, k]
-    for r in range(m):
-        for s in range(r, m):
-            y = 0.0
-            for k in range(nv):
-                y += Y[k, r] * Y[k, s]
-            K[r, s] = y
-            K[s, r] = y
+def pinv_solve(K, rhs, rtol, x, L, piv, t):
+    """x = K^+ rhs for a symmetric positive semidefinite K (the minimum-norm solution); returns the rank.  No
+    allocation: L (m, m), piv (m,) int and t (m,) are scratch, K is overwritten when rows are dependent.
 
-
-@kernel
-def pinv_solve(K, rhs, rtol, x, L):
-    """x = K^+ rhs for a symmetric positive semidefinite K (minimum-norm least squares); returns the rank.
-
-    Full-rank K (every Cholesky pivot above :data:`CHOLESKY_RTOL` times the largest diagonal entry): a
-    Cholesky solve in L (m, m scratch), no allocation.  Otherwise K's eigen-decomposition, eigenvalues above
-    rtol times the largest kept (the dependent rows' round-off is dropped)."""
+    Full-rank K (every Cholesky pivot above :data:`CHOLESKY_RTOL` times the largest diagonal entry): K = L L^T
+    and two triangular solves.  Otherwise Cholesky with diagonal pivoting, P^T K P = L L^T with L (m, r),
+    stopping where the largest pivot left is below rtol times K's largest diagonal entry (the dependent rows'
+    round-off); then the minimum-norm solution of L^T y = z, L z = P^T rhs (its first r rows), y = L (L^T
+    L)^-1 z, x = P y: K^+ rhs exactly for a right-hand side in K's range (a closed loop's rows are consistent),
+    round-off otherwise."""
     m = K.shape[0]
     if m == 0:
         return 0
     dmax = 0.0
     for r in range(m):
         dmax = max(dmax, K[r, r])
-    full = dmax > 0.0
+    L[:, :] = K
+    if dmax > 0.0 and cholesky(L, m, CHOLESKY_RTOL * dmax):
+        x[:] = rhs
+        lower_solve(L, m, x)
+        upper_solve(L, m, x)
+        return m
+    rank = pivoted_cholesky(K, rtol * dmax, L, piv)
+    for r in range(rank):  # z = L1^-1 (P^T rhs)[:r] in t
+        t[r] = rhs[piv[r]]
+    lower_solve(L, rank, t)
+    for a in range(rank):  # G = L^T L (rank x rank, lower triangle) in K
+        for b in range(a + 1):
+            y = 0.0
+            for r in range(m):
+                y += L[r, a] * L[r, b]
+            K[a, b] = y
+    cholesky(K, rank, 0.0)  # positive definite: L's r columns are independent
+    lower_solve(K, rank, t)  # w = G^-1 z
+    upper_solve(K, rank, t)
+    for r in range(m):  # x = P L w
+        y = 0.0
+        for a in range(rank):
+            y += L[r, a] * t[a]
+        x[piv[r]] = y
+    return rank
+
+
+@kernel
+def pivoted_cholesky(K, tol, L, piv):
+    """P^T K P = L L^T with diagonal pivoting (Golub & Van Loan, Algorithm 4.2.4 as an outer product):
+    columns of L (m, m) beyond the returned rank r are left zero; stops when the largest pivot left is <= tol.
+    piv[i] is the row of K at position i.  L starts as a copy of K; K is not changed."""
+    m = K.shape[0]
+    L[:, :] = K
+    for i in range(m):
+        piv[i] = i
     for j in range(m):
-        if not full:
-            break
-        d = K[j, j]
-        for k in range(j):
-            d -= L[j, k] * L[j, k]
-        if d <= CHOLESKY_RTOL * dmax:
-            full = False
-            break
-        d = np.sqrt(d)
+        p = j
+        for i in range(j + 1, m):
+            if L[i, i] > L[p, p]:
+                p = i
+        if not L[p, p] > tol:
+            for i in range(m):  # the trailing block is the dependent rows' round-off: dropped
+                for c in range(j, m):
+                    L[i, c] = 0.0
+            return j
+        if p != j:  # swap rows and columns j and p (the whole matrix: the trailing block is kept symmetric)
+            piv[j], piv[p] = piv[p], piv[j]
+            for c in range(m):
+                L[j, c], L[p, c] = L[p, c], L[j, c]
+            for r in range(m):
+                L[r, j], L[r, p] = L[r, p], L[r, j]
+        d = np.sqrt(L[j, j])
         L[j, j] = d
         for r in range(j + 1, m):
-            y = K[r, j]
-            for k in range(j):
-                y -= L[r, k] * L[j, k]
-            L[r, j] = y / d
-    if full:
-        for r in range(m):  # L y = rhs, then L^T x = y
-            y = rhs[r]
-            for k in range(r):
-                y -= L[r, k] * x[k]
-            x[r] = y / L[r, r]
-        for r in range(m - 1, -1, -1):
-            y = x[r]
-            for k in range(r + 1, m):
-                y -= L[k, r] * x[k]
-            x[r] = y / L[r, r]
-        return m
-    w, E = np.linalg.eigh(K)
-    cut = rtol * max(w[m - 1], 0.0)
-    x[:] = 0.0
-    rank = 0
-    for k in range(m):
-        if w[k] > cut and w[k] > 0.0:
-            rank += 1
-            c = 0.0
-            for r in range(m):
-                c += E[r, k] * rhs[r]
-            c /= w[k]
-            for r in range(m):
-                x[r] += c * E[r, k]
-    return rank
+            L[r, j] /= d
+        for r in range(j + 1, m):
+            for c in range(j + 1, m):
+                L[r, c] -= L[r, j] * L[c, j]
+        for c in range(j + 1, m):
+            L[j, c] = 0.0
+    return m
 
 
 @kernel
 def constrained_accel_kernel(tree, C, gravity, q, v, tau, alpha, beta, ws, a_out, lam_out):
     """One state: a_out (nv,) and lam_out (m,) of the KKT system (module docstring) with Baumgarte gains alpha,
-    beta (1/s; 0, 0 for none).  ws = workspace(nb, nv, m), reused across calls of one thread.  Returns -1, or
-    the index of a body whose joint makes M singular (then the outputs are not valid).  The single-state entry
-    for a simulation's right-hand side: it allocates only inside the m x m eigen-decomposition."""
-    tws, cws, rws, LM, J, phi, gamma, f, Y, K, rhs, no_forces, LK = ws
+    beta (1/s; 0, 0 for none).  ws = workspace(nb, nv, m) (or workspace_in), reused across calls of one
+    thread.  Returns -1, or the index of a body whose joint makes M singular (then the outputs are not valid).
+    The single-state entry for a simulation's right-hand side: it allocates nothing."""
+    tws, cws, rws, LM, J, phi, gamma, f, Y, K, rhs, no_forces, LK, lam, piv, t = ws
     nv, m = f.shape[0], phi.shape[0]
-    status = mass_factor(tree, q, cws, LM)
+    status = mass_factor(tree, q, cws, LM, lam)
     if status >= 0:
         return status
     rnea_terms(tree, q, v, v, gravity, no_forces, rws, f, True, False)  # f = C v + g
     for k in range(nv):
         f[k] = tau[k] - f[k]
-    lower_solve(LM, f)  # f = L^-1 (tau - C v - g)
+    ltl_solve_t(LM, lam, f)  # f = L^-T (tau - C v - g)
     constraint_terms(tree, C, q, v, True, True, tws, phi, J, gamma)
-    delassus(LM, J, Y, K)
-    for r in range(m):  # rhs = -(J M^-1 f + gamma + 2 alpha J v + beta^2 phi), J M^-1 f = Y^T L^-1 f
+    delassus(LM, lam, J, Y, K)
+    for r in range(m):  # rhs = -(J M^-1 f + gamma + 2 alpha J v + beta^2 phi), J M^-1 f = Y L^-T f
         x = gamma[r] + beta * beta * phi[r]
         for c in range(nv):
-            x += Y[c, r] * f[c] + 2.0 * alpha * J[r, c] * v[c]
+            x += Y[r, c] * f[c] + 2.0 * alpha * J[r, c] * v[c]
         rhs[r] = -x
-    pinv_solve(K, rhs, RANK_RTOL, lam_out, LK)
-    for k in range(nv):  # a = L^-T (L^-1 f + Y lambda)
-        x = f[k]
-        for r in range(m):
-            x += Y[k, r] * lam_out[r]
-        a_out[k] = x
-    upper_solve(LM, a_out)
+    pinv_solve(K, rhs, RANK_RTOL, lam_out, LK, piv, t)
+    for k in range(nv):  # a = L^-1 (L^-T f + Y^T lambda)
+        a_out[k] = f[k]
+    for r in range(m):
+        for k in range(nv):
+            a_out[k] += Y[r, k] * lam_out[r]
+    ltl_solve(LM, lam, a_out)
     return -1
 
 
@@ -227,28 +357,50 @@ def constrained_accel_kernel(tree, C, gravity, q, v, tau, alpha, beta, ws, a_out
 def constrained_fd_batch(tree, Q, V, T, C, gravity, alpha, beta, out, status):
     """out[b] = [a; lambda] of state b (V and T may have one row)."""
     nb, nv, m = tree.parents.shape[0], tree.S.shape[0], out.shape[1] - tree.S.shape[0]
-    ws = workspace(nb, nv, m)
+    ws_owned = workspace(nb, nv, m)
+    # borrowed (no reference counts): every array of tree, C and ws, and each row view, would otherwise cost an
+    # atomic increment and decrement per call of every sub-kernel, per state (about a microsecond)
+    t, c, ws, q, v, tau, o = borrowed(tree), borrowed(C), borrowed(ws_owned), borrowed(Q), borrowed(V), \
+        borrowed(T), borrowed(out)
     lv, lt = V.shape[0] - 1, T.shape[0] - 1
     for b in range(Q.shape[0]):
-        status[b] = constrained_accel_kernel(tree, C, gravity, Q[b], V[min(b, lv)], T[min(b, lt)], alpha, beta,
-                                             ws, out[b, :nv], out[b, nv:])
+        status[b] = constrained_accel_kernel(t, c, gravity, q[b], v[min(b, lv)], tau[min(b, lt)], alpha, beta,
+                                             ws, o[b, :nv], o[b, nv:])
+    keep_alive(tree)
+    keep_alive(C)
+    keep_alive(ws_owned)
+    keep_alive(Q)
+    keep_alive(V)
+    keep_alive(T)
+    keep_alive(out)
 
 
 @kernel
-def constrained_fd_single(tree, C, gravity, q, v, tau, alpha, beta):
-    """One state with its inputs checked in the same compiled call: (a, lam, status); status -2: a non-finite
-    input or a zero quaternion (the general path then says which), else as constrained_accel_kernel."""
-    nb, nv, m = tree.parents.shape[0], tree.S.shape[0], C_rows(C)
-    a, lam = np.empty(nv), np.empty(m)
-    if not (config_ok(tree, q.shape[0], q) and vector_ok(v, nv) and vector_ok(tau, nv)):
-        return a, lam, -2
-    return a, lam, constrained_accel_kernel(tree, C, gravity, q, v, tau, alpha, beta, workspace(nb, nv, m), a, lam)
+def constrained_fd_single(packed, packed_C, q, v, tau, alpha, beta, a, lam):
+    """One state from Python into a (nv,) and lam (m,), inputs checked in the same compiled call: DONE, or
+    GENERAL for a non-finite input, a zero quaternion or a singular M (the general path then says which).  The
+    model and its constraints come packed (two arrays to unbox, not nineteen) and the scratch is one buffer."""
+    tree, gravity, nq = unpack(packed)
+    C = unpack_constraints(packed_C)
+    nb, nv, m = tree.parents.shape[0], tree.S.shape[0], lam.shape[0]
+    if not (config_ok(tree, nq, q) and vector_ok(v, nv) and vector_ok(tau, nv)):
+        return GENERAL
+    n = workspace_size(nb, nv, m)
+    buf = scratch(n + 3)  # one buffer (on the stack when small), not ~30 arrays
+    ints = np.empty(nv + m, np.int64)
+    g = view(buf, n, 3)  # gravity as a writable array: the batch's type, so both share one compiled kernel
+    g[0], g[1], g[2] = gravity[0], gravity[1], gravity[2]
+    status = constrained_accel_kernel(tree, C, g, q, v, tau, alpha, beta,
+                                      workspace_in(buf, nb, nv, m, ints[:nv], ints[nv:]), a, lam)
+    keep_alive(buf)
+    keep_alive(ints)
+    return DONE if status < 0 else GENERAL
 
 
 @kernel
 def drift_kernel(tree, C, q, v, ws):
     """(max |phi(q)|, max |Phi_q v|): the position and velocity residuals of one state (ws = workspace)."""
-    tws, _, _, _, J, phi, gamma, _, _, _, _, _, _ = ws
+    tws, _, _, _, J, phi, gamma, _, _, _, _, _, _, _, _, _ = ws
     constraint_terms(tree, C, q, v, True, False, tws, phi, J, gamma)
     pos, vel = 0.0, 0.0
     for r in range(phi.shape[0]):
@@ -264,25 +416,24 @@ def drift_kernel(tree, C, q, v, ws):
 def project_velocity_kernel(tree, C, q, v, ws, v_out):
     """v_out = v - M^-1 J^T K^+ J v: the velocity closest to v in the kinetic-energy metric with J v_out = 0
     (what an impulse along the constraints does).  Returns -1 or a body whose joint makes M singular."""
-    tws, cws, _, LM, J, phi, gamma, f, Y, K, rhs, _, LK = ws
+    tws, cws, _, LM, J, phi, gamma, f, Y, K, rhs, _, LK, lam, piv, t = ws
     nv, m = v.shape[0], phi.shape[0]
-    status = mass_factor(tree, q, cws, LM)
+    status = mass_factor(tree, q, cws, LM, lam)
     if status >= 0:
         return status
     constraint_terms(tree, C, q, v, True, False, tws, phi, J, gamma)
-    delassus(LM, J, Y, K)
+    delassus(LM, lam, J, Y, K)
     for r in range(m):
         x = 0.0
         for c in range(nv):
             x += J[r, c] * v[c]
         rhs[r] = -x
-    pinv_solve(K, rhs, RANK_RTOL, gamma, LK)
-    for k in range(nv):  # M^-1 J^T mu = L^-T Y mu
-        x = 0.0
-        for r in range(m):
-            x += Y[k, r] * gamma[r]
-        f[k] = x
-    upper_solve(LM, f)
+    pinv_solve(K, rhs, RANK_RTOL, gamma, LK, piv, t)
+    f[:] = 0.0
+    for r in range(m):  # M^-1 J^T mu = L^-1 Y^T mu
+        for k in range(nv):
+            f[k] += Y[r, k] * gamma[r]
+    ltl_solve(LM, lam, f)
     for k in range(nv):
         v_out[k] = v[k] + f[k]
     return -1
@@ -293,7 +444,7 @@ def project_position_kernel(tree, C, q, ws, tol, max_iter, q_out):
     """q_out = q moved onto phi = 0 by Gauss-Newton with minimum-norm steps, q_{k+1} = q_k (+) (-J^+ phi), at
     most max_iter steps (near the manifold, after an accepted step, it converges quadratically).  Returns max
     |phi(q_out)|; above tol the projection failed (the caller keeps q and reports it)."""
-    tws, _, _, _, J, phi, gamma, f, _, _, _, _, _ = ws
+    tws, _, _, _, J, phi, gamma, f, _, _, _, _, _, _, _, _ = ws
     q_out[:] = q
     err = 0.0
     for it in range(max_iter + 1):
@@ -334,7 +485,7 @@ def constrained_id_kernel(tree, C, gravity, q, v, a, actuated, ws, tau_out):
     """tau_out (nv,) with zeros at passive coordinates such that M a + C v + g = tau + J^T lambda for some
     lambda.  ``actuated`` (nv,) is 1.0 at actuated coordinates.  Returns 0 (done), 1 (a violates the
     constraints: J a + gamma != 0) or 2 (the actuated coordinates cannot produce this motion)."""
-    tws, _, rws, _, J, phi, gamma, f, _, _, _, no_forces, _ = ws
+    tws, _, rws, _, J, phi, gamma, f, _, _, _, no_forces, _, _, _, _ = ws
     nv, m = f.shape[0], phi.shape[0]
     rnea_terms(tree, q, v, a, gravity, no_forces, rws, f, True, True)  # f = M a + C v + g
     constraint_terms(tree, C, q, v, True, True, tws, phi, J, gamma)
@@ -405,7 +556,8 @@ class _Checked:
 
 
 _fd_batch = _Checked(constrained_fd_batch, -1)
-_fd_single = Kernel(constrained_fd_single)
+_fd_single = Entry(constrained_fd_single, single_signature(PACKED, VECTOR, VECTOR, VECTOR, types.float64,
+                                                           types.float64, VECTOR, VECTOR))
 _project_batch = _Checked(project_batch, -1)
 _id_batch = _Checked(constrained_id_batch, 0)
 
@@ -435,11 +587,13 @@ def constrained_forward_dynamics(model, q, v, tau, *, baumgarte=None, gravity=No
     anchor [N], torques [N m], coupling generalised forces).  A model without constraints gives the ABA's a.
     """
     alpha, beta = baumgarte_gains(baumgarte)
-    if (gravity is None and type(model) is Model and checks.is_state(q, model.nq) and checks.is_state(v, model.nv)
-            and checks.is_state(tau, model.nv)):  # one state: checked and solved in one compiled call
-        a, lam, status = _fd_single(model.tree, arrays(model)[0], model.gravity, q, v, tau, alpha, beta)
-        if status == -1:
-            return a, lam
+    try:  # one state of float64 vectors: checked and solved in one compiled call (dynamics.checks.F64)
+        if gravity is None and q.dtype is v.dtype is tau.dtype is F64 and q.ndim == v.ndim == tau.ndim == 1:
+            a, lam = np.empty(model.nv), np.empty(arrays(model)[1])
+            if _fd_single.call(model.packed, packed(model), q, v, tau, alpha, beta, a, lam) == DONE:
+                return a, lam
+    except NOT_ARRAYS:
+        pass
     Q, (V, T), B, batched = checks.state_batch(model, q, (("v", v, model.nv), ("tau", tau, model.nv)))
     C, m = arrays(model)
     out = np.empty((B, model.nv + m))

@@ -37,7 +37,7 @@ from typing import NamedTuple
 import numpy as np
 
 from . import checks
-from ._numba import Kernel, inline_kernel, kernel
+from ._numba import Kernel, float_view, inline_kernel, kernel, view
 from .configuration import integrate_q
 from .errors import InputError
 from .kinematics import frame_placement, world_pose
@@ -227,6 +227,30 @@ def arrays(model):
     return cached
 
 
+def packed(model):
+    """The model's :class:`ConstraintArrays` as one read-only int64 array (kept with the model), for a
+    single-state entry point (one argument to unbox instead of seven): [nc, kind, row, body, idx, then the float64
+    bits of R, p, coef]; :func:`unpack` reads it back as views."""
+    cached = model.__dict__.get("_constraint_packed")
+    if cached is None:
+        C, _ = arrays(model)
+        floats = np.concatenate([np.ravel(C.R), np.ravel(C.p), np.ravel(C.coef)]).astype(np.float64)
+        cached = _frozen(np.concatenate([[C.kind.shape[0]], C.kind, C.row, np.ravel(C.body), np.ravel(C.idx),
+                                         floats.view(np.int64)]), np.int64)
+        object.__setattr__(model, "_constraint_packed", cached)
+    return cached
+
+
+@inline_kernel
+def unpack(packed):
+    """:class:`ConstraintArrays` from :func:`packed`: borrowed views, living as long as the call."""
+    nc = packed[0]
+    f = 1 + 8 * nc  # the floats start after nc, kind, row, body (2 nc), idx (4 nc)
+    return ConstraintArrays(view(packed, 1, nc), view(packed, 1 + nc, nc), view(packed, 1 + 2 * nc, (nc, 2)),
+                            float_view(packed, f, (nc, 2, 3, 3)), float_view(packed, f + 18 * nc, (nc, 2, 3)),
+                            view(packed, 1 + 4 * nc, (nc, 4)), float_view(packed, f + 24 * nc, (nc, 2)))
+
+
 def with_constraints(model, constraints, *, at=None):
     """A new model with ``constraints`` added to ``model.constraints`` (immutable, like :func:`lock_joints`).
 
@@ -323,6 +347,14 @@ def close_loops(model, C, m, q, free, tol, max_iter):
 def workspace(nb, nv):
     """World poses, motion axes oS (nv, 6), body velocities V and bias accelerations A (nb, 6) at the origin."""
     return np.empty((nb, 3, 3)), np.empty((nb, 3)), np.empty((nv, 6)), np.empty((nb, 6)), np.empty((nb, 6))
+
+
+@inline_kernel
+def workspace_in(buf, nb, nv):
+    """The same scratch as :func:`workspace`, borrowed from ``buf`` (24 nb + 6 nv floats, kept alive by the
+    caller)."""
+    return (view(buf, 0, (nb, 3, 3)), view(buf, 9 * nb, (nb, 3)), view(buf, 12 * nb, (nv, 6)),
+            view(buf, 12 * nb + 6 * nv, (nb, 6)), view(buf, 18 * nb + 6 * nv, (nb, 6)))
 
 
 @inline_kernel
