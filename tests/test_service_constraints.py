@@ -10,6 +10,7 @@ app; the client methods run against the same app (its httpx transport is the Tes
 from __future__ import annotations
 
 import io
+import time
 
 import numpy as np
 import pytest
@@ -237,9 +238,10 @@ def test_the_warm_up_compiles_the_closed_loop_operations(app_client):
     from service.compute import compile_operations
     model = dynamics.load_urdf(str(ROBOTS / "planar_2r.urdf"))
     assert {layout[0] for layout in compile_operations(model, OPERATIONS)} == {op.function for op in OPERATIONS.values()}
-    r = app_client.get("/v1/ready")
+    deadline = time.monotonic() + 600  # the app's warm-up compiles in the background (minutes on a cold cache)
+    while (r := app_client.get("/v1/ready")).status_code == 503 and time.monotonic() < deadline:
+        time.sleep(0.5)
     assert r.status_code == 200, r.text
-
 
 
 @pytest.fixture(scope="module")
