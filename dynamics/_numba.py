@@ -265,6 +265,21 @@ def deref(typingctx, ptr):
     return ptr.dtype(ptr), codegen
 
 
+class _Owner(bytearray):
+    """The memory of an :func:`owned_pack` buffer, which also holds the packed value (``keep``)."""
+
+
+def owned_pack(x):
+    """:func:`pack` whose buffer keeps ``x`` alive itself (its memory is a bytearray holding a reference to x):
+    the buffer can be stored (in a problem's field) and passed around without the rule's separate owner."""
+    packed = pack(x)
+    mem = _Owner(packed.nbytes)
+    mem.keep = x
+    buf = np.frombuffer(mem, np.int64)
+    buf[:] = packed
+    return buf
+
+
 def native_address(dispatcher, signature):
     """The address of ``dispatcher``'s compiled function for ``signature`` (compiled, or loaded from the cache,
     now) in numba's native calling convention, for :func:`call_address`."""
