@@ -160,6 +160,15 @@ def scratch(n):
     return stack_array(n) if n <= STACK_FLOATS else np.empty(n)
 
 
+@inline_kernel
+def copy_into(dst, src):
+    """dst[i] = src[i] for the n = len(dst) items of 1-D arrays (the caller keeps len(src) >= n).  In compiled
+    code instead of ``dst[:] = src``: numba's array assignment compiles its shape-mismatch error with the
+    message's string formatting (~2 s of a cold start), once in every function that has one."""
+    for i in range(dst.shape[0]):
+        dst[i] = src[i]
+
+
 @kernel
 def keep_alive(x):
     """A use of ``x``: numba frees a variable after its last use, so this pins the owner of a borrowed value."""

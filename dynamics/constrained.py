@@ -38,7 +38,7 @@ with the model) and one ``ws = workspace(model.nbodies, model.nv, m)`` per threa
 import numpy as np
 
 from . import checks
-from ._numba import Kernel, kernel
+from ._numba import Kernel, copy_into, kernel
 from .configuration import integrate_q
 from .constraints import arrays, constraint_terms
 from .constraints import workspace as terms_workspace
@@ -294,7 +294,7 @@ def project_position_kernel(tree, C, q, ws, tol, max_iter, q_out):
     most max_iter steps (near the manifold, after an accepted step, it converges quadratically).  Returns max
     |phi(q_out)|; above tol the projection failed (the caller keeps q and reports it)."""
     tws, _, _, _, J, phi, gamma, f, _, _, _, _, _ = ws
-    q_out[:] = q
+    copy_into(q_out, q)
     err = 0.0
     for it in range(max_iter + 1):
         constraint_terms(tree, C, q_out, f, True, False, tws, phi, J, gamma)

@@ -46,7 +46,7 @@ from numba.extending import intrinsic, overload
 
 from . import checks
 from .errors import InputError
-from ._numba import (JIT_OPTIONS, call_address, deref, gil_kernel, inline_kernel, kernel,
+from ._numba import (JIT_OPTIONS, call_address, copy_into, deref, gil_kernel, inline_kernel, kernel,
                      native_address, owned_pack)
 from .configuration import difference
 from .crba import mass_matrix
@@ -338,18 +338,18 @@ def torque_eval(src, tree, ps, t, q, v, ws, tau):
     if kind == ZERO:
         tau[:] = 0.0
     elif kind == CONSTANT:
-        tau[:] = src.gains[0]
+        copy_into(tau, src.gains[0])
     elif kind == TABLE_LINEAR or kind == TABLE_ZOH:
         times = src.times
         N = times.shape[0]
         if N == 1 or t <= times[0]:
-            tau[:] = src.table[0]
+            copy_into(tau, src.table[0])
         elif t >= times[N - 1]:
-            tau[:] = src.table[N - 1]
+            copy_into(tau, src.table[N - 1])
         else:
             k = _segment(times, t)
             if kind == TABLE_ZOH:
-                tau[:] = src.table[k]
+                copy_into(tau, src.table[k])
             else:
                 s = (t - times[k]) / (times[k + 1] - times[k])
                 for i in range(nv):

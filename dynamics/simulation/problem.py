@@ -24,7 +24,7 @@ import numpy as np
 
 from ..aba import aba_into
 from ..aba import workspace as aba_workspace
-from .._numba import deref, inline_kernel, kernel
+from .._numba import copy_into, deref, inline_kernel, kernel
 from ..configuration import chart_rate, integrate_delta, retract
 from ..joints import JOINT_FREE
 from ..torques import bind_source, call_source, passive_torques, source_workspace
@@ -109,7 +109,7 @@ def rebase(p, t, z, dz, mag):
     tree, base = p.tree, p.base
     nv = p.tau_s.shape[0]
     retract(tree, base, z[:nv], p.qbuf)
-    base[:] = p.qbuf
+    copy_into(base, p.qbuf)
     z[:nv] = 0.0
     chart_rate(tree, base, z[:nv], z[nv:2 * nv], dz[:nv])
     for i in range(tree.jtype.shape[0]):
@@ -139,10 +139,10 @@ def emit(p, j, t, z):
     q = p.out_q[j] if p.out_q.shape[0] > 0 else p.qbuf  # qbuf is free between right-hand-side evaluations
     retract(p.tree, p.base, z[:nv], q)
     if p.out_v.shape[0] > 0:
-        p.out_v[j] = z[nv:2 * nv]
+        copy_into(p.out_v[j], z[nv:2 * nv])
     if p.out_tau.shape[0] > 0:
         call_source(p.source_fn, p.source, t, q, z[nv:2 * nv], p.out_tau[j])
-    p.out_w[j] = z[2 * nv:]
+    copy_into(p.out_w[j], z[2 * nv:])
     p.count[0] = j + 1
 
 
