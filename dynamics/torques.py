@@ -276,8 +276,8 @@ def _torque_callable(slot, t, q, v, tau):
         _call_torque(slot, t, q, v, tau)
 
 
-@kernel
 def _computed_torque_eval(src, tree, ps, t, q, v, ws, tau):
+    """The computed torque (module docstring); compiled as the implementation of _computed_torques' overload."""
     nv = v.shape[0]
     qr = ws[1][0]
     vr = ws[1][1]
@@ -303,11 +303,11 @@ def _computed_torques(src, tree, ps, t, q, v, ws, tau):
 def _ov_computed_torques(src, tree, ps, t, q, v, ws, tau):
     if isinstance(ws.types[0], types.NoneType) or not isinstance(src.types[src.fields.index("ws")], types.NoneType):
         return lambda src, tree, ps, t, q, v, ws, tau: None  # no RNEA workspace, or an operational-space source
-    return lambda src, tree, ps, t, q, v, ws, tau: _computed_torque_eval(src, tree, ps, t, q, v, ws, tau)
+    return _computed_torque_eval  # the implementation itself: no compiled layer between it and torque_eval
 
 
-@kernel
 def _operational_space_eval(src, tree, ps, t, q, v, ws, tau):
+    """The operational-space torques; compiled as the implementation of _operational_space_torques' overload."""
     x_ref = np.empty((3, 3))
     reference_at(src.times, src.table, 3, t, x_ref[0], x_ref[1], x_ref[2])
     if t < src.times[0] or t > src.times[-1]:  # hold the end position at rest
@@ -327,7 +327,7 @@ def _operational_space_torques(src, tree, ps, t, q, v, ws, tau):
 def _ov_operational_space_torques(src, tree, ps, t, q, v, ws, tau):
     if isinstance(src.types[src.fields.index("ws")], types.NoneType):
         return lambda src, tree, ps, t, q, v, ws, tau: None
-    return lambda src, tree, ps, t, q, v, ws, tau: _operational_space_eval(src, tree, ps, t, q, v, ws, tau)
+    return _operational_space_eval  # the implementation itself: no compiled layer between it and torque_eval
 
 
 @inline_kernel
