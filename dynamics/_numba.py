@@ -34,7 +34,12 @@ rule applies to the buffer.  :func:`stack_array` is scratch on the kernel's own 
 **Calls through an address.** :func:`pack` copies a value (a tuple of arrays, borrowed) into a buffer whose
 address :func:`deref` reads back in a function compiled for ``types.CPointer`` of its type; :func:`native_address`
 gives such a function's address and :func:`call_address` calls it from an intrinsic.  The simulation's solvers
-call the problem this way (:mod:`dynamics.simulation.run`), so they compile without the problem's code.
+call the problem this way (:mod:`dynamics.simulation.run`), so they compile without the problem's code, and the
+problem calls its torque source this way (:func:`dynamics.torques.bind_source`); :func:`owned_pack` is a
+:func:`pack` whose buffer keeps the packed value alive itself (so it can be stored in a problem's field).
+
+**Copies.** Compiled code copies arrays with :func:`copy_into`, not ``x[:] = y`` (whose shape check compiles
+numba's error-message formatting in every function that has one).
 
 :class:`Kernel` calls a compiled function through its native entry point once its single overload exists,
 skipping the dispatcher's type resolution (~4 us for a model's tuple of arrays).  :class:`Entry` does the same
