@@ -34,7 +34,12 @@ rule applies to the buffer.  :func:`stack_array` is scratch on the kernel's own 
 **Calls through an address.** :func:`pack` copies a value (a tuple of arrays, borrowed) into a buffer whose
 address :func:`deref` reads back in a function compiled for ``types.CPointer`` of its type; :func:`native_address`
 gives such a function's address and :func:`call_address` calls it from an intrinsic.  The simulation's solvers
-call the problem this way (:mod:`dynamics.simulation.run`), so they compile without the problem's code.
+call the problem this way (:mod:`dynamics.simulation.run`), so they compile without the problem's code, and the
+problem calls its torque source this way (:func:`dynamics.torques.bind_source`); :func:`owned_pack` is a
+:func:`pack` whose buffer keeps the packed value alive itself (so it can be stored in a problem's field).
+
+**Copies.** Compiled code copies arrays with :func:`copy_into`, not ``x[:] = y`` (whose shape check compiles
+numba's error-message formatting in every function that has one).
 
 :class:`Kernel` calls a compiled function through its native entry point once its single overload exists,
 skipping the dispatcher's type resolution (~4 us for a model's tuple of arrays).  :class:`Entry` does the same
@@ -160,6 +165,15 @@ def scratch(n):
     return stack_array(n) if n <= STACK_FLOATS else np.empty(n)
 
 
+@inline_kernel
+def copy_into(dst, src):
+    """dst[i] = src[i] for the n = len(dst) items of 1-D arrays (the caller keeps len(src) >= n).  In compiled
+    code instead of ``dst[:] = src``: numba's array assignment compiles its shape-mismatch error with the
+    message's string formatting (~2 s of a cold start), once in every function that has one."""
+    for i in range(dst.shape[0]):
+        dst[i] = src[i]
+
+
 @kernel
 def keep_alive(x):
     """A use of ``x``: numba frees a variable after its last use, so this pins the owner of a borrowed value."""
@@ -263,6 +277,21 @@ def deref(typingctx, ptr):
     def codegen(context, builder, sig, args):
         return context.unpack_value(builder, sig.return_type, args[0])
     return ptr.dtype(ptr), codegen
+
+
+class _Owner(bytearray):
+    """The memory of an :func:`owned_pack` buffer, which also holds the packed value (``keep``)."""
+
+
+def owned_pack(x):
+    """:func:`pack` whose buffer keeps ``x`` alive itself (its memory is a bytearray holding a reference to x):
+    the buffer can be stored (in a problem's field) and passed around without the rule's separate owner."""
+    packed = pack(x)
+    mem = _Owner(packed.nbytes)
+    mem.keep = x
+    buf = np.frombuffer(mem, np.int64)
+    buf[:] = packed
+    return buf
 
 
 def native_address(dispatcher, signature):

@@ -49,7 +49,7 @@ import numpy as np
 from numba import types
 
 from . import checks
-from ._numba import (PACKED, VECTOR, Entry, Kernel, borrowed, inline_kernel, keep_alive, kernel, scratch,
+from ._numba import (PACKED, VECTOR, Entry, Kernel, borrowed, copy_into, inline_kernel, keep_alive, kernel, scratch,
                      single_signature, view)
 from .configuration import integrate_q
 from .constraints import arrays, constraint_terms, packed
@@ -445,7 +445,7 @@ def project_position_kernel(tree, C, q, ws, tol, max_iter, q_out):
     most max_iter steps (near the manifold, after an accepted step, it converges quadratically).  Returns max
     |phi(q_out)|; above tol the projection failed (the caller keeps q and reports it)."""
     tws, _, _, _, J, phi, gamma, f, _, _, _, _, _, _, _, _ = ws
-    q_out[:] = q
+    copy_into(q_out, q)
     err = 0.0
     for it in range(max_iter + 1):
         constraint_terms(tree, C, q_out, f, True, False, tws, phi, J, gamma)

@@ -40,13 +40,14 @@ import warnings
 from typing import NamedTuple
 
 import numpy as np
-from numba import objmode, types
+from numba import objmode, typeof, types
 from numba.core.errors import NumbaWarning
-from numba.extending import overload
+from numba.extending import intrinsic, overload
 
 from . import checks
 from .errors import InputError
-from ._numba import JIT_OPTIONS, gil_kernel, inline_kernel, kernel
+from ._numba import (JIT_OPTIONS, call_address, copy_into, deref, gil_kernel, inline_kernel, kernel,
+                     native_address, owned_pack)
 from .configuration import difference
 from .crba import mass_matrix
 from .operational_space import operational_space_into
@@ -275,8 +276,8 @@ def _torque_callable(slot, t, q, v, tau):
         _call_torque(slot, t, q, v, tau)
 
 
-@kernel
 def _computed_torque_eval(src, tree, ps, t, q, v, ws, tau):
+    """The computed torque (module docstring); compiled as the implementation of _computed_torques' overload."""
     nv = v.shape[0]
     qr = ws[1][0]
     vr = ws[1][1]
@@ -293,19 +294,20 @@ def _computed_torque_eval(src, tree, ps, t, q, v, ws, tau):
 
 def _computed_torques(src, tree, ps, t, q, v, ws, tau):
     """The COMPUTED_TORQUE branch of :func:`torque_eval` (compiled code only): nothing is compiled when the
-    source workspace has no RNEA workspace (:func:`source_workspace`: a source of another kind)."""
+    source workspace has no RNEA workspace (:func:`source_workspace`: a source of another kind) or the source is
+    an operational-space one (its own workspace is not None)."""
     raise NotImplementedError
 
 
 @overload(_computed_torques, jit_options=JIT_OPTIONS)
 def _ov_computed_torques(src, tree, ps, t, q, v, ws, tau):
-    if isinstance(ws.types[0], types.NoneType):
-        return lambda src, tree, ps, t, q, v, ws, tau: None
-    return lambda src, tree, ps, t, q, v, ws, tau: _computed_torque_eval(src, tree, ps, t, q, v, ws, tau)
+    if isinstance(ws.types[0], types.NoneType) or not isinstance(src.types[src.fields.index("ws")], types.NoneType):
+        return lambda src, tree, ps, t, q, v, ws, tau: None  # no RNEA workspace, or an operational-space source
+    return _computed_torque_eval  # the implementation itself: no compiled layer between it and torque_eval
 
 
-@kernel
 def _operational_space_eval(src, tree, ps, t, q, v, ws, tau):
+    """The operational-space torques; compiled as the implementation of _operational_space_torques' overload."""
     x_ref = np.empty((3, 3))
     reference_at(src.times, src.table, 3, t, x_ref[0], x_ref[1], x_ref[2])
     if t < src.times[0] or t > src.times[-1]:  # hold the end position at rest
@@ -325,7 +327,7 @@ def _operational_space_torques(src, tree, ps, t, q, v, ws, tau):
 def _ov_operational_space_torques(src, tree, ps, t, q, v, ws, tau):
     if isinstance(src.types[src.fields.index("ws")], types.NoneType):
         return lambda src, tree, ps, t, q, v, ws, tau: None
-    return lambda src, tree, ps, t, q, v, ws, tau: _operational_space_eval(src, tree, ps, t, q, v, ws, tau)
+    return _operational_space_eval  # the implementation itself: no compiled layer between it and torque_eval
 
 
 @inline_kernel
@@ -336,18 +338,18 @@ def torque_eval(src, tree, ps, t, q, v, ws, tau):
     if kind == ZERO:
         tau[:] = 0.0
     elif kind == CONSTANT:
-        tau[:] = src.gains[0]
+        copy_into(tau, src.gains[0])
     elif kind == TABLE_LINEAR or kind == TABLE_ZOH:
         times = src.times
         N = times.shape[0]
         if N == 1 or t <= times[0]:
-            tau[:] = src.table[0]
+            copy_into(tau, src.table[0])
         elif t >= times[N - 1]:
-            tau[:] = src.table[N - 1]
+            copy_into(tau, src.table[N - 1])
         else:
             k = _segment(times, t)
             if kind == TABLE_ZOH:
-                tau[:] = src.table[k]
+                copy_into(tau, src.table[k])
             else:
                 s = (t - times[k]) / (times[k + 1] - times[k])
                 for i in range(nv):
@@ -363,6 +365,63 @@ def torque_eval(src, tree, ps, t, q, v, ws, tau):
         _operational_space_torques(src, tree, ps, t, q, v, ws, tau)
     else:
         _torque_callable(src.slot, t, q, v, tau)
+
+
+# ---------------------------------------------------------------------------------------------------
+# a source behind an address: compiled once per source type, called by the simulation's rhs and sample writer
+class SourceCall(NamedTuple):
+    """What :func:`torque_eval` reads besides (t, q, v): packed by :func:`bind_source`."""
+
+    src: object  # Source
+    tree: object  # the model's Tree
+    ps: object  # Passive
+    ws: tuple  # source_workspace(...)
+
+
+#: the arguments after the pointer of :func:`source_call`: t, q, v, tau
+_VEC = types.float64[::1]
+SOURCE_ARGS = (types.float64, _VEC, _VEC, _VEC)
+_SOURCE_ADDRESSES = {}  # SourceCall type -> address of source_call compiled for a pointer to it (this process)
+
+
+@kernel
+def source_call(c, t, q, v, tau):
+    """tau = the torques of the source packed in c (a SourceCall or a pointer to one) at (t, q, v)."""
+    c = deref(c)
+    torque_eval(c.src, c.tree, c.ps, t, q, v, c.ws, tau)
+
+
+def source_signature(call):
+    """The signature :func:`source_call` is compiled for to serve ``call`` (a SourceCall) by address."""
+    return types.none(types.CPointer(typeof(call)), *SOURCE_ARGS)
+
+
+def bind_source(src, tree, ps, ws):
+    """(address of :func:`source_call` compiled, once per source type, for a pointer to the SourceCall, and the
+    packed SourceCall in a buffer that keeps it alive): the two arguments of :func:`call_source`.  So the
+    source's code (the operational-space controller: M^-1, a Jacobian, a task solve) is optimised once, in
+    source_call, and not again in every function that evaluates it."""
+    call = SourceCall(src, tree, ps, ws)
+    sig = source_signature(call)
+    key = sig.args[0]
+    if key not in _SOURCE_ADDRESSES:
+        _SOURCE_ADDRESSES[key] = native_address(source_call, sig)
+    return _SOURCE_ADDRESSES[key], owned_pack(call)
+
+
+@intrinsic
+def call_source(typingctx, fn, buf, t, q, v, tau):
+    """``source_call(buf's SourceCall, t, q, v, tau)`` through the address fn (:func:`bind_source`)."""
+    callee = types.none(types.voidptr, *SOURCE_ARGS)
+    argtys = (fn, buf, t, q, v, tau)
+
+    def codegen(context, builder, sig, args):
+        data = context.make_array(argtys[1])(context, builder, args[1]).data
+        vals = [builder.bitcast(data, context.get_value_type(types.voidptr))]
+        vals += [context.cast(builder, a, ty, want) for a, ty, want in zip(args[2:], argtys[2:], SOURCE_ARGS)]
+        call_address(context, builder, context.cast(builder, args[0], fn, types.int64), callee, vals)
+        return context.get_dummy_value()
+    return types.none(*argtys), codegen
 
 
 # ---------------------------------------------------------------------------------------------------

@@ -20,7 +20,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .._numba import deref, kernel
+from .._numba import copy_into, deref, kernel
 from ..constrained import (constrained_accel_kernel, drift_kernel, project_position_kernel,
                            project_velocity_kernel)
 from ..constrained import workspace as constrained_workspace
@@ -92,11 +92,11 @@ def constrained_rebase(p, t, z, dz, mag):
     if p.project:
         err = project_position_kernel(p.tree, p.C, p.base, p.ws_con, PROJECT_TOL, PROJECT_ITER, p.qbuf)
         if err <= PROJECT_TOL:
-            p.base[:] = p.qbuf
+            copy_into(p.base, p.qbuf)
         else:  # keep the step's configuration; the drift and the report say how far off it is
             p.project_failures[0] += 1
         if project_velocity_kernel(p.tree, p.C, p.base, v, p.ws_con, p.vbuf) < 0:
-            v[:] = p.vbuf
+            copy_into(v, p.vbuf)
         constrained_rhs(p, t, z, dz)
         rebase(p, t, z, dz, mag)  # the magnitudes of the projected state (z's chart part is zero)
     _track_drift(p, p.base, v)

@@ -24,10 +24,10 @@ import numpy as np
 
 from ..aba import aba_into
 from ..aba import workspace as aba_workspace
-from .._numba import deref, inline_kernel, kernel
+from .._numba import copy_into, deref, inline_kernel, kernel
 from ..configuration import chart_rate, integrate_delta, retract
 from ..joints import JOINT_FREE
-from ..torques import passive_torques, source_workspace, torque_eval
+from ..torques import bind_source, call_source, passive_torques, source_workspace
 
 NQUAD = 2  # W_source, W_passive
 
@@ -37,13 +37,13 @@ class RobotProblem(NamedTuple):
 
     tree: object  # the model's Tree
     passive: object  # torques.Passive (also holds gravity and the external forces)
-    source: object  # torques.Source
+    source_fn: int  # address of the torque source's compiled function (torques.bind_source)
+    source: np.ndarray  # the packed torques.SourceCall (source, tree, passive, workspace), which it keeps alive
     base: np.ndarray  # (nq,) configuration at the start of the current step (the chart's base)
     qbuf: np.ndarray  # (nq,) scratch: the configuration of the state being evaluated
     tau_s: np.ndarray  # (nv,) scratch: source torques
     tau_p: np.ndarray  # (nv,) scratch: passive, then total torques
     ws_aba: tuple  # ABA workspace
-    ws_src: tuple  # torque-source workspace (RNEA workspace or None, 4 scratch (nv,) rows)
     out_t: np.ndarray  # (T,) sample times
     out_q: np.ndarray  # (T, nq) or (0, nq) when q is not kept
     out_v: np.ndarray  # (T, nv) or (0, nv)
@@ -56,24 +56,19 @@ def robot_problem(model, passive, source, q0, out_t, outputs):
     """A :class:`RobotProblem` for a run from q0 that keeps ``outputs`` (of "q", "v", "tau") at ``out_t``."""
     nv, nq, nb = model.nv, model.nq, model.tree.parents.shape[0]
     T = out_t.shape[0]
+    source_fn, source_buf = bind_source(source, model.tree, passive, source_workspace(source, nb, nv))
     return RobotProblem(
-        model.tree, passive, source, q0.copy(), np.empty(nq), np.empty(nv), np.empty(nv),
-        aba_workspace(nb, nv), source_workspace(source, nb, nv), out_t,
+        model.tree, passive, source_fn, source_buf, q0.copy(), np.empty(nq), np.empty(nv), np.empty(nv),
+        aba_workspace(nb, nv), out_t,
         np.zeros((T if "q" in outputs else 0, nq)), np.zeros((T if "v" in outputs else 0, nv)),
         np.zeros((T if "tau" in outputs else 0, nv)), np.zeros((T, NQUAD)), np.zeros(1, np.int64))
-
-
-@kernel
-def source_torques(src, tree, ps, t, q, v, ws, tau):
-    """torques.torque_eval behind one call: inlined once here, not into every caller (compile time)."""
-    torque_eval(src, tree, ps, t, q, v, ws, tau)
 
 
 @inline_kernel
 def applied_torques(p, t, q, v):
     """p.tau_p = source + passive torques at (t, q, v); returns the powers (v . tau_source, v . tau_passive)."""
     tau_s, tau_p = p.tau_s, p.tau_p
-    source_torques(p.source, p.tree, p.passive, t, q, v, p.ws_src, tau_s)
+    call_source(p.source_fn, p.source, t, q, v, tau_s)
     passive_torques(p.passive, q, v, tau_p)
     power_s = 0.0
     power_p = 0.0
@@ -114,7 +109,7 @@ def rebase(p, t, z, dz, mag):
     tree, base = p.tree, p.base
     nv = p.tau_s.shape[0]
     retract(tree, base, z[:nv], p.qbuf)
-    base[:] = p.qbuf
+    copy_into(base, p.qbuf)
     z[:nv] = 0.0
     chart_rate(tree, base, z[:nv], z[nv:2 * nv], dz[:nv])
     for i in range(tree.jtype.shape[0]):
@@ -144,10 +139,10 @@ def emit(p, j, t, z):
     q = p.out_q[j] if p.out_q.shape[0] > 0 else p.qbuf  # qbuf is free between right-hand-side evaluations
     retract(p.tree, p.base, z[:nv], q)
     if p.out_v.shape[0] > 0:
-        p.out_v[j] = z[nv:2 * nv]
+        copy_into(p.out_v[j], z[nv:2 * nv])
     if p.out_tau.shape[0] > 0:
-        source_torques(p.source, p.tree, p.passive, t, q, z[nv:2 * nv], p.ws_src, p.out_tau[j])
-    p.out_w[j] = z[2 * nv:]
+        call_source(p.source_fn, p.source, t, q, z[nv:2 * nv], p.out_tau[j])
+    copy_into(p.out_w[j], z[2 * nv:])
     p.count[0] = j + 1
 
 

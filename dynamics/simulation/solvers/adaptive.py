@@ -8,7 +8,7 @@ state checks, the samples in each accepted step, and the re-centring of the char
 
 import numpy as np
 
-from ..._numba import generic_inline
+from ..._numba import copy_into, generic_inline
 from .interface import (MAX_STEPS, OK, STEP_TOO_SMALL, problem_emit, problem_rebase, problem_rhs, stepper_attempt,
                         stepper_dense, stepper_order)
 from .linalg import initial_step, max_abs, state_status
@@ -64,9 +64,9 @@ def solve_adaptive(p, m, z, t0, t_end, out_t, opt, stats, switches):
             continue
         st.steps += 1
         local_err += max_abs(errv, opt.ne)
-        zold[:] = z
-        z[:] = znew
-        f0[:] = fnew
+        copy_into(zold, z)
+        copy_into(z, znew)
+        copy_into(f0, fnew)
         t = tn
         status = state_status(z, opt.nc, opt.nvel, opt.blowup)
         if status != OK:

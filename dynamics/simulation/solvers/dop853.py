@@ -8,7 +8,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ..._numba import generic_inline, kernel
+from ..._numba import copy_into, generic_inline, kernel
 from .interface import OK, problem_rhs
 from .linalg import state_status
 
@@ -62,7 +62,7 @@ def attempt(m, p, t, h, z, f0, znew, fnew, errv, mag, opt, st, sw, rejected_last
     K, zs = m.K, m.zs
     n = z.shape[0]
     ne = opt.ne
-    K[0, :] = f0
+    copy_into(K[0], f0)
     for s in range(1, 13):
         for r in range(n):
             acc = 0.0
@@ -71,7 +71,7 @@ def attempt(m, p, t, h, z, f0, znew, fnew, errv, mag, opt, st, sw, rejected_last
             zs[r] = z[r] + h * acc
         problem_rhs(p, t + C8[s] * h, zs, K[s])
     st.rhs_evals += 12
-    znew[:] = zs
+    copy_into(znew, zs)
     e5 = 0.0
     e3 = 0.0
     for r in range(n):
@@ -91,7 +91,7 @@ def attempt(m, p, t, h, z, f0, znew, fnew, errv, mag, opt, st, sw, rejected_last
     if err > 1.0:
         return False, h * max(0.2, 0.9 * err ** (-1.0 / 8.0))
     fac = 10.0 if err == 0.0 else min(10.0, 0.9 * err ** (-1.0 / 8.0))
-    fnew[:] = K[12]
+    copy_into(fnew, K[12])
     m.ready[0] = 0
     return True, h * (min(1.0, fac) if rejected_last else fac)
 

@@ -7,7 +7,7 @@ The slope at the end of a step serves the interpolant of that step and, re-expre
 
 import numpy as np
 
-from ..._numba import generic_inline
+from ..._numba import copy_into, generic_inline
 from .interface import NONFINITE, OK, problem_emit, problem_rebase, problem_rhs, stepper_fixed_dense, stepper_step
 from .linalg import jacobian_spectral_radius, state_status
 
@@ -36,7 +36,7 @@ def solve_fixed(p, m, z, t0, t_end, out_t, opt, stats):
         ta = t  # this step: from ta to t
         t = t_end if i == opt.nsteps - 1 else min(t0 + (i + 1) * opt.dt, t_end)
         h = t - ta
-        z0[:] = z
+        copy_into(z0, z)
         stepper_step(m, p, ta, h, z, f0, st)
         st.steps += 1
         status = state_status(z, opt.nc, opt.nvel, opt.blowup)
@@ -55,7 +55,7 @@ def solve_fixed(p, m, z, t0, t_end, out_t, opt, stats):
                 problem_emit(p, j, out_t[j], zi)
             j += 1
         problem_rebase(p, t, z, f1, mag)
-        f0[:] = f1
+        copy_into(f0, f1)
     st.status = status
     st.t = t
     st.h = opt.dt

@@ -182,7 +182,8 @@ def spectral_radius(J, ne):
         if it >= 15:
             logsum += np.log(nrm)
             cnt += 1
-        x[:] = y / nrm
+        for r in range(n):
+            x[r] = y[r] / nrm
     return np.exp(logsum / cnt)
 
 

@@ -9,7 +9,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ..._numba import generic_inline, kernel
+from ..._numba import copy_into, generic_inline, kernel
 from .interface import OK, problem_rhs
 from .linalg import scaled_rms, state_status
 
@@ -73,7 +73,7 @@ def attempt(m, p, t, h, z, f0, znew, fnew, errv, mag, opt, st, sw, rejected_last
     stiffness test.  Returns (accepted, next h)."""
     K, y6, c = m.K, m.y6, m.ctl[0]
     n = z.shape[0]
-    K[0, :] = f0
+    copy_into(K[0], f0)
     for s in range(1, 7):
         for r in range(n):
             acc = 0.0
@@ -81,7 +81,7 @@ def attempt(m, p, t, h, z, f0, znew, fnew, errv, mag, opt, st, sw, rejected_last
                 acc += DP_A7[s, q] * K[q, r]
             znew[r] = z[r] + h * acc
         if s == 5:
-            y6[:] = znew
+            copy_into(y6, znew)
         problem_rhs(p, t + DP_C7[s] * h, znew, K[s])
     st.rhs_evals += 6
     for r in range(n):
@@ -99,7 +99,7 @@ def attempt(m, p, t, h, z, f0, znew, fnew, errv, mag, opt, st, sw, rejected_last
     fac = max(0.1, min(5.0, fac11 / c.errold ** 0.04 / 0.9))  # 1/fac in [0.2, 10]
     c.errold = max(err, 1e-4)
     hnew = min(h / fac, h) if rejected_last else h / fac
-    fnew[:] = K[6]
+    copy_into(fnew, K[6])
     _stiffness_test(m, h, znew, opt.ne, t + h, st)
     return True, hnew
 
