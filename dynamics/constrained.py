@@ -257,9 +257,10 @@ def pinv_solve(K, rhs, rtol, x, L, piv, t):
     dmax = 0.0
     for r in range(m):
         dmax = max(dmax, K[r, r])
-    L[:, :] = K
+    for r in range(m):
+        copy_into(L[r], K[r])
     if dmax > 0.0 and cholesky(L, m, CHOLESKY_RTOL * dmax):
-        x[:] = rhs
+        copy_into(x, rhs)
         lower_solve(L, m, x)
         upper_solve(L, m, x)
         return m
@@ -455,7 +456,7 @@ def project_position_kernel(tree, C, q, ws, tol, max_iter, q_out):
         if err <= tol or it == max_iter:
             break
         dq = np.linalg.lstsq(J, phi, rcond=1e-12)[0]
-        q_out[:] = integrate_q(tree, q_out, dq, -1.0)
+        copy_into(q_out, integrate_q(tree, q_out, dq, -1.0))
     return err
 
 
