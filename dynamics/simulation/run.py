@@ -41,7 +41,8 @@ def handle(p, needs=("rhs", "rebase", "emit")):
     return Handle(buf.ctypes.data, *addresses), buf
 
 
-# One entry point per method, compiled once for every problem type (they take a Handle).
+# One entry point per method, compiled once for every problem type (they take a Handle).  Six small functions,
+# not one generic one: a run compiles only its own method's solver (a generic entry would compile them all).
 @kernel
 def _euler(h, z, t0, t_end, out_t, opt, stats, sw):
     return solvers.solve_euler(h, z, t0, t_end, out_t, opt, stats, sw)
