@@ -46,10 +46,54 @@ skipping the dispatcher's type resolution (~4 us for a model's tuple of arrays).
 for one fixed signature (:func:`single_signature`), the single-state entry points' way in (~60 ns per array).
 """
 
+import copy
+import threading
+
 import numpy as np
 from numba import njit, types
-from numba.core import cgutils
+from numba.core import cgutils, ir
+from numba.core.inline_closurecall import InlineWorker
 from numba.extending import intrinsic
+
+_scope_copies = threading.local()
+
+
+def _deepcopy_scope(self, memo):
+    """``copy.deepcopy`` of an ``ir.Scope`` that, while numba inlines a function, copies each scope once.
+
+    numba's ``InlineWorker.inline_ir`` deep-copies the callee's IR one block at a time, each with a fresh
+    memo, so every block copies the function's whole scope again (every variable of the function): the cost
+    grows as blocks x variables, and inlining our kernels' helpers took ~40% of their compile time.  During
+    one ``inline_ir`` call this returns the first copy of a scope to every block, as the original IR shares one
+    scope among its blocks."""
+    shared = getattr(_scope_copies, "map", None)
+    if shared is not None and id(self) in shared:
+        out = shared[id(self)][1]
+        memo[id(self)] = out
+        return out
+    out = ir.Scope.__new__(ir.Scope)
+    memo[id(self)] = out
+    if shared is not None:
+        shared[id(self)] = (self, out)  # the original stays referenced, so its id is not reused
+    for name, value in self.__dict__.items():
+        out.__dict__[name] = copy.deepcopy(value, memo)
+    return out
+
+
+_numba_inline_ir = InlineWorker.inline_ir
+
+
+def _inline_ir(self, *args, **kwargs):
+    outer = getattr(_scope_copies, "map", None)
+    _scope_copies.map = {}
+    try:
+        return _numba_inline_ir(self, *args, **kwargs)
+    finally:
+        _scope_copies.map = outer
+
+
+ir.Scope.__deepcopy__ = _deepcopy_scope
+InlineWorker.inline_ir = _inline_ir
 
 JIT_OPTIONS = dict(cache=True, nogil=True, error_model="numpy")
 GENERIC_OPTIONS = dict(nogil=True, error_model="numpy")
