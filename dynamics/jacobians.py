@@ -16,7 +16,8 @@ import numpy as np
 from numba import types
 
 from . import checks
-from ._numba import MATRIX, VECTOR, Entry, Kernel, int_view, keep_alive, kernel, scratch, single_signature, view
+from ._numba import (MATRIX, VECTOR, Entry, Kernel, gil_kernel, int_view, keep_alive, kernel, scratch, single_signature,
+                     view)
 from .checks import DONE, F64, GENERAL, NOT_ARRAYS, REFERENCES, config_ok
 from .kinematics import LOCAL, WORLD, frame_pose, support, world_poses
 from .model import unpack, unpack_frames
@@ -57,7 +58,7 @@ def jacobian_batch(tree, Q, frames, f, ref, point, out):
         jacobian_into(tree, frames, Q[b], f, ref, pt, path, oR, op, out[b])
 
 
-@kernel
+@gil_kernel  # holds the GIL: dynamics._numba
 def jacobian_single(packed, q, f, ref, J):
     """One state from Python at the frame origin into J (6, nv), zeroed here; q, the frame index f (-1: not
     found) and the reference code are checked in the call (status codes of dynamics.checks)."""
