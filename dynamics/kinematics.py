@@ -28,9 +28,9 @@ import numpy as np
 from numba import types
 
 from . import checks
-from ._numba import VECTOR, Entry, Kernel, gil_kernel, inline_kernel, keep_alive, kernel, scratch, single_signature, \
-    view
-from .checks import DONE, F64, GENERAL, NOT_ARRAYS, config_ok
+from ._numba import (ALIGNED, C_CONTIGUOUS, PACKED, SELF_FLOAT64, SELF_INT64, VECTOR, WRITEABLE, Kernel, PythonFunction,
+                     inline_kernel, keep_alive, kernel, py_array, py_is_array, py_status, scratch, view)
+from .checks import DONE, GENERAL, config_ok
 from .joints import joint_motion, joint_transform
 from .model import FRAME_BODY, FRAME_SHIFTED, FRAME_WORLD, unpack, unpack_frames
 from .parallel import run_chunks
@@ -134,17 +134,28 @@ def placements_into(tree, frames, q, oR, op, out):
         store_pose(R, p, out[f])
 
 
-@gil_kernel  # holds the GIL: dynamics._numba
+@kernel
 def placements_single(packed, q, out):
     """One state from Python into out (nf, 4, 4), q checked in the call (status codes of dynamics.checks)."""
     tree, gravity, nq = unpack(packed)
+    frames = unpack_frames(packed)
     nb = tree.parents.shape[0]
-    if not config_ok(tree, nq, q):
+    if not (config_ok(tree, nq, q) and out.shape[0] == frames.body.shape[0]):
         return GENERAL
     buf = scratch(12 * nb)
-    placements_into(tree, unpack_frames(packed), q, view(buf, 0, (nb, 3, 3)), view(buf, 9 * nb, (nb, 3)), out)
+    placements_into(tree, frames, q, view(buf, 0, (nb, 3, 3)), view(buf, 9 * nb, (nb, 3)), out)
     keep_alive(buf)
     return DONE
+
+
+def placements_entry(self, args, nargs):
+    """forward_kinematics' one call from Python (dynamics._numba.PythonFunction): (packed, q, out) -> status."""
+    status = GENERAL
+    if (nargs == 3 and py_is_array(self, args[0], SELF_INT64, 1, C_CONTIGUOUS | ALIGNED)
+            and py_is_array(self, args[1], SELF_FLOAT64, 1, ALIGNED)
+            and py_is_array(self, args[2], SELF_FLOAT64, 3, C_CONTIGUOUS | ALIGNED | WRITEABLE)):
+        status = placements_single(py_array(args[0], PACKED), py_array(args[1], VECTOR), py_array(args[2], PLACEMENTS))
+    return py_status(self, status)
 
 
 @kernel
@@ -208,19 +219,19 @@ def motion_batch(tree, Q, V, A, frames, f, ref, what, classical, out):
 _placements_batch = Kernel(placements_batch)
 _placement_batch = Kernel(placement_batch)
 _motion_batch = Kernel(motion_batch)
-_placements_single = Entry(placements_single, single_signature(VECTOR, types.float64[:, :, ::1]))
+PLACEMENTS = types.float64[:, :, ::1]
+_placements_single = PythonFunction(placements_entry, (DONE, GENERAL))
 
 
 def forward_kinematics(model, q):
     """World placement of every frame: (nframes, 4, 4), or (B, nframes, 4, 4) for a batch of q, in
     ``model.frame_names`` order (homogeneous matrices: rotation = the frame's axes in the world, translation =
     its origin)."""
-    try:  # one float64 vector: one compiled call, which checks it too (dynamics.checks.F64)
-        if q.dtype is F64 and q.ndim == 1:
-            out = np.empty((len(model.frames), 4, 4))
-            if _placements_single.call(model.packed, q, out) == DONE:
-                return out
-    except NOT_ARRAYS:
+    try:  # one compiled call, which checks q (a float64 vector, its length, finite values)
+        out = np.empty(model.placements_shape)
+        if _placements_single.call(model.packed, q, out) == DONE:
+            return out
+    except AttributeError:  # not a model: the general path says so
         pass
     checks.check_model(model)
     Q, batched = checks.configurations(model, q)

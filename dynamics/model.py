@@ -146,8 +146,9 @@ class Model:
     ``effort_limit``, ``velocity_limit`` (inf when absent), ``lower``/``upper`` position limits of 1-dof
     joints (-inf/inf when absent, for continuous joints and for the free joint's coordinates).
 
-    Built with the model for the single-state entry points: ``packed`` (the arrays as one, module docstring)
-    and ``frame_lookup`` (a frame's name or int index -> its index: one dict lookup per call).
+    Built with the model for the single-state entry points: ``packed`` (the arrays as one, module docstring),
+    ``frame_lookup`` (a frame's name -> its index: one dict lookup per call) and the shapes of their results,
+    ``placements_shape`` (nframes, 4, 4) and ``jacobian_shape`` (6, nv).
     """
 
     name: str
@@ -177,10 +178,11 @@ class Model:
 
     def __post_init__(self):
         object.__setattr__(self, "packed", pack(self.tree, self.gravity, self.frame_arrays))
-        # frame name or index -> index, one dict lookup for the single-call entry points (bools excluded by them)
-        lookup = {n: k for k, n in enumerate(self.frames)}
-        lookup.update({k: k for k in range(len(self.frames))})
-        object.__setattr__(self, "frame_lookup", lookup)
+        # frame name -> index, one dict lookup for the single-call entry points (names only: True and 1.0 must not
+        # find frame 1); and the shapes of their results
+        object.__setattr__(self, "frame_lookup", {n: k for k, n in enumerate(self.frames)})
+        object.__setattr__(self, "placements_shape", (len(self.frames), 4, 4))
+        object.__setattr__(self, "jacobian_shape", (6, self.nv))
 
     # -- sizes ---------------------------------------------------------------------------------------
     @property
