@@ -44,6 +44,8 @@ numba's error-message formatting in every function that has one).
 :class:`Kernel` calls a compiled function through its native entry point once its single overload exists,
 skipping the dispatcher's type resolution (~4 us for a model's tuple of arrays).  :class:`Entry` does the same
 for one fixed signature (:func:`single_signature`), the single-state entry points' way in (~60 ns per array).
+:class:`PythonFunction` goes further for the shortest calls: a built-in function that reads numpy's array
+headers itself and checks dtype and rank there too (section "Calls from Python without numba's wrapper").
 """
 
 import copy
@@ -368,11 +370,11 @@ def call_address(context, builder, address, signature, args):
 # rank: ~0.05 us more).  For the shortest single-state calls (forward kinematics, a frame Jacobian: ~0.3 us of
 # work) that is half the call.  :class:`PythonFunction` makes a built-in function of an entry (a Python
 # function compiled as a ``cfunc`` of signature :data:`FASTCALL`: the arguments as CPython objects) that reads
-# numpy's array header itself
-# (PyArrayObject_fields: data, nd, dimensions, strides, descr, flags), checks what it needs in a few loads, and
-# passes borrowed arrays (NULL owner) to the kernel: the caller's references keep them alive for the call.  The
-# rule: an entry reads a field other than the type only after :func:`py_is_array` said the object is an array;
-# anything it does not take gets the status GENERAL, never an error.
+# numpy's array header itself (PyArrayObject_fields: data, nd, dimensions, strides, descr, flags), checks what
+# it needs in a few loads, and passes borrowed arrays (NULL owner) to the kernel: the caller's references keep
+# them alive for the call.  The rule: an entry reads a field other than the type only after :func:`py_is_array`
+# (or :func:`py_is_int`) said what the object is; anything it does not take gets the status GENERAL, never an
+# error, and the public function takes its general path.
 
 #: byte offsets in CPython (64-bit, default build) and numpy objects, checked by :class:`PythonFunction`
 _OB_TYPE, _TUPLE_ITEMS = 8, 24
@@ -529,8 +531,9 @@ class PythonFunction:
             compiled = cfunc(FASTCALL, cache=True, error_model="numpy")(self.entry)
         except Exception as e:
             raise RuntimeError(f"compiling {self.entry.__qualname__}: {e}") from e
-        self._method = _MethodDef(self.entry.__name__.encode(), compiled.address, _METH_FASTCALL, None)
-        self._compiled = compiled  # the method record and the machine code live as long as the function
-        owner = (*self.statuses, np.ndarray, np.dtype(np.float64), np.dtype(np.int64), int)
-        self.call = _new_function(ctypes.addressof(self._method), owner, None)
+        method = _MethodDef(self.entry.__name__.encode(), compiled.address, _METH_FASTCALL, None)
+        # the function's ``self`` holds what the entry compares with, and keeps the method record and the machine
+        # code alive as long as the function itself (also if two threads made one each)
+        owner = (*self.statuses, np.ndarray, np.dtype(np.float64), np.dtype(np.int64), int, method, compiled)
+        self.call = _new_function(ctypes.addressof(method), owner, None)
         return self.call(*args)
