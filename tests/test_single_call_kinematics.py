@@ -66,7 +66,8 @@ def test_frame_jacobian_fast_path_bit_for_bit_by_name_and_index(model):
 
 
 def test_placements_agree_with_frame_placement(model):
-    """The identity-axes shortcut of frame_pose gives the same placements on the all-frames and one-frame paths."""
+    """frame_pose by frame kind (built with the model) gives the same placements on the all-frames and one-frame
+    paths."""
     q = _q(model, 1)
     T = dynamics.forward_kinematics(model, q)
     for frame in _frames(model):
