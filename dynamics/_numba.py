@@ -48,13 +48,17 @@ numba's error-message formatting in every function that has one).
 :class:`Kernel` calls a compiled function through its native entry point once its single overload exists,
 skipping the dispatcher's type resolution (~4 us for a model's tuple of arrays).  :class:`Entry` does the same
 for one fixed signature (:func:`single_signature`), the single-state entry points' way in (~60 ns per array).
+:class:`PythonFunction` goes further for the shortest calls: a built-in function that reads numpy's array
+headers itself and checks dtype and rank there too (section "Calls from Python without numba's wrapper").
 """
 
 import copy
+import ctypes
 import threading
 
 import numpy as np
-from numba import njit, types
+from llvmlite import ir as llvm_ir
+from numba import cfunc, njit, types
 from numba.core import cgutils, ir
 from numba.core.inline_closurecall import InlineWorker
 from numba.extending import intrinsic
@@ -361,3 +365,180 @@ def call_address(context, builder, address, signature, args):
     with cgutils.if_unlikely(builder, status.is_error):
         context.call_conv.return_status_propagate(builder, status)
     return out
+
+
+# ---------------------------------------------------------------------------------------------------
+# Calls from Python without numba's wrapper
+#
+# numba's entry point for a compiled function takes ~0.12 us for three arrays: each is wrapped in a fresh owner
+# record (malloc, atomic counts, free), and the caller must check in Python what the wrapper does not (dtype and
+# rank: ~0.05 us more).  For the shortest single-state calls (forward kinematics, a frame Jacobian: ~0.3 us of
+# work) that is half the call.  :class:`PythonFunction` makes a built-in function of an entry (a Python
+# function compiled as a ``cfunc`` of signature :data:`FASTCALL`: the arguments as CPython objects) that reads
+# numpy's array header itself (PyArrayObject_fields: data, nd, dimensions, strides, descr, flags), checks what
+# it needs in a few loads, and passes borrowed arrays (NULL owner) to the kernel: the caller's references keep
+# them alive for the call.  The rule: an entry reads a field other than the type only after :func:`py_is_array`
+# (or :func:`py_is_int`) said what the object is; anything it does not take gets the status GENERAL, never an
+# error, and the public function takes its general path.
+
+#: byte offsets in CPython (64-bit, default build) and numpy objects, checked by :class:`PythonFunction`
+_OB_TYPE, _TUPLE_ITEMS = 8, 24
+_ARRAY_DATA, _ARRAY_ND, _ARRAY_DIMS, _ARRAY_STRIDES, _ARRAY_DESCR, _ARRAY_FLAGS = 16, 24, 32, 40, 56, 64
+#: numpy's array flags
+C_CONTIGUOUS, ALIGNED, WRITEABLE = 0x1, 0x100, 0x400
+#: the slots of the tuple an entry gets as ``self``: its two status objects (DONE, GENERAL), then the types and
+#: dtypes its checks compare with
+SELF_NDARRAY, SELF_FLOAT64, SELF_INT64, SELF_INT = 2, 3, 4, 5
+#: the signature of an entry (CPython's METH_FASTCALL): f(self, PyObject *const *args, Py_ssize_t nargs) -> PyObject *
+FASTCALL = types.voidptr(types.voidptr, types.CPointer(types.voidptr), types.intp)
+_I8P = llvm_ir.IntType(8).as_pointer()
+
+
+def _field(context, builder, obj, offset, llty):
+    """The value of type ``llty`` at byte ``offset`` (an i64 value or an int) of the object at ``obj``."""
+    if isinstance(offset, int):
+        offset = context.get_constant(types.intp, offset)
+    p = builder.gep(builder.bitcast(obj, _I8P), [offset])
+    return builder.load(builder.bitcast(p, llty.as_pointer()))
+
+
+@intrinsic
+def _py_word(typingctx, obj, offset):
+    """The 8 bytes at ``offset`` of the object at ``obj``, as int64 (an address, a size)."""
+    def codegen(context, builder, sig, args):
+        return _field(context, builder, args[0], context.cast(builder, args[1], sig.args[1], types.intp),
+                      llvm_ir.IntType(64))
+    return types.int64(obj, offset), codegen
+
+
+@intrinsic
+def _py_int32(typingctx, obj, offset):
+    def codegen(context, builder, sig, args):
+        value = _field(context, builder, args[0], context.cast(builder, args[1], sig.args[1], types.intp),
+                       llvm_ir.IntType(32))
+        return builder.sext(value, llvm_ir.IntType(64))
+    return types.int64(obj, offset), codegen
+
+
+@intrinsic
+def _py_item(typingctx, tup, k):
+    """Item k of the tuple at ``tup`` (a borrowed reference)."""
+    def codegen(context, builder, sig, args):
+        k = context.cast(builder, args[1], sig.args[1], types.intp)
+        offset = builder.add(context.get_constant(types.intp, _TUPLE_ITEMS),
+                             builder.mul(k, context.get_constant(types.intp, 8)))
+        return _field(context, builder, args[0], offset, _I8P)
+    return types.voidptr(tup, k), codegen
+
+
+@intrinsic
+def py_int(typingctx, obj):
+    """The value of the Python int at ``obj`` (``PyLong_AsLongLong``): only after :func:`py_is_int`, and for ints
+    that fit (the entries' callers pass small ones)."""
+    def codegen(context, builder, sig, args):
+        i64 = llvm_ir.IntType(64)
+        fn = cgutils.get_or_insert_function(builder.module, llvm_ir.FunctionType(i64, [_I8P]), "PyLong_AsLongLong")
+        return builder.call(fn, [args[0]])
+    return types.int64(obj), codegen
+
+
+@intrinsic
+def _py_new_ref(typingctx, obj):
+    """obj with one more reference (``Py_IncRef``, which knows about immortal objects), to be returned."""
+    def codegen(context, builder, sig, args):
+        fn = cgutils.get_or_insert_function(builder.module, llvm_ir.FunctionType(llvm_ir.VoidType(), [_I8P]),
+                                            "Py_IncRef")
+        builder.call(fn, [args[0]])
+        return args[0]
+    return types.voidptr(obj), codegen
+
+
+@intrinsic
+def py_array(typingctx, obj, ty):
+    """The numpy array at ``obj`` as a borrowed numba array of type ``ty`` (a TypeRef): its data, shape and
+    strides read from the array's header.  Only after :func:`py_is_array` said yes for that rank and layout."""
+    arr = ty.instance_type
+
+    def codegen(context, builder, sig, args):
+        intp = context.get_value_type(types.intp)
+        dims = _field(context, builder, args[0], _ARRAY_DIMS, intp.as_pointer())
+        strides = _field(context, builder, args[0], _ARRAY_STRIDES, intp.as_pointer())
+        at = lambda p, k: builder.load(builder.gep(p, [context.get_constant(types.intp, k)]))  # noqa: E731
+        out = context.make_array(arr)(context, builder)
+        itemsize = context.get_constant(types.intp, context.get_abi_sizeof(context.get_data_type(arr.dtype)))
+        context.populate_array(out, data=builder.bitcast(_field(context, builder, args[0], _ARRAY_DATA, _I8P),
+                                                         out.data.type),
+                               shape=[at(dims, k) for k in range(arr.ndim)],
+                               strides=[at(strides, k) for k in range(arr.ndim)], itemsize=itemsize,
+                               meminfo=cgutils.get_null_value(out.meminfo.type))
+        return out._getvalue()
+
+    return arr(obj, ty), codegen
+
+
+@inline_kernel
+def py_is_array(self, obj, dtype_slot, ndim, flags):
+    """obj is exactly a numpy array (no subclass) of the dtype in slot ``dtype_slot`` of ``self``, of rank
+    ``ndim``, with every one of ``flags`` set."""
+    return (_py_word(obj, _OB_TYPE) == _py_word(self, _TUPLE_ITEMS + 8 * SELF_NDARRAY)
+            and _py_word(obj, _ARRAY_DESCR) == _py_word(self, _TUPLE_ITEMS + 8 * dtype_slot)
+            and _py_int32(obj, _ARRAY_ND) == ndim and (_py_int32(obj, _ARRAY_FLAGS) & flags) == flags)
+
+
+@inline_kernel
+def py_is_int(self, obj):
+    """obj is exactly a Python int (then :func:`py_int` reads it)."""
+    return _py_word(obj, _OB_TYPE) == _py_word(self, _TUPLE_ITEMS + 8 * SELF_INT)
+
+
+@inline_kernel
+def py_status(self, status):
+    """The entry's result: its status object (``self[status]``) as a new reference."""
+    return _py_new_ref(_py_item(self, status))
+
+
+class _MethodDef(ctypes.Structure):
+    _fields_ = [("ml_name", ctypes.c_char_p), ("ml_meth", ctypes.c_void_p), ("ml_flags", ctypes.c_int),
+                ("ml_doc", ctypes.c_char_p)]
+
+
+_METH_FASTCALL = 0x80
+_new_function = ctypes.pythonapi.PyCFunction_NewEx
+_new_function.restype = ctypes.py_object
+_new_function.argtypes = [ctypes.c_void_p, ctypes.py_object, ctypes.py_object]
+
+
+def _layout_is_known():
+    """Whether the offsets above are this interpreter's and this numpy's (a probe array and tuple)."""
+    a = np.zeros((2, 3))
+    t = (a, 1)
+    word = lambda x, k: ctypes.c_void_p.from_address(id(x) + k).value  # noqa: E731
+    return (word(a, _OB_TYPE) == id(np.ndarray) and word(a, _ARRAY_DATA) == a.ctypes.data
+            and ctypes.c_int.from_address(id(a) + _ARRAY_ND).value == 2 and word(a, _ARRAY_DESCR) == id(a.dtype)
+            and ctypes.c_ssize_t.from_address(word(a, _ARRAY_STRIDES)).value == 24
+            and ctypes.c_ssize_t.from_address(word(a, _ARRAY_DIMS) + 8).value == 3
+            and ctypes.c_int.from_address(id(a) + _ARRAY_FLAGS).value & (C_CONTIGUOUS | WRITEABLE)
+            == (C_CONTIGUOUS | WRITEABLE) and word(t, _TUPLE_ITEMS) == id(a) and word(t, _TUPLE_ITEMS + 8) == id(1))
+
+
+class PythonFunction:
+    """``f.call(*args)`` calls ``entry`` (a module-level Python function written for :data:`FASTCALL`) compiled
+    as a cfunc, directly: the first call compiles it (or loads it from the cache) and replaces ``call`` by a
+    built-in function of it.  ``statuses`` = (DONE, GENERAL): the objects it returns (:func:`py_status`)."""
+
+    def __init__(self, entry, statuses):
+        self.entry, self.statuses = entry, statuses
+
+    def call(self, *args):
+        if not _layout_is_known():
+            raise RuntimeError("dynamics._numba: unknown CPython or numpy object layout for the fast single calls")
+        try:  # a compile error must not look like one of the errors the callers catch (they take the general path)
+            compiled = cfunc(FASTCALL, cache=True, error_model="numpy")(self.entry)
+        except Exception as e:
+            raise RuntimeError(f"compiling {self.entry.__qualname__}: {e}") from e
+        method = _MethodDef(self.entry.__name__.encode(), compiled.address, _METH_FASTCALL, None)
+        # the function's ``self`` holds what the entry compares with, and keeps the method record and the machine
+        # code alive as long as the function itself (also if two threads made one each)
+        owner = (*self.statuses, np.ndarray, np.dtype(np.float64), np.dtype(np.int64), int, method, compiled)
+        self.call = _new_function(ctypes.addressof(method), owner, None)
+        return self.call(*args)

@@ -22,7 +22,7 @@ are reported, not raised.
 import numpy as np
 
 from . import checks
-from ._numba import Kernel, kernel
+from ._numba import Kernel, borrowed, keep_alive, kernel
 from .configuration import integrate_q
 from .errors import InputError
 from .jacobians import jacobian_into
@@ -93,9 +93,11 @@ def _freeze_blocked(tree, lower, upper, q, dq, free):
 
 
 @kernel
-def ik_batch(tree, Q0, T, frames, f, r, tol, max_iter, damping, limits, lower, upper, out):
+def ik_batch(model_tree, Q0, T, model_frames, f, r, tol, max_iter, damping, limits, lower, upper, out):
     """out[b] = (q solving the IK from Q0[b] towards T[b], status, iterations, residual, position error,
     orientation error); T has B rows or one."""
+    # borrowed: jacobian_into takes the arrays out of the tuples per body and per step: no reference counts
+    tree, frames = borrowed(model_tree), borrowed(model_frames)
     nb, nv = tree.parents.shape[0], tree.S.shape[0]
     path, oR, op = np.empty(nb, np.int64), np.empty((nb, 3, 3)), np.empty((nb, 3))
     J, Jt = np.zeros((6, nv)), np.zeros((6, nv))
@@ -155,6 +157,8 @@ def ik_batch(tree, Q0, T, frames, f, r, tol, max_iter, damping, limits, lower, u
         nq = q.shape[0]
         out[b, :nq] = q
         out[b, nq], out[b, nq + 1], out[b, nq + 2], out[b, nq + 3], out[b, nq + 4] = status, it, res, ep, eo
+    keep_alive(model_tree)
+    keep_alive(model_frames)
 
 
 # -- public entry point ----------------------------------------------------------------------------

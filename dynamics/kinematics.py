@@ -28,11 +28,11 @@ import numpy as np
 from numba import types
 
 from . import checks
-from ._numba import VECTOR, Entry, Kernel, inline_kernel, int_view, keep_alive, kernel, scratch, single_signature, \
-    view
-from .checks import DONE, F64, GENERAL, NOT_ARRAYS, config_ok
+from ._numba import (ALIGNED, C_CONTIGUOUS, PACKED, SELF_FLOAT64, SELF_INT64, VECTOR, WRITEABLE, Kernel, PythonFunction,
+                     inline_kernel, keep_alive, kernel, py_array, py_is_array, py_status, scratch, view)
+from .checks import DONE, GENERAL, config_ok
 from .joints import joint_motion, joint_transform
-from .model import unpack, unpack_frames
+from .model import FRAME_BODY, FRAME_SHIFTED, FRAME_WORLD, unpack, unpack_frames
 from .parallel import run_chunks
 from .spatial import add, cross, cross_motion, load3, load33, matmul, motion_to_child, rot, rotT, store3, store33
 
@@ -77,23 +77,17 @@ def world_poses(tree, q, path, n, oR, op):
 
 @inline_kernel
 def frame_pose(frames, f, oR, op):
-    """World pose (R, p) of frame f from its body's world pose."""
-    b = frames.body[f]
+    """World pose (R, p) of frame f from its body's world pose (only the products its kind needs)."""
+    b, kind = frames.body[f], frames.kind[f]
+    if kind == FRAME_BODY:  # most frames (a link's, its joint's)
+        return load33(oR, b), load3(op, b)
     R, p = load33(frames.R, f), load3(frames.p, f)
-    if b < 0:
+    if kind == FRAME_WORLD:
         return R, p
     Rb, pb = load33(oR, b), load3(op, b)
-    if is_identity(R):  # most frames (a link's, its joint's): the body's own axes, no product needed
-        if p[0] == 0.0 and p[1] == 0.0 and p[2] == 0.0:
-            return Rb, pb
+    if kind == FRAME_SHIFTED:
         return Rb, add(rot(Rb, p), pb)
     return matmul(Rb, R), add(rot(Rb, p), pb)
-
-
-@inline_kernel
-def is_identity(R):
-    return (R[0] == 1.0 and R[4] == 1.0 and R[8] == 1.0 and R[1] == 0.0 and R[2] == 0.0 and R[3] == 0.0
-            and R[5] == 0.0 and R[6] == 0.0 and R[7] == 0.0)
 
 
 @inline_kernel
@@ -125,15 +119,16 @@ def store_pose(R, p, T):
 def placements_batch(tree, Q, frames, out):
     """out[b, f] = 4x4 world placement of every frame f at Q[b]."""
     nb = tree.parents.shape[0]
-    path, oR, op = np.arange(nb), np.empty((nb, 3, 3)), np.empty((nb, 3))
+    oR, op = np.empty((nb, 3, 3)), np.empty((nb, 3))
     for b in range(Q.shape[0]):
-        placements_into(tree, frames, Q[b], path, oR, op, out[b])
+        placements_into(tree, frames, Q[b], oR, op, out[b])
 
 
 @inline_kernel
-def placements_into(tree, frames, q, path, oR, op, out):
-    """out[f] = 4x4 world placement of every frame f at q (path = every body, 0..nb-1)."""
-    world_poses(tree, q, path, tree.parents.shape[0], oR, op)
+def placements_into(tree, frames, q, oR, op, out):
+    """out[f] = 4x4 world placement of every frame f at q."""
+    for i in range(tree.parents.shape[0]):
+        world_pose(tree, i, q, oR, op)
     for f in range(frames.body.shape[0]):
         R, p = frame_pose(frames, f, oR, op)
         store_pose(R, p, out[f])
@@ -143,16 +138,24 @@ def placements_into(tree, frames, q, path, oR, op, out):
 def placements_single(packed, q, out):
     """One state from Python into out (nf, 4, 4), q checked in the call (status codes of dynamics.checks)."""
     tree, gravity, nq = unpack(packed)
+    frames = unpack_frames(packed)
     nb = tree.parents.shape[0]
-    if not config_ok(tree, nq, q):
+    if not (config_ok(tree, nq, q) and out.shape[0] == frames.body.shape[0]):
         return GENERAL
-    buf = scratch(13 * nb)
-    path = int_view(buf, 12 * nb, nb)
-    for i in range(nb):
-        path[i] = i
-    placements_into(tree, unpack_frames(packed), q, path, view(buf, 0, (nb, 3, 3)), view(buf, 9 * nb, (nb, 3)), out)
+    buf = scratch(12 * nb)
+    placements_into(tree, frames, q, view(buf, 0, (nb, 3, 3)), view(buf, 9 * nb, (nb, 3)), out)
     keep_alive(buf)
     return DONE
+
+
+def placements_entry(self, args, nargs):
+    """forward_kinematics' one call from Python (dynamics._numba.PythonFunction): (packed, q, out) -> status."""
+    status = GENERAL
+    if (nargs == 3 and py_is_array(self, args[0], SELF_INT64, 1, C_CONTIGUOUS | ALIGNED)
+            and py_is_array(self, args[1], SELF_FLOAT64, 1, ALIGNED)
+            and py_is_array(self, args[2], SELF_FLOAT64, 3, C_CONTIGUOUS | ALIGNED | WRITEABLE)):
+        status = placements_single(py_array(args[0], PACKED), py_array(args[1], VECTOR), py_array(args[2], PLACEMENTS))
+    return py_status(self, status)
 
 
 @kernel
@@ -216,19 +219,19 @@ def motion_batch(tree, Q, V, A, frames, f, ref, what, classical, out):
 _placements_batch = Kernel(placements_batch)
 _placement_batch = Kernel(placement_batch)
 _motion_batch = Kernel(motion_batch)
-_placements_single = Entry(placements_single, single_signature(VECTOR, types.float64[:, :, ::1]))
+PLACEMENTS = types.float64[:, :, ::1]
+_placements_single = PythonFunction(placements_entry, (DONE, GENERAL))
 
 
 def forward_kinematics(model, q):
     """World placement of every frame: (nframes, 4, 4), or (B, nframes, 4, 4) for a batch of q, in
     ``model.frame_names`` order (homogeneous matrices: rotation = the frame's axes in the world, translation =
     its origin)."""
-    try:  # one float64 vector: one compiled call, which checks it too (dynamics.checks.F64)
-        if q.dtype is F64 and q.ndim == 1:
-            out = np.empty((len(model.frames), 4, 4))
-            if _placements_single.call(model.packed, q, out) == DONE:
-                return out
-    except NOT_ARRAYS:
+    try:  # one compiled call, which checks q (a float64 vector, its length, finite values)
+        out = np.empty(model.placements_shape)
+        if _placements_single.call(model.packed, q, out) == DONE:
+            return out
+    except AttributeError:  # not a model: the general path says so
         pass
     checks.check_model(model)
     Q, batched = checks.configurations(model, q)

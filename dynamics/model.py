@@ -21,16 +21,19 @@ S                  (nv,6)           motion subspace row per velocity coordinate,
 mass               (nb,)            body mass (kg)
 h                  (nb,3)           first moment of mass m*c in the body frame (kg m)
 Io                 (nb,3,3)         rotational inertia about the body frame origin, body frame (kg m^2)
+XK, XKK            (nb,3,3)         Xrot [axis]x and Xrot [axis]x^2 for revolute joints (zero otherwise), so
+                                    that R(q) = Xrot + sin q XK + (1 - cos q) XKK (:mod:`dynamics.joints`)
 =================  ===============  =====================================================================
 
 The same arrays also exist packed into one flat array, ``Model.packed`` (:func:`pack`, built once with the
-model): a compiled call from Python unboxes each array argument (~60 ns each, ~1 us for the 12 arrays of a
+model): a compiled call from Python unboxes each array argument (~60 ns each, ~1 us for the 14 arrays of a
 Tree), so the single-state entry points pass this one and :func:`unpack` rebuilds the :class:`Tree` as views
 inside the kernel.  Layout (in order, nothing between; the floats are stored bit for bit as int64):
 
     [nb, nq, nv, parents, jtype, q_idx, v_idx, nv_j,                                   ints (3 + 5 nb)
      gravity(3), Xrot(9 nb), Xpos(3 nb), axis(3 nb), S(6 nv), mass(nb), h(3 nb), Io(9 nb),   floats
-     nf, body(nf),                                                                   ints
+     XK(9 nb), XKK(9 nb),
+     nf, body(nf), kind(nf),                                                         ints
      R(9 nf), p(3 nf)]                                                          floats (the frames)
 """
 
@@ -41,7 +44,7 @@ import numpy as np
 
 from . import reorder
 from ._numba import float_view, inline_kernel, view
-from .joints import JOINT_FREE, JOINT_NQ, JOINT_NV, URDF_JOINT_CODES, motion_subspace
+from .joints import JOINT_FREE, JOINT_NQ, JOINT_NV, JOINT_REVOLUTE, URDF_JOINT_CODES, motion_subspace, revolute_terms
 
 
 class Tree(NamedTuple):
@@ -59,14 +62,32 @@ class Tree(NamedTuple):
     mass: np.ndarray
     h: np.ndarray
     Io: np.ndarray
+    XK: np.ndarray
+    XKK: np.ndarray
 
 
 class Frames(NamedTuple):
     """Every frame as flat arrays for the kernels (nf = number of frames, in ``model.frame_names`` order)."""
 
     body: np.ndarray  # (nf,) int64: the body the frame is fixed to, -1 for the world
+    kind: np.ndarray  # (nf,) int64: FRAME_BODY, FRAME_SHIFTED, FRAME_ROTATED or FRAME_WORLD (below)
     R: np.ndarray  # (nf, 3, 3): the frame's axes in that body's frame
     p: np.ndarray  # (nf, 3): the frame's origin in that body's frame
+
+
+#: Frames.kind: the body's own frame (R = 1, p = 0: most link and joint frames); the body's axes at an offset
+#: (R = 1); any placement in the body; fixed in the world (body -1).  Known with the model, so that forward
+#: kinematics composes each frame with what it needs and no test of R per call.
+FRAME_BODY, FRAME_SHIFTED, FRAME_ROTATED, FRAME_WORLD = 0, 1, 2, 3
+
+
+def frame_kind(body, R, p):
+    """The :attr:`Frames.kind` of a frame fixed to ``body`` at (R, p)."""
+    if body < 0:
+        return FRAME_WORLD
+    if not np.array_equal(R, np.eye(3)):
+        return FRAME_ROTATED
+    return FRAME_SHIFTED if np.any(p != 0.0) else FRAME_BODY
 
 
 def pack(tree, gravity, frames):
@@ -74,11 +95,13 @@ def pack(tree, gravity, frames):
     nb, nv = tree.parents.shape[0], tree.S.shape[0]
     nq = int(sum(7 if c == JOINT_FREE else 1 for c in tree.jtype))
     floats = np.concatenate([np.ravel(x).astype(np.float64) for x in (gravity, tree.Xrot, tree.Xpos, tree.axis,
-                                                                      tree.S, tree.mass, tree.h, tree.Io)])
+                                                                      tree.S, tree.mass, tree.h, tree.Io, tree.XK,
+                                                                      tree.XKK)])
     ints = np.array([nb, nq, nv, *tree.parents, *tree.jtype, *tree.q_idx, *tree.v_idx, *tree.nv_j], np.int64)
     nf = frames.body.shape[0]
     frame_floats = np.concatenate([np.ravel(frames.R), np.ravel(frames.p)]).astype(np.float64)
-    return _frozen(np.concatenate([ints, floats.view(np.int64), [nf], frames.body, frame_floats.view(np.int64)]),
+    return _frozen(np.concatenate([ints, floats.view(np.int64), [nf], frames.body, frames.kind,
+                                   frame_floats.view(np.int64)]),
                    np.int64)
 
 
@@ -87,13 +110,14 @@ def unpack(packed):
     """(tree, gravity, nq) from the packed model: borrowed views (:func:`dynamics._numba.view`), nothing
     copied; they live as long as the call that unpacks them."""
     nb, nq, nv = packed[0], packed[1], packed[2]
-    f = 3 + 5 * nb  # the floats: gravity, Xrot, Xpos, axis, S, then mass, h, Io from o
+    f = 3 + 5 * nb  # the floats: gravity, Xrot, Xpos, axis, S, then mass, h, Io, XK, XKK from o
     o = f + 3 + 15 * nb + 6 * nv
     tree = Tree(view(packed, 3, nb), view(packed, 3 + nb, nb), view(packed, 3 + 2 * nb, nb),
                 view(packed, 3 + 3 * nb, nb), view(packed, 3 + 4 * nb, nb), float_view(packed, f + 3, (nb, 3, 3)),
                 float_view(packed, f + 3 + 9 * nb, (nb, 3)), float_view(packed, f + 3 + 12 * nb, (nb, 3)),
                 float_view(packed, f + 3 + 15 * nb, (nv, 6)), float_view(packed, o, nb),
-                float_view(packed, o + nb, (nb, 3)), float_view(packed, o + 4 * nb, (nb, 3, 3)))
+                float_view(packed, o + nb, (nb, 3)), float_view(packed, o + 4 * nb, (nb, 3, 3)),
+                float_view(packed, o + 13 * nb, (nb, 3, 3)), float_view(packed, o + 22 * nb, (nb, 3, 3)))
     return tree, float_view(packed, f, 3), nq
 
 
@@ -101,10 +125,10 @@ def unpack(packed):
 def unpack_frames(packed):
     """The frames (:class:`Frames`) from the packed model, as :func:`unpack`."""
     nb, nv = packed[0], packed[2]
-    e = 6 + 33 * nb + 6 * nv  # after the tree
+    e = 6 + 51 * nb + 6 * nv  # after the tree
     nf = packed[e]
-    return Frames(view(packed, e + 1, nf), float_view(packed, e + 1 + nf, (nf, 3, 3)),
-                  float_view(packed, e + 1 + 10 * nf, (nf, 3)))
+    return Frames(view(packed, e + 1, nf), view(packed, e + 1 + nf, nf), float_view(packed, e + 1 + 2 * nf, (nf, 3, 3)),
+                  float_view(packed, e + 1 + 11 * nf, (nf, 3)))
 
 
 def _frozen(a, dtype=np.float64):
@@ -122,8 +146,9 @@ class Model:
     ``effort_limit``, ``velocity_limit`` (inf when absent), ``lower``/``upper`` position limits of 1-dof
     joints (-inf/inf when absent, for continuous joints and for the free joint's coordinates).
 
-    Built with the model for the single-state entry points: ``packed`` (the arrays as one, module docstring)
-    and ``frame_lookup`` (a frame's name or int index -> its index: one dict lookup per call).
+    Built with the model for the single-state entry points: ``packed`` (the arrays as one, module docstring),
+    ``frame_lookup`` (a frame's name -> its index: one dict lookup per call) and the shapes of their results,
+    ``placements_shape`` (nframes, 4, 4) and ``jacobian_shape`` (6, nv).
     """
 
     name: str
@@ -153,10 +178,11 @@ class Model:
 
     def __post_init__(self):
         object.__setattr__(self, "packed", pack(self.tree, self.gravity, self.frame_arrays))
-        # frame name or index -> index, one dict lookup for the single-call entry points (bools excluded by them)
-        lookup = {n: k for k, n in enumerate(self.frames)}
-        lookup.update({k: k for k in range(len(self.frames))})
-        object.__setattr__(self, "frame_lookup", lookup)
+        # frame name -> index, one dict lookup for the single-call entry points (names only: True and 1.0 must not
+        # find frame 1); and the shapes of their results
+        object.__setattr__(self, "frame_lookup", {n: k for k, n in enumerate(self.frames)})
+        object.__setattr__(self, "placements_shape", (len(self.frames), 4, 4))
+        object.__setattr__(self, "jacobian_shape", (6, self.nv))
 
     # -- sizes ---------------------------------------------------------------------------------------
     @property
@@ -248,7 +274,9 @@ class Model:
         arrays = self.__dict__.get("_frame_arrays")
         if arrays is None:
             T = np.array([T for _, T in self.frames.values()], float).reshape(-1, 4, 4)
-            arrays = Frames(_frozen([b for b, _ in self.frames.values()], np.int64), _frozen(T[:, :3, :3]),
+            body = [b for b, _ in self.frames.values()]
+            kind = [frame_kind(b, X[:3, :3], X[:3, 3]) for b, X in zip(body, T)]
+            arrays = Frames(_frozen(body, np.int64), _frozen(kind, np.int64), _frozen(T[:, :3, :3]),
                             _frozen(T[:, :3, 3]))
             object.__setattr__(self, "_frame_arrays", arrays)
         return arrays
@@ -362,6 +390,10 @@ def build_model(name, bodies, *, floating_base, gravity=(0.0, 0.0, -9.81), warni
                 value = {"lower": -np.inf, "upper": np.inf, "effort": np.inf, "velocity": np.inf}.get(k, 0.0)
             per_dof[k].extend([value] * n)
     P = np.array([b.placement for b in bodies]).reshape(nb, 4, 4)
+    XK, XKK = np.zeros((nb, 3, 3)), np.zeros((nb, 3, 3))
+    for i, (c, b) in enumerate(zip(codes, bodies)):
+        if c == JOINT_REVOLUTE:
+            XK[i], XKK[i] = revolute_terms(P[i, :3, :3], b.axis)
     tree = Tree(
         parents=_frozen([b.parent for b in bodies], np.int64),
         jtype=_frozen(codes, np.int64),
@@ -375,6 +407,8 @@ def build_model(name, bodies, *, floating_base, gravity=(0.0, 0.0, -9.81), warni
         mass=_frozen([b.mass for b in bodies]),
         h=_frozen(np.array([b.h for b in bodies], float).reshape(nb, 3)),
         Io=_frozen(np.array([b.Io for b in bodies], float).reshape(nb, 3, 3)),
+        XK=_frozen(XK),
+        XKK=_frozen(XKK),
     )
     return Model(
         name=name,

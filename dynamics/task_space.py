@@ -16,7 +16,7 @@ stretched out) J M^-1 J^T loses rank and Lambda blows up.  Without damping a con
 import numpy as np
 
 from . import checks
-from ._numba import kernel
+from ._numba import borrowed, keep_alive, kernel
 from .errors import InputError
 from .jacobians import jacobian_into
 from .kinematics import support
@@ -27,8 +27,10 @@ MAX_CONDITION = 1e8
 
 
 @kernel
-def jmj_batch(tree, Q, frames, f, ref, rows, out, status):
+def jmj_batch(model_tree, Q, model_frames, f, ref, rows, out, status):
     """out[b] = J[rows] M^-1 J[rows]^T at Q[b]; status[b] = -1 or a body whose joint makes M singular."""
+    # borrowed: the kernels below take the arrays out of the tuples per body and per state: no reference counts
+    tree, frames = borrowed(model_tree), borrowed(model_frames)
     nb, nv, r = tree.parents.shape[0], tree.S.shape[0], rows.shape[0]
     path, oR, op = np.empty(nb, np.int64), np.empty((nb, 3, 3)), np.empty((nb, 3))
     ws = workspace(nb, nv)
@@ -54,6 +56,8 @@ def jmj_batch(tree, Q, frames, f, ref, rows, out, status):
                 for t in range(n):
                     x += JM[a, t] * J[rows[e], cols[t]]
                 out[b, a, e] = x
+    keep_alive(model_tree)
+    keep_alive(model_frames)
 
 
 # -- public entry point ----------------------------------------------------------------------------

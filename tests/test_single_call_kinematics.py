@@ -66,7 +66,8 @@ def test_frame_jacobian_fast_path_bit_for_bit_by_name_and_index(model):
 
 
 def test_placements_agree_with_frame_placement(model):
-    """The identity-axes shortcut of frame_pose gives the same placements on the all-frames and one-frame paths."""
+    """frame_pose by frame kind (built with the model) gives the same placements on the all-frames and one-frame
+    paths."""
     q = _q(model, 1)
     T = dynamics.forward_kinematics(model, q)
     for frame in _frames(model):
@@ -122,3 +123,46 @@ def test_non_model_is_refused():
         dynamics.frame_jacobian("panda", np.zeros(9), "panda_hand")
     with pytest.raises(dynamics.InputError, match="model: expected a dynamics.Model"):
         dynamics.forward_kinematics(None, np.zeros(9))
+
+
+class _Subclass(np.ndarray):
+    pass
+
+
+def _unusual_arrays(q):
+    """q as arrays the compiled entry does not take itself (it reads numpy's array header): each must get the
+    general path's result."""
+    strided = np.empty(2 * len(q))
+    strided[::2] = q
+    readonly = q.copy()
+    readonly.flags.writeable = False
+    return {"float32": q.astype(np.float32), "big-endian": q.astype(">f8"), "strided": strided[::2],
+            "reversed": q[::-1].copy()[::-1], "subclass": q.copy().view(_Subclass), "read-only": readonly,
+            "int": np.round(q).astype(np.int64)}
+
+
+@pytest.mark.parametrize("name", ["forward_kinematics", "frame_jacobian"])
+def test_unusual_arrays_get_the_general_paths_result(model, name):
+    f = getattr(dynamics, name)
+    extra = (model.frame_names[-1],) if name == "frame_jacobian" else ()
+    for label, x in _unusual_arrays(_q(model)).items():
+        np.testing.assert_array_equal(f(model, x, *extra), f(model, [float(v) for v in x], *extra), err_msg=label)
+
+
+def test_compiled_entries_refuse_what_they_do_not_take(model):
+    """The entries called directly (as the public functions do) answer GENERAL, never crash, for anything else."""
+    from dynamics.checks import GENERAL
+    from dynamics.jacobians import _jacobian_single
+    from dynamics.kinematics import _placements_single
+    q, out, J = _q(model), np.empty(model.placements_shape), np.empty(model.jacobian_shape)
+    fk, jac = _placements_single.call, _jacobian_single.call
+    assert fk(model.packed, q, out) != GENERAL and jac(model.packed, q, 0, 2, J) != GENERAL
+    for args in [(), (model.packed, q), (model.packed, q, out, out), (None, q, out), (q, q, out),
+                 (model.packed, q.astype(np.float32), out), (model.packed, q, out[:-1]), (model.packed, q, out[..., ::2]),
+                 (model.packed, q, np.empty((len(model.frames), 16))), (model.packed, q, out.astype(np.int64)),
+                 (model.packed, q[None], out), (model.packed, "q", out), (model.packed, 1.0, out)]:
+        assert fk(*args) == GENERAL, args
+    for args in [(model.packed, q, 0, 2), (model.packed, q, 0.0, 2, J), (model.packed, q, 0, None, J),
+                 (model.packed, q, True, 2, J), (model.packed, q, 0, 2, J[:, :-1]), (model.packed, q, 0, 2, J.T),
+                 (model.packed, q, len(model.frames), 2, J), (model.packed, q, 0, 3, J), (model.packed, q, -1, 2, J)]:
+        assert jac(*args) == GENERAL, args
