@@ -530,8 +530,10 @@ class PythonFunction:
         self.entry, self.statuses = entry, statuses
 
     def call(self, *args):
-        if not _layout_is_known():
-            raise RuntimeError("dynamics._numba: unknown CPython or numpy object layout for the fast single calls")
+        if not _layout_is_known():  # another interpreter build or numpy: every call takes the general path
+            general = self.statuses[1]
+            self.call = lambda *args: general
+            return general
         try:  # a compile error must not look like one of the errors the callers catch (they take the general path)
             compiled = cfunc(FASTCALL, cache=True, error_model="numpy")(self.entry)
         except Exception as e:
