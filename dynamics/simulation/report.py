@@ -52,9 +52,9 @@ import math
 
 import numpy as np
 
-from .._numba import borrowed, kernel
+from .._numba import kernel
 from ..configuration import difference
-from ..energy import kinetic_energy_kernel, potential_energy_kernel
+from ..energy import energy_batch
 from ..errors import InputError
 from .solvers import OK, RADAU, STATUS_NAMES, SWITCH_STIFF
 
@@ -148,9 +148,9 @@ def energy_balance(model, s, t, q, v, w, run):
         q = np.array([s.q0, run.qf])
         v = np.array([s.v0, run.vf])
         w = w[[0, cnt - 1]]
-    K = np.empty(len(q))
-    U = np.empty(len(q))
-    _energies(model.tree, q, v, s.gravity, K, U)
+    KU = np.empty((len(q), 2))
+    energy_batch(model.tree, q, v, s.gravity, True, True, KU)
+    K, U = KU[:, 0], KU[:, 1]
     E = K + U
     W = w.sum(axis=1) if cnt else np.zeros(0)
     scale = float("nan")
@@ -206,14 +206,6 @@ def _g(x):
 def json_safe(report):
     """Non-finite floats become None (strict JSON)."""
     return {k: (None if isinstance(x, float) and not math.isfinite(x) else x) for k, x in report.items()}
-
-
-@kernel
-def _energies(tree, Q, V, gravity, K, U):
-    tree = borrowed(tree)  # the caller owns the model; one kernel call per sample without atomics
-    for j in range(Q.shape[0]):
-        K[j] = kinetic_energy_kernel(tree, Q[j], V[j])
-        U[j] = potential_energy_kernel(tree, Q[j], gravity)
 
 
 @kernel
