@@ -47,12 +47,14 @@ for one fixed signature (:func:`single_signature`), the single-state entry point
 """
 
 import copy
+import struct
 import threading
 
 import numpy as np
-from numba import njit, types
+from numba import njit, typeof, types
 from numba.core import cgutils, ir
 from numba.core.inline_closurecall import InlineWorker
+from numba.core.registry import cpu_target
 from numba.extending import intrinsic
 
 _scope_copies = threading.local()
@@ -303,11 +305,63 @@ def _store(typingctx, buf, x):
 
 
 @kernel
-def pack(x):
-    """A copy of the value ``x`` (a tuple of arrays, nested) in an int64 buffer, its arrays borrowed (NULL
-    owner): ``buf.ctypes.data`` is a pointer :func:`deref` reads back.  Keep ``x`` alive while it is used."""
+def _pack_compiled(x):
+    """:func:`pack` by numba itself, for a value holding a type :func:`_put` does not know."""
     buf = np.empty((_sizeof(x) + 7) // 8, np.int64)
     _store(buf, x)
+    return buf
+
+
+_SCALAR_FORMATS = {(types.Integer, 8): "b", (types.Integer, 16): "h", (types.Integer, 32): "i",
+                   (types.Integer, 64): "q", (types.Float, 32): "f", (types.Float, 64): "d"}
+
+
+def _put(mem, offset, ty, x):
+    """Write x, of numba type ty, at ``offset`` of ``mem`` in numba's data layout (what ``context.pack_value``
+    stores): an array as its struct {meminfo, parent, nitems, itemsize, data, shape, strides} with NULL owner
+    and parent (borrowed), a tuple as the LLVM struct of its members (natural alignment), None as a NULL
+    pointer.  Raises TypeError for another type."""
+    ctx = _target_context()
+    if isinstance(ty, types.Array):
+        dims = list(x.shape) + list(x.strides)
+        struct.pack_into(f"<5q{len(dims)}q", mem, offset, 0, 0, x.size, x.itemsize, x.ctypes.data, *dims)
+    elif isinstance(ty, types.BaseTuple):
+        for t, v in zip(ty, x):
+            ll = ctx.get_data_type(t)
+            align = ctx.get_abi_alignment(ll)
+            offset = (offset + align - 1) // align * align
+            _put(mem, offset, t, v)
+            offset += ctx.get_abi_sizeof(ll)
+    elif isinstance(ty, types.Boolean):
+        struct.pack_into("<B", mem, offset, bool(x))
+    elif isinstance(ty, types.NoneType):
+        struct.pack_into("<q", mem, offset, 0)
+    elif isinstance(ty, (types.Integer, types.Float)) and (type(ty), ty.bitwidth) in _SCALAR_FORMATS:
+        fmt = _SCALAR_FORMATS[type(ty), ty.bitwidth]
+        struct.pack_into("<" + (fmt.upper() if isinstance(ty, types.Integer) and not ty.signed else fmt), mem,
+                         offset, x)
+    else:
+        raise TypeError(f"pack: no layout for {ty}")
+
+
+def _target_context():
+    return cpu_target.target_context  # created on first use
+
+
+def pack(x):
+    """A copy of the value ``x`` (a tuple of arrays and scalars, nested) in an int64 buffer, in numba's data
+    layout, its arrays borrowed (NULL owner): ``buf.ctypes.data`` is a pointer :func:`deref` reads back.  Keep
+    ``x`` alive while it is used.  Written from Python (no compiled function per value type: compiling one
+    cost ~0.4 s of a cold start for each problem type); a type it does not know goes through numba's own
+    ``pack_value``."""
+    ty = typeof(x)
+    ctx = _target_context()
+    size = ctx.get_abi_sizeof(ctx.get_data_type(ty))
+    buf = np.zeros((size + 7) // 8, np.int64)
+    try:
+        _put(memoryview(buf).cast("B"), 0, ty, x)
+    except TypeError:
+        return _pack_compiled(x)
     return buf
 
 

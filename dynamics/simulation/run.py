@@ -116,7 +116,7 @@ def run(method, p, z, t_end, opt, t0=0.0, watch=None):
     stats, sw = solvers.new_stats(), solvers.new_switch_log()
     needs = NEEDS.get(method, ("rhs", "rebase", "emit"))
     ty = typeof(p)
-    problem_fns = [(getattr(type(p), n), (types.CPointer(ty), *BY_REFERENCE[n])) for n in needs] + [(pack, (ty,))]
+    problem_fns = [(getattr(type(p), n), (types.CPointer(ty), *BY_REFERENCE[n])) for n in needs]
     _announce(entry, method, (Handle(0, 0, 0, 0, 0), z, float(t0), float(t_end), p.out_t, opt, stats, sw),
               problem_fns)
     h, buf = handle(p, needs)
