@@ -410,3 +410,29 @@ def call_address(context, builder, address, signature, args):
     with cgutils.if_unlikely(builder, status.is_error):
         context.call_conv.return_status_propagate(builder, status)
     return out
+
+
+def address_call(name, nargs):
+    """An intrinsic ``call(fn, a0, .., a<nargs-1>)`` that calls the compiled function at address fn (an int64
+    from :func:`native_address`) with these arguments and returns its result: the callee must be compiled for
+    exactly the caller's argument types (or types of the same data layout), and its return type is taken from
+    that compilation (``restype`` of :func:`address_signature`).  So a caller holds no copy of the callee's
+    code: numba links every function a compiled function calls into it and optimises the whole again (the ABA
+    costs ~0.5 s in each of its callers).  numba's intrinsics take a fixed number of arguments, hence the
+    generated signature."""
+    params = ", ".join(f"a{i}" for i in range(nargs))
+    ns = {}
+    exec(f"def {name}(typingctx, fn, restype, {params}):\n    return typer(fn, restype, ({params},))",
+         {"typer": _address_call_typer}, ns)
+    return intrinsic(ns[name])
+
+
+def _address_call_typer(fn, restype, argtys):
+    if not isinstance(fn, types.Integer) or not isinstance(restype, (types.NumberClass, types.TypeRef)):
+        return None
+    ret = restype.instance_type
+    callee = ret(*argtys)
+
+    def codegen(context, builder, sig, args):
+        return call_address(context, builder, context.cast(builder, args[0], fn, types.int64), callee, args[2:])
+    return ret(fn, restype, *argtys), codegen
