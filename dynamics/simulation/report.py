@@ -210,7 +210,11 @@ def json_safe(report):
 def state_error(model, q1, v1, q2, v2):
     """(max |q1 - q2| on the manifold, max |v1 - v2|) between two states (the error estimate's, and tests' and
     benchmarks').  In Python around the compiled configuration difference: one compiled function fewer."""
-    d = np.empty(model.nv)
-    difference(model.tree, np.ascontiguousarray(q2, float), np.ascontiguousarray(q1, float), d)
+    q1, q2 = np.ascontiguousarray(q1, float), np.ascontiguousarray(q2, float)
+    if model.nq == model.nv:  # 1-dof joints only: the difference is q1 - q2 (no compiled function needed)
+        d = q1 - q2
+    else:
+        d = np.empty(model.nv)
+        difference(model.tree, q2, q1, d)
     dv = np.asarray(v1, float) - np.asarray(v2, float)
     return float(np.max(np.abs(d), initial=0.0)), float(np.max(np.abs(dv), initial=0.0))
