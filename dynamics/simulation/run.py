@@ -78,7 +78,7 @@ ENTRY = {"euler": _euler, "rk4": _rk4, "rk45": _rk45, "dop853": _dop853, "radau"
 
 #: seconds to compile a method's entry point and the problem's functions from an empty cache (2R arm, measured
 #: on a loaded 2-core machine, process CPU time less the library's)
-COMPILE_SECONDS = {"euler": 20, "rk4": 20, "rk45": 30, "dop853": 30, "radau": 35, "auto": 35}
+COMPILE_SECONDS = {"euler": 12, "rk4": 12, "rk45": 20, "dop853": 25, "radau": 30, "auto": 18}
 #: the problem functions a method calls (euler_config serves the symplectic Euler method alone)
 NEEDS = {"euler": ("rhs", "rebase", "emit", "euler_config")}
 
