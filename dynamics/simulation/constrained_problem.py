@@ -24,7 +24,7 @@ from .._numba import copy_into, deref, kernel
 from ..constrained import (constrained_accel_kernel, drift_kernel, project_position_kernel,
                            project_velocity_kernel)
 from ..constrained import workspace as constrained_workspace
-from ..configuration import retract
+from ..configuration import retract_in
 from ..constraints import arrays
 from .problem import RobotProblem, applied_torques, chart_and_velocity, emit, euler_config, rebase, robot_problem
 
@@ -110,7 +110,7 @@ def constrained_emit(p, j, t, z):
     nv = p.tau_s.shape[0]
     emit(p, j, t, z)
     q = p.qbuf
-    retract(p.tree, p.base, z[:nv], q)  # the sample's configuration (emit kept it in out_q or qbuf)
+    retract_in(p.chart, p.tree, p.base, z[:nv], q)  # the sample's configuration (emit kept it in out_q or qbuf)
     v = z[nv:2 * nv]
     _track_drift(p, q, v)
     if p.out_lam.shape[0] > 0:

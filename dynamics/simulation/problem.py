@@ -27,7 +27,7 @@ from ..aba import workspace as aba_workspace
 from numba import typeof, types
 
 from .._numba import address_call, copy_into, deref, inline_kernel, kernel, native_address
-from ..configuration import chart_rate, integrate_delta, retract
+from ..configuration import chart_rate_in, chart_tag, integrate_delta, retract_in
 from ..joints import JOINT_FREE
 from ..torques import bind_source, call_source, passive_torques, source_workspace
 
@@ -42,6 +42,7 @@ class RobotProblem(NamedTuple):
     source_fn: int  # address of the torque source's compiled function (torques.bind_source)
     source: np.ndarray  # the packed torques.SourceCall (source, tree, passive, workspace), which it keeps alive
     aba_fn: int  # address of aba_into compiled for this problem's types (:func:`aba_address`)
+    chart: object  # configuration.chart_tag(model): its type says whether the model has a free joint
     base: np.ndarray  # (nq,) configuration at the start of the current step (the chart's base)
     qbuf: np.ndarray  # (nq,) scratch: the configuration of the state being evaluated
     tau_s: np.ndarray  # (nv,) scratch: source torques
@@ -62,7 +63,8 @@ def robot_problem(model, passive, source, q0, out_t, outputs):
     source_fn, source_buf = bind_source(source, model.tree, passive, source_workspace(source, nb, nv))
     ws = aba_workspace(nb, nv)
     return RobotProblem(
-        model.tree, passive, source_fn, source_buf, aba_address(model.tree, passive, ws), q0.copy(), np.empty(nq),
+        model.tree, passive, source_fn, source_buf, aba_address(model.tree, passive, ws), chart_tag(model),
+        q0.copy(), np.empty(nq),
         np.empty(nv), np.empty(nv), ws, out_t,
         np.zeros((T if "q" in outputs else 0, nq)), np.zeros((T if "v" in outputs else 0, nv)),
         np.zeros((T if "tau" in outputs else 0, nv)), np.zeros((T, NQUAD)), np.zeros(1, np.int64))
@@ -102,8 +104,8 @@ def applied_torques(p, t, q, v):
 def chart_and_velocity(p, z, dz):
     """p.qbuf = the configuration of z; dz's chart part = the chart rate of v.  Returns (q, v) views."""
     nv = p.tau_s.shape[0]
-    retract(p.tree, p.base, z[:nv], p.qbuf)
-    chart_rate(p.tree, p.qbuf, z[:nv], z[nv:2 * nv], dz[:nv])
+    retract_in(p.chart, p.tree, p.base, z[:nv], p.qbuf)
+    chart_rate_in(p.chart, p.tree, p.qbuf, z[:nv], z[nv:2 * nv], dz[:nv])
     return p.qbuf, z[nv:2 * nv]
 
 
@@ -128,10 +130,10 @@ def rebase(p, t, z, dz, mag):
     p = deref(p)
     tree, base = p.tree, p.base
     nv = p.tau_s.shape[0]
-    retract(tree, base, z[:nv], p.qbuf)
+    retract_in(p.chart, tree, base, z[:nv], p.qbuf)
     copy_into(base, p.qbuf)
     z[:nv] = 0.0
-    chart_rate(tree, base, z[:nv], z[nv:2 * nv], dz[:nv])
+    chart_rate_in(p.chart, tree, base, z[:nv], z[nv:2 * nv], dz[:nv])
     for i in range(tree.jtype.shape[0]):
         k = tree.v_idx[i]
         if tree.jtype[i] == JOINT_FREE:
@@ -157,7 +159,7 @@ def emit(p, j, t, z):
     nv = p.tau_s.shape[0]
     p.out_t[j] = t
     q = p.out_q[j] if p.out_q.shape[0] > 0 else p.qbuf  # qbuf is free between right-hand-side evaluations
-    retract(p.tree, p.base, z[:nv], q)
+    retract_in(p.chart, p.tree, p.base, z[:nv], q)
     if p.out_v.shape[0] > 0:
         copy_into(p.out_v[j], z[nv:2 * nv])
     if p.out_tau.shape[0] > 0:
