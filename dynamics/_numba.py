@@ -18,6 +18,11 @@ numba options.
   with every function it calls (their code is linked in and optimised again), so each extra compiled layer
   above the ABA pays for optimising the ABA once more; inlined layers make one function per entry point.
 * :data:`gil_kernel`: cached but holding the GIL, for the one function that calls back into Python.
+* :data:`borrowing_kernel`: a :data:`kernel` compiled without numba's reference counting (``_nrt=False``), for
+  functions that only read and write the arrays they are given and allocate nothing (the simulation problem's
+  functions, whose arrays are borrowed anyway, :func:`pack`): numba otherwise lowers an increment and a
+  decrement of every array of every tuple it binds (the problem, its tree, the ABA workspace), a third of those
+  functions' compile time.  An allocation in such a function is a compile error, not a leak.
 
 Kernels read the model's arrays into locals once at their top (``parents, mass = tree.parents, tree.mass``):
 every array taken out of a tuple is reference counted with an atomic operation.
@@ -97,14 +102,17 @@ def _inline_ir(self, *args, **kwargs):
 ir.Scope.__deepcopy__ = _deepcopy_scope
 InlineWorker.inline_ir = _inline_ir
 
-JIT_OPTIONS = dict(cache=True, nogil=True, error_model="numpy")
-GENERIC_OPTIONS = dict(nogil=True, error_model="numpy")
+# _nrt=True explicitly: a function compiled while typing a borrowing_kernel's call would otherwise inherit its
+# _nrt=False (numba passes the caller's flag to callees that do not set it) and keep that compilation
+JIT_OPTIONS = dict(cache=True, nogil=True, error_model="numpy", _nrt=True)
+GENERIC_OPTIONS = dict(nogil=True, error_model="numpy", _nrt=True)
 
 kernel = njit(**JIT_OPTIONS)
 inline_kernel = njit(**JIT_OPTIONS, inline="always")
 generic_kernel = njit(**GENERIC_OPTIONS)
 generic_inline = njit(**GENERIC_OPTIONS, inline="always")
-gil_kernel = njit(cache=True, error_model="numpy")
+gil_kernel = njit(cache=True, error_model="numpy", _nrt=True)
+borrowing_kernel = njit(**dict(JIT_OPTIONS, _nrt=False))
 
 
 def _borrow_value(context, builder, ty, val):

@@ -26,7 +26,7 @@ from ..aba import aba_into
 from ..aba import workspace as aba_workspace
 from numba import typeof, types
 
-from .._numba import address_call, copy_into, deref, inline_kernel, kernel, native_address
+from .._numba import address_call, borrowing_kernel, copy_into, deref, inline_kernel, native_address
 from ..configuration import chart_rate_in, chart_tag, integrate_delta, retract_in
 from ..joints import JOINT_FREE
 from ..torques import bind_source, call_source, passive_torques, source_workspace
@@ -109,7 +109,7 @@ def chart_and_velocity(p, z, dz):
     return p.qbuf, z[nv:2 * nv]
 
 
-@kernel
+@borrowing_kernel
 def rhs(p, t, z, dz):
     """dz = f(t, z): chart rate, ABA accelerations (NaN when the articulated inertia is singular), powers."""
     p = deref(p)
@@ -123,7 +123,7 @@ def rhs(p, t, z, dz):
     dz[2 * nv + 1] = power_p
 
 
-@kernel
+@borrowing_kernel
 def rebase(p, t, z, dz, mag):
     """Fold the chart coordinates into ``base``, rewrite dz's chart part for the new chart, and the
     magnitudes of the state for the relative tolerance (|q| per 1-dof coordinate and free-flyer position)."""
@@ -144,14 +144,14 @@ def rebase(p, t, z, dz, mag):
             mag[k] = abs(base[tree.q_idx[i]])
 
 
-@kernel
+@borrowing_kernel
 def euler_config(p, z, h):
     p = deref(p)
     nv = p.tau_s.shape[0]
     integrate_delta(p.tree, p.base, z[nv:2 * nv], h, z[:nv])
 
 
-@kernel
+@borrowing_kernel
 def emit(p, j, t, z):
     """Write sample j.  An output the caller did not ask for has zero rows: it is neither kept nor, for the
     torques, computed."""
