@@ -18,6 +18,11 @@ numba options.
   with every function it calls (their code is linked in and optimised again), so each extra compiled layer
   above the ABA pays for optimising the ABA once more; inlined layers make one function per entry point.
 * :data:`gil_kernel`: cached but holding the GIL, for the one function that calls back into Python.
+* :data:`borrowing_kernel`: a :data:`kernel` compiled without numba's reference counting (``_nrt=False``), for
+  functions that only read and write the arrays they are given and allocate nothing (the simulation problem's
+  functions, whose arrays are borrowed anyway, :func:`pack`): numba otherwise lowers an increment and a
+  decrement of every array of every tuple it binds (the problem, its tree, the ABA workspace), a third of those
+  functions' compile time.  An allocation in such a function is a compile error, not a leak.
 
 Kernels read the model's arrays into locals once at their top (``parents, mass = tree.parents, tree.mass``):
 every array taken out of a tuple is reference counted with an atomic operation.
@@ -54,13 +59,15 @@ headers itself and checks dtype and rank there too (section "Calls from Python w
 
 import copy
 import ctypes
+import struct
 import threading
 
 import numpy as np
 from llvmlite import ir as llvm_ir
-from numba import cfunc, njit, types
+from numba import cfunc, njit, typeof, types
 from numba.core import cgutils, ir
 from numba.core.inline_closurecall import InlineWorker
+from numba.core.registry import cpu_target
 from numba.extending import intrinsic
 
 _scope_copies = threading.local()
@@ -104,14 +111,17 @@ if "__deepcopy__" not in vars(ir.Scope) and not hasattr(ir.Scope, "__slots__"): 
     ir.Scope.__deepcopy__ = _deepcopy_scope                                         # itself needs no help
     InlineWorker.inline_ir = _inline_ir
 
-JIT_OPTIONS = dict(cache=True, nogil=True, error_model="numpy")
-GENERIC_OPTIONS = dict(nogil=True, error_model="numpy")
+# _nrt=True explicitly: a function compiled while typing a borrowing_kernel's call would otherwise inherit its
+# _nrt=False (numba passes the caller's flag to callees that do not set it) and keep that compilation
+JIT_OPTIONS = dict(cache=True, nogil=True, error_model="numpy", _nrt=True)
+GENERIC_OPTIONS = dict(nogil=True, error_model="numpy", _nrt=True)
 
 kernel = njit(**JIT_OPTIONS)
 inline_kernel = njit(**JIT_OPTIONS, inline="always")
 generic_kernel = njit(**GENERIC_OPTIONS)
 generic_inline = njit(**GENERIC_OPTIONS, inline="always")
-gil_kernel = njit(cache=True, error_model="numpy")
+gil_kernel = njit(cache=True, error_model="numpy", _nrt=True)
+borrowing_kernel = njit(**dict(JIT_OPTIONS, _nrt=False))
 
 
 def _borrow_value(context, builder, ty, val):
@@ -312,11 +322,63 @@ def _store(typingctx, buf, x):
 
 
 @kernel
-def pack(x):
-    """A copy of the value ``x`` (a tuple of arrays, nested) in an int64 buffer, its arrays borrowed (NULL
-    owner): ``buf.ctypes.data`` is a pointer :func:`deref` reads back.  Keep ``x`` alive while it is used."""
+def _pack_compiled(x):
+    """:func:`pack` by numba itself, for a value holding a type :func:`_put` does not know."""
     buf = np.empty((_sizeof(x) + 7) // 8, np.int64)
     _store(buf, x)
+    return buf
+
+
+_SCALAR_FORMATS = {(types.Integer, 8): "b", (types.Integer, 16): "h", (types.Integer, 32): "i",
+                   (types.Integer, 64): "q", (types.Float, 32): "f", (types.Float, 64): "d"}
+
+
+def _put(mem, offset, ty, x):
+    """Write x, of numba type ty, at ``offset`` of ``mem`` in numba's data layout (what ``context.pack_value``
+    stores): an array as its struct {meminfo, parent, nitems, itemsize, data, shape, strides} with NULL owner
+    and parent (borrowed), a tuple as the LLVM struct of its members (natural alignment), None as a NULL
+    pointer.  Raises TypeError for another type."""
+    ctx = _target_context()
+    if isinstance(ty, types.Array):
+        dims = list(x.shape) + list(x.strides)
+        struct.pack_into(f"<5q{len(dims)}q", mem, offset, 0, 0, x.size, x.itemsize, x.ctypes.data, *dims)
+    elif isinstance(ty, types.BaseTuple):
+        for t, v in zip(ty, x):
+            ll = ctx.get_data_type(t)
+            align = ctx.get_abi_alignment(ll)
+            offset = (offset + align - 1) // align * align
+            _put(mem, offset, t, v)
+            offset += ctx.get_abi_sizeof(ll)
+    elif isinstance(ty, types.Boolean):
+        struct.pack_into("<B", mem, offset, bool(x))
+    elif isinstance(ty, types.NoneType):
+        struct.pack_into("<q", mem, offset, 0)
+    elif isinstance(ty, (types.Integer, types.Float)) and (type(ty), ty.bitwidth) in _SCALAR_FORMATS:
+        fmt = _SCALAR_FORMATS[type(ty), ty.bitwidth]
+        struct.pack_into("<" + (fmt.upper() if isinstance(ty, types.Integer) and not ty.signed else fmt), mem,
+                         offset, x)
+    else:
+        raise TypeError(f"pack: no layout for {ty}")
+
+
+def _target_context():
+    return cpu_target.target_context  # created on first use
+
+
+def pack(x):
+    """A copy of the value ``x`` (a tuple of arrays and scalars, nested) in an int64 buffer, in numba's data
+    layout, its arrays borrowed (NULL owner): ``buf.ctypes.data`` is a pointer :func:`deref` reads back.  Keep
+    ``x`` alive while it is used.  Written from Python (no compiled function per value type: compiling one
+    cost ~0.4 s of a cold start for each problem type); a type it does not know goes through numba's own
+    ``pack_value``."""
+    ty = typeof(x)
+    ctx = _target_context()
+    size = ctx.get_abi_sizeof(ctx.get_data_type(ty))
+    buf = np.zeros((size + 7) // 8, np.int64)
+    try:
+        _put(memoryview(buf).cast("B"), 0, ty, x)
+    except TypeError:
+        return _pack_compiled(x)
     return buf
 
 
@@ -365,6 +427,32 @@ def call_address(context, builder, address, signature, args):
     with cgutils.if_unlikely(builder, status.is_error):
         context.call_conv.return_status_propagate(builder, status)
     return out
+
+
+def address_call(name, nargs):
+    """An intrinsic ``call(fn, a0, .., a<nargs-1>)`` that calls the compiled function at address fn (an int64
+    from :func:`native_address`) with these arguments and returns its result: the callee must be compiled for
+    exactly the caller's argument types (or types of the same data layout), and its return type is taken from
+    that compilation (``restype`` of :func:`address_signature`).  So a caller holds no copy of the callee's
+    code: numba links every function a compiled function calls into it and optimises the whole again (the ABA
+    costs ~0.5 s in each of its callers).  numba's intrinsics take a fixed number of arguments, hence the
+    generated signature."""
+    params = ", ".join(f"a{i}" for i in range(nargs))
+    ns = {}
+    exec(f"def {name}(typingctx, fn, restype, {params}):\n    return typer(fn, restype, ({params},))",
+         {"typer": _address_call_typer}, ns)
+    return intrinsic(ns[name])
+
+
+def _address_call_typer(fn, restype, argtys):
+    if not isinstance(fn, types.Integer) or not isinstance(restype, (types.NumberClass, types.TypeRef)):
+        return None
+    ret = restype.instance_type
+    callee = ret(*argtys)
+
+    def codegen(context, builder, sig, args):
+        return call_address(context, builder, context.cast(builder, args[0], fn, types.int64), callee, args[2:])
+    return ret(fn, restype, *argtys), codegen
 
 
 # ---------------------------------------------------------------------------------------------------

@@ -27,12 +27,17 @@ eq. 145).  Any Runge-Kutta method applied to it keeps its full order (this is th
 after each accepted step the chart is re-centred (``q0 <- retract(q0, delta)``, ``delta <- 0``), so
 ``delta_theta`` stays small and far from the singularity of Jr^-1 at |theta| = pi.
 
-All kernels here are ``numba.njit`` and take the model's ``Tree``.
+All kernels here are ``numba.njit`` and take the model's ``Tree``.  The simulation's chart functions
+(:func:`retract_in`, :func:`chart_rate_in`) also take a tag (:func:`chart_tag`) whose numba type says whether
+the model has a free joint: a model of 1-dof joints only compiles the plain sums, not the quaternion algebra.
 """
 
-import numpy as np
+from typing import NamedTuple
 
-from ._numba import inline_kernel, kernel
+import numpy as np
+from numba.extending import overload
+
+from ._numba import JIT_OPTIONS, inline_kernel, kernel
 from .checks import vector
 from .errors import InputError
 from .joints import JOINT_FREE
@@ -152,6 +157,58 @@ def chart_rate(tree, q, delta, v, out):
             out[k + 3], out[k + 4], out[k + 5] = _skew_poly(0.5, c, t0, t1, t2, v[k + 3], v[k + 4], v[k + 5])
         else:
             out[k] = v[k]
+
+
+class OneDofChart(NamedTuple):
+    """The chart of a model of 1-dof joints only: q = q0 + delta, delta' = v (a tag: a type, no data)."""
+
+
+class FreeJointChart(NamedTuple):
+    """The chart of a model with a free joint (the module docstring)."""
+
+
+def chart_tag(model):
+    """The tag of the model's chart for :func:`retract_in` and :func:`chart_rate_in` (a free joint is the only
+    joint with nq != nv)."""
+    return OneDofChart() if model.nq == model.nv else FreeJointChart()
+
+
+def retract_in(tag, tree, q0, delta, q):
+    """:func:`retract` for the chart named by ``tag`` (compiled code only)."""
+    raise NotImplementedError
+
+
+def chart_rate_in(tag, tree, q, delta, v, out):
+    """:func:`chart_rate` for the chart named by ``tag`` (compiled code only)."""
+    raise NotImplementedError
+
+
+def _retract_one_dof(tag, tree, q0, delta, q):
+    for i in range(tree.jtype.shape[0]):
+        q[tree.q_idx[i]] = q0[tree.q_idx[i]] + delta[tree.v_idx[i]]
+
+
+def _retract_free(tag, tree, q0, delta, q):
+    retract(tree, q0, delta, q)
+
+
+def _chart_rate_one_dof(tag, tree, q, delta, v, out):
+    for i in range(tree.jtype.shape[0]):
+        out[tree.v_idx[i]] = v[tree.v_idx[i]]
+
+
+def _chart_rate_free(tag, tree, q, delta, v, out):
+    chart_rate(tree, q, delta, v, out)
+
+
+@overload(retract_in, jit_options=JIT_OPTIONS, inline="always")
+def _ov_retract_in(tag, tree, q0, delta, q):
+    return _retract_one_dof if tag.instance_class is OneDofChart else _retract_free
+
+
+@overload(chart_rate_in, jit_options=JIT_OPTIONS, inline="always")
+def _ov_chart_rate_in(tag, tree, q, delta, v, out):
+    return _chart_rate_one_dof if tag.instance_class is OneDofChart else _chart_rate_free
 
 
 @kernel

@@ -2,7 +2,8 @@
 
 A torque source turns (t, q, v) into the applied joint torques tau (nv,).  Every source except a Python
 callable is compiled: it is stored as one tuple of arrays (``Source``) of the same numba type for every
-kind, and :func:`torque_eval` evaluates it inside the compiled integration loop.
+kind, and :func:`torque_eval` evaluates it inside the compiled integration loop, compiled for its kind alone
+(the kind's tag, :func:`kind_tag`, travels with it as a type).
 
 =====================  ========================================================================================
 ``torque=`` argument   tau(t, q, v)
@@ -68,9 +69,8 @@ KIND_NAMES = ("zero", "constant", "table_linear", "table_zoh", "pd", "computed_t
 
 class Source(NamedTuple):
     """Compiled form of a torque source: one numba type for every kind except the operational space, whose
-    workspace ``ws`` is None in the others, so a simulation compiles the operational-space controller (the
-    largest source by far: a mass-matrix inverse, a Jacobian, an r x r solve) only when it uses one (and
-    the computed torque's RNEA only with an RNEA workspace, :func:`source_workspace`)."""
+    workspace ``ws`` is None in the others (the operational-space workspace is large).  Which kind's
+    evaluation is compiled is told by its tag (:func:`kind_tag`, in :class:`SourceCall`)."""
 
     kind: int
     times: np.ndarray  # (N,) table or reference times
@@ -276,8 +276,8 @@ def _torque_callable(slot, t, q, v, tau):
         _call_torque(slot, t, q, v, tau)
 
 
-def _computed_torque_eval(src, tree, ps, t, q, v, ws, tau):
-    """The computed torque (module docstring); compiled as the implementation of _computed_torques' overload."""
+def _computed_torque_eval(tag, src, tree, ps, t, q, v, ws, tau):
+    """The computed torque (module docstring); compiled as :func:`torque_eval` for this kind."""
     nv = v.shape[0]
     qr = ws[1][0]
     vr = ws[1][1]
@@ -292,22 +292,8 @@ def _computed_torque_eval(src, tree, ps, t, q, v, ws, tau):
         tau[i] -= pas[i]
 
 
-def _computed_torques(src, tree, ps, t, q, v, ws, tau):
-    """The COMPUTED_TORQUE branch of :func:`torque_eval` (compiled code only): nothing is compiled when the
-    source workspace has no RNEA workspace (:func:`source_workspace`: a source of another kind) or the source is
-    an operational-space one (its own workspace is not None)."""
-    raise NotImplementedError
-
-
-@overload(_computed_torques, jit_options=JIT_OPTIONS)
-def _ov_computed_torques(src, tree, ps, t, q, v, ws, tau):
-    if isinstance(ws.types[0], types.NoneType) or not isinstance(src.types[src.fields.index("ws")], types.NoneType):
-        return lambda src, tree, ps, t, q, v, ws, tau: None  # no RNEA workspace, or an operational-space source
-    return _computed_torque_eval  # the implementation itself: no compiled layer between it and torque_eval
-
-
-def _operational_space_eval(src, tree, ps, t, q, v, ws, tau):
-    """The operational-space torques; compiled as the implementation of _operational_space_torques' overload."""
+def _operational_space_eval(tag, src, tree, ps, t, q, v, ws, tau):
+    """The operational-space torques; compiled as :func:`torque_eval` for this kind."""
     x_ref = np.empty((3, 3))
     reference_at(src.times, src.table, 3, t, x_ref[0], x_ref[1], x_ref[2])
     if t < src.times[0] or t > src.times[-1]:  # hold the end position at rest
@@ -317,54 +303,98 @@ def _operational_space_eval(src, tree, ps, t, q, v, ws, tau):
     operational_space_into(src, tree, ps.gravity, ps.f_ext, t, q, v, x_ref, pas, ws[0], tau)
 
 
-def _operational_space_torques(src, tree, ps, t, q, v, ws, tau):
-    """The OPERATIONAL_SPACE branch of :func:`torque_eval` (compiled code only): nothing is compiled for a
-    Source without the operational-space workspace (never of that kind)."""
+def _zero_torques(tag, src, tree, ps, t, q, v, ws, tau):
+    for i in range(tau.shape[0]):
+        tau[i] = 0.0
+
+
+def _constant_torques(tag, src, tree, ps, t, q, v, ws, tau):
+    copy_into(tau, src.gains[0])
+
+
+def _table_torques(tag, src, tree, ps, t, q, v, ws, tau):
+    """Linear or zero-order-hold interpolation of the rows of src.table (src.kind says which)."""
+    times = src.times
+    N = times.shape[0]
+    if N == 1 or t <= times[0]:
+        copy_into(tau, src.table[0])
+    elif t >= times[N - 1]:
+        copy_into(tau, src.table[N - 1])
+    else:
+        k = _segment(times, t)
+        if src.kind == TABLE_ZOH:
+            copy_into(tau, src.table[k])
+        else:
+            s = (t - times[k]) / (times[k + 1] - times[k])
+            for i in range(tau.shape[0]):
+                tau[i] = (1 - s) * src.table[k, i] + s * src.table[k + 1, i]
+
+
+def _pd_torques(tag, src, tree, ps, t, q, v, ws, tau):
+    e = ws[1][0]
+    difference(tree, q, src.qref, e)
+    for i in range(tau.shape[0]):
+        tau[i] = src.gains[0, i] * e[i] + src.gains[1, i] * (src.gains[2, i] - v[i]) + src.gains[3, i]
+
+
+def _callable_torques(tag, src, tree, ps, t, q, v, ws, tau):
+    _torque_callable(src.slot, t, q, v, tau)
+
+
+class ZeroKind(NamedTuple):
+    """The numba type of a source of kind ZERO (:func:`kind_tag`)."""
+
+
+class ConstantKind(NamedTuple):
+    """... of kind CONSTANT."""
+
+
+class TableKind(NamedTuple):
+    """... of kind TABLE_LINEAR or TABLE_ZOH."""
+
+
+class PDKind(NamedTuple):
+    """... of kind PD_KIND."""
+
+
+class ComputedTorqueKind(NamedTuple):
+    """... of kind COMPUTED_TORQUE."""
+
+
+class CallableKind(NamedTuple):
+    """... of kind CALLABLE."""
+
+
+class OperationalSpaceKind(NamedTuple):
+    """... of kind OPERATIONAL_SPACE."""
+
+
+#: per kind: its tag (an empty NamedTuple class: a numba type with no data) and the function that evaluates it
+_KINDS = {ZERO: (ZeroKind, _zero_torques), CONSTANT: (ConstantKind, _constant_torques),
+          TABLE_LINEAR: (TableKind, _table_torques), TABLE_ZOH: (TableKind, _table_torques),
+          PD_KIND: (PDKind, _pd_torques), COMPUTED_TORQUE: (ComputedTorqueKind, _computed_torque_eval),
+          CALLABLE: (CallableKind, _callable_torques),
+          OPERATIONAL_SPACE: (OperationalSpaceKind, _operational_space_eval)}
+_EVAL = {tag: fn for tag, fn in _KINDS.values()}
+
+
+def kind_tag(kind):
+    """The tag of a source kind: passed with the source (:class:`SourceCall`), its numba type selects the one
+    evaluation :func:`torque_eval` compiles."""
+    return _KINDS[kind][0]()
+
+
+def torque_eval(tag, src, tree, ps, t, q, v, ws, tau):
+    """tau = the source's applied torques at (t, q, v).  ws: (rnea workspace, 4 scratch (nv,) rows).  ``tag``
+    (:func:`kind_tag`) names src's kind at compile time (compiled code only): a source compiles only its own
+    kind's evaluation (not the PD's configuration difference, the tables' search, the callable's objmode
+    block, the computed torque's RNEA or the operational-space controller of the others)."""
     raise NotImplementedError
 
 
-@overload(_operational_space_torques, jit_options=JIT_OPTIONS)
-def _ov_operational_space_torques(src, tree, ps, t, q, v, ws, tau):
-    if isinstance(src.types[src.fields.index("ws")], types.NoneType):
-        return lambda src, tree, ps, t, q, v, ws, tau: None
-    return _operational_space_eval  # the implementation itself: no compiled layer between it and torque_eval
-
-
-@inline_kernel
-def torque_eval(src, tree, ps, t, q, v, ws, tau):
-    """tau = the source's applied torques at (t, q, v).  ws: (rnea workspace, 4 scratch (nv,) rows)."""
-    nv = v.shape[0]
-    kind = src.kind
-    if kind == ZERO:
-        tau[:] = 0.0
-    elif kind == CONSTANT:
-        copy_into(tau, src.gains[0])
-    elif kind == TABLE_LINEAR or kind == TABLE_ZOH:
-        times = src.times
-        N = times.shape[0]
-        if N == 1 or t <= times[0]:
-            copy_into(tau, src.table[0])
-        elif t >= times[N - 1]:
-            copy_into(tau, src.table[N - 1])
-        else:
-            k = _segment(times, t)
-            if kind == TABLE_ZOH:
-                copy_into(tau, src.table[k])
-            else:
-                s = (t - times[k]) / (times[k + 1] - times[k])
-                for i in range(nv):
-                    tau[i] = (1 - s) * src.table[k, i] + s * src.table[k + 1, i]
-    elif kind == PD_KIND:
-        e = ws[1][0]
-        difference(tree, q, src.qref, e)
-        for i in range(nv):
-            tau[i] = src.gains[0, i] * e[i] + src.gains[1, i] * (src.gains[2, i] - v[i]) + src.gains[3, i]
-    elif kind == COMPUTED_TORQUE:
-        _computed_torques(src, tree, ps, t, q, v, ws, tau)
-    elif kind == OPERATIONAL_SPACE:
-        _operational_space_torques(src, tree, ps, t, q, v, ws, tau)
-    else:
-        _torque_callable(src.slot, t, q, v, tau)
+@overload(torque_eval, jit_options=JIT_OPTIONS)
+def _ov_torque_eval(tag, src, tree, ps, t, q, v, ws, tau):
+    return _EVAL[tag.instance_class]
 
 
 # ---------------------------------------------------------------------------------------------------
@@ -376,6 +406,7 @@ class SourceCall(NamedTuple):
     tree: object  # the model's Tree
     ps: object  # Passive
     ws: tuple  # source_workspace(...)
+    tag: object  # kind_tag(src.kind): its type selects the evaluation compiled
 
 
 #: the arguments after the pointer of :func:`source_call`: t, q, v, tau
@@ -388,7 +419,7 @@ _SOURCE_ADDRESSES = {}  # SourceCall type -> address of source_call compiled for
 def source_call(c, t, q, v, tau):
     """tau = the torques of the source packed in c (a SourceCall or a pointer to one) at (t, q, v)."""
     c = deref(c)
-    torque_eval(c.src, c.tree, c.ps, t, q, v, c.ws, tau)
+    torque_eval(c.tag, c.src, c.tree, c.ps, t, q, v, c.ws, tau)
 
 
 def source_signature(call):
@@ -397,11 +428,11 @@ def source_signature(call):
 
 
 def bind_source(src, tree, ps, ws):
-    """(address of :func:`source_call` compiled, once per source type, for a pointer to the SourceCall, and the
+    """(address of :func:`source_call` compiled, once per source type and kind, for a pointer to the SourceCall, and the
     packed SourceCall in a buffer that keeps it alive): the two arguments of :func:`call_source`.  So the
     source's code (the operational-space controller: M^-1, a Jacobian, a task solve) is optimised once, in
     source_call, and not again in every function that evaluates it."""
-    call = SourceCall(src, tree, ps, ws)
+    call = SourceCall(src, tree, ps, ws, kind_tag(src.kind))
     sig = source_signature(call)
     key = sig.args[0]
     if key not in _SOURCE_ADDRESSES:
@@ -538,8 +569,7 @@ def _operational_space_source(model, spec):
 
 def source_workspace(source, nb, nv):
     """Scratch for :func:`torque_eval`: (an RNEA workspace, 4 (nv,) rows).  The RNEA workspace is None unless
-    the source runs the RNEA (computed torque, operational space): the numba type then tells that the
-    computed-torque branch is not used, and it is not compiled (the RNEA and the reference interpolation)."""
+    the source runs the RNEA (computed torque, operational space)."""
     uses_rnea = source.kind in (COMPUTED_TORQUE, OPERATIONAL_SPACE)
     return (rnea_workspace(nb) if uses_rnea else None, np.empty((4, nv)))
 

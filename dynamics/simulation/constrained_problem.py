@@ -20,11 +20,11 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .._numba import copy_into, deref, kernel
+from .._numba import borrowing_kernel, copy_into, deref
 from ..constrained import (constrained_accel_kernel, drift_kernel, project_position_kernel,
                            project_velocity_kernel)
 from ..constrained import workspace as constrained_workspace
-from ..configuration import retract
+from ..configuration import retract_in
 from ..constraints import arrays
 from .problem import RobotProblem, applied_torques, chart_and_velocity, emit, euler_config, rebase, robot_problem
 
@@ -60,7 +60,7 @@ def constrained_problem(model, passive, source, q0, out_t, outputs, alpha, beta,
         np.zeros((T if "lambda" in outputs else 0, m)), np.zeros(2), np.zeros(1, np.int64))
 
 
-@kernel
+@borrowing_kernel
 def constrained_rhs(p, t, z, dz):
     """dz = f(t, z) with the constrained accelerations (NaN when M is singular); p.lam = the multipliers."""
     p = deref(p)  # a pointer when called through the solvers' Handle
@@ -74,14 +74,14 @@ def constrained_rhs(p, t, z, dz):
     dz[2 * nv + 1] = power_p
 
 
-@kernel
+@borrowing_kernel
 def _track_drift(p, q, v):
     pos, vel = drift_kernel(p.tree, p.C, q, v, p.ws_con)
     p.drift[0] = max(p.drift[0], pos)
     p.drift[1] = max(p.drift[1], vel)
 
 
-@kernel
+@borrowing_kernel
 def constrained_rebase(p, t, z, dz, mag):
     """:func:`.problem.rebase`, then (``p.project``) the projection onto phi = 0, Phi_q v = 0 and f(t, z) again
     at the projected state; then the drift of the state the next step starts from."""
@@ -102,7 +102,7 @@ def constrained_rebase(p, t, z, dz, mag):
     _track_drift(p, p.base, v)
 
 
-@kernel
+@borrowing_kernel
 def constrained_emit(p, j, t, z):
     """:func:`.problem.emit`, the drift at the sample and, when kept, its multipliers (those the simulation
     applies there: Baumgarte terms included)."""
@@ -110,7 +110,7 @@ def constrained_emit(p, j, t, z):
     nv = p.tau_s.shape[0]
     emit(p, j, t, z)
     q = p.qbuf
-    retract(p.tree, p.base, z[:nv], q)  # the sample's configuration (emit kept it in out_q or qbuf)
+    retract_in(p.chart, p.tree, p.base, z[:nv], q)  # the sample's configuration (emit kept it in out_q or qbuf)
     v = z[nv:2 * nv]
     _track_drift(p, q, v)
     if p.out_lam.shape[0] > 0:

@@ -52,9 +52,8 @@ import math
 
 import numpy as np
 
-from .._numba import borrowed, kernel
 from ..configuration import difference
-from ..energy import kinetic_energy_kernel, potential_energy_kernel
+from ..energy import energy_batch
 from ..errors import InputError
 from .solvers import OK, RADAU, STATUS_NAMES, SWITCH_STIFF
 
@@ -125,7 +124,7 @@ def error_estimate(model, s, run, rerun, order, warnings):
                 warnings.append(f"error_estimate: the tighter rerun failed ({STATUS_NAMES[r2.stats['status']]}); "
                                 "estimate set to inf")
             else:
-                eq, ev = _state_error(model.tree, run.qf, run.vf, r2.qf, r2.vf)
+                eq, ev = state_error(model, run.qf, run.vf, r2.qf, r2.vf)
                 est_q, est_v = eq * factor, ev * factor
                 est = max(est_q, est_v)
     elif method == "local" and not s.fixed:
@@ -148,9 +147,9 @@ def energy_balance(model, s, t, q, v, w, run):
         q = np.array([s.q0, run.qf])
         v = np.array([s.v0, run.vf])
         w = w[[0, cnt - 1]]
-    K = np.empty(len(q))
-    U = np.empty(len(q))
-    _energies(model.tree, q, v, s.gravity, K, U)
+    KU = np.empty((len(q), 2))
+    energy_batch(model.tree, q, v, s.gravity, True, True, KU)
+    K, U = KU[:, 0], KU[:, 1]
     E = K + U
     W = w.sum(axis=1) if cnt else np.zeros(0)
     scale = float("nan")
@@ -208,27 +207,14 @@ def json_safe(report):
     return {k: (None if isinstance(x, float) and not math.isfinite(x) else x) for k, x in report.items()}
 
 
-@kernel
-def _energies(tree, Q, V, gravity, K, U):
-    tree = borrowed(tree)  # the caller owns the model; one kernel call per sample without atomics
-    for j in range(Q.shape[0]):
-        K[j] = kinetic_energy_kernel(tree, Q[j], V[j])
-        U[j] = potential_energy_kernel(tree, Q[j], gravity)
-
-
-@kernel
-def _state_error(tree, q1, v1, q2, v2):
-    d = np.empty(v1.shape[0])
-    difference(tree, q2, q1, d)
-    eq = 0.0
-    ev = 0.0
-    for k in range(d.shape[0]):
-        eq = max(eq, abs(d[k]))
-        ev = max(ev, abs(v1[k] - v2[k]))
-    return eq, ev
-
-
 def state_error(model, q1, v1, q2, v2):
-    """(max |q1 - q2| on the manifold, max |v1 - v2|) between two states (used by tests and benchmarks)."""
-    return _state_error(model.tree, np.ascontiguousarray(q1, float), np.ascontiguousarray(v1, float),
-                        np.ascontiguousarray(q2, float), np.ascontiguousarray(v2, float))
+    """(max |q1 - q2| on the manifold, max |v1 - v2|) between two states (the error estimate's, and tests' and
+    benchmarks').  In Python around the compiled configuration difference: one compiled function fewer."""
+    q1, q2 = np.ascontiguousarray(q1, float), np.ascontiguousarray(q2, float)
+    if model.nq == model.nv:  # 1-dof joints only: the difference is q1 - q2 (no compiled function needed)
+        d = q1 - q2
+    else:
+        d = np.empty(model.nv)
+        difference(model.tree, q2, q1, d)
+    dv = np.asarray(v1, float) - np.asarray(v2, float)
+    return float(np.max(np.abs(d), initial=0.0)), float(np.max(np.abs(dv), initial=0.0))

@@ -78,18 +78,19 @@ ENTRY = {"euler": _euler, "rk4": _rk4, "rk45": _rk45, "dop853": _dop853, "radau"
 
 #: seconds to compile a method's entry point and the problem's functions from an empty cache (2R arm, measured
 #: on a loaded 2-core machine, process CPU time less the library's)
-COMPILE_SECONDS = {"euler": 20, "rk4": 20, "rk45": 30, "dop853": 30, "radau": 35, "auto": 35}
+COMPILE_SECONDS = {"euler": 12, "rk4": 12, "rk45": 20, "dop853": 25, "radau": 30, "auto": 18}
 #: the problem functions a method calls (euler_config serves the symplectic Euler method alone)
 NEEDS = {"euler": ("rhs", "rebase", "emit", "euler_config")}
 
 
-def _loaded(dispatcher, argtypes):
-    """Whether ``dispatcher`` is compiled for ``argtypes`` in this process or in numba's on-disk cache (then
-    loaded now)."""
-    if tuple(argtypes) in dispatcher.overloads:
+def _loaded(dispatcher, sig):
+    """Whether ``dispatcher`` is compiled for ``sig`` (a tuple of argument types, or a Signature: numba's cache
+    keys an overload by the form it was compiled with, a Signature for :func:`native_address`) in this process
+    or in numba's on-disk cache (then loaded now)."""
+    if tuple(getattr(sig, "args", sig)) in dispatcher.overloads:
         return True
     try:
-        cres = dispatcher._cache.load_overload(tuple(argtypes), dispatcher.targetctx)  # numba's own cache lookup
+        cres = dispatcher._cache.load_overload(sig, dispatcher.targetctx)  # numba's own cache lookup
     except Exception:  # numba internals moved: stay quiet rather than fail a simulation
         return True
     if cres is None:
@@ -116,7 +117,7 @@ def run(method, p, z, t_end, opt, t0=0.0, watch=None):
     stats, sw = solvers.new_stats(), solvers.new_switch_log()
     needs = NEEDS.get(method, ("rhs", "rebase", "emit"))
     ty = typeof(p)
-    problem_fns = [(getattr(type(p), n), (types.CPointer(ty), *BY_REFERENCE[n])) for n in needs] + [(pack, (ty,))]
+    problem_fns = [(getattr(type(p), n), types.none(types.CPointer(ty), *BY_REFERENCE[n])) for n in needs]
     _announce(entry, method, (Handle(0, 0, 0, 0, 0), z, float(t0), float(t_end), p.out_t, opt, stats, sw),
               problem_fns)
     h, buf = handle(p, needs)

@@ -187,8 +187,11 @@ def _one_run(model, s, ps, src, dt, out_t, rtol, atol, max_steps, outputs, h0=0.
                   rtol=float(rtol), atol=float(atol), h0=float(h0 or 0.0), hmax=np.inf, blowup=_blowup(s.v0),
                   probe=int(probe and s.fixed and s.duration > 0))
     st, sw, wall = run(s.integrator, p, z, s.duration, opt, watch=watch)
-    qf = np.empty(model.nq)
-    retract(model.tree, p.base, z[:nv], qf)
+    if model.nq == nv:  # 1-dof joints only: the chart is q0 + delta (configuration.retract not compiled)
+        qf = p.base + z[:nv]
+    else:
+        qf = np.empty(model.nq)
+        retract(model.tree, p.base, z[:nv], qf)
     return RunResult(p, st, sw, wall, qf, z[nv:2 * nv].copy())
 
 
