@@ -58,6 +58,7 @@ def warmup() -> int:
     if settings.sim_workers > 0:  # no simulation, no warming
         stages.append(Stage("compiling simulation kernels", worker.warm_up))
         stages.append(Stage("compiling the operational-space simulation kernels", worker.warm_up_later))
+        stages.append(Stage("compiling the other torque kinds, the free joint and radau", worker.warm_up_rest))
     run = Warmup()
     run.run(stages)
     print(f"warmup: compiled kernels on {len(robots)} bundled robots in {run.seconds:.1f} s")

@@ -127,3 +127,16 @@ def test_a_failed_stage_is_logged_and_the_next_one_runs(caplog):
     text = caplog.text
     assert "warm-up: one (stage 1/2) failed" in text and "no compiler" in text
     assert "warm-up: two (stage 2/2) done in" in text and "warm-up: ready after" in text
+
+
+def test_the_rest_of_the_warm_up_reaches_radau_and_the_free_joint(monkeypatch):
+    """warm_up_rest compiles what it says: its stiff PD makes auto switch to radau, its floating model has a free
+    joint (seen through the simulations it runs)."""
+    from service.sim import worker
+    runs = []
+    simulate = dynamics.simulate
+    monkeypatch.setattr(dynamics, "simulate", lambda model, *a, **k: runs.append((model, simulate(model, *a, **k))))
+    worker.warm_up_rest()
+    assert any(tr.report["switches"] and tr.report["switches"][0]["to"] == "radau" for _, tr in runs)
+    assert any(model.nq == model.nv + 1 for model, _ in runs)  # a quaternion: the free joint
+    assert all(tr.report["status"] == "ok" for _, tr in runs)

@@ -159,6 +159,20 @@ def warm_up_later() -> None:
     lib().simulate(model, np.array([0.1]), np.zeros(1), 0.01, torque=torque)
 
 
+def warm_up_rest() -> None:
+    """What a first request of another kind would otherwise compile inside its time budget, compiled after the
+    late warm-up (each is a few seconds from an empty cache): the constant and table torques (a source compiles
+    only its own kind), a floating-base model (the free joint's chart), and auto's first switch to radau (a stiff
+    PD: radau is compiled only when auto first switches to it)."""
+    model = load_model(WARMUP_URDF, floating_base=False)
+    q0, v0 = np.array([0.1]), np.zeros(1)
+    for spec in ({"type": "constant", "tau": [0.1]}, {"type": "table", "t": [0.0, 1.0], "tau": [[0.0], [0.1]]},
+                 {"type": "pd", "q_target": np.zeros(1), "kp": 1e4, "kd": 1e3}):
+        lib().simulate(model, q0, v0, 0.05, torque=build_torque(spec))
+    floating = load_model(WARMUP_URDF, floating_base=True)
+    lib().simulate(floating, floating.neutral(), np.zeros(floating.nv), 0.01)
+
+
 class LateWarmup:
     """The simulations compiled after the worker says "ready", in a background thread: the operational-space and
     computed-torque sources are problem types of their own (their controller, their RNEA are compiled only for
@@ -186,6 +200,10 @@ class LateWarmup:
             traceback.print_exc()
         finally:
             self.done.set()
+        try:  # no request waits for these: one that comes first compiles its own part
+            warm_up_rest()
+        except Exception:  # noqa: BLE001
+            traceback.print_exc()
 
     def wait(self, deadline: float) -> bool:
         """Whether it is done, waiting for it until ``deadline`` (time.monotonic) less a second."""
