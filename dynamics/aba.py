@@ -17,7 +17,8 @@ carries no mass or inertia it could move) makes M singular: the kernel stops and
 import numpy as np
 
 from . import checks
-from ._numba import VECTOR, Entry, Kernel, inline_kernel, keep_alive, kernel, scratch, single_signature, view
+from ._numba import (VECTOR, Entry, Kernel, borrowing_kernel, inline_kernel, keep_alive, kernel, scratch, single_signature,
+                     view)
 from .checks import DONE, F64, GENERAL, NOT_ARRAYS, config_ok, nonzero, vector_ok
 from .constrained import constrained_forward_dynamics
 from .errors import InputError
@@ -62,10 +63,12 @@ def _set6(A, i, x, y):
     A[i, 3], A[i, 4], A[i, 5] = y
 
 
-@kernel
+@borrowing_kernel
 def aba_into(tree, q, v, tau, gravity, f_ext, ws, qdd):
     """ABA for one state into ``qdd``.  Returns -1, or the index of a body whose joint sees a singular
-    articulated inertia (then qdd is not valid)."""
+    articulated inertia (then qdd is not valid).  The simulation's (its problem calls it through an address):
+    compiled without reference counting, since it allocates nothing and its callers hold every array (a fifth
+    less to compile)."""
     return aba_terms(tree, q, v, tau, gravity, f_ext, ws, qdd, True)
 
 
