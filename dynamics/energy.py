@@ -17,14 +17,11 @@ from .spatial import add, dot, inertia_times, load3, load33, matmul, motion_to_c
 
 
 @inline_kernel
-def energies(tree, q, v, gravity, kinetic, potential):
-    """(T, U) at one state, in one forward pass (T when ``kinetic``, U when ``potential``, else 0)."""
+def energies(tree, q, v, gravity, kinetic, potential, ws, vs, Rw, pw):
+    """(T, U) at one state, in one forward pass (T when ``kinetic``, U when ``potential``, else 0); scratch:
+    the body velocities ws, vs (nb, 3) and world poses Rw (nb, 3, 3), pw (nb, 3)."""
     parents, mass, hs, Ios = tree.parents, tree.mass, tree.h, tree.Io
     nb = parents.shape[0]
-    ws = np.empty((nb, 3))  # body velocities
-    vs = np.empty((nb, 3))
-    Rw = np.empty((nb, 3, 3))  # world pose of each body
-    pw = np.empty((nb, 3))
     zero = (0.0, 0.0, 0.0)
     g = (gravity[0], gravity[1], gravity[2])
     T = 0.0
@@ -57,8 +54,11 @@ def energies(tree, q, v, gravity, kinetic, potential):
 def energy_batch(tree, Q, V, gravity, kinetic, potential, out):
     """out[b] = (T, U) at (Q[b], V[b]), T only if ``kinetic`` (else 0 and V may have one row), U only if
     ``potential`` (else 0)."""
+    nb = tree.parents.shape[0]
+    ws, vs, Rw, pw = np.empty((nb, 3)), np.empty((nb, 3)), np.empty((nb, 3, 3)), np.empty((nb, 3))
     for b in range(Q.shape[0]):
-        out[b, 0], out[b, 1] = energies(tree, Q[b], V[b if kinetic else 0], gravity, kinetic, potential)
+        out[b, 0], out[b, 1] = energies(tree, Q[b], V[b if kinetic else 0], gravity, kinetic, potential,
+                                        ws, vs, Rw, pw)
 
 
 # -- public entry points ---------------------------------------------------------------------------
