@@ -47,7 +47,7 @@ from numba.extending import intrinsic, overload
 
 from . import checks
 from .errors import InputError
-from ._numba import (JIT_OPTIONS, call_address, copy_into, deref, gil_kernel, inline_kernel, kernel,
+from ._numba import (JIT_OPTIONS, borrowing_kernel, call_address, copy_into, deref, gil_kernel, inline_kernel, kernel,
                      native_address, owned_pack)
 from .configuration import difference
 from .crba import mass_matrix
@@ -392,7 +392,7 @@ def torque_eval(tag, src, tree, ps, t, q, v, ws, tau):
     raise NotImplementedError
 
 
-@overload(torque_eval, jit_options=JIT_OPTIONS)
+@overload(torque_eval, jit_options=dict(JIT_OPTIONS, _nrt=False))
 def _ov_torque_eval(tag, src, tree, ps, t, q, v, ws, tau):
     return _EVAL[tag.instance_class]
 
@@ -415,9 +415,11 @@ SOURCE_ARGS = (types.float64, _VEC, _VEC, _VEC)
 _SOURCE_ADDRESSES = {}  # SourceCall type -> address of source_call compiled for a pointer to it (this process)
 
 
-@kernel
+@borrowing_kernel
 def source_call(c, t, q, v, tau):
-    """tau = the torques of the source packed in c (a SourceCall or a pointer to one) at (t, q, v)."""
+    """tau = the torques of the source packed in c (a SourceCall or a pointer to one) at (t, q, v).  Without
+    reference counting, as the evaluations (:func:`torque_eval`): their arrays are the packed, borrowed
+    SourceCall's and the caller's, and they allocate nothing (0.3 CPU s less to compile for a zero torque)."""
     c = deref(c)
     torque_eval(c.tag, c.src, c.tree, c.ps, t, q, v, c.ws, tau)
 
