@@ -276,7 +276,8 @@ def _check_not_singular(model, q0, v0, g):
     """A joint that moves no mass makes M singular: say which, now, rather than NaN in the first step (the
     ABA kernel the right-hand side uses anyway, not the public forward_dynamics: no second compilation)."""
     nv, nb = model.nv, model.tree.parents.shape[0]
-    body = aba_into(model.tree, q0, v0, np.zeros(nv), g, np.zeros((0, 6)), aba_workspace(nb, nv), np.empty(nv))
+    body = aba_into(model.tree, q0, v0, np.zeros(nv), g, np.zeros((0, 6)), aba_workspace.py_func(nb, nv),
+                   np.empty(nv))
     if body >= 0:
         raise InputError(f"q0: the mass matrix is singular at joint {model.joint_names[body]!r}: it moves no mass "
                          "or inertia (add mass below it, lock it with dynamics.lock_joints, or remove it)")
