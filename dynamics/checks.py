@@ -16,7 +16,7 @@ import math
 
 import numpy as np
 
-from ._numba import Kernel, inline_kernel, kernel
+from ._numba import ALIGNED, C_CONTIGUOUS, SELF_FLOAT64, SELF_INT64, WRITEABLE, Kernel, inline_kernel, kernel, py_is_array
 from .errors import InputError
 from .joints import JOINT_FREE
 from .model import Model
@@ -57,6 +57,25 @@ _first_zero_quaternion_k = Kernel(_first_zero_quaternion)
 #: status codes of the single-state kernels: done; take the general path (it raises the clear error, or
 #: computes what the fast path does not handle)
 DONE, GENERAL = 0, 1
+
+@inline_kernel
+def py_packed(self, x):
+    """In a :class:`dynamics._numba.PythonFunction` entry: x is a packed model's array (int64, contiguous)."""
+    return py_is_array(self, x, SELF_INT64, 1, C_CONTIGUOUS | ALIGNED)
+
+
+@inline_kernel
+def py_state(self, x):
+    """In an entry: x is a float64 vector the kernel may read (its length, stride and values are then checked by
+    :func:`config_ok` or :func:`vector_ok`; read-only is fine)."""
+    return py_is_array(self, x, SELF_FLOAT64, 1, ALIGNED)
+
+
+@inline_kernel
+def py_result(self, x, ndim):
+    """In an entry: x is a contiguous writable float64 array of rank ndim (its shape is checked by the kernel)."""
+    return py_is_array(self, x, SELF_FLOAT64, ndim, C_CONTIGUOUS | ALIGNED | WRITEABLE)
+
 
 #: the single-state fast path's test, written out in each entry point (a Python call would cost more than the
 #: test): ``x.dtype is F64 and x.ndim == 1`` on each state.  Only the compiled call may then be given them:

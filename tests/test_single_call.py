@@ -166,3 +166,80 @@ def test_packed_model_survives_pickling():
     assert not clone.packed.flags.writeable
     q, v, a = _states(model)[0]
     np.testing.assert_array_equal(dynamics.inverse_dynamics(clone, q, v, a), dynamics.inverse_dynamics(model, q, v, a))
+
+
+class _Subclass(np.ndarray):
+    pass
+
+
+def _unusual_arrays(x):
+    """x as arrays the compiled entries do not take themselves (they read numpy's array header), or take although
+    numba's entry point did not (read-only): each must get the general path's result."""
+    strided = np.empty(2 * len(x))
+    strided[::2] = x
+    readonly = x.copy()
+    readonly.flags.writeable = False
+    return {"float32": x.astype(np.float32), "big-endian": x.astype(">f8"), "strided": strided[::2],
+            "reversed": x[::-1].copy()[::-1], "subclass": x.copy().view(_Subclass), "read-only": readonly,
+            "int": np.round(x).astype(np.int64)}
+
+
+@pytest.mark.parametrize("name", list(FUNCTIONS))
+def test_unusual_arrays_get_the_general_paths_result(model, name):
+    f, n = FUNCTIONS[name]
+    state = _states(model)[0][:n]
+    for k in range(n):
+        for label, x in _unusual_arrays(state[k]).items():
+            args = list(state)
+            args[k] = x
+            general = [[float(y) for y in arg] for arg in args]
+            np.testing.assert_array_equal(f(model, *args), f(model, *general), err_msg=f"{label} argument {k}")
+
+
+def test_compiled_entries_refuse_what_they_do_not_take(model):
+    """The entries called directly (as the public functions do) answer GENERAL, never crash, for anything else:
+    wrong arity, a non-array or wrong dtype or rank anywhere, a result of the wrong shape, layout or writeability."""
+    from dynamics.aba import _aba_single
+    from dynamics.checks import DONE, GENERAL
+    from dynamics.crba import _crba_single
+    from dynamics.rnea import _bias_single, _gravity_single, _rnea_single
+    q, v, a = _states(model)[0]
+    P, nv = model.packed, model.nv
+    tau, M = np.empty(nv), np.empty((nv, nv))
+    frozen = tau.copy()
+    frozen.flags.writeable = False
+    bad_results = [tau[:-1], np.empty(nv + 1), np.empty(2 * nv)[::2], tau.astype(np.int64), tau[None], frozen,
+                   "tau", None]
+    bad_matrices = [M[:-1], M[:, :-1], M.T, np.empty((nv, 2 * nv))[:, ::2], M.astype(np.float32), M.ravel(),
+                    np.empty((1, nv, nv)), "M"]
+    entries = [(_rnea_single.call, (q, v, a), tau, bad_results), (_aba_single.call, (q, v, a), tau, bad_results),
+               (_bias_single.call, (q, v), tau, bad_results), (_gravity_single.call, (q,), tau, bad_results),
+               (_crba_single.call, (q,), M, bad_matrices)]
+    for call, states, out, bad_outs in entries:
+        assert call(P, *states, out) == DONE
+        assert call(P, *states, out, out) == GENERAL and call(P, *states) == GENERAL and call() == GENERAL
+        for bad_packed in (None, q, P.astype(np.int32), P[::2], P[None]):
+            assert call(bad_packed, *states, out) == GENERAL
+        for k in range(len(states)):
+            for bad in (None, 1.0, "q", list(states[k]), states[k].astype(np.float32), states[k][None],
+                        states[k][:-1].copy(), np.append(states[k], 0.0)):
+                args = list(states)
+                args[k] = bad
+                assert call(P, *args, out) == GENERAL, (call, k, bad)
+        for bad in bad_outs:
+            assert call(P, *states, bad) == GENERAL, (call, bad)
+
+
+def test_unknown_object_layout_takes_the_general_path(model, monkeypatch):
+    """On an interpreter or numpy whose object layout the probe does not recognise, the entries are never
+    compiled and every call gets the general path's result."""
+    import dynamics._numba as nb
+    from dynamics.checks import GENERAL
+    from dynamics.rnea import rnea_entry
+    monkeypatch.setattr(nb, "_layout_is_known", lambda: False)
+    entry = nb.PythonFunction(rnea_entry, ("done", GENERAL))
+    q, v, a = _states(model)[0]
+    assert entry.call(model.packed, q, v, a, np.empty(model.nv)) == GENERAL
+    monkeypatch.setattr(dynamics.rnea, "_rnea_single", entry)
+    np.testing.assert_array_equal(dynamics.inverse_dynamics(model, q, v, a),
+                                  dynamics.inverse_dynamics(model, list(q), list(v), list(a)))
