@@ -243,3 +243,25 @@ def test_unknown_object_layout_takes_the_general_path(model, monkeypatch):
     monkeypatch.setattr(dynamics.rnea, "_rnea_single", entry)
     np.testing.assert_array_equal(dynamics.inverse_dynamics(model, q, v, a),
                                   dynamics.inverse_dynamics(model, list(q), list(v), list(a)))
+
+
+def test_constrained_entry_refuses_what_it_does_not_take():
+    """forward_dynamics on a constrained model (Panda's mimic fingers) has its own entry: it answers GENERAL for
+    anything else, a wrong multiplier count included, and its a is the general path's."""
+    from dynamics.checks import DONE, GENERAL
+    from dynamics.constrained import _fd_unstabilised, packed
+    model = dynamics.load_urdf(ROBOTS["panda"][0])
+    assert model.constraints
+    q, v, tau = _states(model)[0]
+    P, C, nv = model.packed, packed(model), model.nv
+    a, lam = np.empty(nv), np.empty(1)
+    call = _fd_unstabilised.call
+    assert call(P, C, q, v, tau, a, lam) == DONE
+    np.testing.assert_array_equal(a, dynamics.forward_dynamics(model, list(q), list(v), list(tau)))
+    np.testing.assert_array_equal(lam, dynamics.constrained_forward_dynamics(model, list(q), v, tau)[1])
+    for args in [(P, C, q, v, tau, a), (P, C, q, v, tau, a, lam, lam), (P, None, q, v, tau, a, lam),
+                 (P, C.astype(np.float64), q, v, tau, a, lam), (P, C, q, v, tau, a, np.empty(2)),
+                 (P, C, q, v, tau, a, np.empty(0)), (P, C, q, v, tau, a[:-1], lam), (P, C, q, v[:-1], tau, a, lam),
+                 (P, C, q, v, tau.astype(np.float32), a, lam), (P, C, q[None], v, tau, a, lam),
+                 (P, C, q, v, tau, np.empty(2 * nv)[::2], lam), (P, C, "q", v, tau, a, lam)]:
+        assert call(*args) == GENERAL
