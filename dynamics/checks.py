@@ -5,11 +5,12 @@ Public functions accept one state (q of shape (nq,)) or a batch (B, nq).  Argume
 (one compiled signature per kernel); the kernels never check.  Every error is an :class:`InputError` whose
 message starts with the argument's name and says what was expected.
 
-The single-state fast paths check in Python only what the compiled call cannot (:data:`F64`: float64 and
-1-D) and the rest inside the compiled call (:func:`config_ok`, :func:`vector_ok`: length,
-unit stride, finiteness, non-zero quaternions).  On a failed check the kernel returns :data:`GENERAL` and the
-public function takes the general path, which raises the same error as always, so every message has one
-source.
+The single-state fast paths check their inputs inside the compiled call: length, unit stride, finiteness and
+non-zero quaternions (:func:`config_ok`, :func:`vector_ok`), and, for the calls through a
+:class:`dynamics._numba.PythonFunction` (the dynamics and kinematics calls), the type, dtype and rank too
+(:func:`py_state`, :func:`py_result`); the others check those in Python first (:data:`F64`: float64 and 1-D).
+On a failed check the call returns :data:`GENERAL` and the public function takes the general path, which raises
+the same error as always, so every message has one source.
 """
 
 import math
