@@ -17,7 +17,8 @@ import math
 
 import numpy as np
 
-from ._numba import ALIGNED, C_CONTIGUOUS, SELF_FLOAT64, SELF_INT64, WRITEABLE, Kernel, inline_kernel, kernel, py_is_array
+from ._numba import (ALIGNED, C_CONTIGUOUS, SELF_FLOAT64, SELF_INT64, WRITEABLE, Kernel, inline_kernel, kernel,
+                     py_is_array)
 from .errors import InputError
 from .joints import JOINT_FREE
 from .model import Model
