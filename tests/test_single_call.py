@@ -166,6 +166,11 @@ def test_packed_model_survives_pickling():
     assert not clone.packed.flags.writeable
     q, v, a = _states(model)[0]
     np.testing.assert_array_equal(dynamics.inverse_dynamics(clone, q, v, a), dynamics.inverse_dynamics(model, q, v, a))
+    # the clone's arrays have numpy's own dtype objects again, which the single-call entries look for
+    from dynamics.checks import DONE
+    from dynamics.rnea import _rnea_single
+    assert clone.packed.dtype is np.dtype(np.int64)
+    assert _rnea_single.call(clone.packed, q, v, a, np.empty(model.nv)) == DONE
 
 
 class _Subclass(np.ndarray):
