@@ -14,6 +14,9 @@ package, never copied; a generated 200-link chain), in one run:
 * cold start of the simulation (2R arm), each case in a fresh interpreter with an empty numba cache:
   import + load_urdf + first inverse_dynamics, then the first default simulate, then the first rk4 one
   (``--sim-cold-only`` runs just this table);
+* ``--single-only``: just the single-call table (Panda, UR5, Talos), a minute instead of many: the way to
+  compare two checkouts run alternately (the script imports the ``dynamics`` its interpreter has installed, so
+  ``other/.venv/bin/python benchmarks/core.py --single-only`` times that checkout's library; the header names it);
 * cost growth: per-state time of batched RNEA and ABA on chains of 20, 200 and 1000 links.
 
 Ratios are ours / Pinocchio's: below 1.0 we are faster.  Every timing is the best of --repeat runs
@@ -280,6 +283,18 @@ def bench_single(dyn, pin, model, pm, pd, ours, theirs, repeat, n_calls=1000) ->
     return r
 
 
+def bench_single_robot(dyn, pin, robot: Robot, repeat: int, rng) -> dict:
+    """Only the single-call rows of :func:`bench_robot` (same states: the first of a random batch)."""
+    model = dyn.load_urdf(robot.source, floating_base=robot.floating_base)
+    pm = load_pinocchio(pin, robot)
+    pmap = PinMap(model, pm)
+    Q, V, A, TAU = random_states(model, 1, rng)
+    theirs = (pmap.q(Q)[0], pmap.v(V)[0], pmap.v(A)[0], pmap.v(TAU)[0])
+    r = {"robot": robot.label}
+    r.update(bench_single(dyn, pin, model, pm, pm.createData(), (Q[0], V[0], A[0], TAU[0]), theirs, repeat))
+    return r
+
+
 def bench_growth(dyn, pin, n: int, B: int, repeat: int, rng) -> dict:
     robot = Robot(f"chain-{n}", chain_urdf(n))
     model = dyn.load_urdf(robot.source)
@@ -441,6 +456,22 @@ def machine_header(B, repeat) -> list[str]:
     ]
 
 
+def single_table(rows) -> list[str]:
+    L = [
+        "## Single call from Python (us per call)",
+        "",
+        "| robot | " + " | ".join(f"{label} | ratio" for _, label, _, _ in SINGLE_CALLS) + " |",
+        "|---|" + "---:|---:|" * len(SINGLE_CALLS),
+    ]
+    for r in rows:
+        if "single_id" not in r or r["robot"].startswith("chain"):
+            continue
+        cells = [f"{us(r[f'single_{k}'])} / {us(r[f'single_{k}_pin'])} | {r[f'single_{k}'] / r[f'single_{k}_pin']:.2f}"
+                 for k, _, _, _ in SINGLE_CALLS]
+        L.append(f"| {r['robot']} | " + " | ".join(cells) + " |")
+    return L + ["", "Target: every single-call ratio <= 1.5 on Panda and UR5.", ""]
+
+
 def tables(header, rows, growth, cold, cold_robot) -> str:
     L = ["# Core benchmarks (`python -m benchmarks.core`)", ""] + header + [""]
     L += [
@@ -466,19 +497,7 @@ def tables(header, rows, growth, cold, cold_robot) -> str:
     if capped:
         L.append(f"Mass matrix batches capped at {M_BATCH_BYTES >> 20} MiB of output: " + ", ".join(capped) + " states.")
     L.append("")
-    L += [
-        "## Single call from Python (us per call)",
-        "",
-        "| robot | " + " | ".join(f"{label} | ratio" for _, label, _, _ in SINGLE_CALLS) + " |",
-        "|---|" + "---:|---:|" * len(SINGLE_CALLS),
-    ]
-    for r in rows:
-        if "single_id" not in r or r["robot"].startswith("chain"):
-            continue
-        cells = [f"{us(r[f'single_{k}'])} / {us(r[f'single_{k}_pin'])} | {r[f'single_{k}'] / r[f'single_{k}_pin']:.2f}"
-                 for k, _, _, _ in SINGLE_CALLS]
-        L.append(f"| {r['robot']} | " + " | ".join(cells) + " |")
-    L += ["", "Target: every single-call ratio <= 1.5 on Panda and UR5.", ""]
+    L += single_table(rows)
     if growth:
         base = growth[0]
         L += [
@@ -532,6 +551,7 @@ def main(argv=None) -> int:
     p.add_argument("--no-cold", action="store_true", help="skip the cold-start subprocesses")
     p.add_argument("--no-growth", action="store_true", help="skip the chain growth table")
     p.add_argument("--sim-cold-only", action="store_true", help="only the simulation cold-start table")
+    p.add_argument("--single-only", action="store_true", help="only the single-call table (Panda, UR5, Talos)")
     args = p.parse_args(argv)
     B, repeat = (1000, 2) if args.quick else (args.states, args.repeat)
     arm = str(Path(__file__).resolve().parent.parent / "robots" / "planar_2r.urdf")
@@ -545,6 +565,11 @@ def main(argv=None) -> int:
 
     rng = np.random.default_rng(0)
     header = machine_header(B, repeat)
+    if args.single_only:
+        rows = [bench_single_robot(dyn, pin, robot, repeat, rng) for robot in benchmark_robots()[:3]]
+        where = Path(dyn.__file__).resolve().parent.parent
+        print("\n".join(header[:1] + [f"dynamics from {where}.", ""] + single_table(rows)))
+        return 0
     rows = []
     for robot in benchmark_robots():
         print(f"... {robot.label}", file=sys.stderr, flush=True)

@@ -17,9 +17,9 @@ carries no mass or inertia it could move) makes M singular: the kernel stops and
 import numpy as np
 
 from . import checks
-from ._numba import (VECTOR, Entry, Kernel, borrowing_kernel, inline_kernel, keep_alive, kernel, scratch, single_signature,
-                     view)
-from .checks import DONE, F64, GENERAL, NOT_ARRAYS, config_ok, nonzero, vector_ok
+from ._numba import (PACKED, VECTOR, Kernel, PythonFunction, borrowing_kernel, inline_kernel, keep_alive, kernel,
+                     py_array, py_status, scratch, view)
+from .checks import DONE, GENERAL, config_ok, nonzero, py_packed, py_result, py_state, vector_ok
 from .constrained import constrained_forward_dynamics
 from .errors import InputError
 from .joints import joint_motion, joint_transform
@@ -202,7 +202,7 @@ def aba_single(packed, q, v, tau, qdd):
     joint takes the general path, which names it)."""
     tree, gravity, nq = unpack(packed)
     nb, nv = tree.parents.shape[0], tree.S.shape[0]
-    if not (config_ok(tree, nq, q) and vector_ok(v, nv) and vector_ok(tau, nv)):
+    if not (config_ok(tree, nq, q) and vector_ok(v, nv) and vector_ok(tau, nv) and qdd.shape[0] == nv):
         return GENERAL
     buf = scratch(108 * nb + 7 * nv + 84)
     singular = aba_terms(tree, q, v, tau, gravity, view(buf, 0, (0, 6)), workspace_in(buf, nb, nv), qdd, nonzero(v))
@@ -210,9 +210,19 @@ def aba_single(packed, q, v, tau, qdd):
     return DONE if singular < 0 else GENERAL
 
 
+def aba_entry(self, args, nargs):
+    """forward_dynamics' one call from Python (dynamics._numba.PythonFunction): (packed, q, v, tau, qdd) -> status."""
+    status = GENERAL
+    if (nargs == 5 and py_packed(self, args[0]) and py_state(self, args[1]) and py_state(self, args[2])
+            and py_state(self, args[3]) and py_result(self, args[4], 1)):
+        status = aba_single(py_array(args[0], PACKED), py_array(args[1], VECTOR), py_array(args[2], VECTOR),
+                            py_array(args[3], VECTOR), py_array(args[4], VECTOR))
+    return py_status(self, status)
+
+
 # -- public entry point ----------------------------------------------------------------------------
 _aba_batch = Kernel(aba_batch)
-_aba_single = Entry(aba_single, single_signature(VECTOR, VECTOR, VECTOR, VECTOR))
+_aba_single = PythonFunction(aba_entry, (DONE, GENERAL))
 
 
 def _aba_chunk(tree, Q, V, T, F, gravity, with_v, out):
@@ -240,13 +250,12 @@ def forward_dynamics(model, q, v, tau, *, gravity=None, f_ext=None):
     """
     if getattr(model, "constraints", None):
         return _constrained(model, q, v, tau, gravity, f_ext)
-    try:  # one state of float64 vectors: one compiled call, which checks them too (dynamics.checks.F64)
-        if gravity is None and f_ext is None and q.dtype is v.dtype is tau.dtype is F64 \
-                and q.ndim == v.ndim == tau.ndim == 1:
+    try:  # one state: one compiled call, which checks q, v and tau itself (anything else takes the general path)
+        if gravity is None and f_ext is None:
             qdd = np.empty(model.nv)
             if _aba_single.call(model.packed, q, v, tau, qdd) == DONE:
                 return qdd
-    except NOT_ARRAYS:
+    except AttributeError:  # not a model: the general path says so
         pass
     checks.check_model(model)
     Q, (V, T), B, batched = checks.state_batch(model, q, (("v", v, model.nv), ("tau", tau, model.nv)))

@@ -49,14 +49,14 @@ import numpy as np
 from numba import types
 
 from . import checks
-from ._numba import (PACKED, VECTOR, Entry, Kernel, borrowed, copy_into, inline_kernel, keep_alive, kernel, scratch,
-                     single_signature, view)
+from ._numba import (PACKED, VECTOR, Entry, Kernel, PythonFunction, borrowed, copy_into, inline_kernel, keep_alive,
+                     kernel, py_array, py_status, scratch, single_signature, view)
 from .configuration import integrate_q
 from .constraints import arrays, constraint_terms, packed
 from .constraints import unpack as unpack_constraints
 from .constraints import workspace as terms_workspace
 from .constraints import workspace_in as terms_workspace_in
-from .checks import DONE, F64, GENERAL, NOT_ARRAYS, config_ok, vector_ok
+from .checks import DONE, F64, GENERAL, NOT_ARRAYS, config_ok, py_packed, py_result, py_state, vector_ok
 from .errors import InputError
 from .model import Model, unpack
 from .crba import crba_into
@@ -384,7 +384,8 @@ def constrained_fd_single(packed, packed_C, q, v, tau, alpha, beta, a, lam):
     tree, gravity, nq = unpack(packed)
     C = unpack_constraints(packed_C)
     nb, nv, m = tree.parents.shape[0], tree.S.shape[0], lam.shape[0]
-    if not (config_ok(tree, nq, q) and vector_ok(v, nv) and vector_ok(tau, nv)):
+    if not (config_ok(tree, nq, q) and vector_ok(v, nv) and vector_ok(tau, nv) and a.shape[0] == nv
+            and m == C_rows(C)):
         return GENERAL
     n = workspace_size(nb, nv, m)
     buf = scratch(n + 3)  # one buffer (on the stack when small), not ~30 arrays
@@ -536,6 +537,19 @@ def constrained_id_batch(tree, Q, V, A, C, gravity, actuated, out, status):
                                           out[b])
 
 
+def constrained_fd_entry(self, args, nargs):
+    """The one call from Python of forward_dynamics and constrained_forward_dynamics without Baumgarte terms
+    (dynamics._numba.PythonFunction): (packed model, packed constraints, q, v, tau, a, lam) -> status."""
+    status = GENERAL
+    if (nargs == 7 and py_packed(self, args[0]) and py_packed(self, args[1]) and py_state(self, args[2])
+            and py_state(self, args[3]) and py_state(self, args[4]) and py_result(self, args[5], 1)
+            and py_result(self, args[6], 1)):
+        status = constrained_fd_single(py_array(args[0], PACKED), py_array(args[1], PACKED), py_array(args[2], VECTOR),
+                                       py_array(args[3], VECTOR), py_array(args[4], VECTOR), 0.0, 0.0,
+                                       py_array(args[5], VECTOR), py_array(args[6], VECTOR))
+    return py_status(self, status)
+
+
 # -- public entry points -----------------------------------------------------------------------------------------
 class _Failed(Exception):
     def __init__(self, state, code):
@@ -559,6 +573,7 @@ class _Checked:
 _fd_batch = _Checked(constrained_fd_batch, -1)
 _fd_single = Entry(constrained_fd_single, single_signature(PACKED, VECTOR, VECTOR, VECTOR, types.float64,
                                                            types.float64, VECTOR, VECTOR))
+_fd_unstabilised = PythonFunction(constrained_fd_entry, (DONE, GENERAL))
 _project_batch = _Checked(project_batch, -1)
 _id_batch = _Checked(constrained_id_batch, 0)
 
@@ -587,8 +602,15 @@ def constrained_forward_dynamics(model, q, v, tau, *, baumgarte=None, gravity=No
     units, the rows and frames of :mod:`dynamics.constraints` (world axes; force on frame_a's body at its
     anchor [N], torques [N m], coupling generalised forces).  A model without constraints gives the ABA's a.
     """
+    if baumgarte is None and gravity is None:  # one state: one compiled call that checks q, v and tau itself
+        try:
+            a, lam = np.empty(model.nv), np.empty(arrays(model)[1])
+            if _fd_unstabilised.call(model.packed, packed(model), q, v, tau, a, lam) == DONE:
+                return a, lam
+        except AttributeError:  # not a model: the general path says so
+            pass
     alpha, beta = baumgarte_gains(baumgarte)
-    try:  # one state of float64 vectors: checked and solved in one compiled call (dynamics.checks.F64)
+    try:  # with Baumgarte terms, one state of float64 vectors: one compiled call (dynamics.checks.F64)
         if gravity is None and q.dtype is v.dtype is tau.dtype is F64 and q.ndim == v.ndim == tau.ndim == 1:
             a, lam = np.empty(model.nv), np.empty(arrays(model)[1])
             if _fd_single.call(model.packed, packed(model), q, v, tau, alpha, beta, a, lam) == DONE:

@@ -329,12 +329,15 @@ class Model:
 
     def __setstate__(self, state):
         """Unpickling (process pools, Ray) gives writable arrays; the kernels are compiled for read-only ones, so
-        a writable copy would compile every kernel again (a minute) in each worker: freeze them again."""
+        a writable copy would compile every kernel again (a minute) in each worker: freeze them again.  Their dtype
+        objects are new ones too, and the single-call entries recognise float64 and int64 by numpy's own dtype
+        objects (dynamics._numba.py_is_array): back to those (``dtype.type``), or every single call on an
+        unpickled model would take the general path."""
         for key, value in state.items():
             if isinstance(value, Tree):
-                value = Tree(*(_frozen(a, a.dtype) for a in value))
+                value = Tree(*(_frozen(a, a.dtype.type) for a in value))
             elif isinstance(value, np.ndarray):
-                value = _frozen(value, value.dtype)
+                value = _frozen(value, value.dtype.type)
             object.__setattr__(self, key, value)
 
     def __repr__(self):

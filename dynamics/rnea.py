@@ -15,8 +15,9 @@ Backward pass:  tau_i = S_i^T f_i ,  f_p += X_i^T f_i .
 import numpy as np
 
 from . import checks
-from ._numba import VECTOR, Entry, Kernel, inline_kernel, keep_alive, kernel, scratch, single_signature, view
-from .checks import DONE, F64, GENERAL, NOT_ARRAYS, config_ok, nonzero, vector_ok
+from ._numba import (PACKED, VECTOR, Kernel, PythonFunction, inline_kernel, keep_alive, kernel, py_array, py_status,
+                     scratch, view)
+from .checks import DONE, GENERAL, config_ok, nonzero, py_packed, py_result, py_state, vector_ok
 from .model import unpack
 from .parallel import run_chunks
 from .joints import joint_motion, joint_transform, project_force
@@ -160,7 +161,7 @@ def rnea_batch(tree, Q, V, A, F, gravity, with_v, with_a, out):
 def rnea_single(packed, q, v, a, tau):
     tree, gravity, nq = unpack(packed)
     nb, nv = tree.parents.shape[0], tree.S.shape[0]
-    if not (config_ok(tree, nq, q) and vector_ok(v, nv) and vector_ok(a, nv)):
+    if not (config_ok(tree, nq, q) and vector_ok(v, nv) and vector_ok(a, nv) and tau.shape[0] == nv):
         return GENERAL
     buf = scratch(30 * nb)
     rnea_terms(tree, q, v, a, gravity, view(buf, 0, (0, 6)), workspace_in(buf, nb), tau, nonzero(v), nonzero(a))
@@ -172,7 +173,7 @@ def rnea_single(packed, q, v, a, tau):
 def bias_single(packed, q, v, tau):
     tree, gravity, nq = unpack(packed)
     nb, nv = tree.parents.shape[0], tree.S.shape[0]
-    if not (config_ok(tree, nq, q) and vector_ok(v, nv)):
+    if not (config_ok(tree, nq, q) and vector_ok(v, nv) and tau.shape[0] == nv):
         return GENERAL
     buf = scratch(30 * nb)
     rnea_terms(tree, q, v, v, gravity, view(buf, 0, (0, 6)), workspace_in(buf, nb), tau, nonzero(v), False)
@@ -184,7 +185,7 @@ def bias_single(packed, q, v, tau):
 def gravity_single(packed, q, tau):
     tree, gravity, nq = unpack(packed)
     nb = tree.parents.shape[0]
-    if not config_ok(tree, nq, q):
+    if not (config_ok(tree, nq, q) and tau.shape[0] == tree.S.shape[0]):
         return GENERAL
     buf = scratch(30 * nb)
     gravity_into(tree, q, gravity, workspace_in(buf, nb), tau)
@@ -192,12 +193,40 @@ def gravity_single(packed, q, tau):
     return DONE
 
 
+def rnea_entry(self, args, nargs):
+    """inverse_dynamics' one call from Python (dynamics._numba.PythonFunction): (packed, q, v, a, tau) -> status."""
+    status = GENERAL
+    if (nargs == 5 and py_packed(self, args[0]) and py_state(self, args[1]) and py_state(self, args[2])
+            and py_state(self, args[3]) and py_result(self, args[4], 1)):
+        status = rnea_single(py_array(args[0], PACKED), py_array(args[1], VECTOR), py_array(args[2], VECTOR),
+                             py_array(args[3], VECTOR), py_array(args[4], VECTOR))
+    return py_status(self, status)
+
+
+def bias_entry(self, args, nargs):
+    """bias_forces' one call from Python: (packed, q, v, tau) -> status."""
+    status = GENERAL
+    if (nargs == 4 and py_packed(self, args[0]) and py_state(self, args[1]) and py_state(self, args[2])
+            and py_result(self, args[3], 1)):
+        status = bias_single(py_array(args[0], PACKED), py_array(args[1], VECTOR), py_array(args[2], VECTOR),
+                             py_array(args[3], VECTOR))
+    return py_status(self, status)
+
+
+def gravity_entry(self, args, nargs):
+    """gravity_torques' one call from Python: (packed, q, tau) -> status."""
+    status = GENERAL
+    if nargs == 3 and py_packed(self, args[0]) and py_state(self, args[1]) and py_result(self, args[2], 1):
+        status = gravity_single(py_array(args[0], PACKED), py_array(args[1], VECTOR), py_array(args[2], VECTOR))
+    return py_status(self, status)
+
+
 # -- public entry points ---------------------------------------------------------------------------
 _rnea_batch = Kernel(rnea_batch)
 _gravity_batch = Kernel(gravity_batch)
-_rnea_single = Entry(rnea_single, single_signature(VECTOR, VECTOR, VECTOR, VECTOR))
-_bias_single = Entry(bias_single, single_signature(VECTOR, VECTOR, VECTOR))
-_gravity_single = Entry(gravity_single, single_signature(VECTOR, VECTOR))
+_rnea_single = PythonFunction(rnea_entry, (DONE, GENERAL))
+_bias_single = PythonFunction(bias_entry, (DONE, GENERAL))
+_gravity_single = PythonFunction(gravity_entry, (DONE, GENERAL))
 
 
 def _run(model, q, v, a, gravity, f_ext):
@@ -230,13 +259,12 @@ def inverse_dynamics(model, q, v, a, *, gravity=None, f_ext=None):
     f_ext: (nbodies, 6) or (B, nbodies, 6), one [force, torque] per body in its body frame, torque about the
     body frame origin.  Returns tau of shape (nv,) or (B, nv).
     """
-    try:  # one state of float64 vectors: one compiled call, which checks them too (dynamics.checks.F64)
-        if gravity is None and f_ext is None and q.dtype is v.dtype is a.dtype is F64 \
-                and q.ndim == v.ndim == a.ndim == 1:
+    try:  # one state: one compiled call, which checks q, v and a itself (anything else takes the general path)
+        if gravity is None and f_ext is None:
             tau = np.empty(model.nv)
             if _rnea_single.call(model.packed, q, v, a, tau) == DONE:
                 return tau
-    except NOT_ARRAYS:
+    except AttributeError:  # not a model: the general path says so
         pass
     return _run(model, q, v, a, gravity, f_ext)
 
@@ -244,11 +272,11 @@ def inverse_dynamics(model, q, v, a, *, gravity=None, f_ext=None):
 def gravity_torques(model, q, *, gravity=None):
     """g(q): the torques that hold the robot still against gravity, (nv,) or (B, nv)."""
     try:  # the fast path, as in inverse_dynamics
-        if gravity is None and q.dtype is F64 and q.ndim == 1:
+        if gravity is None:
             tau = np.empty(model.nv)
             if _gravity_single.call(model.packed, q, tau) == DONE:
                 return tau
-    except NOT_ARRAYS:
+    except AttributeError:
         pass
     checks.check_model(model)
     Q, batched = checks.configurations(model, q)
@@ -260,11 +288,11 @@ def gravity_torques(model, q, *, gravity=None):
 def bias_forces(model, q, v, *, gravity=None):
     """C(q, v) v + g(q): inverse dynamics at zero acceleration, (nv,) or (B, nv)."""
     try:  # the fast path, as in inverse_dynamics
-        if gravity is None and q.dtype is v.dtype is F64 and q.ndim == v.ndim == 1:
+        if gravity is None:
             tau = np.empty(model.nv)
             if _bias_single.call(model.packed, q, v, tau) == DONE:
                 return tau
-    except NOT_ARRAYS:
+    except AttributeError:
         pass
     checks.check_model(model)
     return _run(model, q, v, np.zeros(model.nv), gravity, None)

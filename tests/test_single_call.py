@@ -166,3 +166,107 @@ def test_packed_model_survives_pickling():
     assert not clone.packed.flags.writeable
     q, v, a = _states(model)[0]
     np.testing.assert_array_equal(dynamics.inverse_dynamics(clone, q, v, a), dynamics.inverse_dynamics(model, q, v, a))
+    # the clone's arrays have numpy's own dtype objects again, which the single-call entries look for
+    from dynamics.checks import DONE
+    from dynamics.rnea import _rnea_single
+    assert clone.packed.dtype is np.dtype(np.int64)
+    assert _rnea_single.call(clone.packed, q, v, a, np.empty(model.nv)) == DONE
+
+
+class _Subclass(np.ndarray):
+    pass
+
+
+def _unusual_arrays(x):
+    """x as arrays the compiled entries do not take themselves (they read numpy's array header), or take although
+    numba's entry point did not (read-only): each must get the general path's result."""
+    strided = np.empty(2 * len(x))
+    strided[::2] = x
+    readonly = x.copy()
+    readonly.flags.writeable = False
+    return {"float32": x.astype(np.float32), "big-endian": x.astype(">f8"), "strided": strided[::2],
+            "reversed": x[::-1].copy()[::-1], "subclass": x.copy().view(_Subclass), "read-only": readonly,
+            "int": np.round(x).astype(np.int64)}
+
+
+@pytest.mark.parametrize("name", list(FUNCTIONS))
+def test_unusual_arrays_get_the_general_paths_result(model, name):
+    f, n = FUNCTIONS[name]
+    state = _states(model)[0][:n]
+    for k in range(n):
+        for label, x in _unusual_arrays(state[k]).items():
+            args = list(state)
+            args[k] = x
+            general = [[float(y) for y in arg] for arg in args]
+            np.testing.assert_array_equal(f(model, *args), f(model, *general), err_msg=f"{label} argument {k}")
+
+
+def test_compiled_entries_refuse_what_they_do_not_take(model):
+    """The entries called directly (as the public functions do) answer GENERAL, never crash, for anything else:
+    wrong arity, a non-array or wrong dtype or rank anywhere, a result of the wrong shape, layout or writeability."""
+    from dynamics.aba import _aba_single
+    from dynamics.checks import DONE, GENERAL
+    from dynamics.crba import _crba_single
+    from dynamics.rnea import _bias_single, _gravity_single, _rnea_single
+    q, v, a = _states(model)[0]
+    P, nv = model.packed, model.nv
+    tau, M = np.empty(nv), np.empty((nv, nv))
+    frozen = tau.copy()
+    frozen.flags.writeable = False
+    bad_results = [tau[:-1], np.empty(nv + 1), np.empty(2 * nv)[::2], tau.astype(np.int64), tau[None], frozen,
+                   "tau", None]
+    bad_matrices = [M[:-1], M[:, :-1], M.T, np.empty((nv, 2 * nv))[:, ::2], M.astype(np.float32), M.ravel(),
+                    np.empty((1, nv, nv)), "M"]
+    entries = [(_rnea_single.call, (q, v, a), tau, bad_results), (_aba_single.call, (q, v, a), tau, bad_results),
+               (_bias_single.call, (q, v), tau, bad_results), (_gravity_single.call, (q,), tau, bad_results),
+               (_crba_single.call, (q,), M, bad_matrices)]
+    for call, states, out, bad_outs in entries:
+        assert call(P, *states, out) == DONE
+        assert call(P, *states, out, out) == GENERAL and call(P, *states) == GENERAL and call() == GENERAL
+        for bad_packed in (None, q, P.astype(np.int32), P[::2], P[None]):
+            assert call(bad_packed, *states, out) == GENERAL
+        for k in range(len(states)):
+            for bad in (None, 1.0, "q", list(states[k]), states[k].astype(np.float32), states[k][None],
+                        states[k][:-1].copy(), np.append(states[k], 0.0)):
+                args = list(states)
+                args[k] = bad
+                assert call(P, *args, out) == GENERAL, (call, k, bad)
+        for bad in bad_outs:
+            assert call(P, *states, bad) == GENERAL, (call, bad)
+
+
+def test_unknown_object_layout_takes_the_general_path(model, monkeypatch):
+    """On an interpreter or numpy whose object layout the probe does not recognise, the entries are never
+    compiled and every call gets the general path's result."""
+    import dynamics._numba as nb
+    from dynamics.checks import GENERAL
+    from dynamics.rnea import rnea_entry
+    monkeypatch.setattr(nb, "_layout_is_known", lambda: False)
+    entry = nb.PythonFunction(rnea_entry, ("done", GENERAL))
+    q, v, a = _states(model)[0]
+    assert entry.call(model.packed, q, v, a, np.empty(model.nv)) == GENERAL
+    monkeypatch.setattr(dynamics.rnea, "_rnea_single", entry)
+    np.testing.assert_array_equal(dynamics.inverse_dynamics(model, q, v, a),
+                                  dynamics.inverse_dynamics(model, list(q), list(v), list(a)))
+
+
+def test_constrained_entry_refuses_what_it_does_not_take():
+    """forward_dynamics on a constrained model (Panda's mimic fingers) has its own entry: it answers GENERAL for
+    anything else, a wrong multiplier count included, and its a is the general path's."""
+    from dynamics.checks import DONE, GENERAL
+    from dynamics.constrained import _fd_unstabilised, packed
+    model = dynamics.load_urdf(ROBOTS["panda"][0])
+    assert model.constraints
+    q, v, tau = _states(model)[0]
+    P, C, nv = model.packed, packed(model), model.nv
+    a, lam = np.empty(nv), np.empty(1)
+    call = _fd_unstabilised.call
+    assert call(P, C, q, v, tau, a, lam) == DONE
+    np.testing.assert_array_equal(a, dynamics.forward_dynamics(model, list(q), list(v), list(tau)))
+    np.testing.assert_array_equal(lam, dynamics.constrained_forward_dynamics(model, list(q), v, tau)[1])
+    for args in [(P, C, q, v, tau, a), (P, C, q, v, tau, a, lam, lam), (P, None, q, v, tau, a, lam),
+                 (P, C.astype(np.float64), q, v, tau, a, lam), (P, C, q, v, tau, a, np.empty(2)),
+                 (P, C, q, v, tau, a, np.empty(0)), (P, C, q, v, tau, a[:-1], lam), (P, C, q, v[:-1], tau, a, lam),
+                 (P, C, q, v, tau.astype(np.float32), a, lam), (P, C, q[None], v, tau, a, lam),
+                 (P, C, q, v, tau, np.empty(2 * nv)[::2], lam), (P, C, "q", v, tau, a, lam)]:
+        assert call(*args) == GENERAL
