@@ -60,6 +60,7 @@ headers itself and checks dtype and rank there too (section "Calls from Python w
 import copy
 import ctypes
 import struct
+import sys
 import threading
 
 import numpy as np
@@ -472,6 +473,9 @@ def _address_call_typer(fn, restype, argtys):
 #: byte offsets in CPython (64-bit, default build) and numpy objects, checked by :class:`PythonFunction`
 _OB_TYPE, _TUPLE_ITEMS = 8, 24
 _ARRAY_DATA, _ARRAY_ND, _ARRAY_DIMS, _ARRAY_STRIDES, _ARRAY_DESCR, _ARRAY_FLAGS = 16, 24, 32, 40, 56, 64
+#: in numpy's dtype object (PyArray_Descr, numpy 1 and 2): the byte-order character and the type number
+_DESCR_BYTEORDER, _DESCR_TYPE_NUM = 26, 28
+_NATIVE_ORDER = ord("<" if sys.byteorder == "little" else ">")
 #: numpy's array flags
 C_CONTIGUOUS, ALIGNED, WRITEABLE = 0x1, 0x100, 0x400
 #: the slots of the tuple an entry gets as ``self``: its two status objects (DONE, GENERAL), then the types and
@@ -486,6 +490,8 @@ def _field(context, builder, obj, offset, llty):
     """The value of type ``llty`` at byte ``offset`` (an i64 value or an int) of the object at ``obj``."""
     if isinstance(offset, int):
         offset = context.get_constant(types.intp, offset)
+    if isinstance(obj.type, llvm_ir.IntType):  # an address held as an int64
+        obj = builder.inttoptr(obj, _I8P)
     p = builder.gep(builder.bitcast(obj, _I8P), [offset])
     return builder.load(builder.bitcast(p, llty.as_pointer()))
 
@@ -505,6 +511,15 @@ def _py_int32(typingctx, obj, offset):
         value = _field(context, builder, args[0], context.cast(builder, args[1], sig.args[1], types.intp),
                        llvm_ir.IntType(32))
         return builder.sext(value, llvm_ir.IntType(64))
+    return types.int64(obj, offset), codegen
+
+
+@intrinsic
+def _py_byte(typingctx, obj, offset):
+    def codegen(context, builder, sig, args):
+        value = _field(context, builder, args[0], context.cast(builder, args[1], sig.args[1], types.intp),
+                       llvm_ir.IntType(8))
+        return builder.zext(value, llvm_ir.IntType(64))
     return types.int64(obj, offset), codegen
 
 
@@ -569,8 +584,17 @@ def py_is_array(self, obj, dtype_slot, ndim, flags):
     """obj is exactly a numpy array (no subclass) of the dtype in slot ``dtype_slot`` of ``self``, of rank
     ``ndim``, with every one of ``flags`` set."""
     return (_py_word(obj, _OB_TYPE) == _py_word(self, _TUPLE_ITEMS + 8 * SELF_NDARRAY)
-            and _py_word(obj, _ARRAY_DESCR) == _py_word(self, _TUPLE_ITEMS + 8 * dtype_slot)
+            and _same_dtype(_py_word(obj, _ARRAY_DESCR), _py_word(self, _TUPLE_ITEMS + 8 * dtype_slot))
             and _py_int32(obj, _ARRAY_ND) == ndim and (_py_int32(obj, _ARRAY_FLAGS) & flags) == flags)
+
+
+@inline_kernel
+def _same_dtype(descr, want):
+    """The dtype object at ``descr`` is numpy's ``want`` itself or equal to it in native byte order (an array that
+    came by pickle, from another process or a Ray task, has a dtype object of its own)."""
+    return descr == want or (_py_int32(descr, _DESCR_TYPE_NUM) == _py_int32(want, _DESCR_TYPE_NUM)
+                             and (_py_byte(descr, _DESCR_BYTEORDER) == _py_byte(want, _DESCR_BYTEORDER)
+                                  or _py_byte(descr, _DESCR_BYTEORDER) == _NATIVE_ORDER))
 
 
 @inline_kernel
@@ -606,7 +630,10 @@ def _layout_is_known():
             and ctypes.c_ssize_t.from_address(word(a, _ARRAY_STRIDES)).value == 24
             and ctypes.c_ssize_t.from_address(word(a, _ARRAY_DIMS) + 8).value == 3
             and ctypes.c_int.from_address(id(a) + _ARRAY_FLAGS).value & (C_CONTIGUOUS | WRITEABLE)
-            == (C_CONTIGUOUS | WRITEABLE) and word(t, _TUPLE_ITEMS) == id(a) and word(t, _TUPLE_ITEMS + 8) == id(1))
+            == (C_CONTIGUOUS | WRITEABLE) and word(t, _TUPLE_ITEMS) == id(a) and word(t, _TUPLE_ITEMS + 8) == id(1)
+            and all(ctypes.c_int.from_address(id(d) + _DESCR_TYPE_NUM).value == d.num
+                    and ctypes.c_char.from_address(id(d) + _DESCR_BYTEORDER).value == d.byteorder.encode()
+                    for d in (a.dtype, np.dtype(">f8"), np.dtype(np.int64))))
 
 
 class PythonFunction:

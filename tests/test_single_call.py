@@ -173,6 +173,23 @@ def test_packed_model_survives_pickling():
     assert _rnea_single.call(clone.packed, q, v, a, np.empty(model.nv)) == DONE
 
 
+def test_states_that_came_by_pickle_take_the_fast_path():
+    """An array unpickled (from a process pool or a Ray task) has a dtype object of its own: the entries compare
+    the type number and byte order, so it is still taken by the compiled call, bit for bit."""
+    from dynamics.checks import DONE, GENERAL
+    from dynamics.kinematics import _placements_single
+    from dynamics.rnea import _rnea_single
+    model = dynamics.load_urdf(ROBOTS["ur5"][0])
+    q, v, a = pickle.loads(pickle.dumps(_states(model)[0]))
+    assert q.dtype is not np.dtype(np.float64)
+    tau = np.empty(model.nv)
+    assert _rnea_single.call(model.packed, q, v, a, tau) == DONE
+    np.testing.assert_array_equal(tau, dynamics.inverse_dynamics(model, q.copy(), v.copy(), a.copy()))
+    assert _placements_single.call(model.packed, q, np.empty(model.placements_shape)) == DONE
+    swapped = q.astype(">f8")  # the same type number in the other byte order: not the compiled call's to read
+    assert _rnea_single.call(model.packed, swapped, v, a, tau) == GENERAL
+
+
 class _Subclass(np.ndarray):
     pass
 
