@@ -392,7 +392,7 @@ def torque_eval(tag, src, tree, ps, t, q, v, ws, tau):
     raise NotImplementedError
 
 
-@overload(torque_eval, jit_options=dict(JIT_OPTIONS, _nrt=False))
+@overload(torque_eval, jit_options=JIT_OPTIONS)
 def _ov_torque_eval(tag, src, tree, ps, t, q, v, ws, tau):
     return _EVAL[tag.instance_class]
 
