@@ -418,8 +418,8 @@ _SOURCE_ADDRESSES = {}  # SourceCall type -> address of source_call compiled for
 @borrowing_kernel
 def source_call(c, t, q, v, tau):
     """tau = the torques of the source packed in c (a SourceCall or a pointer to one) at (t, q, v).  Without
-    reference counting, as the evaluations (:func:`torque_eval`): their arrays are the packed, borrowed
-    SourceCall's and the caller's, and they allocate nothing (0.3 CPU s less to compile for a zero torque)."""
+    reference counting (its arrays are the packed, borrowed SourceCall's and the caller's: 0.3 CPU s less to
+    compile for a zero torque); the evaluations (:func:`torque_eval`) keep it, since some allocate."""
     c = deref(c)
     torque_eval(c.tag, c.src, c.tree, c.ps, t, q, v, c.ws, tau)
 
