@@ -195,8 +195,15 @@ def rel_diff(a, b) -> float:
     return float(np.max(np.abs(a - b)) / max(np.max(np.abs(b)), 1e-300))
 
 
+def load_as_pinocchio(dyn, robot: Robot):
+    """Our model of the tree Pinocchio builds: its buildModelFromUrdf ignores <mimic>, so the gripper joints of
+    Panda and Talos stay independent here too (with our default mimic="coupling" forward dynamics would be a
+    constrained solve, another problem than pin.aba's)."""
+    return dyn.load_urdf(robot.source, floating_base=robot.floating_base, mimic="independent")
+
+
 def bench_robot(dyn, pin, robot: Robot, B: int, repeat: int, rng) -> dict:
-    model = dyn.load_urdf(robot.source, floating_base=robot.floating_base)
+    model = load_as_pinocchio(dyn, robot)
     pm = load_pinocchio(pin, robot)
     assert (pm.nv, pm.njoints - 1) == (model.nv, model.nbodies), robot.label
     pmap = PinMap(model, pm)
@@ -285,7 +292,7 @@ def bench_single(dyn, pin, model, pm, pd, ours, theirs, repeat, n_calls=1000) ->
 
 def bench_single_robot(dyn, pin, robot: Robot, repeat: int, rng) -> dict:
     """Only the single-call rows of :func:`bench_robot` (same states: the first of a random batch)."""
-    model = dyn.load_urdf(robot.source, floating_base=robot.floating_base)
+    model = load_as_pinocchio(dyn, robot)
     pm = load_pinocchio(pin, robot)
     pmap = PinMap(model, pm)
     Q, V, A, TAU = random_states(model, 1, rng)
