@@ -2,8 +2,9 @@
 
 The XML comes from untrusted callers, so it is parsed by a locked-down lxml parser (no DTD, no entity
 expansion, no network, no huge trees, no recovery of broken XML); a document that declares a DOCTYPE is
-refused outright.  yourdfpy then reads links and joints from the parsed elements; no mesh, scene graph or
-any file named inside the URDF is ever opened.
+refused outright.  Links' inertials and joints are then read from the parsed elements by the small readers
+below (:class:`Link`, :class:`Joint`); visuals and collisions are never read, so no mesh, scene graph or any
+file named inside the URDF is ever opened.
 
 Fixed joints are merged: a link welded to its parent adds its mass, centre of mass and inertia to the
 parent body exactly (parallel-axis theorem, :func:`dynamics.spatial.inertia_to_parent`).
@@ -30,10 +31,10 @@ namespace declaration for it, and one element with a ``type`` covers all three c
 import difflib
 import os
 import re
+from typing import NamedTuple
 
 import numpy as np
 from lxml import etree
-from yourdfpy import URDF, Link
 
 from .constraints import JointCoupling, PointConstraint, RevoluteConstraint, WeldConstraint, with_constraints
 from .errors import DynamicsError, URDFError
@@ -72,6 +73,125 @@ _KNOWN_ATTRIBUTES = {
 
 _MOVABLE = ("revolute", "continuous", "prismatic", "floating")
 _KNOWN = _MOVABLE + ("fixed", "planar")
+
+
+class Inertial(NamedTuple):
+    """A link's ``<inertial>`` as written: each part None when its element is missing."""
+    origin: np.ndarray | None  # (4, 4) pose of the centre-of-mass frame in the link frame
+    mass: float | None
+    inertia: np.ndarray | None  # (3, 3) about the centre of mass, in the origin's frame
+
+
+class Link(NamedTuple):
+    name: str
+    inertial: Inertial | None
+
+
+class Limit(NamedTuple):
+    """``<limit>``: each attribute None when it is missing."""
+    lower: float | None
+    upper: float | None
+    effort: float | None
+    velocity: float | None
+
+
+class JointDynamics(NamedTuple):
+    """``<dynamics>``: the attributes' text (None when missing); checked and converted where the body is built,
+    so a malformed number gets a message naming the attribute."""
+    damping: str | None
+    friction: str | None
+
+
+class Mimic(NamedTuple):
+    joint: str | None
+    multiplier: float
+    offset: float
+
+
+class Joint(NamedTuple):
+    name: str
+    type: str | None
+    parent: str
+    child: str
+    origin: np.ndarray | None  # (4, 4) pose of the child link's frame in the parent link's frame
+    axis: np.ndarray  # as written (its length is checked where it is used); (1, 0, 0) when missing
+    limit: Limit | None
+    dynamics: JointDynamics | None
+    mimic: Mimic | None
+
+
+def _optional_float(el, attr, default=None):
+    text = el.get(attr)
+    return default if text is None else float(text)
+
+
+def _floats(text, n, what):
+    values = [float(t) for t in text.split()]
+    if len(values) != n:  # urdfdom refuses these too; a longer list must not lose its tail silently
+        raise ValueError(f"{what}: expected {n} numbers, got {len(values)}")
+    return values
+
+
+def _rpy_matrix(roll, pitch, yaw):
+    """R = Rz(yaw) Ry(pitch) Rx(roll), each entry's products in the order trimesh's ``euler_matrix(.., 'sxyz')``
+    uses (which the yourdfpy-based reader gave), so models keep the same bits.  :func:`rpy_to_matrix` groups
+    them differently (up to 1 ulp apart); neither matches Pinocchio's quaternion route bit for bit (both are
+    within 8e-16 of it)."""
+    sr, sp, sy = np.sin(roll), np.sin(pitch), np.sin(yaw)
+    cr, cp, cy = np.cos(roll), np.cos(pitch), np.cos(yaw)
+    return np.array([
+        [cp * cy, sp * (sr * cy) - cr * sy, sp * (cr * cy) + sr * sy],
+        [cp * sy, sp * (sr * sy) + cr * cy, sp * (cr * sy) - sr * cy],
+        [-sp, cp * sr, cp * cr],
+    ])
+
+
+def read_origin(el):
+    """``<origin xyz rpy>`` (each "0 0 0" when missing) as a (4, 4) pose; None when there is no element."""
+    if el is None:
+        return None
+    T, R = np.eye(4), np.eye(4)
+    T[:3, 3] = _floats(el.get("xyz", "0 0 0"), 3, "origin xyz")
+    R[:3, :3] = _rpy_matrix(*_floats(el.get("rpy", "0 0 0"), 3, "origin rpy"))
+    # translation times rotation as a product, as the yourdfpy-based reader did: the same bits, zeros' signs too
+    return np.dot(T, R)
+
+
+def read_inertial(el):
+    """``<inertial>`` (None when missing)."""
+    if el is None:
+        return None
+    mass, inertia = el.find("mass"), el.find("inertia")
+    I = None
+    if inertia is not None:
+        # each missing moment reads as 1 and product as 0 (the caller refuses a partial <inertia> first)
+        g = {k: inertia.get(k, d) for k, d in (("ixx", 1.0), ("iyy", 1.0), ("izz", 1.0),
+                                                ("ixy", 0.0), ("ixz", 0.0), ("iyz", 0.0))}
+        I = np.array([[g["ixx"], g["ixy"], g["ixz"]], [g["ixy"], g["iyy"], g["iyz"]],
+                      [g["ixz"], g["iyz"], g["izz"]]], dtype=np.float64)
+    return Inertial(origin=read_origin(el.find("origin")),
+                    mass=None if mass is None else _optional_float(mass, "value", 0.0), inertia=I)
+
+
+def read_joint(el):
+    """``<joint>``: its name, type, parent and child links, origin, axis, limit, dynamics and mimic.
+    ``<calibration>`` and ``<safety_controller>`` are not used but their numbers must parse (as urdfdom
+    requires)."""
+    for tag, attrs in (("calibration", ("rising", "falling")),
+                       ("safety_controller", ("soft_lower_limit", "soft_upper_limit", "k_position", "k_velocity"))):
+        sub = el.find(tag)
+        for a in attrs if sub is not None else ():
+            _optional_float(sub, a)
+    ax, lim, dyn, mim = el.find("axis"), el.find("limit"), el.find("dynamics"), el.find("mimic")
+    return Joint(
+        name=el.get("name"), type=el.get("type"), parent=el.find("parent").get("link"),
+        child=el.find("child").get("link"), origin=read_origin(el.find("origin")),
+        axis=np.array([float(t) for t in (ax.get("xyz", "1 0 0") if ax is not None else "1 0 0").split()]),
+        limit=None if lim is None else Limit(*(_optional_float(lim, a) for a in Limit._fields)),
+        dynamics=None if dyn is None else JointDynamics(dyn.get("damping"), dyn.get("friction")),
+        mimic=None if mim is None else Mimic(mim.get("joint"), _optional_float(mim, "multiplier", 1.0),
+                                             _optional_float(mim, "offset", 0.0)),
+    )
 
 
 def _safe_parser():
@@ -272,8 +392,8 @@ def _read_links(root, warnings) -> dict:
                 raise URDFError(f"link {lname!r}: <inertia> is missing {missing}")
         try:
             # inertial only: visuals and collisions (meshes) mean nothing to the dynamics and are not parsed
-            links[lname] = Link(name=lname, inertial=URDF._parse_inertial(el.find("inertial")))
-        except Exception as e:  # yourdfpy raises whatever float() or numpy raise
+            links[lname] = Link(name=lname, inertial=read_inertial(el.find("inertial")))
+        except Exception as e:  # whatever float() or numpy raise on a malformed number
             raise URDFError(f"link {lname!r}: cannot read it ({e})") from None
     if not links:
         raise URDFError("URDF has no <link>")
@@ -300,7 +420,7 @@ def _read_joints(root, warnings) -> list:
             if sub is None or not sub.get("link"):
                 raise URDFError(f"joint {jname!r}: missing <{tag} link=...>")
         try:
-            joints.append(URDF._parse_joint(el))
+            joints.append(read_joint(el))
         except Exception as e:
             raise URDFError(f"joint {jname!r}: cannot read it ({e})") from None
     return joints
