@@ -294,13 +294,14 @@ def spd_inverse(D, n, Dinv, i, A):
 
 
 def rpy_to_matrix(rpy):
-    """URDF roll-pitch-yaw to a rotation matrix: R = Rz(yaw) Ry(pitch) Rx(roll) (plain numpy, load time)."""
+    """URDF roll-pitch-yaw to a rotation matrix: R = Rz(yaw) Ry(pitch) Rx(roll) (plain numpy, load time).  Each
+    entry's products are grouped as in trimesh's ``euler_matrix(.., 'sxyz')``, which the URDF reader used before
+    it read origins itself, so models keep their bits (Pinocchio's quaternion route is within 8e-16 of it)."""
     r, p, y = rpy
-    cr, sr, cp, sp, cy, sy = np.cos(r), np.sin(r), np.cos(p), np.sin(p), np.cos(y), np.sin(y)
-    return np.array(
-        [
-            [cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
-            [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
-            [-sp, cp * sr, cp * cr],
-        ]
-    )
+    sr, sp, sy = np.sin(r), np.sin(p), np.sin(y)
+    cr, cp, cy = np.cos(r), np.cos(p), np.cos(y)
+    return np.array([
+        [cp * cy, sp * (sr * cy) - cr * sy, sp * (cr * cy) + sr * sy],
+        [cp * sy, sp * (sr * sy) + cr * cy, sp * (cr * sy) - sr * cy],
+        [-sp, cp * sr, cp * cr],
+    ])

@@ -132,27 +132,13 @@ def _floats(text, n, what):
     return values
 
 
-def _rpy_matrix(roll, pitch, yaw):
-    """R = Rz(yaw) Ry(pitch) Rx(roll), each entry's products in the order trimesh's ``euler_matrix(.., 'sxyz')``
-    uses (which the yourdfpy-based reader gave), so models keep the same bits.  :func:`rpy_to_matrix` groups
-    them differently (up to 1 ulp apart); neither matches Pinocchio's quaternion route bit for bit (both are
-    within 8e-16 of it)."""
-    sr, sp, sy = np.sin(roll), np.sin(pitch), np.sin(yaw)
-    cr, cp, cy = np.cos(roll), np.cos(pitch), np.cos(yaw)
-    return np.array([
-        [cp * cy, sp * (sr * cy) - cr * sy, sp * (cr * cy) + sr * sy],
-        [cp * sy, sp * (sr * sy) + cr * cy, sp * (cr * sy) - sr * cy],
-        [-sp, cp * sr, cp * cr],
-    ])
-
-
 def read_origin(el):
     """``<origin xyz rpy>`` (each "0 0 0" when missing) as a (4, 4) pose; None when there is no element."""
     if el is None:
         return None
     T, R = np.eye(4), np.eye(4)
     T[:3, 3] = _floats(el.get("xyz", "0 0 0"), 3, "origin xyz")
-    R[:3, :3] = _rpy_matrix(*_floats(el.get("rpy", "0 0 0"), 3, "origin rpy"))
+    R[:3, :3] = rpy_to_matrix(_floats(el.get("rpy", "0 0 0"), 3, "origin rpy"))
     # translation times rotation as a product, as the yourdfpy-based reader did: the same bits, zeros' signs too
     return np.dot(T, R)
 
