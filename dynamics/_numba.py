@@ -23,6 +23,12 @@ numba options.
   functions, whose arrays are borrowed anyway, :func:`pack`): numba otherwise lowers an increment and a
   decrement of every array of every tuple it binds (the problem, its tree, the ABA workspace), a third of those
   functions' compile time.  An allocation in such a function is a compile error, not a leak.
+* :data:`helper_kernel`: a :data:`kernel` that only compiled code calls (the spatial algebra's small
+  functions): numba builds no Python or C wrapper for it.  Those wrappers were most of a small kernel's compile
+  and cache-load time (a first rk4 simulate from an empty cache 11.6 -> 10.0 CPU s, import + first
+  inverse_dynamics from a warm cache 2.2 -> 0.5 s).  Never call one from Python: it has no entry point there,
+  and the interpreter would crash (the geometry functions Python code uses, such as ``rotation_log``, stay
+  :data:`kernel`).
 
 Kernels read the model's arrays into locals once at their top (``parents, mass = tree.parents, tree.mass``):
 every array taken out of a tuple is reference counted with an atomic operation.
@@ -123,6 +129,7 @@ generic_kernel = njit(**GENERIC_OPTIONS)
 generic_inline = njit(**GENERIC_OPTIONS, inline="always")
 gil_kernel = njit(cache=True, error_model="numpy", _nrt=True)
 borrowing_kernel = njit(**dict(JIT_OPTIONS, _nrt=False))
+helper_kernel = njit(**JIT_OPTIONS, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 
 
 def _borrow_value(context, builder, ty, val):
@@ -238,7 +245,7 @@ def copy_into(dst, src):
         dst[i] = src[i]
 
 
-@kernel
+@helper_kernel
 def keep_alive(x):
     """A use of ``x``: numba frees a variable after its last use, so this pins the owner of a borrowed value."""
     return None

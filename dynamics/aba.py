@@ -17,8 +17,8 @@ carries no mass or inertia it could move) makes M singular: the kernel stops and
 import numpy as np
 
 from . import checks
-from ._numba import (PACKED, VECTOR, Kernel, PythonFunction, borrowing_kernel, inline_kernel, keep_alive, kernel,
-                     py_array, py_status, scratch, view)
+from ._numba import (PACKED, VECTOR, Kernel, PythonFunction, borrowing_kernel, helper_kernel, inline_kernel,
+                     keep_alive, kernel, py_array, py_status, scratch, view)
 from .checks import DONE, GENERAL, config_ok, nonzero, py_packed, py_result, py_state, vector_ok
 from .constrained import constrained_forward_dynamics
 from .errors import InputError
@@ -52,12 +52,12 @@ def workspace_in(buf, nb, nv):
             view(buf, 108 * nb + 7 * nv + 78, 6))
 
 
-@kernel
+@helper_kernel
 def _get6(A, i):
     return (A[i, 0], A[i, 1], A[i, 2]), (A[i, 3], A[i, 4], A[i, 5])
 
 
-@kernel
+@helper_kernel
 def _set6(A, i, x, y):
     A[i, 0], A[i, 1], A[i, 2] = x
     A[i, 3], A[i, 4], A[i, 5] = y

@@ -15,34 +15,38 @@ Conventions used by every kernel:
 3-vectors are tuples ``(x, y, z)`` and 3x3 matrices row-major 9-tuples, so that the kernels pass values in
 registers: slicing a row out of a numba array makes a reference-counted view, which costs more than the
 arithmetic here.  ``load3``/``store3`` move them between tuples and rows of the model's flat arrays.
+
+The algebra is :data:`~dynamics._numba.helper_kernel`: compiled code only, no Python entry point (never call
+it from Python).  The rotations Python code also uses (``rotation_about_axis``, ``quat_rotation``,
+``rotation_log``) are ordinary kernels.
 """
 
 import numpy as np
 
-from ._numba import inline_kernel, kernel
+from ._numba import helper_kernel, inline_kernel, kernel
 
 
 # -- moving values between arrays and tuples -------------------------------------------------------
 
-@kernel
+@helper_kernel
 def load3(A, i):
     return (A[i, 0], A[i, 1], A[i, 2])
 
 
-@kernel
+@helper_kernel
 def store3(A, i, x):
     A[i, 0] = x[0]
     A[i, 1] = x[1]
     A[i, 2] = x[2]
 
 
-@kernel
+@helper_kernel
 def load33(A, i):
     return (A[i, 0, 0], A[i, 0, 1], A[i, 0, 2], A[i, 1, 0], A[i, 1, 1], A[i, 1, 2], A[i, 2, 0], A[i, 2, 1],
             A[i, 2, 2])
 
 
-@kernel
+@helper_kernel
 def store33(A, i, M):
     for r in range(3):
         for c in range(3):
@@ -51,27 +55,27 @@ def store33(A, i, M):
 
 # -- 3-vectors and 3x3 matrices ------------------------------------------------------------------------
 
-@kernel
+@helper_kernel
 def add(a, b):
     return (a[0] + b[0], a[1] + b[1], a[2] + b[2])
 
 
-@kernel
+@helper_kernel
 def scale(s, a):
     return (s * a[0], s * a[1], s * a[2])
 
 
-@kernel
+@helper_kernel
 def dot(a, b):
     return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 
 
-@kernel
+@helper_kernel
 def cross(a, b):
     return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
 
 
-@kernel
+@helper_kernel
 def rot(R, x):
     """R x."""
     return (R[0] * x[0] + R[1] * x[1] + R[2] * x[2],
@@ -79,7 +83,7 @@ def rot(R, x):
             R[6] * x[0] + R[7] * x[1] + R[8] * x[2])
 
 
-@kernel
+@helper_kernel
 def rotT(R, x):
     """R^T x."""
     return (R[0] * x[0] + R[3] * x[1] + R[6] * x[2],
@@ -87,7 +91,7 @@ def rotT(R, x):
             R[2] * x[0] + R[5] * x[1] + R[8] * x[2])
 
 
-@kernel
+@helper_kernel
 def matmul(A, B):
     """A B for 3x3 matrices."""
     return (A[0] * B[0] + A[1] * B[3] + A[2] * B[6], A[0] * B[1] + A[1] * B[4] + A[2] * B[7],
@@ -98,12 +102,12 @@ def matmul(A, B):
             A[6] * B[2] + A[7] * B[5] + A[8] * B[8])
 
 
-@kernel
+@helper_kernel
 def transpose(A):
     return (A[0], A[3], A[6], A[1], A[4], A[7], A[2], A[5], A[8])
 
 
-@kernel
+@helper_kernel
 def rot_congruence(R, X):
     """R X R^T."""
     return matmul(matmul(R, X), transpose(R))
@@ -111,20 +115,20 @@ def rot_congruence(R, X):
 
 # -- spatial operations --------------------------------------------------------------------------------
 
-@kernel
+@helper_kernel
 def motion_to_child(R, p, w, v):
     """X (w, v): the parent's motion vector in the child frame."""
     return rotT(R, w), rotT(R, add(v, cross(w, p)))
 
 
-@kernel
+@helper_kernel
 def force_to_parent(R, p, n, f):
     """X^T (n, f): the child's force in the parent frame."""
     fP = rot(R, f)
     return add(rot(R, n), cross(p, fP)), fP
 
 
-@kernel
+@helper_kernel
 def inertia_times(m, h, Io, w, v):
     """I (w, v) = (Io w + h x v, m v - h x w) for the rigid-body inertia (m, h, Io)."""
     n = add(rot(Io, w), cross(h, v))
@@ -132,19 +136,19 @@ def inertia_times(m, h, Io, w, v):
     return n, (m * v[0] - hw[0], m * v[1] - hw[1], m * v[2] - hw[2])
 
 
-@kernel
+@helper_kernel
 def cross_motion(w, v, wJ, vJ):
     """(w, v) x (wJ, vJ) = (w x wJ, w x vJ + v x wJ)   (eq. 2.31)."""
     return cross(w, wJ), add(cross(w, vJ), cross(v, wJ))
 
 
-@kernel
+@helper_kernel
 def cross_force(w, v, n, f):
     """(w, v) x* (n, f) = (w x n + v x f, w x f)   (eq. 2.32)."""
     return add(cross(w, n), cross(v, f)), cross(w, f)
 
 
-@kernel
+@helper_kernel
 def inertia_to_parent(R, p, m, h, Io):
     """The rigid-body inertia (m, h, Io) of a child frame, expressed about the parent's origin: (h', Io').
 
@@ -166,7 +170,7 @@ def inertia_to_parent(R, p, m, h, Io):
     return add(hR, scale(m, p)), out
 
 
-@kernel
+@helper_kernel
 def _block(I, r0, c0):
     return (I[r0, c0], I[r0, c0 + 1], I[r0, c0 + 2], I[r0 + 1, c0], I[r0 + 1, c0 + 1], I[r0 + 1, c0 + 2],
             I[r0 + 2, c0], I[r0 + 2, c0 + 1], I[r0 + 2, c0 + 2])
