@@ -503,31 +503,22 @@ def _field(context, builder, obj, offset, llty):
     return builder.load(builder.bitcast(p, llty.as_pointer()))
 
 
-@intrinsic
-def _py_word(typingctx, obj, offset):
-    """The 8 bytes at ``offset`` of the object at ``obj``, as int64 (an address, a size)."""
-    def codegen(context, builder, sig, args):
-        return _field(context, builder, args[0], context.cast(builder, args[1], sig.args[1], types.intp),
-                      llvm_ir.IntType(64))
-    return types.int64(obj, offset), codegen
+def _py_reader(name, bits, extend):
+    """An intrinsic ``name(obj, offset)``: the ``bits``-wide integer at byte ``offset`` of the object at ``obj``
+    (a pointer or an address held as an int64), as int64 (``extend``: "sext" or "zext" below 64 bits)."""
+    def typer(typingctx, obj, offset):
+        def codegen(context, builder, sig, args):
+            value = _field(context, builder, args[0], context.cast(builder, args[1], sig.args[1], types.intp),
+                           llvm_ir.IntType(bits))
+            return value if bits == 64 else getattr(builder, extend)(value, llvm_ir.IntType(64))
+        return types.int64(obj, offset), codegen
+    typer.__name__ = typer.__qualname__ = name
+    return intrinsic(typer)
 
 
-@intrinsic
-def _py_int32(typingctx, obj, offset):
-    def codegen(context, builder, sig, args):
-        value = _field(context, builder, args[0], context.cast(builder, args[1], sig.args[1], types.intp),
-                       llvm_ir.IntType(32))
-        return builder.sext(value, llvm_ir.IntType(64))
-    return types.int64(obj, offset), codegen
-
-
-@intrinsic
-def _py_byte(typingctx, obj, offset):
-    def codegen(context, builder, sig, args):
-        value = _field(context, builder, args[0], context.cast(builder, args[1], sig.args[1], types.intp),
-                       llvm_ir.IntType(8))
-        return builder.zext(value, llvm_ir.IntType(64))
-    return types.int64(obj, offset), codegen
+_py_word = _py_reader("_py_word", 64, None)  # an address, a size
+_py_int32 = _py_reader("_py_int32", 32, "sext")
+_py_byte = _py_reader("_py_byte", 8, "zext")
 
 
 @intrinsic

@@ -31,17 +31,7 @@ def _caller(x):
 
 
 def _python(x):
-    def branchy(x, n):
-        s = 0.0
-        for i in range(n):
-            if x[i] > 0.5:
-                s += x[i] * i
-            elif x[i] > 0.25:
-                s -= x[i]
-            else:
-                for j in range(i):
-                    s += 0.5 * x[j]
-        return s
+    branchy = _branchy.py_func  # the same source, run by the interpreter
     return branchy(x, len(x)) + branchy(x[::-1], len(x) - 3) + 3
 
 
