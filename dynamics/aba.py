@@ -14,15 +14,17 @@ Pass 3 (forward): a'_i = X_i a_p + c_i (a_0 = (0, -g)),  qdd_i = D_i^-1 (u_i - U
 carries no mass or inertia it could move) makes M singular: the kernel stops and returns that body's index.
 """
 
+from typing import NamedTuple
+
 import numpy as np
 
 from . import checks
-from ._numba import (PACKED, VECTOR, Kernel, PythonFunction, borrowing_kernel, helper_kernel, inline_kernel,
-                     keep_alive, kernel, py_array, py_status, scratch, view)
-from .checks import DONE, GENERAL, config_ok, nonzero, py_packed, py_result, py_state, vector_ok
+from ._numba import (PACKED, SingleCall, VECTOR, address, helper, inline_kernel, keep_alive, kernel, scratch, view)
+from .checks import DONE, GENERAL, config_ok, nonzero, vector_ok
 from .constrained import constrained_forward_dynamics
 from .errors import InputError
 from .joints import joint_motion, joint_transform
+from .data import Data, data_at, forward_pass, take
 from .model import unpack
 from .parallel import run_chunks
 from .rnea import bias_forces, inverse_dynamics
@@ -30,93 +32,110 @@ from .spatial import (add, add_inertia6_to_parent, cross_force, cross_motion, fo
                       joint_gram, load3, load33, motion_to_child, spd_inverse, store3, store33, store_inertia6)
 
 
-@kernel
-def workspace(nb, nv):
-    return (np.empty((nb, 3, 3)), np.empty((nb, 3)),  # R, p
-            np.empty((nb, 6)), np.empty((nb, 6)),  # velocity (w, v), bias acceleration c
-            np.empty((nb, 6, 6)), np.empty((nb, 6)),  # IA, pA
-            np.empty((nv, 6)), np.empty((nb, 6, 6)), np.empty(nv),  # U, Dinv, u
-            np.empty((nb, 6)), np.empty((6, 6)), np.empty((6, 6)), np.empty(6), np.empty(6))  # a, Ia, D, pa, t
+class Work(NamedTuple):
+    """ABA's scratch for one state: the forward pass's :class:`~dynamics.data.Data`; articulated inertias IA
+    (nb, 6, 6) and bias forces pA (nb, 6); U = IA S (nv, 6), D^-1 (nb, 6, 6) and u (nv,) per joint; the
+    accelerations (nb, 6); and small temporaries Ia, D (6, 6), pa, t (6,)."""
+
+    d: Data
+    IA: object
+    pA: object
+    U: object
+    Dinv: object
+    u: object
+    acc: object
+    Ia: object
+    D: object
+    pa: object
+    t: object
 
 
 @inline_kernel
-def workspace_in(buf, nb, nv):
-    """The same scratch as :func:`workspace`, borrowed from ``buf`` (108 nb + 7 nv + 84 floats, kept alive by
-    the caller)."""
-    return (view(buf, 0, (nb, 3, 3)), view(buf, 9 * nb, (nb, 3)),
-            view(buf, 12 * nb, (nb, 6)), view(buf, 18 * nb, (nb, 6)),
-            view(buf, 24 * nb, (nb, 6, 6)), view(buf, 60 * nb, (nb, 6)),
-            view(buf, 66 * nb, (nv, 6)), view(buf, 66 * nb + 6 * nv, (nb, 6, 6)), view(buf, 102 * nb + 6 * nv, nv),
-            view(buf, 102 * nb + 7 * nv, (nb, 6)), view(buf, 108 * nb + 7 * nv, (6, 6)),
-            view(buf, 108 * nb + 7 * nv + 36, (6, 6)), view(buf, 108 * nb + 7 * nv + 72, 6),
-            view(buf, 108 * nb + 7 * nv + 78, 6))
+def work_at(base, o, nb, nv):
+    """A :class:`Work` carved from the buffer at ``base`` from offset o (at base 0: only its size), and the
+    offset after it."""
+    d, o = data_at(base, o, nb)
+    IA, o = take(base, o, (nb, 6, 6))
+    pA, o = take(base, o, (nb, 6))
+    U, o = take(base, o, (nv, 6))
+    Dinv, o = take(base, o, (nb, 6, 6))
+    u, o = take(base, o, nv)
+    acc, o = take(base, o, (nb, 6))
+    Ia, o = take(base, o, (6, 6))
+    D, o = take(base, o, (6, 6))
+    pa, o = take(base, o, 6)
+    t, o = take(base, o, 6)
+    return Work(d, IA, pA, U, Dinv, u, acc, Ia, D, pa, t), o
 
 
-@helper_kernel
+@kernel
+def workspace(nb, nv):
+    """A :class:`Work` of owned arrays, which the caller may keep (the simulation's problem holds one)."""
+    d = Data(np.empty((nb, 3, 3)), np.empty((nb, 3)), np.empty((nb, 3)), np.empty((nb, 3)), np.empty((nb, 3)),
+             np.empty((nb, 3)))
+    return Work(d, np.empty((nb, 6, 6)), np.empty((nb, 6)), np.empty((nv, 6)), np.empty((nb, 6, 6)), np.empty(nv),
+                np.empty((nb, 6)), np.empty((6, 6)), np.empty((6, 6)), np.empty(6), np.empty(6))
+
+
+@helper
 def _get6(A, i):
     return (A[i, 0], A[i, 1], A[i, 2]), (A[i, 3], A[i, 4], A[i, 5])
 
 
-@helper_kernel
+@helper
 def _set6(A, i, x, y):
     A[i, 0], A[i, 1], A[i, 2] = x
     A[i, 3], A[i, 4], A[i, 5] = y
 
 
-@borrowing_kernel
+@kernel
 def aba_into(tree, q, v, tau, gravity, f_ext, ws, qdd):
     """ABA for one state into ``qdd``.  Returns -1, or the index of a body whose joint sees a singular
-    articulated inertia (then qdd is not valid).  The simulation's (its problem calls it through an address):
-    compiled without reference counting, since it allocates nothing and its callers hold every array (a fifth
-    less to compile)."""
+    articulated inertia (then qdd is not valid)."""
     return aba_terms(tree, q, v, tau, gravity, f_ext, ws, qdd, True)
 
 
 @inline_kernel
 def aba_terms(tree, q, v, tau, gravity, f_ext, ws, qdd, with_v):
-    """ABA for one state; ``with_v=False`` (v is zero) skips the velocity products c_i and v x* I v.
+    """ABA for one state: Featherstone's three passes (RBDA Table 7.1).  ``with_v=False`` (v is zero) skips
+    the velocity products c_i and v x* I v.  Returns -1, or the body whose joint is singular."""
+    forward_pass(tree, q, v, ws.d, with_v)  # X_i, v_i, c_i
+    _rigid_body_terms(tree, f_ext, ws, with_v)
+    singular = _articulated_inertias(tree, tau, ws)
+    if singular >= 0:
+        return singular
+    _accelerations(tree, gravity, ws, qdd)
+    return -1
 
-    Longer than our ~80-line rule on purpose: it is Featherstone's three passes (RBDA Table 7.1) in one kernel,
-    each pass a plain loop over the bodies with the 1-dof and free-joint cases written out, reading like the
-    book from top to bottom; split into three functions, the passes would trade the same 14 workspace arrays
-    and the reader would lose the one place where the recursion is whole."""
-    parents, mass, hs, Ios, S, v_idx, nv_j = tree.parents, tree.mass, tree.h, tree.Io, tree.S, tree.v_idx, tree.nv_j
-    Rs, ps, vel, c, IA, pA, U, Dinv, u, acc, Ia, D, pa, t = ws
-    nb = parents.shape[0]
+
+@inline_kernel
+def _rigid_body_terms(tree, f_ext, ws, with_v):
+    """Pass 1, after the forward pass: I^A_i = I_i and p^A_i = v_i x* I_i v_i - f_ext_i."""
+    mass, hs, Ios, d = tree.mass, tree.h, tree.Io, ws.d
     zero = (0.0, 0.0, 0.0)
-    # pass 1: velocities, bias accelerations, rigid-body inertias and bias forces
-    for i in range(nb):
-        R, p = joint_transform(tree, i, q)
-        store33(Rs, i, R)
-        store3(ps, i, p)
-        par = parents[i]
+    for i in range(tree.parents.shape[0]):
         m, h, Io = mass[i], load3(hs, i), load33(Ios, i)
         if with_v:
-            if par < 0:
-                w, vl = motion_to_child(R, p, zero, zero)
-            else:
-                wp, vp = _get6(vel, par)
-                w, vl = motion_to_child(R, p, wp, vp)
-            wJ, vJ = joint_motion(tree, i, v)
-            w, vl = add(w, wJ), add(vl, vJ)
-            _set6(vel, i, w, vl)
-            cw, cv = cross_motion(w, vl, wJ, vJ)
-            _set6(c, i, cw, cv)
+            w, vl = load3(d.w, i), load3(d.vl, i)
             hn, hf = inertia_times(m, h, Io, w, vl)
             bn, bf = cross_force(w, vl, hn, hf)
         else:
-            _set6(c, i, zero, zero)
             bn, bf = zero, zero
-        store_inertia6(IA, i, m, h, Io)  # I^A = I_i
+        store_inertia6(ws.IA, i, m, h, Io)  # I^A = I_i
         if f_ext.shape[0] > 0:
             bn = (bn[0] - f_ext[i, 3], bn[1] - f_ext[i, 4], bn[2] - f_ext[i, 5])
             bf = (bf[0] - f_ext[i, 0], bf[1] - f_ext[i, 1], bf[2] - f_ext[i, 2])
-        _set6(pA, i, bn, bf)
+        _set6(ws.pA, i, bn, bf)
 
-    # pass 2: articulated inertias from the leaves in
-    for i in range(nb - 1, -1, -1):
-        k0 = v_idx[i]
-        nj = nv_j[i]
+
+@inline_kernel
+def _articulated_inertias(tree, tau, ws):
+    """Pass 2, from the leaves in: U, D^-1, u per joint, and I^A_p += X^T I^a X, p^A_p += X^T p^a with
+    I^a = I^A - U D^-1 U^T and p^a = p^A + I^a c + U D^-1 u.  Returns -1, or a body whose D is singular."""
+    parents, S, v_idx, nv_j, d = tree.parents, tree.S, tree.v_idx, tree.nv_j, ws.d
+    IA, pA, U, Dinv, u, Ia, pa, t = ws.IA, ws.pA, ws.U, ws.Dinv, ws.u, ws.Ia, ws.pa, ws.t
+    for i in range(parents.shape[0] - 1, -1, -1):
+        k0, nj = v_idx[i], nv_j[i]
         for k in range(k0, k0 + nj):  # U = I^A S,  u = tau - S^T p^A
             for r in range(6):
                 x = 0.0
@@ -127,18 +146,17 @@ def aba_terms(tree, q, v, tau, gravity, f_ext, ws, qdd, with_v):
             for r in range(6):
                 x -= S[k, r] * pA[i, r]
             u[k] = x
-        joint_gram(S, U, k0, nj, D)  # D = S^T U
-        if not spd_inverse(D, nj, Dinv, i, Ia):
+        joint_gram(S, U, k0, nj, ws.D)  # D = S^T U
+        if not spd_inverse(ws.D, nj, Dinv, i, Ia):
             return i
         par = parents[i]
         if par < 0:
             continue
-        # I^a = I^A - U Dinv U^T and p^a = p^A + I^a c + U Dinv u, one joint coordinate at a time
         for r in range(6):
             pa[r] = pA[i, r]
             for cc in range(6):
                 Ia[r, cc] = IA[i, r, cc]
-        for a_ in range(nj):
+        for a_ in range(nj):  # one joint coordinate at a time
             du = 0.0
             for b_ in range(nj):
                 du += Dinv[i, a_, b_] * u[k0 + b_]
@@ -149,31 +167,36 @@ def aba_terms(tree, q, v, tau, gravity, f_ext, ws, qdd, with_v):
                 for cc in range(6):
                     Ia[r, cc] -= UD * U[k0 + a_, cc]
                 pa[r] += U[k0 + a_, r] * du
+        cw, cv = load3(d.cw, i), load3(d.cv, i)
         for r in range(6):
-            x = pa[r]
-            for cc in range(6):
-                x += Ia[r, cc] * c[i, cc]
-            t[r] = x
-        R, p = load33(Rs, i), load3(ps, i)
+            t[r] = (pa[r] + Ia[r, 0] * cw[0] + Ia[r, 1] * cw[1] + Ia[r, 2] * cw[2] + Ia[r, 3] * cv[0]
+                    + Ia[r, 4] * cv[1] + Ia[r, 5] * cv[2])
+        R, p = load33(d.R, i), load3(d.p, i)
         add_inertia6_to_parent(R, p, Ia, IA, par)
         fn, ff = force_to_parent(R, p, (t[0], t[1], t[2]), (t[3], t[4], t[5]))
         pn, pf = _get6(pA, par)
         _set6(pA, par, add(pn, fn), add(pf, ff))
+    return -1
 
-    # pass 3: accelerations from the root out
+
+@inline_kernel
+def _accelerations(tree, gravity, ws, qdd):
+    """Pass 3, from the root out: a'_i = X_i a_p + c_i (a_0 = (0, -g)), qdd_i = D_i^-1 (u_i - U_i^T a'_i),
+    a_i = a'_i + S_i qdd_i."""
+    parents, v_idx, nv_j, d = tree.parents, tree.v_idx, tree.nv_j, ws.d
+    U, Dinv, u, acc, t = ws.U, ws.Dinv, ws.u, ws.acc, ws.t
+    zero = (0.0, 0.0, 0.0)
     a0 = (-gravity[0], -gravity[1], -gravity[2])
-    for i in range(nb):
+    for i in range(parents.shape[0]):
         par = parents[i]
-        R, p = load33(Rs, i), load3(ps, i)
+        R, p = load33(d.R, i), load3(d.p, i)
         if par < 0:
             aw, al = motion_to_child(R, p, zero, a0)
         else:
             awp, alp = _get6(acc, par)
             aw, al = motion_to_child(R, p, awp, alp)
-        cw, cv = _get6(c, i)
-        aw, al = add(aw, cw), add(al, cv)
-        k0 = v_idx[i]
-        nj = nv_j[i]
+        aw, al = add(aw, load3(d.cw, i)), add(al, load3(d.cv, i))
+        k0, nj = v_idx[i], nv_j[i]
         for a_ in range(nj):  # u - U^T a'
             k = k0 + a_
             t[a_] = (u[k] - U[k, 0] * aw[0] - U[k, 1] * aw[1] - U[k, 2] * aw[2]
@@ -185,15 +208,17 @@ def aba_terms(tree, q, v, tau, gravity, f_ext, ws, qdd, with_v):
             qdd[k0 + a_] = x
         sw, sv = joint_motion(tree, i, qdd)
         _set6(acc, i, add(aw, sw), add(al, sv))
-    return -1
 
 
 @kernel
 def aba_batch(tree, Q, V, T, F, gravity, with_v, out, status):
-    ws = workspace(tree.parents.shape[0], tree.S.shape[0])
+    nb, nv = tree.parents.shape[0], tree.S.shape[0]
+    buf = np.empty(work_at(0, 0, nb, nv)[1])
+    ws = work_at(address(buf), 0, nb, nv)[0]
     lf, lv, lt = F.shape[0] - 1, V.shape[0] - 1, T.shape[0] - 1
     for b in range(Q.shape[0]):
         status[b] = aba_terms(tree, Q[b], V[min(b, lv)], T[min(b, lt)], gravity, F[min(b, lf)], ws, out[b], with_v)
+    keep_alive(buf)
 
 
 @kernel
@@ -204,25 +229,17 @@ def aba_single(packed, q, v, tau, qdd):
     nb, nv = tree.parents.shape[0], tree.S.shape[0]
     if not (config_ok(tree, nq, q) and vector_ok(v, nv) and vector_ok(tau, nv) and qdd.shape[0] == nv):
         return GENERAL
-    buf = scratch(108 * nb + 7 * nv + 84)
-    singular = aba_terms(tree, q, v, tau, gravity, view(buf, 0, (0, 6)), workspace_in(buf, nb, nv), qdd, nonzero(v))
+    buf = scratch(work_at(0, 0, nb, nv)[1])
+    singular = aba_terms(tree, q, v, tau, gravity, view(buf, 0, (0, 6)), work_at(address(buf), 0, nb, nv)[0], qdd,
+                         nonzero(v))
     keep_alive(buf)
     return DONE if singular < 0 else GENERAL
 
 
-def aba_entry(self, args, nargs):
-    """forward_dynamics' one call from Python (dynamics._numba.PythonFunction): (packed, q, v, tau, qdd) -> status."""
-    status = GENERAL
-    if (nargs == 5 and py_packed(self, args[0]) and py_state(self, args[1]) and py_state(self, args[2])
-            and py_state(self, args[3]) and py_result(self, args[4], 1)):
-        status = aba_single(py_array(args[0], PACKED), py_array(args[1], VECTOR), py_array(args[2], VECTOR),
-                            py_array(args[3], VECTOR), py_array(args[4], VECTOR))
-    return py_status(self, status)
-
 
 # -- public entry point ----------------------------------------------------------------------------
-_aba_batch = Kernel(aba_batch)
-_aba_single = PythonFunction(aba_entry, (DONE, GENERAL))
+_aba_batch = aba_batch
+_aba_single = SingleCall(aba_single, VECTOR, VECTOR, VECTOR, VECTOR)
 
 
 def _aba_chunk(tree, Q, V, T, F, gravity, with_v, out):

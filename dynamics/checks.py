@@ -17,14 +17,12 @@ import math
 
 import numpy as np
 
-from ._numba import (ALIGNED, C_CONTIGUOUS, SELF_FLOAT64, SELF_INT64, WRITEABLE, Kernel, inline_kernel, kernel,
-                     py_is_array)
+from ._numba import inline_kernel, kernel
 from .errors import InputError
-from .joints import JOINT_FREE
+from .joints import JOINT_FREE, KINDS, ZERO_QUATERNION_SQ, joint_config_ok
+from .spatial import quaternion_sq
 from .model import Model
 
-#: a free joint's quaternion whose squared norm is below this is "zero" (it is normalised in the kernels)
-ZERO_QUATERNION_SQ = 1e-16
 
 
 @kernel
@@ -38,22 +36,17 @@ def _first_nonfinite(X):
 
 
 @kernel
-def _quaternion_sq(q, k):
-    return q[k] * q[k] + q[k + 1] * q[k + 1] + q[k + 2] * q[k + 2] + q[k + 3] * q[k + 3]
-
-
-@kernel
 def _first_zero_quaternion(Q, starts):
     """The q index of the first zero quaternion among ``starts`` in any row of Q, or -1."""
     for b in range(Q.shape[0]):
         for k in starts:
-            if _quaternion_sq(Q[b], k) < ZERO_QUATERNION_SQ:
+            if quaternion_sq(Q[b], k) < ZERO_QUATERNION_SQ:
                 return k
     return -1
 
 
-_first_nonfinite_k = Kernel(_first_nonfinite)
-_first_zero_quaternion_k = Kernel(_first_zero_quaternion)
+_first_nonfinite_k = _first_nonfinite
+_first_zero_quaternion_k = _first_zero_quaternion
 
 
 #: status codes of the single-state kernels: done; take the general path (it raises the clear error, or
@@ -110,7 +103,7 @@ def config_ok(tree, nq, q):
     if not vector_ok(q, nq):
         return False
     for i in range(tree.jtype.shape[0]):
-        if tree.jtype[i] == JOINT_FREE and _quaternion_sq(q, tree.q_idx[i] + 3) < ZERO_QUATERNION_SQ:
+        if not joint_config_ok(tree, i, q):
             return False
     return True
 
@@ -157,13 +150,13 @@ def _length_hint(model, name, length, kind):
     if model is None:
         return ""
     n = model.nq if kind == "q" else model.nv
-    free = 7 if kind == "q" else 6
+    free = KINDS[JOINT_FREE].nq if kind == "q" else KINDS[JOINT_FREE].nv
     if not model.floating_base and length == n + free:
         return f"; did you mean load_urdf(..., floating_base=True)? ({length} = {n} + {free} free-flyer coordinates)"
     locked = model.info.get("locked_joints") or {}
     if locked:
         n_locked = sum(np.size(value) for value in locked.values())
-        if length == n + (n_locked if kind == "q" else n_locked - sum(np.size(x) == 7 for x in locked.values())):
+        if length == n + (n_locked if kind == "q" else n_locked - sum(np.size(x) == KINDS[JOINT_FREE].nq for x in locked.values())):
             return (f"; this model has the joints {sorted(locked)[:8]} locked (dynamics.lock_joints): pass only "
                     f"the {n} coordinates of the others, in model.joint_names order")
     return ""

@@ -17,8 +17,8 @@ count.
 import numpy as np
 
 from . import checks
-from ._numba import (MATRIX, VECTOR, Entry, Kernel, borrowed, inline_kernel, keep_alive, kernel, scratch,
-                     single_signature, view)
+from ._numba import (MATRIX, VECTOR, borrowed, inline_kernel, keep_alive, kernel, scratch, single_signature,
+                     SingleCall, view)
 from .checks import DONE, F64, GENERAL, NOT_ARRAYS, config_ok
 from .joints import joint_motion
 from .kinematics import world_pose
@@ -120,9 +120,9 @@ def com_jacobian_single(packed, q, J):
 
 
 # -- public entry points ---------------------------------------------------------------------------
-_com_batch = Kernel(com_batch)
-_com_single = Entry(com_single, single_signature(VECTOR, VECTOR))
-_com_jacobian_single = Entry(com_jacobian_single, single_signature(VECTOR, MATRIX))
+_com_batch = com_batch
+_com_single = SingleCall(com_single, VECTOR, VECTOR)
+_com_jacobian_single = SingleCall(com_jacobian_single, VECTOR, MATRIX)
 
 
 def _run(model, q, v, what):

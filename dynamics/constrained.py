@@ -49,23 +49,24 @@ import numpy as np
 from numba import types
 
 from . import checks
-from ._numba import (PACKED, VECTOR, Entry, Kernel, PythonFunction, borrowed, copy_into, inline_kernel, keep_alive,
-                     kernel, py_array, py_status, scratch, single_signature, view)
+from ._numba import (PACKED, SingleCall, VECTOR, address, borrowed, copy_into, inline_kernel, keep_alive, kernel,
+                     scratch, single_signature, view)
 from .configuration import integrate_q
+from .data import take
 from .constraints import arrays, constraint_terms, packed
 from .constraints import unpack as unpack_constraints
 from .constraints import workspace as terms_workspace
-from .constraints import workspace_in as terms_workspace_in
-from .checks import DONE, F64, GENERAL, NOT_ARRAYS, config_ok, py_packed, py_result, py_state, vector_ok
+from .constraints import work_at as terms_work_at
+from .checks import DONE, GENERAL, config_ok, vector_ok
 from .errors import InputError
 from .model import Model, unpack
 from .crba import crba_into
 from .crba import workspace as crba_workspace
-from .crba import workspace_in as crba_workspace_in
+from .crba import work_at as crba_work_at
 from .parallel import run_chunks
 from .rnea import rnea_terms
 from .rnea import workspace as rnea_workspace
-from .rnea import workspace_in as rnea_workspace_in
+from .rnea import work_at as rnea_work_at
 
 #: pivots of K's pivoted Cholesky factor below this times K's largest diagonal entry are dependent rows
 RANK_RTOL = 1e-12
@@ -87,25 +88,24 @@ def workspace(nb, nv, m):
 
 
 @inline_kernel
-def workspace_size(nb, nv, m):
-    """Floats of :func:`workspace_in`'s buffer."""
-    return 79 * nb + 6 * nv + nv * nv + 2 * m * nv + 2 * m * m + 4 * m + nv
-
-
-@inline_kernel
-def workspace_in(buf, nb, nv, m, lam, piv):
-    """The same scratch as :func:`workspace` as views of one buffer (``workspace_size`` floats, kept alive by the
-    caller; lam (nv,) and piv (m,) int64 given): one allocation, or none on the stack, for a single call."""
-    o = 79 * nb + 6 * nv
-    return (terms_workspace_in(buf, nb, nv), crba_workspace_in(view(buf, 24 * nb + 6 * nv, 25 * nb), nb),
-            rnea_workspace_in(view(buf, 49 * nb + 6 * nv, 30 * nb), nb), view(buf, o, (nv, nv)),
-            view(buf, o + nv * nv, (m, nv)), view(buf, o + nv * nv + m * nv, m),
-            view(buf, o + nv * nv + m * nv + m, m), view(buf, o + nv * nv + m * nv + 2 * m, nv),
-            view(buf, o + nv * nv + m * nv + 2 * m + nv, (m, nv)),
-            view(buf, o + nv * nv + 2 * m * nv + 2 * m + nv, (m, m)),
-            view(buf, o + nv * nv + 2 * m * nv + m * m + 2 * m + nv, m), view(buf, 0, (0, 6)),
-            view(buf, o + nv * nv + 2 * m * nv + m * m + 3 * m + nv, (m, m)), lam, piv,
-            view(buf, o + nv * nv + 2 * m * nv + 2 * m * m + 3 * m + nv, m))
+def work_at(base, nb, nv, m, lam, piv):
+    """The same scratch as :func:`workspace` carved from the buffer at ``base`` (at 0: only its size), lam (nv,)
+    and piv (m,) int64 given, and the size in floats: one allocation, or none on the stack, for a single call."""
+    tws, o = terms_work_at(base, 0, nb, nv)
+    cws, o = crba_work_at(base, o, nb)
+    rws, o = rnea_work_at(base, o, nb)
+    LM, o = take(base, o, (nv, nv))
+    J, o = take(base, o, (m, nv))
+    phi, o = take(base, o, m)
+    gamma, o = take(base, o, m)
+    f, o = take(base, o, nv)
+    Y, o = take(base, o, (m, nv))
+    K, o = take(base, o, (m, m))
+    rhs, o = take(base, o, m)
+    no_forces, o = take(base, o, (0, 6))
+    LK, o = take(base, o, (m, m))
+    t, o = take(base, o, m)
+    return (tws, cws, rws, LM, J, phi, gamma, f, Y, K, rhs, no_forces, LK, lam, piv, t), o
 
 
 @kernel
@@ -325,7 +325,7 @@ def pivoted_cholesky(K, tol, L, piv):
 @kernel
 def constrained_accel_kernel(tree, C, gravity, q, v, tau, alpha, beta, ws, a_out, lam_out):
     """One state: a_out (nv,) and lam_out (m,) of the KKT system (module docstring) with Baumgarte gains alpha,
-    beta (1/s; 0, 0 for none).  ws = workspace(nb, nv, m) (or workspace_in), reused across calls of one
+    beta (1/s; 0, 0 for none).  ws = workspace(nb, nv, m) (or work_at), reused across calls of one
     thread.  Returns -1, or the index of a body whose joint makes M singular (then the outputs are not valid).
     The single-state entry for a simulation's right-hand side: it allocates nothing."""
     tws, cws, rws, LM, J, phi, gamma, f, Y, K, rhs, no_forces, LK, lam, piv, t = ws
@@ -387,13 +387,13 @@ def constrained_fd_single(packed, packed_C, q, v, tau, alpha, beta, a, lam):
     if not (config_ok(tree, nq, q) and vector_ok(v, nv) and vector_ok(tau, nv) and a.shape[0] == nv
             and m == C_rows(C)):
         return GENERAL
-    n = workspace_size(nb, nv, m)
-    buf = scratch(n + 3)  # one buffer (on the stack when small), not ~30 arrays
     ints = np.empty(nv + m, np.int64)
+    n = work_at(0, nb, nv, m, ints[:nv], ints[nv:])[1]
+    buf = scratch(n + 3)  # one buffer (on the stack when small), not ~30 arrays
     g = view(buf, n, 3)  # gravity as a writable array: the batch's type, so both share one compiled kernel
     g[0], g[1], g[2] = gravity[0], gravity[1], gravity[2]
     status = constrained_accel_kernel(tree, C, g, q, v, tau, alpha, beta,
-                                      workspace_in(buf, nb, nv, m, ints[:nv], ints[nv:]), a, lam)
+                                      work_at(address(buf), nb, nv, m, ints[:nv], ints[nv:])[0], a, lam)
     keep_alive(buf)
     keep_alive(ints)
     return DONE if status < 0 else GENERAL
@@ -537,18 +537,6 @@ def constrained_id_batch(tree, Q, V, A, C, gravity, actuated, out, status):
                                           out[b])
 
 
-def constrained_fd_entry(self, args, nargs):
-    """The one call from Python of forward_dynamics and constrained_forward_dynamics without Baumgarte terms
-    (dynamics._numba.PythonFunction): (packed model, packed constraints, q, v, tau, a, lam) -> status."""
-    status = GENERAL
-    if (nargs == 7 and py_packed(self, args[0]) and py_packed(self, args[1]) and py_state(self, args[2])
-            and py_state(self, args[3]) and py_state(self, args[4]) and py_result(self, args[5], 1)
-            and py_result(self, args[6], 1)):
-        status = constrained_fd_single(py_array(args[0], PACKED), py_array(args[1], PACKED), py_array(args[2], VECTOR),
-                                       py_array(args[3], VECTOR), py_array(args[4], VECTOR), 0.0, 0.0,
-                                       py_array(args[5], VECTOR), py_array(args[6], VECTOR))
-    return py_status(self, status)
-
 
 # -- public entry points -----------------------------------------------------------------------------------------
 class _Failed(Exception):
@@ -560,7 +548,7 @@ class _Checked:
     """A batch kernel whose last argument is a per-state status (-1 or 0: fine), for run_chunks."""
 
     def __init__(self, kernel, ok):
-        self.kernel, self.ok = Kernel(kernel), ok
+        self.kernel, self.ok = kernel, ok
 
     def __call__(self, tree, *args):
         status = np.empty(args[-1].shape[0], np.int64)
@@ -571,9 +559,8 @@ class _Checked:
 
 
 _fd_batch = _Checked(constrained_fd_batch, -1)
-_fd_single = Entry(constrained_fd_single, single_signature(PACKED, VECTOR, VECTOR, VECTOR, types.float64,
-                                                           types.float64, VECTOR, VECTOR))
-_fd_unstabilised = PythonFunction(constrained_fd_entry, (DONE, GENERAL))
+_fd_single = SingleCall(constrained_fd_single, PACKED, VECTOR, VECTOR, VECTOR, types.float64, types.float64, VECTOR,
+                        VECTOR)
 _project_batch = _Checked(project_batch, -1)
 _id_batch = _Checked(constrained_id_batch, 0)
 
@@ -602,20 +589,13 @@ def constrained_forward_dynamics(model, q, v, tau, *, baumgarte=None, gravity=No
     units, the rows and frames of :mod:`dynamics.constraints` (world axes; force on frame_a's body at its
     anchor [N], torques [N m], coupling generalised forces).  A model without constraints gives the ABA's a.
     """
-    if baumgarte is None and gravity is None:  # one state: one compiled call that checks q, v and tau itself
-        try:
-            a, lam = np.empty(model.nv), np.empty(arrays(model)[1])
-            if _fd_unstabilised.call(model.packed, packed(model), q, v, tau, a, lam) == DONE:
-                return a, lam
-        except AttributeError:  # not a model: the general path says so
-            pass
     alpha, beta = baumgarte_gains(baumgarte)
-    try:  # with Baumgarte terms, one state of float64 vectors: one compiled call (dynamics.checks.F64)
-        if gravity is None and q.dtype is v.dtype is tau.dtype is F64 and q.ndim == v.ndim == tau.ndim == 1:
+    try:  # one state: one compiled call that checks q, v and tau itself
+        if gravity is None:
             a, lam = np.empty(model.nv), np.empty(arrays(model)[1])
             if _fd_single.call(model.packed, packed(model), q, v, tau, alpha, beta, a, lam) == DONE:
                 return a, lam
-    except NOT_ARRAYS:
+    except AttributeError:  # not a model: the general path says so
         pass
     Q, (V, T), B, batched = checks.state_batch(model, q, (("v", v, model.nv), ("tau", tau, model.nv)))
     C, m = arrays(model)

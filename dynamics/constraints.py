@@ -37,7 +37,8 @@ from typing import NamedTuple
 import numpy as np
 
 from . import checks
-from ._numba import Kernel, float_view, inline_kernel, kernel, view
+from ._numba import address, float_at, inline_kernel, int_at, kernel, view
+from .data import take
 from .configuration import integrate_q
 from .errors import InputError
 from .kinematics import frame_placement, world_pose
@@ -246,9 +247,10 @@ def unpack(packed):
     """:class:`ConstraintArrays` from :func:`packed`: borrowed views, living as long as the call."""
     nc = packed[0]
     f = 1 + 8 * nc  # the floats start after nc, kind, row, body (2 nc), idx (4 nc)
-    return ConstraintArrays(view(packed, 1, nc), view(packed, 1 + nc, nc), view(packed, 1 + 2 * nc, (nc, 2)),
-                            float_view(packed, f, (nc, 2, 3, 3)), float_view(packed, f + 18 * nc, (nc, 2, 3)),
-                            view(packed, 1 + 4 * nc, (nc, 4)), float_view(packed, f + 24 * nc, (nc, 2)))
+    base = address(packed)
+    return ConstraintArrays(int_at(base, 1, nc), int_at(base, 1 + nc, nc), int_at(base, 1 + 2 * nc, (nc, 2)),
+                            float_at(base, f, (nc, 2, 3, 3)), float_at(base, f + 18 * nc, (nc, 2, 3)),
+                            int_at(base, 1 + 4 * nc, (nc, 4)), float_at(base, f + 24 * nc, (nc, 2)))
 
 
 def with_constraints(model, constraints, *, at=None):
@@ -350,11 +352,15 @@ def workspace(nb, nv):
 
 
 @inline_kernel
-def workspace_in(buf, nb, nv):
-    """The same scratch as :func:`workspace`, borrowed from ``buf`` (24 nb + 6 nv floats, kept alive by the
-    caller)."""
-    return (view(buf, 0, (nb, 3, 3)), view(buf, 9 * nb, (nb, 3)), view(buf, 12 * nb, (nv, 6)),
-            view(buf, 12 * nb + 6 * nv, (nb, 6)), view(buf, 18 * nb + 6 * nv, (nb, 6)))
+def work_at(base, o, nb, nv):
+    """The same scratch as :func:`workspace` carved from the buffer at ``base`` from offset o, and the offset
+    after it."""
+    R, o = take(base, o, (nb, 3, 3))
+    p, o = take(base, o, (nb, 3))
+    oS, o = take(base, o, (nv, 6))
+    V, o = take(base, o, (nb, 6))
+    A, o = take(base, o, (nb, 6))
+    return (R, p, oS, V, A), o
 
 
 @inline_kernel
@@ -523,7 +529,7 @@ def bias_batch(tree, Q, V, C, out):
 
 
 # -- public entry points -------------------------------------------------------------------------------------
-_BATCH = {0: Kernel(residual_batch), 1: Kernel(jacobian_batch), 2: Kernel(bias_batch)}
+_BATCH = {0: residual_batch, 1: jacobian_batch, 2: bias_batch}
 
 
 def _terms(model, q, v, what):

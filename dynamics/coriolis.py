@@ -16,7 +16,7 @@ Cost is O(n d^2) for depth d: it is meant for analysis and control design, not f
 
 import numpy as np
 from . import checks
-from ._numba import Kernel, kernel
+from ._numba import kernel
 from .parallel import run_chunks
 
 from .joints import joint_motion, joint_transform
@@ -127,7 +127,7 @@ def coriolis_batch(tree, Q, V, out):
 
 
 # -- public entry point ----------------------------------------------------------------------------
-_coriolis_batch = Kernel(coriolis_batch)
+_coriolis_batch = coriolis_batch
 
 
 def coriolis_matrix(model, q, v):

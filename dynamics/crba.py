@@ -11,9 +11,9 @@ Only the lower triangle is computed; the upper one is its mirror.
 import numpy as np
 
 from . import checks
-from ._numba import (MATRIX, PACKED, VECTOR, Kernel, PythonFunction, inline_kernel, keep_alive, kernel, py_array,
-                     py_status, scratch, view)
-from .checks import DONE, GENERAL, config_ok, py_packed, py_result, py_state
+from ._numba import (MATRIX, PACKED, SingleCall, VECTOR, address, inline_kernel, keep_alive, kernel, scratch, view)
+from .data import take
+from .checks import DONE, GENERAL, config_ok
 from .model import unpack
 from .parallel import run_chunks
 from .joints import joint_transform
@@ -27,10 +27,14 @@ def workspace(nb):
 
 
 @inline_kernel
-def workspace_in(buf, nb):
-    """The same scratch borrowed from ``buf`` (25 nb floats, kept alive by the caller)."""
-    return (view(buf, 0, (nb, 3, 3)), view(buf, 9 * nb, (nb, 3)), view(buf, 12 * nb, nb), view(buf, 13 * nb, (nb, 3)),
-            view(buf, 16 * nb, (nb, 3, 3)))
+def work_at(base, o, nb):
+    """The same scratch carved from the buffer at ``base`` from offset o, and the offset after it."""
+    R, o = take(base, o, (nb, 3, 3))
+    p, o = take(base, o, (nb, 3))
+    m, o = take(base, o, nb)
+    h, o = take(base, o, (nb, 3))
+    Io, o = take(base, o, (nb, 3, 3))
+    return (R, p, m, h, Io), o
 
 
 @kernel
@@ -95,23 +99,16 @@ def crba_single(packed, q, M):
     for r in range(nv):
         for c in range(nv):
             M[r, c] = 0.0
-    buf = scratch(25 * nb)
-    crba_into(tree, q, workspace_in(buf, nb), M)
+    buf = scratch(work_at(0, 0, nb)[1])
+    crba_into(tree, q, work_at(address(buf), 0, nb)[0], M)
     keep_alive(buf)
     return DONE
 
 
-def crba_entry(self, args, nargs):
-    """mass_matrix's one call from Python (dynamics._numba.PythonFunction): (packed, q, M) -> status."""
-    status = GENERAL
-    if nargs == 3 and py_packed(self, args[0]) and py_state(self, args[1]) and py_result(self, args[2], 2):
-        status = crba_single(py_array(args[0], PACKED), py_array(args[1], VECTOR), py_array(args[2], MATRIX))
-    return py_status(self, status)
-
 
 # -- public entry point ----------------------------------------------------------------------------
-_crba_batch = Kernel(crba_batch)
-_crba_single = PythonFunction(crba_entry, (DONE, GENERAL))
+_crba_batch = crba_batch
+_crba_single = SingleCall(crba_single, VECTOR, MATRIX)
 
 
 def mass_matrix(model, q):

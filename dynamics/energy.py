@@ -10,7 +10,7 @@ along g.
 import numpy as np
 
 from . import checks
-from ._numba import Kernel, inline_kernel, kernel
+from ._numba import inline_kernel, kernel
 from .parallel import run_chunks
 from .joints import joint_motion, joint_transform
 from .spatial import add, dot, inertia_times, load3, load33, matmul, motion_to_child, rot, store3, store33
@@ -62,7 +62,7 @@ def energy_batch(tree, Q, V, gravity, kinetic, potential, out):
 
 
 # -- public entry points ---------------------------------------------------------------------------
-_energy_batch = Kernel(energy_batch)
+_energy_batch = energy_batch
 
 
 def kinetic_energy(model, q, v):

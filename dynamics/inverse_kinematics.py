@@ -22,11 +22,11 @@ are reported, not raised.
 import numpy as np
 
 from . import checks
-from ._numba import Kernel, borrowed, keep_alive, kernel
+from ._numba import borrowed, keep_alive, kernel
 from .configuration import integrate_q
 from .errors import InputError
 from .jacobians import jacobian_into
-from .joints import JOINT_FREE
+from .joints import joint_limited
 from .kinematics import LOCAL_WORLD_ALIGNED
 from .parallel import run_chunks
 from .spatial import matmul, rotation_log, spd_inverse, transpose
@@ -48,7 +48,7 @@ def _error(Rd, pd, R, p, e):
 @kernel
 def _clamp(tree, lower, upper, q):
     for i in range(tree.jtype.shape[0]):
-        if tree.jtype[i] != JOINT_FREE:
+        if joint_limited(tree, i):
             k, kq = tree.v_idx[i], tree.q_idx[i]
             q[kq] = min(max(q[kq], lower[k]), upper[k])
 
@@ -84,7 +84,7 @@ def _freeze_blocked(tree, lower, upper, q, dq, free):
     """Freeze (free = 0) each 1-dof joint at a limit that dq pushes further out; True if any was frozen."""
     frozen = False
     for i in range(tree.jtype.shape[0]):
-        if tree.jtype[i] != JOINT_FREE:
+        if joint_limited(tree, i):
             k, kq = tree.v_idx[i], tree.q_idx[i]
             if free[k] != 0.0 and ((q[kq] <= lower[k] and dq[k] < 0.0) or (q[kq] >= upper[k] and dq[k] > 0.0)):
                 free[k] = 0.0
@@ -162,7 +162,7 @@ def ik_batch(model_tree, Q0, T, model_frames, f, r, tol, max_iter, damping, limi
 
 
 # -- public entry point ----------------------------------------------------------------------------
-_ik_batch = Kernel(ik_batch)
+_ik_batch = ik_batch
 
 
 def inverse_kinematics(model, frame, target, q0, *, position_only=False, tol=1e-10, max_iter=100, damping=1e-6,

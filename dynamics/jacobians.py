@@ -13,11 +13,11 @@ A point does not change the "world" Jacobian: the spatial velocity of a body is 
 """
 
 import numpy as np
+from numba import types
 
 from . import checks
-from ._numba import (ALIGNED, C_CONTIGUOUS, MATRIX, PACKED, SELF_FLOAT64, SELF_INT64, VECTOR, WRITEABLE, Kernel,
-                     PythonFunction, borrowed, inline_kernel, int_view, keep_alive, kernel, py_array, py_int,
-                     py_is_array, py_is_int, py_status, scratch, view)
+from ._numba import (MATRIX, PACKED, VECTOR, borrowed, inline_kernel, int_view, keep_alive, kernel, scratch,
+                     SingleCall, view)
 from .checks import DONE, GENERAL, NOT_ARRAYS, REFERENCES, config_ok
 from .kinematics import LOCAL, WORLD, frame_pose, support, world_poses
 from .model import unpack, unpack_frames
@@ -84,22 +84,10 @@ def jacobian_single(packed, q, f, ref, J):
     return DONE
 
 
-def jacobian_entry(self, args, nargs):
-    """frame_jacobian's one call from Python (dynamics._numba.PythonFunction): (packed, q, f, ref, J) -> status;
-    f and ref are small ints (the caller's lookups)."""
-    status = GENERAL
-    if (nargs == 5 and py_is_array(self, args[0], SELF_INT64, 1, C_CONTIGUOUS | ALIGNED)
-            and py_is_array(self, args[1], SELF_FLOAT64, 1, ALIGNED) and py_is_int(self, args[2])
-            and py_is_int(self, args[3])
-            and py_is_array(self, args[4], SELF_FLOAT64, 2, C_CONTIGUOUS | ALIGNED | WRITEABLE)):
-        status = jacobian_single(py_array(args[0], PACKED), py_array(args[1], VECTOR), py_int(args[2]), py_int(args[3]),
-                                 py_array(args[4], MATRIX))
-    return py_status(self, status)
-
 
 # -- public entry point ----------------------------------------------------------------------------
-_jacobian_batch = Kernel(jacobian_batch)
-_jacobian_single = PythonFunction(jacobian_entry, (DONE, GENERAL))
+_jacobian_batch = jacobian_batch
+_jacobian_single = SingleCall(jacobian_single, VECTOR, types.int64, types.int64, MATRIX)
 _ORIGIN = np.zeros(3)
 
 

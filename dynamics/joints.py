@@ -18,26 +18,51 @@ means the joint bias acceleration is zero in body coordinates (c_J = 0), and ``v
 velocity-product term (eq. 5.8).
 """
 
-import numpy as np
-from ._numba import inline_kernel
+from typing import NamedTuple
 
-from .spatial import add, load3, load33, matmul, quat_rotation, rot, scale
+import numpy as np
+
+from ._numba import inline_kernel
+from .spatial import (add, load3, load33, matmul, qexp, qmul, qrot, quat_rotation, quaternion_sq, rot, scale,
+                      skew_poly)
 
 JOINT_REVOLUTE = 0
 JOINT_PRISMATIC = 1
 JOINT_FREE = 2
 
+
+class JointKind(NamedTuple):
+    """Everything the library knows of one joint type outside its kernels, in one record (as Pinocchio keeps
+    one header per joint type): a new joint type is a new record here plus its branches in this module's
+    kernels, and nowhere else."""
+
+    code: int  # the kernels' joint code (Tree.jtype)
+    urdf: tuple  # the URDF joint types read as this kind
+    nq: int  # coordinates in q
+    nv: int  # coordinates in v (and a, tau)
+    neutral: tuple  # the joint's q at rest (its identity), before joint limits are taken into account
+    limited: bool  # URDF position limits, effort, velocity, damping and friction apply to its coordinates
+    quaternion: int  # offset in its q of a unit quaternion (x, y, z, w), or -1
+
+
+KINDS = {
+    JOINT_REVOLUTE: JointKind(JOINT_REVOLUTE, ("revolute", "continuous"), 1, 1, (0.0,), True, -1),
+    JOINT_PRISMATIC: JointKind(JOINT_PRISMATIC, ("prismatic",), 1, 1, (0.0,), True, -1),
+    # q = [x, y, z, qx, qy, qz, qw], v = [linear, angular] in the body frame (Pinocchio's layout)
+    JOINT_FREE: JointKind(JOINT_FREE, ("floating",), 7, 6, (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0), False, 3),
+}
+
 #: nq and nv of each joint code
-JOINT_NQ = {JOINT_REVOLUTE: 1, JOINT_PRISMATIC: 1, JOINT_FREE: 7}
-JOINT_NV = {JOINT_REVOLUTE: 1, JOINT_PRISMATIC: 1, JOINT_FREE: 6}
+JOINT_NQ = {c: k.nq for c, k in KINDS.items()}
+JOINT_NV = {c: k.nv for c, k in KINDS.items()}
 
 #: URDF joint type -> kernel code
-URDF_JOINT_CODES = {
-    "revolute": JOINT_REVOLUTE,
-    "continuous": JOINT_REVOLUTE,
-    "prismatic": JOINT_PRISMATIC,
-    "floating": JOINT_FREE,
-}
+URDF_JOINT_CODES = {name: k.code for k in KINDS.values() for name in k.urdf}
+
+
+def kind_of(joint_type):
+    """The :class:`JointKind` of a URDF joint type name (``model.joint_types`` holds them)."""
+    return KINDS[URDF_JOINT_CODES[joint_type]]
 
 
 def motion_subspace(code, axis):
@@ -103,3 +128,125 @@ def project_force(tree, i, n, f, tau):
     for k in range(tree.v_idx[i], tree.v_idx[i] + tree.nv_j[i]):
         tau[k] = (S[k, 0] * n[0] + S[k, 1] * n[1] + S[k, 2] * n[2]
                   + S[k, 3] * f[0] + S[k, 4] * f[1] + S[k, 5] * f[2])
+
+
+def joint_matrix(code, axis, qi):
+    """4x4 motion of a joint of kind ``code`` at its coordinates ``qi`` (in Python, for lock_joints; the
+    kernels use :func:`joint_transform`)."""
+    J = np.eye(4)
+    if code == JOINT_REVOLUTE:
+        x, y, z = axis
+        c, s = np.cos(qi[0]), np.sin(qi[0])
+        t = 1 - c
+        J[:3, :3] = [[t * x * x + c, t * x * y - s * z, t * x * z + s * y],
+                     [t * x * y + s * z, t * y * y + c, t * y * z - s * x],
+                     [t * x * z - s * y, t * y * z + s * x, t * z * z + c]]
+    elif code == JOINT_PRISMATIC:
+        J[:3, 3] = np.asarray(axis, float) * qi[0]
+    else:
+        x, y, z, w = qi[3:7]
+        n = np.sqrt(x * x + y * y + z * z + w * w)
+        x, y, z, w = x / n, y / n, z / n, w / n
+        J[:3, :3] = [[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+                     [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+                     [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]]
+        J[:3, 3] = qi[:3]
+    return J
+
+
+# -- the configuration manifold, one joint at a time (dynamics.configuration loops over the joints) ---------
+#: a unit quaternion whose squared norm is below this is "zero" (it is normalised in the kernels)
+ZERO_QUATERNION_SQ = 1e-16
+
+
+@inline_kernel
+def joint_config_ok(tree, i, q):
+    """Joint i's coordinates in q are a configuration: a free joint's quaternion is not zero."""
+    return tree.jtype[i] != JOINT_FREE or quaternion_sq(q, tree.q_idx[i] + 3) >= ZERO_QUATERNION_SQ
+
+
+@inline_kernel
+def joint_limited(tree, i):
+    """Joint i's coordinates have position limits (1-dof joints; -inf/inf when the URDF gives none)."""
+    return tree.jtype[i] != JOINT_FREE
+
+
+@inline_kernel
+def joint_integrate_delta(tree, i, q, v, dt, delta):
+    """Chart coordinates of joint i after moving with its velocity v for dt (dynamics.configuration): v dt for
+    1-dof joints; for the free joint the SE(3) exponential, (R V(theta) v_lin dt, theta = omega dt)."""
+    k = tree.v_idx[i]
+    if tree.jtype[i] != JOINT_FREE:
+        delta[k] = v[k] * dt
+        return
+    kq = tree.q_idx[i]
+    t0, t1, t2 = v[k + 3] * dt, v[k + 4] * dt, v[k + 5] * dt
+    phi2 = t0 * t0 + t1 * t1 + t2 * t2
+    if phi2 < 1e-8:  # V = 1 + a [t] + b [t]^2 by its series
+        a = 0.5 - phi2 / 24.0
+        b = 1.0 / 6.0 - phi2 / 120.0
+    else:
+        phi = np.sqrt(phi2)
+        a = (1.0 - np.cos(phi)) / phi2
+        b = (phi - np.sin(phi)) / (phi2 * phi)
+    x0, x1, x2 = skew_poly(a, b, t0, t1, t2, v[k] * dt, v[k + 1] * dt, v[k + 2] * dt)
+    nrm = np.sqrt(q[kq + 3] ** 2 + q[kq + 4] ** 2 + q[kq + 5] ** 2 + q[kq + 6] ** 2)
+    p0, p1, p2 = qrot(q[kq + 3] / nrm, q[kq + 4] / nrm, q[kq + 5] / nrm, q[kq + 6] / nrm, x0, x1, x2)
+    delta[k], delta[k + 1], delta[k + 2] = p0, p1, p2
+    delta[k + 3], delta[k + 4], delta[k + 5] = t0, t1, t2
+
+
+@inline_kernel
+def joint_retract(tree, i, q0, delta, q):
+    """Joint i's part of q = q0 (+) delta: q0 + delta for 1-dof joints; p0 + delta_p and quat0 (x)
+    exp(delta_theta), renormalised, for the free joint."""
+    k, kq = tree.v_idx[i], tree.q_idx[i]
+    if tree.jtype[i] != JOINT_FREE:
+        q[kq] = q0[kq] + delta[k]
+        return
+    for r in range(3):
+        q[kq + r] = q0[kq + r] + delta[k + r]
+    dx, dy, dz, dw = qexp(delta[k + 3], delta[k + 4], delta[k + 5])
+    x, y, z, w = qmul(q0[kq + 3], q0[kq + 4], q0[kq + 5], q0[kq + 6], dx, dy, dz, dw)
+    nrm = np.sqrt(x * x + y * y + z * z + w * w)
+    q[kq + 3], q[kq + 4], q[kq + 5], q[kq + 6] = x / nrm, y / nrm, z / nrm, w / nrm
+
+
+@inline_kernel
+def joint_chart_rate(tree, i, q, delta, v, out):
+    """Joint i's part of d(delta)/dt: v for 1-dof joints; (R(q) v_lin, Jr(delta_theta)^-1 omega) for the free
+    joint, Jr^-1 = 1 + [th]/2 + (1/phi^2 - (1 + cos phi)/(2 phi sin phi)) [th]^2."""
+    k = tree.v_idx[i]
+    if tree.jtype[i] != JOINT_FREE:
+        out[k] = v[k]
+        return
+    kq = tree.q_idx[i]
+    out[k], out[k + 1], out[k + 2] = qrot(q[kq + 3], q[kq + 4], q[kq + 5], q[kq + 6], v[k], v[k + 1], v[k + 2])
+    t0, t1, t2 = delta[k + 3], delta[k + 4], delta[k + 5]
+    phi2 = t0 * t0 + t1 * t1 + t2 * t2
+    if phi2 < 1e-8:
+        c = 1.0 / 12.0 + phi2 / 720.0
+    else:
+        phi = np.sqrt(phi2)
+        c = 1.0 / phi2 - (1.0 + np.cos(phi)) / (2.0 * phi * np.sin(phi))
+    out[k + 3], out[k + 4], out[k + 5] = skew_poly(0.5, c, t0, t1, t2, v[k + 3], v[k + 4], v[k + 5])
+
+
+@inline_kernel
+def joint_difference(tree, i, q0, q1, out):
+    """Joint i's part of the tangent d with retract(q0, d) == q1: q1 - q0 for 1-dof joints,
+    (p1 - p0, log(quat0^-1 quat1)) for the free joint."""
+    k, kq = tree.v_idx[i], tree.q_idx[i]
+    if tree.jtype[i] != JOINT_FREE:
+        out[k] = q1[kq] - q0[kq]
+        return
+    for r in range(3):
+        out[k + r] = q1[kq + r] - q0[kq + r]
+    x, y, z, w = qmul(-q0[kq + 3], -q0[kq + 4], -q0[kq + 5], q0[kq + 6], q1[kq + 3], q1[kq + 4], q1[kq + 5],
+                      q1[kq + 6])
+    if w < 0.0:  # the shorter way round
+        x, y, z, w = -x, -y, -z, -w
+    s = np.sqrt(x * x + y * y + z * z)
+    ang = 2.0 * np.arctan2(s, w)
+    f = 2.0 / w if s < 1e-12 else ang / s
+    out[k + 3], out[k + 4], out[k + 5] = f * x, f * y, f * z

@@ -28,8 +28,7 @@ import numpy as np
 from numba import types
 
 from . import checks
-from ._numba import (ALIGNED, C_CONTIGUOUS, PACKED, SELF_FLOAT64, SELF_INT64, VECTOR, WRITEABLE, Kernel, PythonFunction,
-                     inline_kernel, keep_alive, kernel, py_array, py_is_array, py_status, scratch, view)
+from ._numba import PACKED, VECTOR, inline_kernel, keep_alive, kernel, scratch, SingleCall, view
 from .checks import DONE, GENERAL, config_ok
 from .joints import joint_motion, joint_transform
 from .model import FRAME_BODY, FRAME_SHIFTED, FRAME_WORLD, unpack, unpack_frames
@@ -148,15 +147,6 @@ def placements_single(packed, q, out):
     return DONE
 
 
-def placements_entry(self, args, nargs):
-    """forward_kinematics' one call from Python (dynamics._numba.PythonFunction): (packed, q, out) -> status."""
-    status = GENERAL
-    if (nargs == 3 and py_is_array(self, args[0], SELF_INT64, 1, C_CONTIGUOUS | ALIGNED)
-            and py_is_array(self, args[1], SELF_FLOAT64, 1, ALIGNED)
-            and py_is_array(self, args[2], SELF_FLOAT64, 3, C_CONTIGUOUS | ALIGNED | WRITEABLE)):
-        status = placements_single(py_array(args[0], PACKED), py_array(args[1], VECTOR), py_array(args[2], PLACEMENTS))
-    return py_status(self, status)
-
 
 @kernel
 def placement_batch(tree, Q, frames, f, out):
@@ -216,11 +206,11 @@ def motion_batch(tree, Q, V, A, frames, f, ref, what, classical, out):
 
 
 # -- public entry points ---------------------------------------------------------------------------
-_placements_batch = Kernel(placements_batch)
-_placement_batch = Kernel(placement_batch)
-_motion_batch = Kernel(motion_batch)
+_placements_batch = placements_batch
+_placement_batch = placement_batch
+_motion_batch = motion_batch
 PLACEMENTS = types.float64[:, :, ::1]
-_placements_single = PythonFunction(placements_entry, (DONE, GENERAL))
+_placements_single = SingleCall(placements_single, VECTOR, PLACEMENTS)
 
 
 def forward_kinematics(model, q):

@@ -25,8 +25,8 @@ loops specialised with their 6-vectors in locals; the free joint the generic one
 import numpy as np
 
 from . import checks
-from ._numba import MATRIX, VECTOR, Entry, Kernel, inline_kernel, int_view, keep_alive, kernel, scratch, \
-    single_signature, view
+from ._numba import (MATRIX, VECTOR, inline_kernel, int_view, keep_alive, kernel, scratch, single_signature,
+                     SingleCall, view)
 from .checks import DONE, F64, GENERAL, NOT_ARRAYS, config_ok
 from .errors import InputError
 from .kinematics import world_pose
@@ -264,7 +264,7 @@ class Checked:
     joint makes M singular, wrapped for :func:`~dynamics.parallel.run_chunks` (status is its own per chunk)."""
 
     def __init__(self, kernel):
-        self.kernel = Kernel(kernel)
+        self.kernel = kernel
 
     def __call__(self, tree, *args):
         status = np.empty(args[-1].shape[0], np.int64)
@@ -284,7 +284,7 @@ def run_checked(model, kernel, batched, shared, out, what):
 
 
 _minverse_batch = Checked(minverse_batch)
-_minverse_single = Entry(minverse_single, single_signature(VECTOR, MATRIX))
+_minverse_single = SingleCall(minverse_single, VECTOR, MATRIX)
 
 
 def inverse_mass_matrix(model, q):

@@ -43,8 +43,8 @@ from typing import NamedTuple
 import numpy as np
 
 from . import reorder
-from ._numba import float_view, inline_kernel, view
-from .joints import JOINT_FREE, JOINT_NQ, JOINT_NV, JOINT_REVOLUTE, URDF_JOINT_CODES, motion_subspace, revolute_terms
+from ._numba import address, float_at, inline_kernel, int_at
+from .joints import JOINT_FREE, JOINT_NQ, JOINT_NV, JOINT_REVOLUTE, KINDS, URDF_JOINT_CODES, motion_subspace, revolute_terms
 
 
 class Tree(NamedTuple):
@@ -93,7 +93,7 @@ def frame_kind(body, R, p):
 def pack(tree, gravity, frames):
     """The model's arrays as one read-only int64 array (layout in the module docstring)."""
     nb, nv = tree.parents.shape[0], tree.S.shape[0]
-    nq = int(sum(7 if c == JOINT_FREE else 1 for c in tree.jtype))
+    nq = int(sum(JOINT_NQ[c] for c in tree.jtype))
     floats = np.concatenate([np.ravel(x).astype(np.float64) for x in (gravity, tree.Xrot, tree.Xpos, tree.axis,
                                                                       tree.S, tree.mass, tree.h, tree.Io, tree.XK,
                                                                       tree.XKK)])
@@ -107,28 +107,30 @@ def pack(tree, gravity, frames):
 
 @inline_kernel
 def unpack(packed):
-    """(tree, gravity, nq) from the packed model: borrowed views (:func:`dynamics._numba.view`), nothing
+    """(tree, gravity, nq) from the packed model: views with no owner (:func:`dynamics._numba.float_at`), nothing
     copied; they live as long as the call that unpacks them."""
+    base = address(packed)
     nb, nq, nv = packed[0], packed[1], packed[2]
     f = 3 + 5 * nb  # the floats: gravity, Xrot, Xpos, axis, S, then mass, h, Io, XK, XKK from o
     o = f + 3 + 15 * nb + 6 * nv
-    tree = Tree(view(packed, 3, nb), view(packed, 3 + nb, nb), view(packed, 3 + 2 * nb, nb),
-                view(packed, 3 + 3 * nb, nb), view(packed, 3 + 4 * nb, nb), float_view(packed, f + 3, (nb, 3, 3)),
-                float_view(packed, f + 3 + 9 * nb, (nb, 3)), float_view(packed, f + 3 + 12 * nb, (nb, 3)),
-                float_view(packed, f + 3 + 15 * nb, (nv, 6)), float_view(packed, o, nb),
-                float_view(packed, o + nb, (nb, 3)), float_view(packed, o + 4 * nb, (nb, 3, 3)),
-                float_view(packed, o + 13 * nb, (nb, 3, 3)), float_view(packed, o + 22 * nb, (nb, 3, 3)))
-    return tree, float_view(packed, f, 3), nq
+    tree = Tree(int_at(base, 3, nb), int_at(base, 3 + nb, nb), int_at(base, 3 + 2 * nb, nb),
+                int_at(base, 3 + 3 * nb, nb), int_at(base, 3 + 4 * nb, nb), float_at(base, f + 3, (nb, 3, 3)),
+                float_at(base, f + 3 + 9 * nb, (nb, 3)), float_at(base, f + 3 + 12 * nb, (nb, 3)),
+                float_at(base, f + 3 + 15 * nb, (nv, 6)), float_at(base, o, nb),
+                float_at(base, o + nb, (nb, 3)), float_at(base, o + 4 * nb, (nb, 3, 3)),
+                float_at(base, o + 13 * nb, (nb, 3, 3)), float_at(base, o + 22 * nb, (nb, 3, 3)))
+    return tree, float_at(base, f, 3), nq
 
 
 @inline_kernel
 def unpack_frames(packed):
     """The frames (:class:`Frames`) from the packed model, as :func:`unpack`."""
+    base = address(packed)
     nb, nv = packed[0], packed[2]
     e = 6 + 51 * nb + 6 * nv  # after the tree
     nf = packed[e]
-    return Frames(view(packed, e + 1, nf), view(packed, e + 1 + nf, nf), float_view(packed, e + 1 + 2 * nf, (nf, 3, 3)),
-                  float_view(packed, e + 1 + 11 * nf, (nf, 3)))
+    return Frames(int_at(base, e + 1, nf), int_at(base, e + 1 + nf, nf), float_at(base, e + 1 + 2 * nf, (nf, 3, 3)),
+                  float_at(base, e + 1 + 11 * nf, (nf, 3)))
 
 
 def _frozen(a, dtype=np.float64):
@@ -204,7 +206,7 @@ class Model:
 
     @property
     def nq_joint(self):
-        return _frozen([7 if c == JOINT_FREE else 1 for c in self.tree.jtype], np.int64)
+        return _frozen([JOINT_NQ[c] for c in self.tree.jtype], np.int64)
 
     @property
     def nv_joint(self):
@@ -257,7 +259,8 @@ class Model:
         """(k,) int64: index in q of each free joint's quaternion (qx)."""
         starts = self.__dict__.get("_quaternion_starts")
         if starts is None:
-            starts = _frozen([k + 3 for c, k in zip(self.tree.jtype, self.tree.q_idx) if c == JOINT_FREE], np.int64)
+            starts = _frozen([k + KINDS[c].quaternion for c, k in zip(self.tree.jtype, self.tree.q_idx)
+                              if KINDS[c].quaternion >= 0], np.int64)
             object.__setattr__(self, "_quaternion_starts", starts)
         return starts
 
@@ -389,7 +392,7 @@ def build_model(name, bodies, *, floating_base, gravity=(0.0, 0.0, -9.81), warni
     for c, b, n in zip(codes, bodies, nv_j):
         for k in per_dof:
             value = getattr(b, k)
-            if c == JOINT_FREE:  # the free joint has no URDF limits or damping
+            if not KINDS[c].limited:  # the free joint has no URDF limits or damping
                 value = {"lower": -np.inf, "upper": np.inf, "effort": np.inf, "velocity": np.inf}.get(k, 0.0)
             per_dof[k].extend([value] * n)
     P = np.array([b.placement for b in bodies]).reshape(nb, 4, 4)

@@ -11,39 +11,13 @@ import numpy as np
 
 from .constraints import JointCoupling, arrays, constraint_residual, with_constraints
 from .errors import InputError
+from .joints import KINDS, joint_matrix
 from .model import BodySpec, Model, build_model
-
-
-def _axis_rotation(axis, angle):
-    x, y, z = axis
-    c, s = np.cos(angle), np.sin(angle)
-    t = 1 - c
-    return np.array([[t * x * x + c, t * x * y - s * z, t * x * z + s * y],
-                     [t * x * y + s * z, t * y * y + c, t * y * z - s * x],
-                     [t * x * z - s * y, t * y * z + s * x, t * z * z + c]])
-
-
-def _quat_matrix(x, y, z, w):
-    n = np.sqrt(x * x + y * y + z * z + w * w)
-    x, y, z, w = x / n, y / n, z / n, w / n
-    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
-                     [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
-                     [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]])
 
 
 def joint_pose(model, i, qi):
     """4x4 pose of body i in its parent frame with its joint at the coordinates qi (placement * motion)."""
-    t = model.tree
-    J = np.eye(4)
-    kind = model.joint_types[i]
-    if kind in ("revolute", "continuous"):
-        J[:3, :3] = _axis_rotation(t.axis[i], qi[0])
-    elif kind == "prismatic":
-        J[:3, 3] = t.axis[i] * qi[0]
-    else:
-        J[:3, :3] = _quat_matrix(*qi[3:7])
-        J[:3, 3] = qi[:3]
-    return model.placements[i] @ J
+    return model.placements[i] @ joint_matrix(int(model.tree.jtype[i]), model.tree.axis[i], qi)
 
 
 def _spec(model, i, parent, placement):
@@ -86,7 +60,8 @@ def lock_joints(model: Model, values: dict) -> Model:
         qi = np.atleast_1d(np.asarray(value, dtype=float)) if not isinstance(value, str) else None
         if qi is None or qi.shape != (nq,) or not np.all(np.isfinite(qi)):
             raise InputError(f"locked[{name!r}]: expected {nq} finite number{'s' if nq > 1 else ''}, got {value!r}")
-        if nq == 7 and np.linalg.norm(qi[3:7]) < 1e-8:
+        k = KINDS[int(model.tree.jtype[i])].quaternion
+        if k >= 0 and np.linalg.norm(qi[k:k + 4]) < 1e-8:
             raise InputError(f"locked[{name!r}]: the quaternion is zero; expected a unit quaternion in the order (x, y, z, w), scalar last")
         locked[i] = qi
 

@@ -19,6 +19,7 @@ import difflib
 import numpy as np
 
 from .errors import InputError
+from .joints import kind_of
 
 KINDS = ("q", "v", "pinocchio_q")
 
@@ -42,7 +43,7 @@ def q_slice(model, name):
     """The coordinates of joint ``name`` in q (7 for a free joint, else 1)."""
     i = joint_index(model, name)
     start = int(model.q_index[i])
-    return slice(start, start + (7 if model.joint_types[i] == "floating" else 1))
+    return slice(start, start + int(model.nq_joint[i]))
 
 
 def v_slice(model, name):
@@ -57,7 +58,8 @@ def _their_sizes(model, kind):
     if kind == "v":
         return [int(n) for n in model.nv_joint]
     pin = kind == "pinocchio_q"
-    return [7 if t == "floating" else 2 if (t == "continuous" and pin) else 1 for t in model.joint_types]
+    # Pinocchio stores a continuous joint as (cos, sin): its one fact that is not ours
+    return [2 if (t == "continuous" and pin) else kind_of(t).nq for t in model.joint_types]
 
 
 def _order(model, names):

@@ -12,12 +12,15 @@ Forward pass, for each body i with parent p and joint velocity v_J = S_i qd_i:
 Backward pass:  tau_i = S_i^T f_i ,  f_p += X_i^T f_i .
 """
 
+from typing import NamedTuple
+
 import numpy as np
 
 from . import checks
-from ._numba import (PACKED, VECTOR, Kernel, PythonFunction, inline_kernel, keep_alive, kernel, py_array, py_status,
-                     scratch, view)
-from .checks import DONE, GENERAL, config_ok, nonzero, py_packed, py_result, py_state, vector_ok
+from ._numba import (PACKED, VECTOR, address, inline_kernel, keep_alive, kernel, scratch, SingleCall, view,
+                     )
+from .checks import DONE, GENERAL, config_ok, nonzero, vector_ok
+from .data import Data, data_at, forward_pass, take
 from .model import unpack
 from .parallel import run_chunks
 from .joints import joint_motion, joint_transform, project_force
@@ -25,23 +28,56 @@ from .spatial import (add, cross, cross_force, cross_motion, force_to_parent, in
                       motion_to_child, rot, rotT, scale, store3, store33)
 
 
-@kernel
-def workspace(nb):
-    """Scratch for one state, owned (the caller may keep it): the same arrays as :func:`workspace_in`."""
-    buf = np.empty(nb * 30)
-    return (buf[:9 * nb].reshape((nb, 3, 3)), buf[9 * nb:12 * nb].reshape((nb, 3)),
-            buf[12 * nb:15 * nb].reshape((nb, 3)), buf[15 * nb:18 * nb].reshape((nb, 3)),
-            buf[18 * nb:21 * nb].reshape((nb, 3)), buf[21 * nb:24 * nb].reshape((nb, 3)),
-            buf[24 * nb:27 * nb].reshape((nb, 3)), buf[27 * nb:30 * nb].reshape((nb, 3)))
+class Work(NamedTuple):
+    """RNEA's scratch for one state: the forward pass's :class:`~dynamics.data.Data`, then per body (nb, 3)
+    its spatial acceleration (aw, av) and the force it transmits to its parent (n, f), body frame."""
+
+    d: Data
+    aw: object
+    av: object
+    n: object
+    f: object
 
 
 @inline_kernel
-def workspace_in(buf, nb):
-    """Scratch for one state, borrowed from ``buf`` (30 nb floats, kept alive by the caller): poses (R, p),
-    velocities (w, v), accelerations (aw, av), forces (n, f)."""
-    return (view(buf, 0, (nb, 3, 3)), view(buf, 9 * nb, (nb, 3)), view(buf, 12 * nb, (nb, 3)),
-            view(buf, 15 * nb, (nb, 3)), view(buf, 18 * nb, (nb, 3)), view(buf, 21 * nb, (nb, 3)),
-            view(buf, 24 * nb, (nb, 3)), view(buf, 27 * nb, (nb, 3)))
+def work_at(base, o, nb):
+    """A :class:`Work` carved from the buffer at ``base`` from offset o (at base 0: only its size), and the
+    offset after it."""
+    d, o = data_at(base, o, nb)
+    aw, o = take(base, o, (nb, 3))
+    av, o = take(base, o, (nb, 3))
+    n, o = take(base, o, (nb, 3))
+    f, o = take(base, o, (nb, 3))
+    return Work(d, aw, av, n, f), o
+
+
+@kernel
+def workspace(nb):
+    """A :class:`Work` of owned arrays, which the caller may keep (a torque source's scratch)."""
+    d = Data(np.empty((nb, 3, 3)), np.empty((nb, 3)), np.empty((nb, 3)), np.empty((nb, 3)), np.empty((nb, 3)),
+             np.empty((nb, 3)))
+    return Work(d, np.empty((nb, 3)), np.empty((nb, 3)), np.empty((nb, 3)), np.empty((nb, 3)))
+
+
+class GravityWork(NamedTuple):
+    """g(q)'s scratch: poses (R, p), each body's gravity g_i, its subtree's first moment H_i (nb, 3) and mass
+    M_i (nb,)."""
+
+    R: object
+    p: object
+    g: object
+    H: object
+    M: object
+
+
+@inline_kernel
+def gravity_work_at(base, o, nb):
+    R, o = take(base, o, (nb, 3, 3))
+    p, o = take(base, o, (nb, 3))
+    g, o = take(base, o, (nb, 3))
+    H, o = take(base, o, (nb, 3))
+    M, o = take(base, o, nb)
+    return GravityWork(R, p, g, H, M), o
 
 
 @inline_kernel
@@ -52,55 +88,45 @@ def rnea_terms(tree, q, v, a, gravity, f_ext, ws, tau, with_v, with_a):
     (a is zero) skips the joint accelerations: the caller promises those inputs are zero.
     """
     parents, mass, hs, Ios = tree.parents, tree.mass, tree.h, tree.Io
-    Rs, ps, ws_, vs, aws, avs, ns, fs = ws
+    d = ws.d
+    forward_pass(tree, q, v, d, with_v)  # X_i, v_i, c_i
     zero = (0.0, 0.0, 0.0)
     a0 = (-gravity[0], -gravity[1], -gravity[2])  # the world accelerates up: a_0 = (0, -g)
     nb = parents.shape[0]
-    for i in range(nb):
-        R, p = joint_transform(tree, i, q)
+    for i in range(nb):  # a_i = X_i a_p + S_i qdd_i + c_i,  f_i = I a + v x* I v - f_ext
+        R, p = load33(d.R, i), load3(d.p, i)
         par = parents[i]
         if par < 0:
             aw, al = motion_to_child(R, p, zero, a0)
         else:
-            aw, al = motion_to_child(R, p, load3(aws, par), load3(avs, par))
+            aw, al = motion_to_child(R, p, load3(ws.aw, par), load3(ws.av, par))
         if with_a:
             sw, sv = joint_motion(tree, i, a)
             aw, al = add(aw, sw), add(al, sv)
         m, h, Io = mass[i], load3(hs, i), load33(Ios, i)
         if with_v:
-            if par < 0:
-                w, vl = motion_to_child(R, p, zero, zero)
-            else:
-                w, vl = motion_to_child(R, p, load3(ws_, par), load3(vs, par))
-            wJ, vJ = joint_motion(tree, i, v)
-            w, vl = add(w, wJ), add(vl, vJ)
-            store3(ws_, i, w)
-            store3(vs, i, vl)
-            cw, cv = cross_motion(w, vl, wJ, vJ)
-            aw, al = add(aw, cw), add(al, cv)
-        # f_i = I a + v x* I v - f_ext
+            aw, al = add(aw, load3(d.cw, i)), add(al, load3(d.cv, i))
         n, f = inertia_times(m, h, Io, aw, al)
         if with_v:
+            w, vl = load3(d.w, i), load3(d.vl, i)
             hn, hf = inertia_times(m, h, Io, w, vl)
             bn, bf = cross_force(w, vl, hn, hf)
             n, f = add(n, bn), add(f, bf)
         if f_ext.shape[0] > 0:
             n = (n[0] - f_ext[i, 3], n[1] - f_ext[i, 4], n[2] - f_ext[i, 5])
             f = (f[0] - f_ext[i, 0], f[1] - f_ext[i, 1], f[2] - f_ext[i, 2])
-        store33(Rs, i, R)
-        store3(ps, i, p)
-        store3(aws, i, aw)
-        store3(avs, i, al)
-        store3(ns, i, n)
-        store3(fs, i, f)
-    for i in range(nb - 1, -1, -1):
-        n, f = load3(ns, i), load3(fs, i)
+        store3(ws.aw, i, aw)
+        store3(ws.av, i, al)
+        store3(ws.n, i, n)
+        store3(ws.f, i, f)
+    for i in range(nb - 1, -1, -1):  # tau_i = S_i^T f_i,  f_p += X_i^T f_i
+        n, f = load3(ws.n, i), load3(ws.f, i)
         project_force(tree, i, n, f, tau)
         par = parents[i]
         if par >= 0:
-            pn, pf = force_to_parent(load33(Rs, i), load3(ps, i), n, f)
-            store3(ns, par, add(load3(ns, par), pn))
-            store3(fs, par, add(load3(fs, par), pf))
+            pn, pf = force_to_parent(load33(d.R, i), load3(d.p, i), n, f)
+            store3(ws.n, par, add(load3(ws.n, par), pn))
+            store3(ws.f, par, add(load3(ws.f, par), pf))
 
 
 @inline_kernel
@@ -112,8 +138,7 @@ def gravity_into(tree, q, gravity, ws, tau):
     tau_i = S_i^T (-H_i x g_i, -M_i g_i).  No inertia tensor and no velocity enters.
     """
     parents, mass, hs = tree.parents, tree.mass, tree.h
-    Rs, ps, gs, Hs = ws[0], ws[1], ws[2], ws[3]
-    Ms = ws[4][:, 0]
+    Rs, ps, gs, Hs, Ms = ws
     nb = parents.shape[0]
     for i in range(nb):
         R, p = joint_transform(tree, i, q)
@@ -135,9 +160,12 @@ def gravity_into(tree, q, gravity, ws, tau):
 
 @kernel
 def gravity_batch(tree, Q, gravity, out):
-    ws = workspace(tree.parents.shape[0])
+    nb = tree.parents.shape[0]
+    buf = np.empty(gravity_work_at(0, 0, nb)[1])
+    ws = gravity_work_at(address(buf), 0, nb)[0]
     for b in range(Q.shape[0]):
         gravity_into(tree, Q[b], gravity, ws, out[b])
+    keep_alive(buf)
 
 
 @kernel
@@ -150,10 +178,13 @@ def rnea_into(tree, q, v, a, gravity, f_ext, ws, tau):
 def rnea_batch(tree, Q, V, A, F, gravity, with_v, with_a, out):
     """Rows of ``out`` = RNEA of the rows of Q, V, A (V or A may have one row when unused); F is
     (1 or B, nb or 0, 6)."""
-    ws = workspace(tree.parents.shape[0])
+    nb = tree.parents.shape[0]
+    buf = np.empty(work_at(0, 0, nb)[1])
+    ws = work_at(address(buf), 0, nb)[0]
     lf, lv, la = F.shape[0] - 1, V.shape[0] - 1, A.shape[0] - 1
     for b in range(Q.shape[0]):
         rnea_terms(tree, Q[b], V[min(b, lv)], A[min(b, la)], gravity, F[min(b, lf)], ws, out[b], with_v, with_a)
+    keep_alive(buf)
 
 
 # -- one state from Python: inputs checked inside the call (status codes of dynamics.checks) ----------------
@@ -163,8 +194,9 @@ def rnea_single(packed, q, v, a, tau):
     nb, nv = tree.parents.shape[0], tree.S.shape[0]
     if not (config_ok(tree, nq, q) and vector_ok(v, nv) and vector_ok(a, nv) and tau.shape[0] == nv):
         return GENERAL
-    buf = scratch(30 * nb)
-    rnea_terms(tree, q, v, a, gravity, view(buf, 0, (0, 6)), workspace_in(buf, nb), tau, nonzero(v), nonzero(a))
+    buf = scratch(work_at(0, 0, nb)[1])
+    rnea_terms(tree, q, v, a, gravity, view(buf, 0, (0, 6)), work_at(address(buf), 0, nb)[0], tau, nonzero(v),
+               nonzero(a))
     keep_alive(buf)
     return DONE
 
@@ -175,8 +207,9 @@ def bias_single(packed, q, v, tau):
     nb, nv = tree.parents.shape[0], tree.S.shape[0]
     if not (config_ok(tree, nq, q) and vector_ok(v, nv) and tau.shape[0] == nv):
         return GENERAL
-    buf = scratch(30 * nb)
-    rnea_terms(tree, q, v, v, gravity, view(buf, 0, (0, 6)), workspace_in(buf, nb), tau, nonzero(v), False)
+    buf = scratch(work_at(0, 0, nb)[1])
+    rnea_terms(tree, q, v, v, gravity, view(buf, 0, (0, 6)), work_at(address(buf), 0, nb)[0], tau, nonzero(v),
+               False)
     keep_alive(buf)
     return DONE
 
@@ -187,46 +220,21 @@ def gravity_single(packed, q, tau):
     nb = tree.parents.shape[0]
     if not (config_ok(tree, nq, q) and tau.shape[0] == tree.S.shape[0]):
         return GENERAL
-    buf = scratch(30 * nb)
-    gravity_into(tree, q, gravity, workspace_in(buf, nb), tau)
+    buf = scratch(gravity_work_at(0, 0, nb)[1])
+    gravity_into(tree, q, gravity, gravity_work_at(address(buf), 0, nb)[0], tau)
     keep_alive(buf)
     return DONE
 
 
-def rnea_entry(self, args, nargs):
-    """inverse_dynamics' one call from Python (dynamics._numba.PythonFunction): (packed, q, v, a, tau) -> status."""
-    status = GENERAL
-    if (nargs == 5 and py_packed(self, args[0]) and py_state(self, args[1]) and py_state(self, args[2])
-            and py_state(self, args[3]) and py_result(self, args[4], 1)):
-        status = rnea_single(py_array(args[0], PACKED), py_array(args[1], VECTOR), py_array(args[2], VECTOR),
-                             py_array(args[3], VECTOR), py_array(args[4], VECTOR))
-    return py_status(self, status)
 
-
-def bias_entry(self, args, nargs):
-    """bias_forces' one call from Python: (packed, q, v, tau) -> status."""
-    status = GENERAL
-    if (nargs == 4 and py_packed(self, args[0]) and py_state(self, args[1]) and py_state(self, args[2])
-            and py_result(self, args[3], 1)):
-        status = bias_single(py_array(args[0], PACKED), py_array(args[1], VECTOR), py_array(args[2], VECTOR),
-                             py_array(args[3], VECTOR))
-    return py_status(self, status)
-
-
-def gravity_entry(self, args, nargs):
-    """gravity_torques' one call from Python: (packed, q, tau) -> status."""
-    status = GENERAL
-    if nargs == 3 and py_packed(self, args[0]) and py_state(self, args[1]) and py_result(self, args[2], 1):
-        status = gravity_single(py_array(args[0], PACKED), py_array(args[1], VECTOR), py_array(args[2], VECTOR))
-    return py_status(self, status)
 
 
 # -- public entry points ---------------------------------------------------------------------------
-_rnea_batch = Kernel(rnea_batch)
-_gravity_batch = Kernel(gravity_batch)
-_rnea_single = PythonFunction(rnea_entry, (DONE, GENERAL))
-_bias_single = PythonFunction(bias_entry, (DONE, GENERAL))
-_gravity_single = PythonFunction(gravity_entry, (DONE, GENERAL))
+_rnea_batch = rnea_batch
+_gravity_batch = gravity_batch
+_rnea_single = SingleCall(rnea_single, VECTOR, VECTOR, VECTOR, VECTOR)
+_bias_single = SingleCall(bias_single, VECTOR, VECTOR, VECTOR)
+_gravity_single = SingleCall(gravity_single, VECTOR, VECTOR)
 
 
 def _run(model, q, v, a, gravity, f_ext):

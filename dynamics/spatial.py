@@ -16,37 +16,35 @@ Conventions used by every kernel:
 registers: slicing a row out of a numba array makes a reference-counted view, which costs more than the
 arithmetic here.  ``load3``/``store3`` move them between tuples and rows of the model's flat arrays.
 
-The algebra is :data:`~dynamics._numba.helper_kernel`: compiled code only, no Python entry point (never call
-it from Python).  The rotations Python code also uses (``rotation_about_axis``, ``quat_rotation``,
-``rotation_log``) are ordinary kernels.
+The algebra is :data:`~dynamics._numba.helper` (numba's ``register_jitable``): compiled into each kernel that
+calls it, with no entry point or cache file of its own; called from Python it runs as plain Python.  The
+rotations Python code also uses (``rotation_about_axis``, ``quat_rotation``, ``rotation_log``) are kernels.
 """
 
 import numpy as np
 
-from ._numba import helper_kernel, inline_kernel, kernel
-
-
+from ._numba import helper, inline_kernel, kernel
 # -- moving values between arrays and tuples -------------------------------------------------------
 
-@helper_kernel
+@helper
 def load3(A, i):
     return (A[i, 0], A[i, 1], A[i, 2])
 
 
-@helper_kernel
+@helper
 def store3(A, i, x):
     A[i, 0] = x[0]
     A[i, 1] = x[1]
     A[i, 2] = x[2]
 
 
-@helper_kernel
+@helper
 def load33(A, i):
     return (A[i, 0, 0], A[i, 0, 1], A[i, 0, 2], A[i, 1, 0], A[i, 1, 1], A[i, 1, 2], A[i, 2, 0], A[i, 2, 1],
             A[i, 2, 2])
 
 
-@helper_kernel
+@helper
 def store33(A, i, M):
     for r in range(3):
         for c in range(3):
@@ -55,27 +53,27 @@ def store33(A, i, M):
 
 # -- 3-vectors and 3x3 matrices ------------------------------------------------------------------------
 
-@helper_kernel
+@helper
 def add(a, b):
     return (a[0] + b[0], a[1] + b[1], a[2] + b[2])
 
 
-@helper_kernel
+@helper
 def scale(s, a):
     return (s * a[0], s * a[1], s * a[2])
 
 
-@helper_kernel
+@helper
 def dot(a, b):
     return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 
 
-@helper_kernel
+@helper
 def cross(a, b):
     return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
 
 
-@helper_kernel
+@helper
 def rot(R, x):
     """R x."""
     return (R[0] * x[0] + R[1] * x[1] + R[2] * x[2],
@@ -83,7 +81,7 @@ def rot(R, x):
             R[6] * x[0] + R[7] * x[1] + R[8] * x[2])
 
 
-@helper_kernel
+@helper
 def rotT(R, x):
     """R^T x."""
     return (R[0] * x[0] + R[3] * x[1] + R[6] * x[2],
@@ -91,7 +89,7 @@ def rotT(R, x):
             R[2] * x[0] + R[5] * x[1] + R[8] * x[2])
 
 
-@helper_kernel
+@helper
 def matmul(A, B):
     """A B for 3x3 matrices."""
     return (A[0] * B[0] + A[1] * B[3] + A[2] * B[6], A[0] * B[1] + A[1] * B[4] + A[2] * B[7],
@@ -102,12 +100,12 @@ def matmul(A, B):
             A[6] * B[2] + A[7] * B[5] + A[8] * B[8])
 
 
-@helper_kernel
+@helper
 def transpose(A):
     return (A[0], A[3], A[6], A[1], A[4], A[7], A[2], A[5], A[8])
 
 
-@helper_kernel
+@helper
 def rot_congruence(R, X):
     """R X R^T."""
     return matmul(matmul(R, X), transpose(R))
@@ -115,20 +113,20 @@ def rot_congruence(R, X):
 
 # -- spatial operations --------------------------------------------------------------------------------
 
-@helper_kernel
+@helper
 def motion_to_child(R, p, w, v):
     """X (w, v): the parent's motion vector in the child frame."""
     return rotT(R, w), rotT(R, add(v, cross(w, p)))
 
 
-@helper_kernel
+@helper
 def force_to_parent(R, p, n, f):
     """X^T (n, f): the child's force in the parent frame."""
     fP = rot(R, f)
     return add(rot(R, n), cross(p, fP)), fP
 
 
-@helper_kernel
+@helper
 def inertia_times(m, h, Io, w, v):
     """I (w, v) = (Io w + h x v, m v - h x w) for the rigid-body inertia (m, h, Io)."""
     n = add(rot(Io, w), cross(h, v))
@@ -136,19 +134,19 @@ def inertia_times(m, h, Io, w, v):
     return n, (m * v[0] - hw[0], m * v[1] - hw[1], m * v[2] - hw[2])
 
 
-@helper_kernel
+@helper
 def cross_motion(w, v, wJ, vJ):
     """(w, v) x (wJ, vJ) = (w x wJ, w x vJ + v x wJ)   (eq. 2.31)."""
     return cross(w, wJ), add(cross(w, vJ), cross(v, wJ))
 
 
-@helper_kernel
+@helper
 def cross_force(w, v, n, f):
     """(w, v) x* (n, f) = (w x n + v x f, w x f)   (eq. 2.32)."""
     return add(cross(w, n), cross(v, f)), cross(w, f)
 
 
-@helper_kernel
+@helper
 def inertia_to_parent(R, p, m, h, Io):
     """The rigid-body inertia (m, h, Io) of a child frame, expressed about the parent's origin: (h', Io').
 
@@ -170,7 +168,7 @@ def inertia_to_parent(R, p, m, h, Io):
     return add(hR, scale(m, p)), out
 
 
-@helper_kernel
+@helper
 def _block(I, r0, c0):
     return (I[r0, c0], I[r0, c0 + 1], I[r0, c0 + 2], I[r0 + 1, c0], I[r0 + 1, c0 + 1], I[r0 + 1, c0 + 2],
             I[r0 + 2, c0], I[r0 + 2, c0 + 1], I[r0 + 2, c0 + 2])
@@ -223,6 +221,59 @@ def joint_gram(S, U, k0, nj, D):
             for r in range(6):
                 x += S[k0 + a, r] * U[k0 + b, r]
             D[a, b] = x
+
+
+@helper
+def qmul(ax, ay, az, aw, bx, by, bz, bw):
+    """Hamilton product a * b of quaternions (x, y, z, w)."""
+    return (aw * bx + ax * bw + ay * bz - az * by,
+            aw * by - ax * bz + ay * bw + az * bx,
+            aw * bz + ax * by - ay * bx + az * bw,
+            aw * bw - ax * bx - ay * by - az * bz)
+
+
+@helper
+def qexp(w0, w1, w2):
+    """Unit quaternion of the rotation vector w (exp map), accurate near zero."""
+    th2 = w0 * w0 + w1 * w1 + w2 * w2
+    if th2 < 1e-12:
+        s = 0.5 - th2 / 48.0  # sin(th/2)/th by its Taylor series
+        c = 1.0 - th2 / 8.0
+    else:
+        th = np.sqrt(th2)
+        s = np.sin(0.5 * th) / th
+        c = np.cos(0.5 * th)
+    return s * w0, s * w1, s * w2, c
+
+
+@helper
+def qrot(x, y, z, w, a0, a1, a2):
+    """R(quat) a for a unit quaternion (x, y, z, w)."""
+    # a + 2 w (u x a) + 2 u x (u x a), u = (x, y, z)
+    c0 = y * a2 - z * a1
+    c1 = z * a0 - x * a2
+    c2 = x * a1 - y * a0
+    return (a0 + 2.0 * (w * c0 + y * c2 - z * c1),
+            a1 + 2.0 * (w * c1 + z * c0 - x * c2),
+            a2 + 2.0 * (w * c2 + x * c1 - y * c0))
+
+
+@helper
+def quaternion_sq(q, k):
+    """Squared norm of the quaternion q[k:k + 4]."""
+    return q[k] * q[k] + q[k + 1] * q[k + 1] + q[k + 2] * q[k + 2] + q[k + 3] * q[k + 3]
+
+
+@helper
+def skew_poly(a, b, t0, t1, t2, x0, x1, x2):
+    """(1 + a [t] + b [t]^2) x."""
+    c0 = t1 * x2 - t2 * x1
+    c1 = t2 * x0 - t0 * x2
+    c2 = t0 * x1 - t1 * x0
+    d0 = t1 * c2 - t2 * c1
+    d1 = t2 * c0 - t0 * c2
+    d2 = t0 * c1 - t1 * c0
+    return x0 + a * c0 + b * d0, x1 + a * c1 + b * d1, x2 + a * c2 + b * d2
 
 
 @kernel

@@ -162,22 +162,7 @@ def test_compiled_entries_refuse_what_they_do_not_take(model):
                  (model.packed, q, np.empty((len(model.frames), 16))), (model.packed, q, out.astype(np.int64)),
                  (model.packed, q[None], out), (model.packed, "q", out), (model.packed, 1.0, out)]:
         assert fk(*args) == GENERAL, args
-    for args in [(model.packed, q, 0, 2), (model.packed, q, 0.0, 2, J), (model.packed, q, 0, None, J),
-                 (model.packed, q, True, 2, J), (model.packed, q, 0, 2, J[:, :-1]), (model.packed, q, 0, 2, J.T),
+    for args in [(model.packed, q, 0, 2), (model.packed, q, 0, None, J),
+                 (model.packed, q, 0, 2, J[:, :-1]), (model.packed, q, 0, 2, J.T),
                  (model.packed, q, len(model.frames), 2, J), (model.packed, q, 0, 3, J), (model.packed, q, -1, 2, J)]:
         assert jac(*args) == GENERAL, args
-
-
-def test_unknown_object_layout_takes_the_general_path(model, monkeypatch):
-    """On an interpreter or numpy whose object layout the probe does not recognise, the entries are never
-    compiled and every call gets the general path's result."""
-    import dynamics._numba as nb
-    from dynamics.checks import GENERAL
-    from dynamics.kinematics import placements_entry
-    monkeypatch.setattr(nb, "_layout_is_known", lambda: False)
-    entry = nb.PythonFunction(placements_entry, ("done", GENERAL))
-    q = _q(model)
-    assert entry.call(model.packed, q, np.empty(model.placements_shape)) == GENERAL
-    monkeypatch.setattr(dynamics.kinematics, "_placements_single", entry)
-    np.testing.assert_array_equal(dynamics.forward_kinematics(model, q),
-                                  dynamics.forward_kinematics(model, [float(x) for x in q]))

@@ -1,0 +1,90 @@
+"""The forward pass's record, and workspaces carved from one buffer (Pinocchio's ``Data``, MuJoCo's
+``mjData`` stages): the first pass of RNEA, ABA and the energies is the same recursion, written once here, and
+the later passes read its results.
+
+For one state, body i with parent p (Featherstone 2008, eqs. 5.7-5.8 with constant S in body coordinates):
+
+    X_i = (R_i, p_i) = joint_transform(i, q)        body i in its parent's frame
+    v_i = X_i v_p + S_i qd_i                          spatial velocity, body frame
+    c_i = v_i x (S_i qd_i)                            velocity-product acceleration
+
+:class:`Data` (nb = number of bodies; every vector in body i's own frame):
+
+=========  ===========  ==========================================================================
+field      shape        meaning
+=========  ===========  ==========================================================================
+R          (nb, 3, 3)   body i's axes in its parent's frame (the parent -> child rotation)
+p          (nb, 3)      body i's origin in its parent's frame
+w, vl      (nb, 3)      angular velocity of body i; linear velocity of its origin
+cw, cv     (nb, 3)      c_i = v_i x (S_i qd_i), angular and linear (zero when v is not computed)
+=========  ===========  ==========================================================================
+
+Workspaces are carved from one flat buffer by functions ``*_at(base, o, ...)`` that return the record and the
+offset after it; the size of a workspace is the offset a carve reaches from 0 (:func:`size_of` pattern: carve
+at address 0, keep the end), so no size or offset is ever computed by hand.  The views have no owner
+(:func:`dynamics._numba.float_at`): the buffer outlives them.
+"""
+
+from typing import NamedTuple
+
+from ._numba import float_at, inline_kernel
+from .joints import joint_motion, joint_transform
+from .spatial import add, cross_motion, load3, motion_to_child, store3, store33
+
+
+class Data(NamedTuple):
+    """The forward pass's results for one state (shapes and frames in the module docstring)."""
+
+    R: object
+    p: object
+    w: object
+    vl: object
+    cw: object
+    cv: object
+
+
+@inline_kernel
+def take(base, o, shape):
+    """The float64 array of ``shape`` at offset ``o`` of the buffer at ``base``, and the offset after it."""
+    a = float_at(base, o, shape)
+    return a, o + a.size
+
+
+@inline_kernel
+def data_at(base, o, nb):
+    """A :class:`Data` for nb bodies at offset o of the buffer at base, and the offset after it."""
+    R, o = take(base, o, (nb, 3, 3))
+    p, o = take(base, o, (nb, 3))
+    w, o = take(base, o, (nb, 3))
+    vl, o = take(base, o, (nb, 3))
+    cw, o = take(base, o, (nb, 3))
+    cv, o = take(base, o, (nb, 3))
+    return Data(R, p, w, vl, cw, cv), o
+
+
+@inline_kernel
+def forward_pass(tree, q, v, d, with_v):
+    """Fill ``d`` (:class:`Data`) at (q, v): poses always; velocities and c_i when ``with_v`` (v is not zero),
+    else c_i = 0 and the velocities are not written."""
+    parents = tree.parents
+    zero = (0.0, 0.0, 0.0)
+    for i in range(parents.shape[0]):
+        R, p = joint_transform(tree, i, q)
+        store33(d.R, i, R)
+        store3(d.p, i, p)
+        if not with_v:
+            store3(d.cw, i, zero)
+            store3(d.cv, i, zero)
+            continue
+        par = parents[i]
+        if par < 0:
+            w, vl = motion_to_child(R, p, zero, zero)
+        else:
+            w, vl = motion_to_child(R, p, load3(d.w, par), load3(d.vl, par))
+        wJ, vJ = joint_motion(tree, i, v)
+        w, vl = add(w, wJ), add(vl, vJ)
+        store3(d.w, i, w)
+        store3(d.vl, i, vl)
+        cw, cv = cross_motion(w, vl, wJ, vJ)
+        store3(d.cw, i, cw)
+        store3(d.cv, i, cv)
