@@ -19,17 +19,17 @@ from typing import NamedTuple
 import numpy as np
 
 from . import checks
-from ._numba import (PACKED, SingleCall, VECTOR, address, helper, inline_kernel, keep_alive, kernel, scratch, view)
+from ._numba import (SingleCall, VECTOR, address, helper, inline_kernel, keep_alive, kernel, scratch, view)
 from .checks import DONE, GENERAL, config_ok, nonzero, vector_ok
-from .constrained import constrained_forward_dynamics
+from .constrained_dynamics import constrained_forward_dynamics
 from .errors import InputError
-from .joints import joint_motion, joint_transform
+from .joints import joint_motion
 from .data import Data, data_at, forward_pass, take
 from .model import unpack
 from .parallel import run_chunks
 from .rnea import bias_forces, inverse_dynamics
-from .spatial import (add, add_inertia6_to_parent, cross_force, cross_motion, force_to_parent, inertia_times,
-                      joint_gram, load3, load33, motion_to_child, spd_inverse, store3, store33, store_inertia6)
+from .spatial import (add, add_inertia6_to_parent, cross_force, force_to_parent, inertia_times,
+                      joint_gram, load3, load33, motion_to_child, spd_inverse, store_inertia6)
 
 
 class Work(NamedTuple):

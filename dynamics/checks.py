@@ -6,10 +6,8 @@ Public functions accept one state (q of shape (nq,)) or a batch (B, nq).  Argume
 message starts with the argument's name and says what was expected.
 
 The single-state fast paths check their inputs inside the compiled call: length, unit stride, finiteness and
-non-zero quaternions (:func:`config_ok`, :func:`vector_ok`), and, for the calls through a
-:class:`dynamics._numba.PythonFunction` (the dynamics and kinematics calls), the type, dtype and rank too
-(:func:`py_state`, :func:`py_result`); the others check those in Python first (:data:`F64`: float64 and 1-D).
-On a failed check the call returns :data:`GENERAL` and the public function takes the general path, which raises
+non-zero quaternions (:func:`config_ok`, :func:`vector_ok`); their type, dtype and rank are the signature
+numba's dispatcher checks (:class:`dynamics._numba.SingleCall`).  On a failed check the call returns :data:`GENERAL` and the public function takes the general path, which raises
 the same error as always, so every message has one source.
 """
 
@@ -17,7 +15,7 @@ import math
 
 import numpy as np
 
-from ._numba import inline_kernel, kernel
+from ._numba import DONE, GENERAL, inline_kernel, kernel  # noqa: F401 (the status codes' home for the algorithms)
 from .errors import InputError
 from .joints import JOINT_FREE, KINDS, ZERO_QUATERNION_SQ, joint_config_ok
 from .spatial import quaternion_sq
@@ -49,34 +47,7 @@ _first_nonfinite_k = _first_nonfinite
 _first_zero_quaternion_k = _first_zero_quaternion
 
 
-#: status codes of the single-state kernels: done; take the general path (it raises the clear error, or
-#: computes what the fast path does not handle)
-DONE, GENERAL = 0, 1
-
-@inline_kernel
-def py_packed(self, x):
-    """In a :class:`dynamics._numba.PythonFunction` entry: x is a packed model's array (int64, contiguous)."""
-    return py_is_array(self, x, SELF_INT64, 1, C_CONTIGUOUS | ALIGNED)
-
-
-@inline_kernel
-def py_state(self, x):
-    """In an entry: x is a float64 vector the kernel may read (its length, stride and values are then checked by
-    :func:`config_ok` or :func:`vector_ok`; read-only is fine)."""
-    return py_is_array(self, x, SELF_FLOAT64, 1, ALIGNED)
-
-
-@inline_kernel
-def py_result(self, x, ndim):
-    """In an entry: x is a contiguous writable float64 array of rank ndim (its shape is checked by the kernel)."""
-    return py_is_array(self, x, SELF_FLOAT64, ndim, C_CONTIGUOUS | ALIGNED | WRITEABLE)
-
-
-#: the single-state fast path's test, written out in each entry point (a Python call would cost more than the
-#: test): ``x.dtype is F64 and x.ndim == 1`` on each state.  Only the compiled call may then be given them:
-#: numba's entry point checks an array's item size but not its dtype or rank (dynamics._numba.Entry).  A
-#: non-array fails the test with one of NOT_ARRAYS (no dtype; or numba refuses to unbox it): the entry point
-#: catches them and takes the general path, which says what is wrong.
+#: float64, the dtype the general path's fast checks compare with; NOT_ARRAYS: what a non-array raises there
 F64 = np.dtype(np.float64)
 NOT_ARRAYS = (AttributeError, TypeError)
 

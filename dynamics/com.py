@@ -17,11 +17,12 @@ count.
 import numpy as np
 
 from . import checks
-from ._numba import (MATRIX, VECTOR, borrowed, inline_kernel, keep_alive, kernel, scratch, single_signature,
-                     SingleCall, view)
+from ._numba import (MATRIX, SingleCall, VECTOR, address, borrowed, inline_kernel, keep_alive, kernel, scratch,
+                     view)
 from .checks import DONE, F64, GENERAL, NOT_ARRAYS, config_ok
 from .joints import joint_motion
 from .kinematics import world_pose
+from .data import take
 from .model import unpack
 from .parallel import run_chunks
 from .spatial import add, cross, load3, load33, motion_to_child, rot, scale, store3
@@ -102,9 +103,13 @@ def com_single_into(packed, q, what, out):
     if not config_ok(tree, nq, q):
         return GENERAL
     buf = scratch(22 * nb)
-    com_into(tree, q, q, what, inverse_mass(tree), view(buf, 0, (nb, 3, 3)), view(buf, 9 * nb, (nb, 3)),
-             view(buf, 12 * nb, (nb, 3)), view(buf, 15 * nb, nb), view(buf, 16 * nb, (nb, 3)),
-             view(buf, 19 * nb, (nb, 3)), out)
+    oR, o = take(address(buf), 0, (nb, 3, 3))
+    op, o = take(address(buf), o, (nb, 3))
+    H, o = take(address(buf), o, (nb, 3))
+    ms, o = take(address(buf), o, nb)
+    ws, o = take(address(buf), o, (nb, 3))
+    vs, o = take(address(buf), o, (nb, 3))
+    com_into(tree, q, q, what, inverse_mass(tree), oR, op, H, ms, ws, vs, out)
     keep_alive(buf)
     return DONE
 

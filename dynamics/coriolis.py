@@ -16,11 +16,12 @@ Cost is O(n d^2) for depth d: it is meant for analysis and control design, not f
 
 import numpy as np
 from . import checks
-from ._numba import kernel
+from ._numba import address, keep_alive, kernel
 from .parallel import run_chunks
 
-from .joints import joint_motion, joint_transform
-from .spatial import add, cross_motion, motion_to_child
+from .data import data_at, forward_pass
+from .joints import joint_motion
+from .spatial import add, cross_motion, load3, load33, motion_to_child
 
 
 @kernel
@@ -54,25 +55,22 @@ def _cross_matrices(I, w, vl, B):
 def coriolis_kernel(tree, q, v, C):
     nb = tree.parents.shape[0]
     nv = tree.S.shape[0]
-    vel = np.zeros((nb, 6))
+    buf = np.empty(data_at(0, 0, nb)[1])
+    d = data_at(address(buf), 0, nb)[0]
+    forward_pass(tree, q, v, d, True)  # X_i, v_i
     J = np.zeros((nb, 6, nv))
     dJ = np.zeros((nb, 6, nv))
     cols = np.zeros((nb, nv), dtype=np.bool_)  # columns of J_i that can be non-zero (ancestors' dofs)
     I6 = np.zeros((6, 6))
     Bm = np.empty((6, 6))
     Y = np.empty((6, nv))
-    zero = (0.0, 0.0, 0.0)
     C[:, :] = 0.0
     S = tree.S
     for i in range(nb):
-        R, p = joint_transform(tree, i, q)
+        R, p = load33(d.R, i), load3(d.p, i)
         par = tree.parents[i]
         wJ, vJ = joint_motion(tree, i, v)
-        if par < 0:
-            w, vl = motion_to_child(R, p, zero, zero)
-        else:
-            w, vl = motion_to_child(R, p, (vel[par, 0], vel[par, 1], vel[par, 2]),
-                                    (vel[par, 3], vel[par, 4], vel[par, 5]))
+        if par >= 0:  # J_i = X_i J_p (+ S_i),  dJ_i = X_i dJ_p + J_i x v_J (Featherstone 2008, sec. 7.2)
             for k in range(nv):
                 if cols[par, k]:
                     cols[i, k] = True
@@ -85,9 +83,7 @@ def coriolis_kernel(tree, q, v, C):
                     for r in range(3):
                         J[i, r, k], J[i, 3 + r, k] = jw[r], jv[r]
                         dJ[i, r, k], dJ[i, 3 + r, k] = dw[r], dv[r]
-        w, vl = add(w, wJ), add(vl, vJ)
-        for r in range(3):
-            vel[i, r], vel[i, 3 + r] = w[r], vl[r]
+        w, vl = load3(d.w, i), load3(d.vl, i)
         for k in range(tree.v_idx[i], tree.v_idx[i] + tree.nv_j[i]):
             cols[i, k] = True
             for r in range(6):
@@ -118,6 +114,7 @@ def coriolis_kernel(tree, q, v, C):
                         for r in range(6):
                             x += J[i, r, a_] * Y[r, c]
                         C[a_, c] += x
+    keep_alive(buf)
 
 
 @kernel

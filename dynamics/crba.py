@@ -11,7 +11,7 @@ Only the lower triangle is computed; the upper one is its mirror.
 import numpy as np
 
 from . import checks
-from ._numba import (MATRIX, PACKED, SingleCall, VECTOR, address, inline_kernel, keep_alive, kernel, scratch, view)
+from ._numba import (MATRIX, SingleCall, VECTOR, address, inline_kernel, keep_alive, kernel, scratch)
 from .data import take
 from .checks import DONE, GENERAL, config_ok
 from .model import unpack

@@ -27,7 +27,7 @@ at address 0, keep the end), so no size or offset is ever computed by hand.  The
 
 from typing import NamedTuple
 
-from ._numba import float_at, inline_kernel
+from ._numba import float_at, inline_kernel, int_at
 from .joints import joint_motion, joint_transform
 from .spatial import add, cross_motion, load3, motion_to_child, store3, store33
 
@@ -47,6 +47,13 @@ class Data(NamedTuple):
 def take(base, o, shape):
     """The float64 array of ``shape`` at offset ``o`` of the buffer at ``base``, and the offset after it."""
     a = float_at(base, o, shape)
+    return a, o + a.size
+
+
+@inline_kernel
+def take_int(base, o, shape):
+    """As :func:`take`, an int64 array (integer scratch in a float buffer: both are 8 bytes wide)."""
+    a = int_at(base, o, shape)
     return a, o + a.size
 
 

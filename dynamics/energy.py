@@ -10,37 +10,30 @@ along g.
 import numpy as np
 
 from . import checks
-from ._numba import inline_kernel, kernel
+from ._numba import (address, inline_kernel, keep_alive, kernel)
 from .parallel import run_chunks
-from .joints import joint_motion, joint_transform
-from .spatial import add, dot, inertia_times, load3, load33, matmul, motion_to_child, rot, store3, store33
+from .data import data_at, forward_pass, take
+from .spatial import add, dot, inertia_times, load3, load33, matmul, rot, store3, store33
 
 
 @inline_kernel
-def energies(tree, q, v, gravity, kinetic, potential, ws, vs, Rw, pw):
-    """(T, U) at one state, in one forward pass (T when ``kinetic``, U when ``potential``, else 0); scratch:
-    the body velocities ws, vs (nb, 3) and world poses Rw (nb, 3, 3), pw (nb, 3)."""
+def energies(tree, q, v, gravity, kinetic, potential, d, Rw, pw):
+    """(T, U) at one state (T when ``kinetic``, U when ``potential``, else 0): the forward pass into ``d``
+    (:class:`~dynamics.data.Data`), then T from the body velocities and U from the world poses Rw (nb, 3, 3),
+    pw (nb, 3) composed from the same transforms."""
     parents, mass, hs, Ios = tree.parents, tree.mass, tree.h, tree.Io
-    nb = parents.shape[0]
-    zero = (0.0, 0.0, 0.0)
+    forward_pass(tree, q, v, d, kinetic)
     g = (gravity[0], gravity[1], gravity[2])
     T = 0.0
     U = 0.0
-    for i in range(nb):
-        R, p = joint_transform(tree, i, q)
-        par = parents[i]
+    for i in range(parents.shape[0]):
         if kinetic:
-            if par < 0:
-                w, vl = motion_to_child(R, p, zero, zero)
-            else:
-                w, vl = motion_to_child(R, p, load3(ws, par), load3(vs, par))
-            wJ, vJ = joint_motion(tree, i, v)
-            w, vl = add(w, wJ), add(vl, vJ)
-            store3(ws, i, w)
-            store3(vs, i, vl)
+            w, vl = load3(d.w, i), load3(d.vl, i)
             n, f = inertia_times(mass[i], load3(hs, i), load33(Ios, i), w, vl)
             T += 0.5 * (dot(w, n) + dot(vl, f))
         if potential:
+            R, p = load33(d.R, i), load3(d.p, i)
+            par = parents[i]
             if par >= 0:
                 Rp = load33(Rw, par)
                 R, p = matmul(Rp, R), add(load3(pw, par), rot(Rp, p))
@@ -55,10 +48,13 @@ def energy_batch(tree, Q, V, gravity, kinetic, potential, out):
     """out[b] = (T, U) at (Q[b], V[b]), T only if ``kinetic`` (else 0 and V may have one row), U only if
     ``potential`` (else 0)."""
     nb = tree.parents.shape[0]
-    ws, vs, Rw, pw = np.empty((nb, 3)), np.empty((nb, 3)), np.empty((nb, 3, 3)), np.empty((nb, 3))
+    buf = np.empty(data_at(0, 0, nb)[1] + 12 * nb)
+    d, o = data_at(address(buf), 0, nb)
+    Rw, o = take(address(buf), o, (nb, 3, 3))
+    pw, o = take(address(buf), o, (nb, 3))
     for b in range(Q.shape[0]):
-        out[b, 0], out[b, 1] = energies(tree, Q[b], V[b if kinetic else 0], gravity, kinetic, potential,
-                                        ws, vs, Rw, pw)
+        out[b, 0], out[b, 1] = energies(tree, Q[b], V[b if kinetic else 0], gravity, kinetic, potential, d, Rw, pw)
+    keep_alive(buf)
 
 
 # -- public entry points ---------------------------------------------------------------------------

@@ -16,10 +16,11 @@ import numpy as np
 from numba import types
 
 from . import checks
-from ._numba import (MATRIX, PACKED, VECTOR, borrowed, inline_kernel, int_view, keep_alive, kernel, scratch,
-                     SingleCall, view)
+from ._numba import (MATRIX, SingleCall, VECTOR, address, borrowed, inline_kernel, keep_alive,
+                     kernel, scratch)
 from .checks import DONE, GENERAL, NOT_ARRAYS, REFERENCES, config_ok
 from .kinematics import LOCAL, WORLD, frame_pose, support, world_poses
+from .data import take, take_int
 from .model import unpack, unpack_frames
 from .parallel import run_chunks
 from .spatial import add, cross, load3, load33, rot, rotT
@@ -78,8 +79,10 @@ def jacobian_single(packed, q, f, ref, J):
         for k in range(J.shape[1]):
             J[r, k] = 0.0
     buf = scratch(13 * nb)
-    jacobian_into(tree, frames, q, f, ref, (0.0, 0.0, 0.0), int_view(buf, 12 * nb, nb), view(buf, 0, (nb, 3, 3)),
-                  view(buf, 9 * nb, (nb, 3)), J)
+    oR, o = take(address(buf), 0, (nb, 3, 3))
+    op, o = take(address(buf), o, (nb, 3))
+    path, o = take_int(address(buf), o, nb)
+    jacobian_into(tree, frames, q, f, ref, (0.0, 0.0, 0.0), path, oR, op, J)
     keep_alive(buf)
     return DONE
 

@@ -28,12 +28,13 @@ import numpy as np
 from numba import types
 
 from . import checks
-from ._numba import PACKED, VECTOR, inline_kernel, keep_alive, kernel, scratch, SingleCall, view
+from ._numba import (SingleCall, VECTOR, address, inline_kernel, keep_alive, kernel, scratch)
 from .checks import DONE, GENERAL, config_ok
 from .joints import joint_motion, joint_transform
+from .data import take
 from .model import FRAME_BODY, FRAME_SHIFTED, FRAME_WORLD, unpack, unpack_frames
 from .parallel import run_chunks
-from .spatial import add, cross, cross_motion, load3, load33, matmul, motion_to_child, rot, rotT, store3, store33
+from .spatial import add, cross, cross_motion, load3, load33, matmul, motion_to_child, rot, store3, store33
 
 WORLD, LOCAL, LOCAL_WORLD_ALIGNED = (checks.REFERENCES[k] for k in ("world", "local", "local_world_aligned"))
 
@@ -142,7 +143,9 @@ def placements_single(packed, q, out):
     if not (config_ok(tree, nq, q) and out.shape[0] == frames.body.shape[0]):
         return GENERAL
     buf = scratch(12 * nb)
-    placements_into(tree, frames, q, view(buf, 0, (nb, 3, 3)), view(buf, 9 * nb, (nb, 3)), out)
+    oR, o = take(address(buf), 0, (nb, 3, 3))
+    op, o = take(address(buf), o, (nb, 3))
+    placements_into(tree, frames, q, oR, op, out)
     keep_alive(buf)
     return DONE
 

@@ -25,11 +25,11 @@ loops specialised with their 6-vectors in locals; the free joint the generic one
 import numpy as np
 
 from . import checks
-from ._numba import (MATRIX, VECTOR, inline_kernel, int_view, keep_alive, kernel, scratch, single_signature,
-                     SingleCall, view)
+from ._numba import (MATRIX, SingleCall, VECTOR, address, inline_kernel, keep_alive, kernel, scratch)
 from .checks import DONE, F64, GENERAL, NOT_ARRAYS, config_ok
 from .errors import InputError
 from .kinematics import world_pose
+from .data import take, take_int
 from .model import unpack
 from .parallel import run_chunks
 from .spatial import add, cross, inertia_to_parent, joint_gram, load3, load33, rot, spd_inverse, store_inertia6
@@ -44,13 +44,20 @@ def workspace(nb, nv):
 
 
 @inline_kernel
-def workspace_in(buf, nb, nv):
-    """The same scratch borrowed from ``buf`` (84 nb + 18 nv + 6 nb nv + 72 floats, kept alive by the caller)."""
-    o = 84 * nb + 18 * nv  # after the poses, I^A, S, U, U D^-1 and D^-1
-    return (view(buf, 0, (nb, 3, 3)), view(buf, 9 * nb, (nb, 3)), view(buf, 12 * nb, (nb, 6, 6)),
-            view(buf, 48 * nb, (nv, 6)), view(buf, 48 * nb + 6 * nv, (nv, 6)), view(buf, 48 * nb + 12 * nv, (nv, 6)),
-            view(buf, 48 * nb + 18 * nv, (nb, 6, 6)), view(buf, o, (nb, nv, 6)), int_view(buf, o + 6 * nb * nv, nb),
-            view(buf, o + 6 * nb * nv + nb, (6, 6)), view(buf, o + 6 * nb * nv + nb + 36, (6, 6)))
+def work_at(base, o, nb, nv):
+    """The same scratch carved from the buffer at ``base`` from offset o, and the offset after it."""
+    oR, o = take(base, o, (nb, 3, 3))
+    op, o = take(base, o, (nb, 3))
+    IA, o = take(base, o, (nb, 6, 6))
+    Sw, o = take(base, o, (nv, 6))
+    U, o = take(base, o, (nv, 6))
+    UD, o = take(base, o, (nv, 6))
+    Dinv, o = take(base, o, (nb, 6, 6))
+    F, o = take(base, o, (nb, nv, 6))
+    nsub, o = take_int(base, o, nb)
+    D, o = take(base, o, (6, 6))
+    scratch, o = take(base, o, (6, 6))
+    return (oR, op, IA, Sw, U, UD, Dinv, F, nsub, D, scratch), o
 
 
 @kernel
@@ -61,8 +68,8 @@ def minverse_single(packed, q, Minv):
     nb, nv = tree.parents.shape[0], tree.S.shape[0]
     if not config_ok(tree, nq, q):
         return GENERAL
-    buf = scratch(84 * nb + 18 * nv + 6 * nb * nv + nb + 72)
-    singular = minverse_into(tree, q, workspace_in(buf, nb, nv), Minv)
+    buf = scratch(work_at(0, 0, nb, nv)[1])
+    singular = minverse_into(tree, q, work_at(address(buf), 0, nb, nv)[0], Minv)
     keep_alive(buf)
     return DONE if singular < 0 else GENERAL
 

@@ -17,14 +17,14 @@ from typing import NamedTuple
 import numpy as np
 
 from . import checks
-from ._numba import (PACKED, VECTOR, address, inline_kernel, keep_alive, kernel, scratch, SingleCall, view,
+from ._numba import (VECTOR, address, inline_kernel, keep_alive, kernel, scratch, SingleCall, view,
                      )
 from .checks import DONE, GENERAL, config_ok, nonzero, vector_ok
 from .data import Data, data_at, forward_pass, take
 from .model import unpack
 from .parallel import run_chunks
 from .joints import joint_motion, joint_transform, project_force
-from .spatial import (add, cross, cross_force, cross_motion, force_to_parent, inertia_times, load3, load33,
+from .spatial import (add, cross, cross_force, force_to_parent, inertia_times, load3, load33,
                       motion_to_child, rot, rotT, scale, store3, store33)
 
 
