@@ -128,7 +128,7 @@ def bench_minverse(dyn, model, states, B, repeat, rng):
     articulated-body M^-1 (minverse_into) against the CRBA and the in-kernel L^T L factor (mass_factor, used)."""
     from numba import njit
 
-    from dynamics.constrained import mass_factor
+    from dynamics.constrained_dynamics import mass_factor
     from dynamics.crba import workspace as crba_ws
     from dynamics.minverse import minverse_into
     from dynamics.minverse import workspace as minv_ws

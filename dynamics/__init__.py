@@ -27,7 +27,7 @@ from .task_space import operational_space_inertia
 from .inverse_kinematics import inverse_kinematics
 from .constraints import (JointCoupling, PointConstraint, RevoluteConstraint, WeldConstraint, constraint_bias,
                           constraint_jacobian, constraint_residual, with_constraints)
-from .constrained import constrained_forward_dynamics, constrained_inverse_dynamics, project_velocity
+from .constrained_dynamics import constrained_forward_dynamics, constrained_inverse_dynamics, project_velocity
 from .assemble import assemble
 
 from . import plot, robots, torques

@@ -50,7 +50,7 @@ from numba import types
 
 from . import checks
 from ._numba import (PACKED, SingleCall, VECTOR, address, borrowed, copy_into, inline_kernel, keep_alive, kernel,
-                     scratch, single_signature, view)
+                     scratch, view)
 from .configuration import integrate_q
 from .data import take
 from .constraints import arrays, constraint_terms, packed
@@ -59,7 +59,7 @@ from .constraints import workspace as terms_workspace
 from .constraints import work_at as terms_work_at
 from .checks import DONE, GENERAL, config_ok, vector_ok
 from .errors import InputError
-from .model import Model, unpack
+from .model import unpack
 from .crba import crba_into
 from .crba import workspace as crba_workspace
 from .crba import work_at as crba_work_at

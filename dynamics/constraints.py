@@ -22,7 +22,7 @@ is the time derivative of Phi_q v at a = 0: the difference of the anchors' class
 (Jdot v of :mod:`dynamics.kinematics`), and for the hinge rows (w_A x t_k) . (w_A - w_B) + t_k . (alpha_A -
 alpha_B), so that d/dt (Phi_q v) = Phi_q a + Phi_q_dot v exactly.
 
-Multipliers (:mod:`dynamics.constrained`) enter as M a + C v + g = tau + Phi_q^T lambda: the rows of lambda are
+Multipliers (:mod:`dynamics.constrained_dynamics`) enter as M a + C v + g = tau + Phi_q^T lambda: the rows of lambda are
 then, in world axes, the force [N] exerted on body a at x_A (and its opposite on body b at x_B), the torque
 [N m] on body a (weld: 3 components; hinge: about t_1 and t_2), and for a coupling the generalised force on
 the follower joint [N m or N] (its reaction, -multiplier times it, acts on the leader).
@@ -37,12 +37,12 @@ from typing import NamedTuple
 import numpy as np
 
 from . import checks
-from ._numba import address, float_at, inline_kernel, int_at, kernel, view
+from ._numba import address, float_at, inline_kernel, int_at, kernel
 from .data import take
 from .configuration import integrate_q
 from .errors import InputError
 from .kinematics import frame_placement, world_pose
-from .model import Model, _frozen
+from .model import _frozen
 from .parallel import run_chunks
 from .spatial import add, cross, cross_motion, dot, load3, load33, matmul, rot, rotation_log, scale, transpose
 

@@ -4,6 +4,8 @@ Every error a caller can provoke with bad input is a ``ValueError`` subclass, so
 ``except ValueError`` catches them all, and its message names what was wrong and what was expected.
 """
 
+import difflib
+
 
 class DynamicsError(ValueError):
     """Base class of every input error raised by :mod:`dynamics`."""
@@ -25,3 +27,10 @@ class DeadlineExceeded(TimeoutError):
     def __init__(self, message, *, done=0, total=0):
         super().__init__(message)
         self.done, self.total = done, total
+
+
+def closest(name, names, what):
+    """An InputError for an unknown ``name`` that lists the closest of ``names``."""
+    near = difflib.get_close_matches(str(name), [str(n) for n in names], n=5, cutoff=0.4)
+    hint = f"; closest: {near}" if near else f"; there are {len(names)}: {list(names)[:12]}"
+    return InputError(f"{what}: no {'frame' if what == 'frame' else 'joint'} named {name!r}{hint}")

@@ -42,7 +42,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from . import reorder
+from .errors import closest
 from ._numba import address, float_at, inline_kernel, int_at
 from .joints import JOINT_FREE, JOINT_NQ, JOINT_NV, JOINT_REVOLUTE, KINDS, URDF_JOINT_CODES, motion_subspace, revolute_terms
 
@@ -148,9 +148,11 @@ class Model:
     ``effort_limit``, ``velocity_limit`` (inf when absent), ``lower``/``upper`` position limits of 1-dof
     joints (-inf/inf when absent, for continuous joints and for the free joint's coordinates).
 
-    Built with the model for the single-state entry points: ``packed`` (the arrays as one, module docstring),
-    ``frame_lookup`` (a frame's name -> its index: one dict lookup per call) and the shapes of their results,
-    ``placements_shape`` (nframes, 4, 4) and ``jacobian_shape`` (6, nv).
+    Derived once, when the model is built (it is never written to afterwards): ``frame_arrays`` (the frames
+    as flat arrays, :class:`Frames`), ``quaternion_starts`` (index in q of each free joint's quaternion), and for
+    the single-state entry points ``packed`` (the arrays as one, module docstring), ``frame_lookup`` (a frame's
+    name -> its index: one dict lookup per call) and the shapes of their results, ``placements_shape``
+    (nframes, 4, 4) and ``jacobian_shape`` (6, nv).
     """
 
     name: str
@@ -179,6 +181,15 @@ class Model:
     constraints: tuple = ()
 
     def __post_init__(self):
+        """What is derived from the fields, computed once here: the model is never written to afterwards."""
+        T = np.array([T for _, T in self.frames.values()], float).reshape(-1, 4, 4)
+        body = [b for b, _ in self.frames.values()]
+        kind = [frame_kind(b, X[:3, :3], X[:3, 3]) for b, X in zip(body, T)]
+        object.__setattr__(self, "frame_arrays", Frames(_frozen(body, np.int64), _frozen(kind, np.int64),
+                                                        _frozen(T[:, :3, :3]), _frozen(T[:, :3, 3])))
+        object.__setattr__(self, "quaternion_starts", _frozen(
+            [k + KINDS[c].quaternion for c, k in zip(self.tree.jtype, self.tree.q_idx) if KINDS[c].quaternion >= 0],
+            np.int64))
         object.__setattr__(self, "packed", pack(self.tree, self.gravity, self.frame_arrays))
         # frame name -> index, one dict lookup for the single-call entry points (names only: True and 1.0 must not
         # find frame 1); and the shapes of their results
@@ -255,41 +266,18 @@ class Model:
         return out
 
     @property
-    def quaternion_starts(self):
-        """(k,) int64: index in q of each free joint's quaternion (qx)."""
-        starts = self.__dict__.get("_quaternion_starts")
-        if starts is None:
-            starts = _frozen([k + KINDS[c].quaternion for c, k in zip(self.tree.jtype, self.tree.q_idx)
-                              if KINDS[c].quaternion >= 0], np.int64)
-            object.__setattr__(self, "_quaternion_starts", starts)
-        return starts
-
-    @property
     def frame_names(self) -> tuple:
         """Names of every frame: URDF links and joints, depth first from the root link, each joint just before
         its child link (whose frame it shares), a floating base's ``root_joint`` first.  A joint named like a
         link is listed as ``joint:NAME`` (the plain name is the link's, as in Pinocchio's getFrameId)."""
         return tuple(self.frames)
 
-    @property
-    def frame_arrays(self) -> Frames:
-        """The frames as flat arrays for the kernels (built once)."""
-        arrays = self.__dict__.get("_frame_arrays")
-        if arrays is None:
-            T = np.array([T for _, T in self.frames.values()], float).reshape(-1, 4, 4)
-            body = [b for b, _ in self.frames.values()]
-            kind = [frame_kind(b, X[:3, :3], X[:3, 3]) for b, X in zip(body, T)]
-            arrays = Frames(_frozen(body, np.int64), _frozen(kind, np.int64), _frozen(T[:, :3, :3]),
-                            _frozen(T[:, :3, 3]))
-            object.__setattr__(self, "_frame_arrays", arrays)
-        return arrays
-
     def frame_index(self, name: str) -> int:
         """Index of the frame named ``name`` in :attr:`frame_names`; an unknown name is an
         :class:`~dynamics.InputError` listing the closest names."""
         k = self.frame_lookup.get(name) if isinstance(name, str) else None
         if k is None:
-            raise reorder.closest(name, list(self.frames), "frame")
+            raise closest(name, list(self.frames), "frame")
         return k
 
     @property
@@ -299,15 +287,20 @@ class Model:
 
     def joint_index(self, name: str) -> int:
         """Index of the movable joint (= body) named ``name``; an unknown name lists the closest names."""
-        return reorder.joint_index(self, name)
+        try:
+            return self.joint_names.index(name)
+        except ValueError:
+            raise closest(name, self.joint_names, "joint") from None
 
     def q_slice(self, name: str) -> slice:
         """The coordinates of joint ``name`` in q: ``q[model.q_slice("elbow")]``."""
-        return reorder.q_slice(self, name)
+        i = self.joint_index(name)
+        return slice(int(self.tree.q_idx[i]), int(self.tree.q_idx[i]) + JOINT_NQ[int(self.tree.jtype[i])])
 
     def v_slice(self, name: str) -> slice:
         """The coordinates of joint ``name`` in v, a and tau."""
-        return reorder.v_slice(self, name)
+        i = self.joint_index(name)
+        return slice(int(self.tree.v_idx[i]), int(self.tree.v_idx[i]) + int(self.tree.nv_j[i]))
 
     def neutral(self) -> np.ndarray:
         """The neutral configuration: zeros, identity quaternion for a free joint."""
@@ -332,13 +325,12 @@ class Model:
 
     def __setstate__(self, state):
         """Unpickling (process pools, Ray) gives writable arrays; the kernels are compiled for read-only ones, so
-        a writable copy would compile every kernel again (a minute) in each worker: freeze them again.  Their dtype
-        objects are new ones too, and the single-call entries recognise float64 and int64 by numpy's own dtype
-        objects (dynamics._numba.py_is_array): back to those (``dtype.type``), or every single call on an
-        unpickled model would take the general path."""
+        a writable copy would compile every kernel again (a minute) in each worker: freeze them again, with numpy's
+        own dtype
+        objects (``dtype.type``), as a new model's are."""
         for key, value in state.items():
-            if isinstance(value, Tree):
-                value = Tree(*(_frozen(a, a.dtype.type) for a in value))
+            if isinstance(value, (Tree, Frames)):
+                value = type(value)(*(_frozen(a, a.dtype.type) for a in value))
             elif isinstance(value, np.ndarray):
                 value = _frozen(value, value.dtype.type)
             object.__setattr__(self, key, value)

@@ -14,43 +14,12 @@ silently wrong numbers.
 every joint of ours must appear exactly once, and no other name.
 """
 
-import difflib
-
 import numpy as np
 
-from .errors import InputError
+from .errors import InputError, closest
 from .joints import kind_of
 
 KINDS = ("q", "v", "pinocchio_q")
-
-
-def closest(name, names, what):
-    """An InputError for an unknown ``name`` that lists the closest of ``names``."""
-    near = difflib.get_close_matches(str(name), [str(n) for n in names], n=5, cutoff=0.4)
-    hint = f"; closest: {near}" if near else f"; there are {len(names)}: {list(names)[:12]}"
-    return InputError(f"{what}: no {'frame' if what == 'frame' else 'joint'} named {name!r}{hint}")
-
-
-def joint_index(model, name):
-    """Index of the movable joint ``name`` (= its body); an unknown name lists the closest names."""
-    try:
-        return model.joint_names.index(name)
-    except ValueError:
-        raise closest(name, model.joint_names, "joint") from None
-
-
-def q_slice(model, name):
-    """The coordinates of joint ``name`` in q (7 for a free joint, else 1)."""
-    i = joint_index(model, name)
-    start = int(model.q_index[i])
-    return slice(start, start + int(model.nq_joint[i]))
-
-
-def v_slice(model, name):
-    """The coordinates of joint ``name`` in v, a, tau (6 for a free joint, else 1)."""
-    i = joint_index(model, name)
-    start = int(model.v_index[i])
-    return slice(start, start + int(model.nv_joint[i]))
 
 
 def _their_sizes(model, kind):

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 import dynamics
-from dynamics.constrained import drift_kernel, project_position_kernel, workspace
+from dynamics.constrained_dynamics import drift_kernel, project_position_kernel, workspace
 from dynamics.constraints import arrays
 from robots import OUR_ROBOTS, random_state, random_urdf
 

@@ -99,7 +99,7 @@ def test_lambda_per_sample_is_constrained_forward_dynamics(four_bar):
     tr = dynamics.simulate(model, q0, v0, 2.0, torque=TAU, outputs=("q", "v", "lambda"), sample_dt=0.1)
     assert tr.lam.shape == (len(tr.t), 5)
     _, lam = dynamics.constrained_forward_dynamics(model, tr.q, tr.v, np.tile(TAU, (len(tr.t), 1)),
-                                                   baumgarte=dynamics.constrained.DEFAULT_BAUMGARTE)
+                                                   baumgarte=dynamics.constrained_dynamics.DEFAULT_BAUMGARTE)
     np.testing.assert_allclose(tr.lam, lam, rtol=0, atol=1e-10 * np.abs(lam).max())
     assert np.abs(tr.lam).max() > 1.0  # the loop carries real force (N)
     assert dynamics.simulate(model, q0, v0, 0.1, outputs=("q",)).lam is None

@@ -266,7 +266,7 @@ def test_constrained_entry_refuses_what_it_does_not_take():
     """forward_dynamics on a constrained model (Panda's mimic fingers) has its own entry: it answers GENERAL for
     anything else, a wrong multiplier count included, and its a is the general path's."""
     from dynamics.checks import DONE, GENERAL
-    from dynamics.constrained import _fd_single, packed
+    from dynamics.constrained_dynamics import _fd_single, packed
     model = dynamics.load_urdf(ROBOTS["panda"][0])
     assert model.constraints
     q, v, tau = _states(model)[0]

@@ -1,12 +1,12 @@
 """A constrained robot (closed loops, coupled joints) as an ODE for the solvers.
 
 Same state and functions as :mod:`.problem`, with the ABA of the right-hand side replaced by the KKT solve of
-:mod:`dynamics.constrained` (the lectures' formula with Baumgarte's stabilisation):
+:mod:`dynamics.constrained_dynamics` (the lectures' formula with Baumgarte's stabilisation):
 
     M a + C v + g = tau + Phi_q^T lambda,    Phi_q a + Phi_q_dot v = -(2 alpha Phi_q v + beta^2 phi)
 
 After every accepted step ``rebase`` optionally projects the state onto the constraint manifold (positions by
-Gauss-Newton, velocities in the kinetic-energy metric; :func:`dynamics.constrained.project_position_kernel`)
+Gauss-Newton, velocities in the kinetic-energy metric; :func:`dynamics.constrained_dynamics.project_position_kernel`)
 and re-evaluates f there, so the next step starts on the manifold.  It also tracks the largest position and
 velocity residuals (max |phi|, max |Phi_q v|) at every accepted step (after projection) and at every sample:
 ``constraint_drift`` of the report.
@@ -21,9 +21,9 @@ from typing import NamedTuple
 import numpy as np
 
 from .._numba import borrowing_kernel, copy_into, deref
-from ..constrained import (constrained_accel_kernel, drift_kernel, project_position_kernel,
+from ..constrained_dynamics import (constrained_accel_kernel, drift_kernel, project_position_kernel,
                            project_velocity_kernel)
-from ..constrained import workspace as constrained_workspace
+from ..constrained_dynamics import workspace as constrained_workspace
 from ..configuration import retract_in
 from ..constraints import arrays
 from .problem import RobotProblem, applied_torques, chart_and_velocity, emit, euler_config, rebase, robot_problem

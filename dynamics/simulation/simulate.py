@@ -22,9 +22,9 @@ from ..joints import JOINT_FREE
 from .. import plot
 from ..torques import Passive, make_source, release_callable
 from . import report as R
-from ..constrained import (DEFAULT_BAUMGARTE, baumgarte_gains, project_position_kernel,
+from ..constrained_dynamics import (DEFAULT_BAUMGARTE, baumgarte_gains, project_position_kernel,
                            project_velocity_kernel)
-from ..constrained import workspace as constrained_workspace
+from ..constrained_dynamics import workspace as constrained_workspace
 from ..constraints import arrays
 from .constrained_problem import PROJECT_TOL, constrained_problem
 from .problem import NQUAD, robot_problem
@@ -113,7 +113,7 @@ def simulate(model, q0, v0, duration, *, torque=None, integrator="auto", rtol=1e
         ``progress(t_reached, duration)`` (:mod:`dynamics.simulation.progress`).
     baumgarte, project: constrained models only (``model.constraints``; ignored otherwise).  The accelerations
         come from the KKT system of :func:`dynamics.constrained_forward_dynamics` with Baumgarte gains
-        ``baumgarte=(alpha, beta)`` (1/s; default :data:`dynamics.constrained.DEFAULT_BAUMGARTE`, (0, 0): none).
+        ``baumgarte=(alpha, beta)`` (1/s; default :data:`dynamics.constrained_dynamics.DEFAULT_BAUMGARTE`, (0, 0): none).
         ``project=True`` projects (q, v) onto phi = 0, Phi_q v = 0 at the start and after every accepted step
         (:mod:`dynamics.simulation.constrained_problem`).  The report adds ``constraint_drift``: the largest
         max|phi| ("position", m or rad) and max|Phi_q v| ("velocity") over the accepted steps and the samples.
