@@ -20,7 +20,7 @@ import numpy as np
 
 from . import checks
 from ._numba import (SingleCall, VECTOR, address, helper, inline_kernel, keep_alive, kernel, scratch, view)
-from .checks import DONE, GENERAL, config_ok, nonzero, vector_ok
+from .checks import NOT_ARRAYS, DONE, GENERAL, config_ok, nonzero, vector_ok
 from .constrained_dynamics import constrained_forward_dynamics
 from .errors import InputError
 from .joints import joint_motion
@@ -221,7 +221,6 @@ def aba_batch(tree, Q, V, T, F, gravity, with_v, out, status):
     keep_alive(buf)
 
 
-@kernel
 def aba_single(packed, q, v, tau, qdd):
     """One state from Python, inputs checked in the call (status codes of :mod:`dynamics.checks`; a singular
     joint takes the general path, which names it)."""
@@ -272,7 +271,7 @@ def forward_dynamics(model, q, v, tau, *, gravity=None, f_ext=None):
             qdd = np.empty(model.nv)
             if _aba_single.call(model.packed, q, v, tau, qdd) == DONE:
                 return qdd
-    except AttributeError:  # not a model: the general path says so
+    except NOT_ARRAYS:  # not a model, or arrays of other types: the general path says what is wrong or converts
         pass
     checks.check_model(model)
     Q, (V, T), B, batched = checks.state_batch(model, q, (("v", v, model.nv), ("tau", tau, model.nv)))

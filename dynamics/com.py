@@ -19,7 +19,7 @@ import numpy as np
 from . import checks
 from ._numba import (MATRIX, SingleCall, VECTOR, address, borrowed, inline_kernel, keep_alive, kernel, scratch,
                      view)
-from .checks import DONE, F64, GENERAL, NOT_ARRAYS, config_ok
+from .checks import DONE, GENERAL, NOT_ARRAYS, config_ok
 from .joints import joint_motion
 from .kinematics import world_pose
 from .data import take
@@ -114,12 +114,10 @@ def com_single_into(packed, q, what, out):
     return DONE
 
 
-@kernel
 def com_single(packed, q, com):
     return com_single_into(packed, q, COM, view(com, 0, (3, 1)))
 
 
-@kernel
 def com_jacobian_single(packed, q, J):
     return com_single_into(packed, q, JACOBIAN, J)
 
@@ -146,11 +144,10 @@ def _run(model, q, v, what):
 
 def center_of_mass(model, q):
     """The robot's centre of mass in the world, (3,) or (B, 3) (``model.total_mass`` is its mass)."""
-    try:  # one float64 vector: one compiled call, which checks it too (dynamics.checks.F64)
-        if q.dtype is F64 and q.ndim == 1:
-            out = np.empty(3)
-            if _com_single.call(model.packed, q, out) == DONE:
-                return out
+    try:  # one state: one compiled call, which checks q (anything else takes the general path)
+        out = np.empty(3)
+        if _com_single.call(model.packed, q, out) == DONE:
+            return out
     except NOT_ARRAYS:
         pass
     return _run(model, q, None, COM)
@@ -164,10 +161,9 @@ def center_of_mass_velocity(model, q, v):
 def com_jacobian(model, q):
     """Jcom (3, nv) or (B, 3, nv), world frame: center_of_mass_velocity = Jcom v."""
     try:  # the fast path, as in center_of_mass
-        if q.dtype is F64 and q.ndim == 1:
-            out = np.empty((3, model.nv))
-            if _com_jacobian_single.call(model.packed, q, out) == DONE:
-                return out
+        out = np.empty((3, model.nv))
+        if _com_jacobian_single.call(model.packed, q, out) == DONE:
+            return out
     except NOT_ARRAYS:
         pass
     return _run(model, q, None, JACOBIAN)

@@ -57,7 +57,7 @@ from .constraints import arrays, constraint_terms, packed
 from .constraints import unpack as unpack_constraints
 from .constraints import workspace as terms_workspace
 from .constraints import work_at as terms_work_at
-from .checks import DONE, GENERAL, config_ok, vector_ok
+from .checks import NOT_ARRAYS, DONE, GENERAL, config_ok, vector_ok
 from .errors import InputError
 from .model import unpack
 from .crba import crba_into
@@ -376,7 +376,6 @@ def constrained_fd_batch(tree, Q, V, T, C, gravity, alpha, beta, out, status):
     keep_alive(out)
 
 
-@kernel
 def constrained_fd_single(packed, packed_C, q, v, tau, alpha, beta, a, lam):
     """One state from Python into a (nv,) and lam (m,), inputs checked in the same compiled call: DONE, or
     GENERAL for a non-finite input, a zero quaternion or a singular M (the general path then says which).  The
@@ -595,7 +594,7 @@ def constrained_forward_dynamics(model, q, v, tau, *, baumgarte=None, gravity=No
             a, lam = np.empty(model.nv), np.empty(arrays(model)[1])
             if _fd_single.call(model.packed, packed(model), q, v, tau, alpha, beta, a, lam) == DONE:
                 return a, lam
-    except AttributeError:  # not a model: the general path says so
+    except NOT_ARRAYS:  # not a model, or arrays of other types: the general path says what is wrong or converts
         pass
     Q, (V, T), B, batched = checks.state_batch(model, q, (("v", v, model.nv), ("tau", tau, model.nv)))
     C, m = arrays(model)

@@ -13,7 +13,7 @@ import numpy as np
 from . import checks
 from ._numba import (MATRIX, SingleCall, VECTOR, address, inline_kernel, keep_alive, kernel, scratch)
 from .data import take
-from .checks import DONE, GENERAL, config_ok
+from .checks import NOT_ARRAYS, DONE, GENERAL, config_ok
 from .model import unpack
 from .parallel import run_chunks
 from .joints import joint_transform
@@ -88,7 +88,6 @@ def crba_batch(tree, Q, out):
         crba_into(tree, Q[b], ws, out[b])
 
 
-@kernel
 def crba_single(packed, q, M):
     """One state from Python into M (zeroed here: a new array from np.empty is ~70 ns cheaper than from
     np.zeros), inputs checked in the call (status codes of :mod:`dynamics.checks`)."""
@@ -117,7 +116,7 @@ def mass_matrix(model, q):
         M = np.empty((model.nv, model.nv))
         if _crba_single.call(model.packed, q, M) == DONE:
             return M
-    except AttributeError:  # not a model: the general path says so
+    except NOT_ARRAYS:  # not a model, or arrays of other types: the general path says what is wrong or converts
         pass
     checks.check_model(model)
     Q, batched = checks.configurations(model, q)

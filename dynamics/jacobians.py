@@ -65,7 +65,6 @@ def jacobian_batch(model_tree, Q, model_frames, f, ref, point, out):
     keep_alive(out)
 
 
-@kernel
 def jacobian_single(packed, q, f, ref, J):
     """One state from Python at the frame origin into J (6, nv), zeroed here; q, the frame index f (-1: not
     found) and the reference code are checked in the call (status codes of dynamics.checks)."""

@@ -29,7 +29,7 @@ from numba import types
 
 from . import checks
 from ._numba import (SingleCall, VECTOR, address, inline_kernel, keep_alive, kernel, scratch)
-from .checks import DONE, GENERAL, config_ok
+from .checks import NOT_ARRAYS, DONE, GENERAL, config_ok
 from .joints import joint_motion, joint_transform
 from .data import take
 from .model import FRAME_BODY, FRAME_SHIFTED, FRAME_WORLD, unpack, unpack_frames
@@ -134,7 +134,6 @@ def placements_into(tree, frames, q, oR, op, out):
         store_pose(R, p, out[f])
 
 
-@kernel
 def placements_single(packed, q, out):
     """One state from Python into out (nf, 4, 4), q checked in the call (status codes of dynamics.checks)."""
     tree, gravity, nq = unpack(packed)
@@ -224,7 +223,7 @@ def forward_kinematics(model, q):
         out = np.empty(model.placements_shape)
         if _placements_single.call(model.packed, q, out) == DONE:
             return out
-    except AttributeError:  # not a model: the general path says so
+    except NOT_ARRAYS:  # not a model, or arrays of other types: the general path says what is wrong or converts
         pass
     checks.check_model(model)
     Q, batched = checks.configurations(model, q)

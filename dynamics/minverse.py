@@ -26,7 +26,7 @@ import numpy as np
 
 from . import checks
 from ._numba import (MATRIX, SingleCall, VECTOR, address, inline_kernel, keep_alive, kernel, scratch)
-from .checks import DONE, F64, GENERAL, NOT_ARRAYS, config_ok
+from .checks import DONE, GENERAL, NOT_ARRAYS, config_ok
 from .errors import InputError
 from .kinematics import world_pose
 from .data import take, take_int
@@ -60,7 +60,6 @@ def work_at(base, o, nb, nv):
     return (oR, op, IA, Sw, U, UD, Dinv, F, nsub, D, scratch), o
 
 
-@kernel
 def minverse_single(packed, q, Minv):
     """One state from Python, q checked in the call (status codes of dynamics.checks; a singular joint takes
     the general path, which names it)."""
@@ -298,11 +297,10 @@ def inverse_mass_matrix(model, q):
     """M(q)^-1, (nv, nv) or (B, nv, nv), computed directly in O(n^2) (not by inverting M; module docstring).
 
     Raises InputError naming the joint when M is singular (a joint that moves no mass or inertia)."""
-    try:  # one float64 vector: one compiled call, which checks it too (dynamics.checks.F64)
-        if q.dtype is F64 and q.ndim == 1:
-            Minv = np.empty((model.nv, model.nv))
-            if _minverse_single.call(model.packed, q, Minv) == DONE:
-                return Minv
+    try:  # one state: one compiled call, which checks q (anything else takes the general path)
+        Minv = np.empty((model.nv, model.nv))
+        if _minverse_single.call(model.packed, q, Minv) == DONE:
+            return Minv
     except NOT_ARRAYS:
         pass
     checks.check_model(model)

@@ -19,7 +19,7 @@ import numpy as np
 from . import checks
 from ._numba import (VECTOR, address, inline_kernel, keep_alive, kernel, scratch, SingleCall, view,
                      )
-from .checks import DONE, GENERAL, config_ok, nonzero, vector_ok
+from .checks import NOT_ARRAYS, DONE, GENERAL, config_ok, nonzero, vector_ok
 from .data import Data, data_at, forward_pass, take
 from .model import unpack
 from .parallel import run_chunks
@@ -188,7 +188,6 @@ def rnea_batch(tree, Q, V, A, F, gravity, with_v, with_a, out):
 
 
 # -- one state from Python: inputs checked inside the call (status codes of dynamics.checks) ----------------
-@kernel
 def rnea_single(packed, q, v, a, tau):
     tree, gravity, nq = unpack(packed)
     nb, nv = tree.parents.shape[0], tree.S.shape[0]
@@ -201,7 +200,6 @@ def rnea_single(packed, q, v, a, tau):
     return DONE
 
 
-@kernel
 def bias_single(packed, q, v, tau):
     tree, gravity, nq = unpack(packed)
     nb, nv = tree.parents.shape[0], tree.S.shape[0]
@@ -214,7 +212,6 @@ def bias_single(packed, q, v, tau):
     return DONE
 
 
-@kernel
 def gravity_single(packed, q, tau):
     tree, gravity, nq = unpack(packed)
     nb = tree.parents.shape[0]
@@ -272,7 +269,7 @@ def inverse_dynamics(model, q, v, a, *, gravity=None, f_ext=None):
             tau = np.empty(model.nv)
             if _rnea_single.call(model.packed, q, v, a, tau) == DONE:
                 return tau
-    except AttributeError:  # not a model: the general path says so
+    except NOT_ARRAYS:  # not a model, or arrays of other types: the general path says what is wrong or converts
         pass
     return _run(model, q, v, a, gravity, f_ext)
 
@@ -284,7 +281,7 @@ def gravity_torques(model, q, *, gravity=None):
             tau = np.empty(model.nv)
             if _gravity_single.call(model.packed, q, tau) == DONE:
                 return tau
-    except AttributeError:
+    except NOT_ARRAYS:
         pass
     checks.check_model(model)
     Q, batched = checks.configurations(model, q)
@@ -300,7 +297,7 @@ def bias_forces(model, q, v, *, gravity=None):
             tau = np.empty(model.nv)
             if _bias_single.call(model.packed, q, v, tau) == DONE:
                 return tau
-    except AttributeError:
+    except NOT_ARRAYS:
         pass
     checks.check_model(model)
     return _run(model, q, v, np.zeros(model.nv), gravity, None)

@@ -204,24 +204,21 @@ def single_signature(*args):
 
 
 class SingleCall:
-    """A single-state kernel compiled for one signature (:func:`single_signature`), on first use (or loaded
-    from the cache).  ``call(*args)`` returns the kernel's status, and :data:`GENERAL` for arguments of any
-    other type, which numba's dispatcher refuses (a float32 or strided array, a list, a subclass): the public
-    function then takes its general path.  Only exact numpy arrays reach the kernel, so it never reads memory
-    it was not given; it checks lengths and values itself."""
+    """A single-state kernel (a plain function, compiled only here) compiled for one signature
+    (:func:`single_signature`) on its first call, or loaded from the cache; from then on ``call`` *is* numba's
+    dispatcher, so a call costs no Python frame of ours.  The dispatcher refuses any other argument type (a
+    float32 or strided array, a list, a subclass: numba's documented ``TypeError``), and the public function
+    then takes its general path, which checks and converts.  Only exact numpy arrays of the signature's types
+    reach the kernel, which checks lengths and values itself and returns :data:`DONE` or :data:`GENERAL`."""
 
     def __init__(self, function, *argtypes):
         self.function, self.signature = function, single_signature(*argtypes)
         self.dispatcher = None
 
     def call(self, *args):
-        if self.dispatcher is None:  # the kernel's Python function, compiled for this signature only
-            self.dispatcher = njit(self.signature, **JIT_OPTIONS)(getattr(self.function, "py_func",
-                                                                          self.function))
-        try:
-            return self.dispatcher(*args)
-        except TypeError:  # "No matching definition": not the signature's types
-            return GENERAL
+        self.dispatcher = njit(self.signature, **JIT_OPTIONS)(self.function)
+        self.call = self.dispatcher
+        return self.dispatcher(*args)
 
 
 # TEMPORARY, until the simulation's public-API boundary lands (issue 22): the simulation still imports these
