@@ -125,23 +125,23 @@ def bench_case(dyn, pin, name, model, source, floating, redundant, states, B, re
 
 def bench_minverse(dyn, model, states, B, repeat, rng):
     """What the KKT needs of M, per state inside a compiled loop (no call overhead): the O(n^2)
-    articulated-body M^-1 (minverse_into) against the CRBA and the in-kernel L^T L factor (mass_factor, used)."""
+    articulated-body M^-1 (_minverse_into) against the CRBA and the in-kernel L^T L factor (_mass_factor, used)."""
     from numba import njit
 
-    from dynamics.constrained_dynamics import mass_factor
-    from dynamics.crba import workspace as crba_ws
-    from dynamics.minverse import minverse_into
-    from dynamics.minverse import workspace as minv_ws
+    from dynamics.constrained_dynamics import _mass_factor
+    from dynamics.crba import _workspace as crba_ws
+    from dynamics.minverse import _minverse_into
+    from dynamics.minverse import _workspace as minv_ws
 
     @njit
     def minv_loop(tree, Q, ws, out):
         for b in range(Q.shape[0]):
-            minverse_into(tree, Q[b], ws, out)
+            _minverse_into(tree, Q[b], ws, out)
 
     @njit
     def factor_loop(tree, Q, ws, out, lam):
         for b in range(Q.shape[0]):
-            mass_factor(tree, Q[b], ws, out, lam)
+            _mass_factor(tree, Q[b], ws, out, lam)
 
     Q = states(dyn, model, B, rng)[0]
     out, lam = np.empty((model.nv, model.nv)), np.empty(model.nv, np.int64)

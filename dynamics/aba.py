@@ -20,16 +20,16 @@ import numpy as np
 
 from . import checks
 from ._numba import (SingleCall, VECTOR, address, helper, inline_kernel, keep_alive, kernel, scratch, view)
-from .checks import NOT_ARRAYS, DONE, GENERAL, config_ok, nonzero, vector_ok
+from .checks import NOT_ARRAYS, DONE, GENERAL, _config_ok, _nonzero, _vector_ok
 from .constrained_dynamics import constrained_forward_dynamics
 from .errors import InputError
-from .joints import joint_motion
-from .data import Data, data_at, forward_pass, take
-from .model import unpack
+from .joints import _joint_motion
+from .data import Data, _data_at, _forward_pass, _take
+from .model import _unpack
 from .parallel import run_chunks
 from .rnea import bias_forces, inverse_dynamics
-from .spatial import (add, add_inertia6_to_parent, cross_force, force_to_parent, inertia_times,
-                      joint_gram, load3, load33, motion_to_child, spd_inverse, store_inertia6)
+from .spatial import (add, _add_inertia6_to_parent, cross_force, force_to_parent, inertia_times,
+                      _joint_gram, load3, load33, motion_to_child, _spd_inverse, _store_inertia6)
 
 
 class Work(NamedTuple):
@@ -51,25 +51,25 @@ class Work(NamedTuple):
 
 
 @inline_kernel
-def work_at(base, o, nb, nv):
+def _work_at(base, o, nb, nv):
     """A :class:`Work` carved from the buffer at ``base`` from offset o (at base 0: only its size), and the
     offset after it."""
-    d, o = data_at(base, o, nb)
-    IA, o = take(base, o, (nb, 6, 6))
-    pA, o = take(base, o, (nb, 6))
-    U, o = take(base, o, (nv, 6))
-    Dinv, o = take(base, o, (nb, 6, 6))
-    u, o = take(base, o, nv)
-    acc, o = take(base, o, (nb, 6))
-    Ia, o = take(base, o, (6, 6))
-    D, o = take(base, o, (6, 6))
-    pa, o = take(base, o, 6)
-    t, o = take(base, o, 6)
+    d, o = _data_at(base, o, nb)
+    IA, o = _take(base, o, (nb, 6, 6))
+    pA, o = _take(base, o, (nb, 6))
+    U, o = _take(base, o, (nv, 6))
+    Dinv, o = _take(base, o, (nb, 6, 6))
+    u, o = _take(base, o, nv)
+    acc, o = _take(base, o, (nb, 6))
+    Ia, o = _take(base, o, (6, 6))
+    D, o = _take(base, o, (6, 6))
+    pa, o = _take(base, o, 6)
+    t, o = _take(base, o, 6)
     return Work(d, IA, pA, U, Dinv, u, acc, Ia, D, pa, t), o
 
 
 @kernel
-def workspace(nb, nv):
+def _workspace(nb, nv):
     """A :class:`Work` of owned arrays, which the caller may keep (the simulation's problem holds one)."""
     d = Data(np.empty((nb, 3, 3)), np.empty((nb, 3)), np.empty((nb, 3)), np.empty((nb, 3)), np.empty((nb, 3)),
              np.empty((nb, 3)))
@@ -89,17 +89,17 @@ def _set6(A, i, x, y):
 
 
 @kernel
-def aba_into(tree, q, v, tau, gravity, f_ext, ws, qdd):
+def _aba_into(tree, q, v, tau, gravity, f_ext, ws, qdd):
     """ABA for one state into ``qdd``.  Returns -1, or the index of a body whose joint sees a singular
     articulated inertia (then qdd is not valid)."""
-    return aba_terms(tree, q, v, tau, gravity, f_ext, ws, qdd, True)
+    return _aba_terms(tree, q, v, tau, gravity, f_ext, ws, qdd, True)
 
 
 @inline_kernel
-def aba_terms(tree, q, v, tau, gravity, f_ext, ws, qdd, with_v):
+def _aba_terms(tree, q, v, tau, gravity, f_ext, ws, qdd, with_v):
     """ABA for one state: Featherstone's three passes (RBDA Table 7.1).  ``with_v=False`` (v is zero) skips
     the velocity products c_i and v x* I v.  Returns -1, or the body whose joint is singular."""
-    forward_pass(tree, q, v, ws.d, with_v)  # X_i, v_i, c_i
+    _forward_pass(tree, q, v, ws.d, with_v)  # X_i, v_i, c_i
     _rigid_body_terms(tree, f_ext, ws, with_v)
     singular = _articulated_inertias(tree, tau, ws)
     if singular >= 0:
@@ -121,7 +121,7 @@ def _rigid_body_terms(tree, f_ext, ws, with_v):
             bn, bf = cross_force(w, vl, hn, hf)
         else:
             bn, bf = zero, zero
-        store_inertia6(ws.IA, i, m, h, Io)  # I^A = I_i
+        _store_inertia6(ws.IA, i, m, h, Io)  # I^A = I_i
         if f_ext.shape[0] > 0:
             bn = (bn[0] - f_ext[i, 3], bn[1] - f_ext[i, 4], bn[2] - f_ext[i, 5])
             bf = (bf[0] - f_ext[i, 0], bf[1] - f_ext[i, 1], bf[2] - f_ext[i, 2])
@@ -146,8 +146,8 @@ def _articulated_inertias(tree, tau, ws):
             for r in range(6):
                 x -= S[k, r] * pA[i, r]
             u[k] = x
-        joint_gram(S, U, k0, nj, ws.D)  # D = S^T U
-        if not spd_inverse(ws.D, nj, Dinv, i, Ia):
+        _joint_gram(S, U, k0, nj, ws.D)  # D = S^T U
+        if not _spd_inverse(ws.D, nj, Dinv, i, Ia):
             return i
         par = parents[i]
         if par < 0:
@@ -172,7 +172,7 @@ def _articulated_inertias(tree, tau, ws):
             t[r] = (pa[r] + Ia[r, 0] * cw[0] + Ia[r, 1] * cw[1] + Ia[r, 2] * cw[2] + Ia[r, 3] * cv[0]
                     + Ia[r, 4] * cv[1] + Ia[r, 5] * cv[2])
         R, p = load33(d.R, i), load3(d.p, i)
-        add_inertia6_to_parent(R, p, Ia, IA, par)
+        _add_inertia6_to_parent(R, p, Ia, IA, par)
         fn, ff = force_to_parent(R, p, (t[0], t[1], t[2]), (t[3], t[4], t[5]))
         pn, pf = _get6(pA, par)
         _set6(pA, par, add(pn, fn), add(pf, ff))
@@ -206,39 +206,39 @@ def _accelerations(tree, gravity, ws, qdd):
             for b_ in range(nj):
                 x += Dinv[i, a_, b_] * t[b_]
             qdd[k0 + a_] = x
-        sw, sv = joint_motion(tree, i, qdd)
+        sw, sv = _joint_motion(tree, i, qdd)
         _set6(acc, i, add(aw, sw), add(al, sv))
 
 
 @kernel
-def aba_batch(tree, Q, V, T, F, gravity, with_v, out, status):
+def _aba_batch(tree, Q, V, T, F, gravity, with_v, out, status):
     nb, nv = tree.parents.shape[0], tree.S.shape[0]
-    buf = np.empty(work_at(0, 0, nb, nv)[1])
-    ws = work_at(address(buf), 0, nb, nv)[0]
+    buf = np.empty(_work_at(0, 0, nb, nv)[1])
+    ws = _work_at(address(buf), 0, nb, nv)[0]
     lf, lv, lt = F.shape[0] - 1, V.shape[0] - 1, T.shape[0] - 1
     for b in range(Q.shape[0]):
-        status[b] = aba_terms(tree, Q[b], V[min(b, lv)], T[min(b, lt)], gravity, F[min(b, lf)], ws, out[b], with_v)
+        status[b] = _aba_terms(tree, Q[b], V[min(b, lv)], T[min(b, lt)], gravity, F[min(b, lf)], ws, out[b], with_v)
     keep_alive(buf)
 
 
-def aba_single(packed, q, v, tau, qdd):
+def _aba_single(packed, q, v, tau, qdd):
     """One state from Python, inputs checked in the call (status codes of :mod:`dynamics.checks`; a singular
     joint takes the general path, which names it)."""
-    tree, gravity, nq = unpack(packed)
+    tree, gravity, nq = _unpack(packed)
     nb, nv = tree.parents.shape[0], tree.S.shape[0]
-    if not (config_ok(tree, nq, q) and vector_ok(v, nv) and vector_ok(tau, nv) and qdd.shape[0] == nv):
+    if not (_config_ok(tree, nq, q) and _vector_ok(v, nv) and _vector_ok(tau, nv) and qdd.shape[0] == nv):
         return GENERAL
-    buf = scratch(work_at(0, 0, nb, nv)[1])
-    singular = aba_terms(tree, q, v, tau, gravity, view(buf, 0, (0, 6)), work_at(address(buf), 0, nb, nv)[0], qdd,
-                         nonzero(v))
+    buf = scratch(_work_at(0, 0, nb, nv)[1])
+    singular = _aba_terms(tree, q, v, tau, gravity, view(buf, 0, (0, 6)), _work_at(address(buf), 0, nb, nv)[0], qdd,
+                         _nonzero(v))
     keep_alive(buf)
     return DONE if singular < 0 else GENERAL
 
 
 
 # -- public entry point ----------------------------------------------------------------------------
-_aba_batch = aba_batch
-_aba_single = SingleCall(aba_single, VECTOR, VECTOR, VECTOR, VECTOR)
+_aba_batch = _aba_batch
+_aba_single = SingleCall(_aba_single, VECTOR, VECTOR, VECTOR, VECTOR)
 
 
 def _aba_chunk(tree, Q, V, T, F, gravity, with_v, out):

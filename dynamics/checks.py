@@ -6,7 +6,7 @@ Public functions accept one state (q of shape (nq,)) or a batch (B, nq).  Argume
 message starts with the argument's name and says what was expected.
 
 The single-state fast paths check their inputs inside the compiled call: length, unit stride, finiteness and
-non-zero quaternions (:func:`config_ok`, :func:`vector_ok`); their type, dtype and rank are the signature
+non-zero quaternions (:func:`_config_ok`, :func:`_vector_ok`); their type, dtype and rank are the signature
 numba's dispatcher checks (:class:`dynamics._numba.SingleCall`).  On a failed check the call returns :data:`GENERAL` and the public function takes the general path, which raises
 the same error as always, so every message has one source.
 """
@@ -17,7 +17,7 @@ import numpy as np
 
 from ._numba import DONE, GENERAL, inline_kernel, kernel  # noqa: F401 (the status codes' home for the algorithms)
 from .errors import InputError
-from .joints import JOINT_FREE, KINDS, ZERO_QUATERNION_SQ, joint_config_ok
+from .joints import JOINT_FREE, KINDS, ZERO_QUATERNION_SQ, _joint_config_ok
 from .spatial import quaternion_sq
 from .model import Model
 
@@ -58,7 +58,7 @@ def _unit_stride_of_length(x, n):
 
 
 @inline_kernel
-def vector_ok(x, n):
+def _vector_ok(x, n):
     """x has length n, unit stride and finite values (the general path names what is wrong otherwise)."""
     if not _unit_stride_of_length(x, n):
         return False
@@ -69,18 +69,18 @@ def vector_ok(x, n):
 
 
 @inline_kernel
-def config_ok(tree, nq, q):
-    """q is a valid configuration: as :func:`vector_ok`, and every free joint's quaternion is non-zero."""
-    if not vector_ok(q, nq):
+def _config_ok(tree, nq, q):
+    """q is a valid configuration: as :func:`_vector_ok`, and every free joint's quaternion is non-zero."""
+    if not _vector_ok(q, nq):
         return False
     for i in range(tree.jtype.shape[0]):
-        if not joint_config_ok(tree, i, q):
+        if not _joint_config_ok(tree, i, q):
             return False
     return True
 
 
 @inline_kernel
-def nonzero(x):
+def _nonzero(x):
     """Whether any x[k] != 0: a term with x = 0 is skipped (the single-state twin of the general path's
     ``X.any()``, so both paths skip the same terms and agree bit for bit)."""
     for k in range(x.shape[0]):

@@ -19,11 +19,11 @@ import numpy as np
 from . import checks
 from ._numba import (MATRIX, SingleCall, VECTOR, address, borrowed, inline_kernel, keep_alive, kernel, scratch,
                      view)
-from .checks import DONE, GENERAL, NOT_ARRAYS, config_ok
-from .joints import joint_motion
-from .kinematics import world_pose
-from .data import take
-from .model import unpack
+from .checks import DONE, GENERAL, NOT_ARRAYS, _config_ok
+from .joints import _joint_motion
+from .kinematics import _world_pose
+from .data import _take
+from .model import _unpack
 from .parallel import run_chunks
 from .spatial import add, cross, load3, load33, motion_to_child, rot, scale, store3
 
@@ -31,23 +31,23 @@ COM, VELOCITY, JACOBIAN = 0, 1, 2
 
 
 @kernel
-def com_batch(model_tree, Q, V, what, out):
+def _com_batch(model_tree, Q, V, what, out):
     """Per state into out[b] (3, 1 or nv): com, vcom (what = VELOCITY) or Jcom (what = JACOBIAN)."""
-    # borrowed: com_into takes the arrays out of the tuple, and out[b] is a view, per state: no reference counts
+    # borrowed: _com_into takes the arrays out of the tuple, and out[b] is a view, per state: no reference counts
     tree, rows = borrowed(model_tree), borrowed(out)
     nb = tree.parents.shape[0]
     oR, op, H, ms = np.empty((nb, 3, 3)), np.empty((nb, 3)), np.empty((nb, 3)), np.empty(nb)
     ws, vs = np.empty((nb, 3)), np.empty((nb, 3))
-    inv_m = inverse_mass(tree)
+    inv_m = _inverse_mass(tree)
     lv = V.shape[0] - 1
     for b in range(Q.shape[0]):
-        com_into(tree, Q[b], V[min(b, lv)], what, inv_m, oR, op, H, ms, ws, vs, rows[b])
+        _com_into(tree, Q[b], V[min(b, lv)], what, inv_m, oR, op, H, ms, ws, vs, rows[b])
     keep_alive(model_tree)
     keep_alive(out)
 
 
 @inline_kernel
-def inverse_mass(tree):
+def _inverse_mass(tree):
     m = 0.0
     for i in range(tree.mass.shape[0]):
         m += tree.mass[i]
@@ -55,14 +55,14 @@ def inverse_mass(tree):
 
 
 @inline_kernel
-def com_into(tree, q, v, what, inv_m, oR, op, H, ms, ws, vs, out):
+def _com_into(tree, q, v, what, inv_m, oR, op, H, ms, ws, vs, out):
     """One state into out (3, 1 or nv); oR, op, H, ms, ws, vs are scratch."""
     parents, mass, hs, S, v_idx, nv_j = tree.parents, tree.mass, tree.h, tree.S, tree.v_idx, tree.nv_j
     nb = parents.shape[0]
     zero = (0.0, 0.0, 0.0)
     c = zero
     for i in range(nb):
-        Rl, pl, R, p = world_pose(tree, i, q, oR, op)
+        Rl, pl, R, p = _world_pose(tree, i, q, oR, op)
         par = parents[i]
         w, vl = zero, zero
         if par >= 0 and what == VELOCITY:
@@ -72,7 +72,7 @@ def com_into(tree, q, v, what, inv_m, oR, op, H, ms, ws, vs, out):
         if what == COM:
             c = add(c, Hi)
         elif what == VELOCITY:  # momentum oR (m v + w x h)
-            wJ, vJ = joint_motion(tree, i, v)
+            wJ, vJ = _joint_motion(tree, i, v)
             w, vl = add(w, wJ), add(vl, vJ)
             store3(ws, i, w)
             store3(vs, i, vl)
@@ -96,36 +96,36 @@ def com_into(tree, q, v, what, inv_m, oR, op, H, ms, ws, vs, out):
 
 
 @inline_kernel
-def com_single_into(packed, q, what, out):
+def _com_single_into(packed, q, what, out):
     """One state from Python into out (3, 1 or nv), q checked here (status codes of dynamics.checks)."""
-    tree, gravity, nq = unpack(packed)
+    tree, gravity, nq = _unpack(packed)
     nb = tree.parents.shape[0]
-    if not config_ok(tree, nq, q):
+    if not _config_ok(tree, nq, q):
         return GENERAL
     buf = scratch(22 * nb)
-    oR, o = take(address(buf), 0, (nb, 3, 3))
-    op, o = take(address(buf), o, (nb, 3))
-    H, o = take(address(buf), o, (nb, 3))
-    ms, o = take(address(buf), o, nb)
-    ws, o = take(address(buf), o, (nb, 3))
-    vs, o = take(address(buf), o, (nb, 3))
-    com_into(tree, q, q, what, inverse_mass(tree), oR, op, H, ms, ws, vs, out)
+    oR, o = _take(address(buf), 0, (nb, 3, 3))
+    op, o = _take(address(buf), o, (nb, 3))
+    H, o = _take(address(buf), o, (nb, 3))
+    ms, o = _take(address(buf), o, nb)
+    ws, o = _take(address(buf), o, (nb, 3))
+    vs, o = _take(address(buf), o, (nb, 3))
+    _com_into(tree, q, q, what, _inverse_mass(tree), oR, op, H, ms, ws, vs, out)
     keep_alive(buf)
     return DONE
 
 
-def com_single(packed, q, com):
-    return com_single_into(packed, q, COM, view(com, 0, (3, 1)))
+def _com_single(packed, q, com):
+    return _com_single_into(packed, q, COM, view(com, 0, (3, 1)))
 
 
-def com_jacobian_single(packed, q, J):
-    return com_single_into(packed, q, JACOBIAN, J)
+def _com_jacobian_single(packed, q, J):
+    return _com_single_into(packed, q, JACOBIAN, J)
 
 
 # -- public entry points ---------------------------------------------------------------------------
-_com_batch = com_batch
-_com_single = SingleCall(com_single, VECTOR, VECTOR)
-_com_jacobian_single = SingleCall(com_jacobian_single, VECTOR, MATRIX)
+_com_batch = _com_batch
+_com_single = SingleCall(_com_single, VECTOR, VECTOR)
+_com_jacobian_single = SingleCall(_com_jacobian_single, VECTOR, MATRIX)
 
 
 def _run(model, q, v, what):

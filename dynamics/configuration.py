@@ -15,16 +15,16 @@
 
 The solvers (:mod:`dynamics.simulation.solvers`) do not integrate q directly.  Every step works in a *chart*
 around the configuration ``q0`` at the start of the step: the step's unknown is a tangent vector
-``delta`` (nv,), and ``q = retract(q0, delta)``:
+``delta`` (nv,), and ``q = _retract(q0, delta)``:
 
 * 1-dof joints: ``q = q0 + delta`` (so the chart is exact and global);
 * the free joint: ``p = p0 + delta_p`` (world-frame displacement) and ``quat = quat0 (x) exp(delta_theta)``.
 
 In that chart the kinematic equation ``q' = f(q, v)`` becomes an ODE in a vector space
-(``chart_rate``): ``delta_p' = R(q) v_lin`` and ``delta_theta' = Jr(delta_theta)^-1 omega`` with the right
+(``_chart_rate``): ``delta_p' = R(q) v_lin`` and ``delta_theta' = Jr(delta_theta)^-1 omega`` with the right
 Jacobian of SO(3) (Sola, Deray & Atchuthan, "A micro Lie theory for state estimation in robotics", 2018,
 eq. 145).  Any Runge-Kutta method applied to it keeps its full order (this is the Munthe-Kaas idea), and
-after each accepted step the chart is re-centred (``q0 <- retract(q0, delta)``, ``delta <- 0``), so
+after each accepted step the chart is re-centred (``q0 <- _retract(q0, delta)``, ``delta <- 0``), so
 ``delta_theta`` stays small and far from the singularity of Jr^-1 at |theta| = pi.
 
 All kernels here are ``numba.njit`` and take the model's ``Tree``.  The simulation's chart functions
@@ -40,30 +40,30 @@ from numba.extending import overload
 from ._numba import JIT_OPTIONS, inline_kernel, kernel
 from .checks import vector
 from .errors import InputError
-from .joints import joint_chart_rate, joint_difference, joint_integrate_delta, joint_retract
+from .joints import _joint_chart_rate, _joint_difference, _joint_integrate_delta, _joint_retract
 
 
 
 @kernel
-def integrate_delta(tree, q, v, dt, delta):
-    """Chart coordinates (see the module docstring) of ``integrate_q(tree, q, v, dt)`` around q."""
+def _integrate_delta(tree, q, v, dt, delta):
+    """Chart coordinates (see the module docstring) of ``_integrate_q(tree, q, v, dt)`` around q."""
     for i in range(tree.jtype.shape[0]):
-        joint_integrate_delta(tree, i, q, v, dt, delta)
+        _joint_integrate_delta(tree, i, q, v, dt, delta)
 
 
 @inline_kernel
-def retract(tree, q0, delta, q):
-    """q = q0 (+) delta in the stepper's chart (:func:`dynamics.joints.joint_retract`)."""
+def _retract(tree, q0, delta, q):
+    """q = q0 (+) delta in the stepper's chart (:func:`dynamics.joints._joint_retract`)."""
     for i in range(tree.jtype.shape[0]):
-        joint_retract(tree, i, q0, delta, q)
+        _joint_retract(tree, i, q0, delta, q)
 
 
 @inline_kernel
-def chart_rate(tree, q, delta, v, out):
-    """out = d(delta)/dt for velocity v, at the configuration q = retract(q0, delta)
-    (:func:`dynamics.joints.joint_chart_rate`)."""
+def _chart_rate(tree, q, delta, v, out):
+    """out = d(delta)/dt for velocity v, at the configuration q = _retract(q0, delta)
+    (:func:`dynamics.joints._joint_chart_rate`)."""
     for i in range(tree.jtype.shape[0]):
-        joint_chart_rate(tree, i, q, delta, v, out)
+        _joint_chart_rate(tree, i, q, delta, v, out)
 
 
 class OneDofChart(NamedTuple):
@@ -81,12 +81,12 @@ def chart_tag(model):
 
 
 def retract_in(tag, tree, q0, delta, q):
-    """:func:`retract` for the chart named by ``tag`` (compiled code only)."""
+    """:func:`_retract` for the chart named by ``tag`` (compiled code only)."""
     raise NotImplementedError
 
 
 def chart_rate_in(tag, tree, q, delta, v, out):
-    """:func:`chart_rate` for the chart named by ``tag`` (compiled code only)."""
+    """:func:`_chart_rate` for the chart named by ``tag`` (compiled code only)."""
     raise NotImplementedError
 
 
@@ -96,7 +96,7 @@ def _retract_one_dof(tag, tree, q0, delta, q):
 
 
 def _retract_free(tag, tree, q0, delta, q):
-    retract(tree, q0, delta, q)
+    _retract(tree, q0, delta, q)
 
 
 def _chart_rate_one_dof(tag, tree, q, delta, v, out):
@@ -105,7 +105,7 @@ def _chart_rate_one_dof(tag, tree, q, delta, v, out):
 
 
 def _chart_rate_free(tag, tree, q, delta, v, out):
-    chart_rate(tree, q, delta, v, out)
+    _chart_rate(tree, q, delta, v, out)
 
 
 @overload(retract_in, jit_options=JIT_OPTIONS, inline="always")
@@ -119,20 +119,20 @@ def _ov_chart_rate_in(tag, tree, q, delta, v, out):
 
 
 @kernel
-def difference(tree, q0, q1, out):
-    """Tangent vector ``d`` with ``retract(q0, d) == q1`` (the chart's inverse; used for error norms):
+def _difference(tree, q0, q1, out):
+    """Tangent vector ``d`` with ``_retract(q0, d) == q1`` (the chart's inverse; used for error norms):
     q1 - q0 for 1-dof joints, (p1 - p0, log(quat0^-1 quat1)) for the free joint."""
     for i in range(tree.jtype.shape[0]):
-        joint_difference(tree, i, q0, q1, out)
+        _joint_difference(tree, i, q0, q1, out)
 
 
 @kernel
-def integrate_q(tree, q, v, dt):
+def _integrate_q(tree, q, v, dt):
     """The configuration reached from q along the constant velocity v after dt (a new array)."""
     delta = np.empty(v.shape[0])
-    integrate_delta(tree, q, v, dt, delta)
+    _integrate_delta(tree, q, v, dt, delta)
     out = np.empty(q.shape[0])
-    retract(tree, q, delta, out)
+    _retract(tree, q, delta, out)
     return out
 
 
@@ -150,4 +150,4 @@ def integrate(model, q, v, dt=1.0):
         raise InputError(f"dt: expected a finite float, got {dt!r}") from None
     if not np.isfinite(dt):
         raise InputError(f"dt: expected a finite float, got {dt!r}")
-    return integrate_q(model.tree, q, v, dt)
+    return _integrate_q(model.tree, q, v, dt)

@@ -24,7 +24,7 @@ is then singular, a stays unique, and lambda is the minimum-norm multiplier lamb
 factor of K serves when its pivots stay above :data:`CHOLESKY_RTOL`; otherwise Cholesky with diagonal
 pivoting stops at the rank (the pivots left below :data:`RANK_RTOL` times K's largest diagonal entry are the
 round-off of exactly dependent rows, ~1e-16 relative) and the minimum-norm solution follows from the r x r
-Gram matrix of the factor (:func:`pinv_solve`): no eigen-decomposition, no allocation.  It equals K^+ rhs for
+Gram matrix of the factor (:func:`_pinv_solve`): no eigen-decomposition, no allocation.  It equals K^+ rhs for
 a right-hand side in K's range, which a closed loop's is (J M^-1 f and J v lie in J's range, and dependent
 rows have dependent gamma and phi); the tests compare it with numpy's pinv(K) rhs and with the even split
 of a closure declared twice, to 1e-9 relative.
@@ -32,15 +32,15 @@ lambda's rows and frames are those of :mod:`dynamics.constraints` (world axes, f
 anchor, torques, coupling forces).
 
 Simulation hook (for :mod:`dynamics.simulation`; compiled, single state, no allocation).  With ``C, m = dynamics.constraints.arrays(model)`` (resolved once and kept
-with the model) and one ``ws = workspace(model.nbodies, model.nv, m)`` per thread:
+with the model) and one ``ws = _workspace(model.nbodies, model.nv, m)`` per thread:
 
-* ``constrained_accel_kernel(tree, C, gravity, q, v, tau, alpha, beta, ws, a_out, lam_out) -> int``: the
+* ``_constrained_accel_kernel(tree, C, gravity, q, v, tau, alpha, beta, ws, a_out, lam_out) -> int``: the
   right-hand side a = qdd (and lambda) in place of the ABA; -1 when fine, else the body whose joint makes M
   singular.  alpha, beta: Baumgarte gains (1/s), :data:`DEFAULT_BAUMGARTE` for a simulation, 0, 0 for none.
-* ``drift_kernel(tree, C, q, v, ws) -> (max |phi|, max |Phi_q v|)``: the position and velocity residuals, for
+* ``_drift_kernel(tree, C, q, v, ws) -> (max |phi|, max |Phi_q v|)``: the position and velocity residuals, for
   ``constraint_drift`` in the report (their largest values over the run).
-* ``project_position_kernel(tree, C, q, ws, tol, max_iter, q_out) -> max |phi|`` then
-  ``project_velocity_kernel(tree, C, q_out, v, ws, v_out) -> int``: the optional projection onto the
+* ``_project_position_kernel(tree, C, q, ws, tol, max_iter, q_out) -> max |phi|`` then
+  ``_project_velocity_kernel(tree, C, q_out, v, ws, v_out) -> int``: the optional projection onto the
   constraint manifold after an accepted step (positions by Gauss-Newton, velocities in the kinetic-energy
   metric).
 """
@@ -51,22 +51,22 @@ from numba import types
 from . import checks
 from ._numba import (PACKED, SingleCall, VECTOR, address, borrowed, copy_into, inline_kernel, keep_alive, kernel,
                      scratch, view)
-from .configuration import integrate_q
-from .data import take
-from .constraints import arrays, constraint_terms, packed
-from .constraints import unpack as unpack_constraints
-from .constraints import workspace as terms_workspace
-from .constraints import work_at as terms_work_at
-from .checks import NOT_ARRAYS, DONE, GENERAL, config_ok, vector_ok
+from .configuration import _integrate_q
+from .data import _take
+from .constraints import arrays, _constraint_terms, packed
+from .constraints import _unpack as unpack_constraints
+from .constraints import _workspace as terms_workspace
+from .constraints import _work_at as terms_work_at
+from .checks import NOT_ARRAYS, DONE, GENERAL, _config_ok, _vector_ok
 from .errors import InputError
-from .model import unpack
-from .crba import crba_into
-from .crba import workspace as crba_workspace
-from .crba import work_at as crba_work_at
+from .model import _unpack
+from .crba import _crba_into
+from .crba import _workspace as crba_workspace
+from .crba import _work_at as crba_work_at
 from .parallel import run_chunks
-from .rnea import rnea_terms
-from .rnea import workspace as rnea_workspace
-from .rnea import work_at as rnea_work_at
+from .rnea import _rnea_terms
+from .rnea import _workspace as rnea_workspace
+from .rnea import _work_at as rnea_work_at
 
 #: pivots of K's pivoted Cholesky factor below this times K's largest diagonal entry are dependent rows
 RANK_RTOL = 1e-12
@@ -77,7 +77,7 @@ DEFAULT_BAUMGARTE = (10.0, 10.0)
 
 
 @kernel
-def workspace(nb, nv, m):
+def _workspace(nb, nv, m):
     """Scratch of one state: kinematics, CRBA, RNEA, then L (nv, nv; M = L^T L), J (m, nv), phi, gamma (m,),
     f (nv,), Y = (L^-T J^T)^T (m, nv), K (m, m), rhs (m,), an empty f_ext, K's Cholesky factor (m, m), the
     parent of each velocity coordinate (nv,), K's pivot order (m,) and an m-vector."""
@@ -88,28 +88,28 @@ def workspace(nb, nv, m):
 
 
 @inline_kernel
-def work_at(base, nb, nv, m, lam, piv):
-    """The same scratch as :func:`workspace` carved from the buffer at ``base`` (at 0: only its size), lam (nv,)
+def _work_at(base, nb, nv, m, lam, piv):
+    """The same scratch as :func:`_workspace` carved from the buffer at ``base`` (at 0: only its size), lam (nv,)
     and piv (m,) int64 given, and the size in floats: one allocation, or none on the stack, for a single call."""
     tws, o = terms_work_at(base, 0, nb, nv)
     cws, o = crba_work_at(base, o, nb)
     rws, o = rnea_work_at(base, o, nb)
-    LM, o = take(base, o, (nv, nv))
-    J, o = take(base, o, (m, nv))
-    phi, o = take(base, o, m)
-    gamma, o = take(base, o, m)
-    f, o = take(base, o, nv)
-    Y, o = take(base, o, (m, nv))
-    K, o = take(base, o, (m, m))
-    rhs, o = take(base, o, m)
-    no_forces, o = take(base, o, (0, 6))
-    LK, o = take(base, o, (m, m))
-    t, o = take(base, o, m)
+    LM, o = _take(base, o, (nv, nv))
+    J, o = _take(base, o, (m, nv))
+    phi, o = _take(base, o, m)
+    gamma, o = _take(base, o, m)
+    f, o = _take(base, o, nv)
+    Y, o = _take(base, o, (m, nv))
+    K, o = _take(base, o, (m, m))
+    rhs, o = _take(base, o, m)
+    no_forces, o = _take(base, o, (0, 6))
+    LK, o = _take(base, o, (m, m))
+    t, o = _take(base, o, m)
     return (tws, cws, rws, LM, J, phi, gamma, f, Y, K, rhs, no_forces, LK, lam, piv, t), o
 
 
 @kernel
-def dof_parents(tree, lam):
+def _dof_parents(tree, lam):
     """lam[k]: the velocity coordinate before k on the path to the root, -1 at the root (Featherstone's
     lambda over coordinates: the previous coordinate of a multi-coordinate joint, else the parent joint's last)."""
     parents, v_idx, nv_j = tree.parents, tree.v_idx, tree.nv_j
@@ -122,15 +122,15 @@ def dof_parents(tree, lam):
 
 
 @kernel
-def mass_factor(tree, q, ws, L, lam):
+def _mass_factor(tree, q, ws, L, lam):
     """M(q) = L^T L, L lower triangular with L[k, c] != 0 only where c is k or an ancestor coordinate of k: the
     LTL factorisation of Featherstone 2008, sec. 6.5, Table 6.3, which a tree's M factors with no fill-in
-    (M from the CRBA; lam from :func:`dof_parents`).  Cost sum_k depth(k)^2 rather than nv^3 / 6.  Only the
+    (M from the CRBA; lam from :func:`_dof_parents`).  Cost sum_k depth(k)^2 rather than nv^3 / 6.  Only the
     entries at (k, k) and (k, ancestor of k) are L; the others are left as they were (never read).  Returns -1,
     or the body whose joint has a non-positive pivot (M singular: the joint moves no mass)."""
     nv = L.shape[0]
-    crba_into(tree, q, ws, L)  # writes the entries of coordinate pairs on one path to the root, the only ones read
-    dof_parents(tree, lam)
+    _crba_into(tree, q, ws, L)  # writes the entries of coordinate pairs on one path to the root, the only ones read
+    _dof_parents(tree, lam)
     for k in range(nv - 1, -1, -1):
         d = L[k, k]
         if not d > 0.0:
@@ -155,7 +155,7 @@ def mass_factor(tree, q, ws, L, lam):
 
 
 @kernel
-def ltl_solve_t(L, lam, x):
+def _ltl_solve_t(L, lam, x):
     """x = L^-T x in place (M^-1 = L^-1 L^-T; from the leaves to the root)."""
     for i in range(x.shape[0] - 1, -1, -1):
         x[i] /= L[i, i]
@@ -166,7 +166,7 @@ def ltl_solve_t(L, lam, x):
 
 
 @kernel
-def ltl_solve(L, lam, x):
+def _ltl_solve(L, lam, x):
     """x = L^-1 x in place (from the root to the leaves)."""
     for i in range(x.shape[0]):
         y = x[i]
@@ -178,10 +178,10 @@ def ltl_solve(L, lam, x):
 
 
 @kernel
-def delassus(L, lam, J, Y, K):
+def _delassus(L, lam, J, Y, K):
     """Y = (L^-T J^T)^T (m, nv; row r = L^-T J[r]) and K = Y Y^T = J M^-1 J^T (m, m)."""
     m, nv = Y.shape[0], Y.shape[1]
-    for r in range(m):  # ltl_solve_t on each row, written out (no views), skipping the zeros of sparse rows
+    for r in range(m):  # _ltl_solve_t on each row, written out (no views), skipping the zeros of sparse rows
         for k in range(nv):
             Y[r, k] = J[r, k]
         for i in range(nv - 1, -1, -1):
@@ -202,7 +202,7 @@ def delassus(L, lam, J, Y, K):
 
 
 @kernel
-def cholesky(A, n, tol):
+def _cholesky(A, n, tol):
     """A[:n, :n] = L L^T in place (lower triangle, the upper one not read).  False when a pivot is <= tol."""
     for j in range(n):
         d = A[j, j]
@@ -221,7 +221,7 @@ def cholesky(A, n, tol):
 
 
 @kernel
-def lower_solve(L, n, x):
+def _lower_solve(L, n, x):
     """x[:n] = L[:n, :n]^-1 x[:n] in place (forward substitution)."""
     for r in range(n):
         y = x[r]
@@ -231,7 +231,7 @@ def lower_solve(L, n, x):
 
 
 @kernel
-def upper_solve(L, n, x):
+def _upper_solve(L, n, x):
     """x[:n] = L[:n, :n]^-T x[:n] in place (back substitution)."""
     for r in range(n - 1, -1, -1):
         y = x[r]
@@ -241,7 +241,7 @@ def upper_solve(L, n, x):
 
 
 @kernel
-def pinv_solve(K, rhs, rtol, x, L, piv, t):
+def _pinv_solve(K, rhs, rtol, x, L, piv, t):
     """x = K^+ rhs for a symmetric positive semidefinite K (the minimum-norm solution); returns the rank.  No
     allocation: L (m, m), piv (m,) int and t (m,) are scratch, K is overwritten when rows are dependent.
 
@@ -259,24 +259,24 @@ def pinv_solve(K, rhs, rtol, x, L, piv, t):
         dmax = max(dmax, K[r, r])
     for r in range(m):
         copy_into(L[r], K[r])
-    if dmax > 0.0 and cholesky(L, m, CHOLESKY_RTOL * dmax):
+    if dmax > 0.0 and _cholesky(L, m, CHOLESKY_RTOL * dmax):
         copy_into(x, rhs)
-        lower_solve(L, m, x)
-        upper_solve(L, m, x)
+        _lower_solve(L, m, x)
+        _upper_solve(L, m, x)
         return m
-    rank = pivoted_cholesky(K, rtol * dmax, L, piv)
+    rank = _pivoted_cholesky(K, rtol * dmax, L, piv)
     for r in range(rank):  # z = L1^-1 (P^T rhs)[:r] in t
         t[r] = rhs[piv[r]]
-    lower_solve(L, rank, t)
+    _lower_solve(L, rank, t)
     for a in range(rank):  # G = L^T L (rank x rank, lower triangle) in K
         for b in range(a + 1):
             y = 0.0
             for r in range(m):
                 y += L[r, a] * L[r, b]
             K[a, b] = y
-    cholesky(K, rank, 0.0)  # positive definite: L's r columns are independent
-    lower_solve(K, rank, t)  # w = G^-1 z
-    upper_solve(K, rank, t)
+    _cholesky(K, rank, 0.0)  # positive definite: L's r columns are independent
+    _lower_solve(K, rank, t)  # w = G^-1 z
+    _upper_solve(K, rank, t)
     for r in range(m):  # x = P L w
         y = 0.0
         for a in range(rank):
@@ -286,7 +286,7 @@ def pinv_solve(K, rhs, rtol, x, L, piv, t):
 
 
 @kernel
-def pivoted_cholesky(K, tol, L, piv):
+def _pivoted_cholesky(K, tol, L, piv):
     """P^T K P = L L^T with diagonal pivoting (Golub & Van Loan, Algorithm 4.2.4 as an outer product):
     columns of L (m, m) beyond the returned rank r are left zero; stops when the largest pivot left is <= tol.
     piv[i] is the row of K at position i.  L starts as a copy of K; K is not changed."""
@@ -323,49 +323,49 @@ def pivoted_cholesky(K, tol, L, piv):
 
 
 @kernel
-def constrained_accel_kernel(tree, C, gravity, q, v, tau, alpha, beta, ws, a_out, lam_out):
+def _constrained_accel_kernel(tree, C, gravity, q, v, tau, alpha, beta, ws, a_out, lam_out):
     """One state: a_out (nv,) and lam_out (m,) of the KKT system (module docstring) with Baumgarte gains alpha,
-    beta (1/s; 0, 0 for none).  ws = workspace(nb, nv, m) (or work_at), reused across calls of one
+    beta (1/s; 0, 0 for none).  ws = _workspace(nb, nv, m) (or _work_at), reused across calls of one
     thread.  Returns -1, or the index of a body whose joint makes M singular (then the outputs are not valid).
     The single-state entry for a simulation's right-hand side: it allocates nothing."""
     tws, cws, rws, LM, J, phi, gamma, f, Y, K, rhs, no_forces, LK, lam, piv, t = ws
     nv, m = f.shape[0], phi.shape[0]
-    status = mass_factor(tree, q, cws, LM, lam)
+    status = _mass_factor(tree, q, cws, LM, lam)
     if status >= 0:
         return status
-    rnea_terms(tree, q, v, v, gravity, no_forces, rws, f, True, False)  # f = C v + g
+    _rnea_terms(tree, q, v, v, gravity, no_forces, rws, f, True, False)  # f = C v + g
     for k in range(nv):
         f[k] = tau[k] - f[k]
-    ltl_solve_t(LM, lam, f)  # f = L^-T (tau - C v - g)
-    constraint_terms(tree, C, q, v, True, True, tws, phi, J, gamma)
-    delassus(LM, lam, J, Y, K)
+    _ltl_solve_t(LM, lam, f)  # f = L^-T (tau - C v - g)
+    _constraint_terms(tree, C, q, v, True, True, tws, phi, J, gamma)
+    _delassus(LM, lam, J, Y, K)
     for r in range(m):  # rhs = -(J M^-1 f + gamma + 2 alpha J v + beta^2 phi), J M^-1 f = Y L^-T f
         x = gamma[r] + beta * beta * phi[r]
         for c in range(nv):
             x += Y[r, c] * f[c] + 2.0 * alpha * J[r, c] * v[c]
         rhs[r] = -x
-    pinv_solve(K, rhs, RANK_RTOL, lam_out, LK, piv, t)
+    _pinv_solve(K, rhs, RANK_RTOL, lam_out, LK, piv, t)
     for k in range(nv):  # a = L^-1 (L^-T f + Y^T lambda)
         a_out[k] = f[k]
     for r in range(m):
         for k in range(nv):
             a_out[k] += Y[r, k] * lam_out[r]
-    ltl_solve(LM, lam, a_out)
+    _ltl_solve(LM, lam, a_out)
     return -1
 
 
 @kernel
-def constrained_fd_batch(tree, Q, V, T, C, gravity, alpha, beta, out, status):
+def _constrained_fd_batch(tree, Q, V, T, C, gravity, alpha, beta, out, status):
     """out[b] = [a; lambda] of state b (V and T may have one row)."""
     nb, nv, m = tree.parents.shape[0], tree.S.shape[0], out.shape[1] - tree.S.shape[0]
-    ws_owned = workspace(nb, nv, m)
+    ws_owned = _workspace(nb, nv, m)
     # borrowed (no reference counts): every array of tree, C and ws, and each row view, would otherwise cost an
     # atomic increment and decrement per call of every sub-kernel, per state (about a microsecond)
     t, c, ws, q, v, tau, o = borrowed(tree), borrowed(C), borrowed(ws_owned), borrowed(Q), borrowed(V), \
         borrowed(T), borrowed(out)
     lv, lt = V.shape[0] - 1, T.shape[0] - 1
     for b in range(Q.shape[0]):
-        status[b] = constrained_accel_kernel(t, c, gravity, q[b], v[min(b, lv)], tau[min(b, lt)], alpha, beta,
+        status[b] = _constrained_accel_kernel(t, c, gravity, q[b], v[min(b, lv)], tau[min(b, lt)], alpha, beta,
                                              ws, o[b, :nv], o[b, nv:])
     keep_alive(tree)
     keep_alive(C)
@@ -376,33 +376,33 @@ def constrained_fd_batch(tree, Q, V, T, C, gravity, alpha, beta, out, status):
     keep_alive(out)
 
 
-def constrained_fd_single(packed, packed_C, q, v, tau, alpha, beta, a, lam):
+def _constrained_fd_single(packed, packed_C, q, v, tau, alpha, beta, a, lam):
     """One state from Python into a (nv,) and lam (m,), inputs checked in the same compiled call: DONE, or
     GENERAL for a non-finite input, a zero quaternion or a singular M (the general path then says which).  The
     model and its constraints come packed (two arrays to unbox, not nineteen) and the scratch is one buffer."""
-    tree, gravity, nq = unpack(packed)
+    tree, gravity, nq = _unpack(packed)
     C = unpack_constraints(packed_C)
     nb, nv, m = tree.parents.shape[0], tree.S.shape[0], lam.shape[0]
-    if not (config_ok(tree, nq, q) and vector_ok(v, nv) and vector_ok(tau, nv) and a.shape[0] == nv
-            and m == C_rows(C)):
+    if not (_config_ok(tree, nq, q) and _vector_ok(v, nv) and _vector_ok(tau, nv) and a.shape[0] == nv
+            and m == _C_rows(C)):
         return GENERAL
     ints = np.empty(nv + m, np.int64)
-    n = work_at(0, nb, nv, m, ints[:nv], ints[nv:])[1]
+    n = _work_at(0, nb, nv, m, ints[:nv], ints[nv:])[1]
     buf = scratch(n + 3)  # one buffer (on the stack when small), not ~30 arrays
     g = view(buf, n, 3)  # gravity as a writable array: the batch's type, so both share one compiled kernel
     g[0], g[1], g[2] = gravity[0], gravity[1], gravity[2]
-    status = constrained_accel_kernel(tree, C, g, q, v, tau, alpha, beta,
-                                      work_at(address(buf), nb, nv, m, ints[:nv], ints[nv:])[0], a, lam)
+    status = _constrained_accel_kernel(tree, C, g, q, v, tau, alpha, beta,
+                                      _work_at(address(buf), nb, nv, m, ints[:nv], ints[nv:])[0], a, lam)
     keep_alive(buf)
     keep_alive(ints)
     return DONE if status < 0 else GENERAL
 
 
 @kernel
-def drift_kernel(tree, C, q, v, ws):
-    """(max |phi(q)|, max |Phi_q v|): the position and velocity residuals of one state (ws = workspace)."""
+def _drift_kernel(tree, C, q, v, ws):
+    """(max |phi(q)|, max |Phi_q v|): the position and velocity residuals of one state (ws = _workspace)."""
     tws, _, _, _, J, phi, gamma, _, _, _, _, _, _, _, _, _ = ws
-    constraint_terms(tree, C, q, v, True, False, tws, phi, J, gamma)
+    _constraint_terms(tree, C, q, v, True, False, tws, phi, J, gamma)
     pos, vel = 0.0, 0.0
     for r in range(phi.shape[0]):
         pos = max(pos, abs(phi[r]))
@@ -414,34 +414,34 @@ def drift_kernel(tree, C, q, v, ws):
 
 
 @kernel
-def project_velocity_kernel(tree, C, q, v, ws, v_out):
+def _project_velocity_kernel(tree, C, q, v, ws, v_out):
     """v_out = v - M^-1 J^T K^+ J v: the velocity closest to v in the kinetic-energy metric with J v_out = 0
     (what an impulse along the constraints does).  Returns -1 or a body whose joint makes M singular."""
     tws, cws, _, LM, J, phi, gamma, f, Y, K, rhs, _, LK, lam, piv, t = ws
     nv, m = v.shape[0], phi.shape[0]
-    status = mass_factor(tree, q, cws, LM, lam)
+    status = _mass_factor(tree, q, cws, LM, lam)
     if status >= 0:
         return status
-    constraint_terms(tree, C, q, v, True, False, tws, phi, J, gamma)
-    delassus(LM, lam, J, Y, K)
+    _constraint_terms(tree, C, q, v, True, False, tws, phi, J, gamma)
+    _delassus(LM, lam, J, Y, K)
     for r in range(m):
         x = 0.0
         for c in range(nv):
             x += J[r, c] * v[c]
         rhs[r] = -x
-    pinv_solve(K, rhs, RANK_RTOL, gamma, LK, piv, t)
+    _pinv_solve(K, rhs, RANK_RTOL, gamma, LK, piv, t)
     f[:] = 0.0
     for r in range(m):  # M^-1 J^T mu = L^-1 Y^T mu
         for k in range(nv):
             f[k] += Y[r, k] * gamma[r]
-    ltl_solve(LM, lam, f)
+    _ltl_solve(LM, lam, f)
     for k in range(nv):
         v_out[k] = v[k] + f[k]
     return -1
 
 
 @kernel
-def project_position_kernel(tree, C, q, ws, tol, max_iter, q_out):
+def _project_position_kernel(tree, C, q, ws, tol, max_iter, q_out):
     """q_out = q moved onto phi = 0 by Gauss-Newton with minimum-norm steps, q_{k+1} = q_k (+) (-J^+ phi), at
     most max_iter steps (near the manifold, after an accepted step, it converges quadratically).  Returns max
     |phi(q_out)|; above tol the projection failed (the caller keeps q and reports it)."""
@@ -449,28 +449,28 @@ def project_position_kernel(tree, C, q, ws, tol, max_iter, q_out):
     copy_into(q_out, q)
     err = 0.0
     for it in range(max_iter + 1):
-        constraint_terms(tree, C, q_out, f, True, False, tws, phi, J, gamma)
+        _constraint_terms(tree, C, q_out, f, True, False, tws, phi, J, gamma)
         err = 0.0
         for r in range(phi.shape[0]):
             err = max(err, abs(phi[r]))
         if err <= tol or it == max_iter:
             break
         dq = np.linalg.lstsq(J, phi, rcond=1e-12)[0]
-        copy_into(q_out, integrate_q(tree, q_out, dq, -1.0))
+        copy_into(q_out, _integrate_q(tree, q_out, dq, -1.0))
     return err
 
 
 @kernel
-def project_batch(tree, Q, V, C, out, status):
+def _project_batch(tree, Q, V, C, out, status):
     nb, nv = tree.parents.shape[0], tree.S.shape[0]
-    ws = workspace(nb, nv, C_rows(C))
+    ws = _workspace(nb, nv, _C_rows(C))
     lv = V.shape[0] - 1
     for b in range(Q.shape[0]):
-        status[b] = project_velocity_kernel(tree, C, Q[b], V[min(b, lv)], ws, out[b])
+        status[b] = _project_velocity_kernel(tree, C, Q[b], V[min(b, lv)], ws, out[b])
 
 
 @kernel
-def C_rows(C):
+def _C_rows(C):
     """m, the number of constraint rows."""
     n = C.kind.shape[0]
     if n == 0:
@@ -482,14 +482,14 @@ def C_rows(C):
 # -- inverse dynamics --------------------------------------------------------------------------------------------
 
 @kernel
-def constrained_id_kernel(tree, C, gravity, q, v, a, actuated, ws, tau_out):
+def _constrained_id_kernel(tree, C, gravity, q, v, a, actuated, ws, tau_out):
     """tau_out (nv,) with zeros at passive coordinates such that M a + C v + g = tau + J^T lambda for some
     lambda.  ``actuated`` (nv,) is 1.0 at actuated coordinates.  Returns 0 (done), 1 (a violates the
     constraints: J a + gamma != 0) or 2 (the actuated coordinates cannot produce this motion)."""
     tws, _, rws, _, J, phi, gamma, f, _, _, _, no_forces, _, _, _, _ = ws
     nv, m = f.shape[0], phi.shape[0]
-    rnea_terms(tree, q, v, a, gravity, no_forces, rws, f, True, True)  # f = M a + C v + g
-    constraint_terms(tree, C, q, v, True, True, tws, phi, J, gamma)
+    _rnea_terms(tree, q, v, a, gravity, no_forces, rws, f, True, True)  # f = M a + C v + g
+    _constraint_terms(tree, C, q, v, True, True, tws, phi, J, gamma)
     scale = 1.0
     for r in range(m):
         x = gamma[r]
@@ -527,12 +527,12 @@ def constrained_id_kernel(tree, C, gravity, q, v, a, actuated, ws, tau_out):
 
 
 @kernel
-def constrained_id_batch(tree, Q, V, A, C, gravity, actuated, out, status):
+def _constrained_id_batch(tree, Q, V, A, C, gravity, actuated, out, status):
     nb, nv = tree.parents.shape[0], tree.S.shape[0]
-    ws = workspace(nb, nv, C_rows(C))
+    ws = _workspace(nb, nv, _C_rows(C))
     lv, la = V.shape[0] - 1, A.shape[0] - 1
     for b in range(Q.shape[0]):
-        status[b] = constrained_id_kernel(tree, C, gravity, Q[b], V[min(b, lv)], A[min(b, la)], actuated, ws,
+        status[b] = _constrained_id_kernel(tree, C, gravity, Q[b], V[min(b, lv)], A[min(b, la)], actuated, ws,
                                           out[b])
 
 
@@ -557,11 +557,11 @@ class _Checked:
             raise _Failed(int(bad[0]), int(status[bad[0]]))
 
 
-_fd_batch = _Checked(constrained_fd_batch, -1)
-_fd_single = SingleCall(constrained_fd_single, PACKED, VECTOR, VECTOR, VECTOR, types.float64, types.float64, VECTOR,
+_fd_batch = _Checked(_constrained_fd_batch, -1)
+_fd_single = SingleCall(_constrained_fd_single, PACKED, VECTOR, VECTOR, VECTOR, types.float64, types.float64, VECTOR,
                         VECTOR)
-_project_batch = _Checked(project_batch, -1)
-_id_batch = _Checked(constrained_id_batch, 0)
+_project_batch = _Checked(_project_batch, -1)
+_id_batch = _Checked(_constrained_id_batch, 0)
 
 
 def _singular(model, what, e):

@@ -38,13 +38,13 @@ import numpy as np
 
 from . import checks
 from ._numba import address, float_at, inline_kernel, int_at, kernel
-from .data import take
-from .configuration import integrate_q
+from .data import _take
+from .configuration import _integrate_q
 from .errors import InputError
-from .kinematics import frame_placement, world_pose
+from .kinematics import frame_placement, _world_pose
 from .model import _frozen
 from .parallel import run_chunks
-from .spatial import add, cross, cross_motion, dot, load3, load33, matmul, rot, rotation_log, scale, transpose
+from .spatial import add, cross, cross_motion, dot, load3, load33, matmul, rot, _rotation_log, scale, transpose
 
 POINT, WELD, REVOLUTE, COUPLING = 0, 1, 2, 3
 #: rows per constraint kind
@@ -231,7 +231,7 @@ def arrays(model):
 def packed(model):
     """The model's :class:`ConstraintArrays` as one read-only int64 array (kept with the model), for a
     single-state entry point (one argument to unbox instead of seven): [nc, kind, row, body, idx, then the float64
-    bits of R, p, coef]; :func:`unpack` reads it back as views."""
+    bits of R, p, coef]; :func:`_unpack` reads it back as views."""
     cached = model.__dict__.get("_constraint_packed")
     if cached is None:
         C, _ = arrays(model)
@@ -243,7 +243,7 @@ def packed(model):
 
 
 @inline_kernel
-def unpack(packed):
+def _unpack(packed):
     """:class:`ConstraintArrays` from :func:`packed`: borrowed views, living as long as the call."""
     nc = packed[0]
     f = 1 + 8 * nc  # the floats start after nc, kind, row, body (2 nc), idx (4 nc)
@@ -293,7 +293,7 @@ def with_constraints(model, constraints, *, at=None):
         q1, err = q0, 0.0
         rng = np.random.default_rng(0)
         for attempt in range(6):  # a stretched pose (a singular J) can stall: retry from nearby ones
-            start = q0 if attempt == 0 else integrate_q(model.tree, q0, rng.normal(scale=0.3, size=model.nv), 1.0)
+            start = q0 if attempt == 0 else _integrate_q(model.tree, q0, rng.normal(scale=0.3, size=model.nv), 1.0)
             q1, err = close_loops(out, C, m, start, np.ones(model.nv), 1e-10, 30)
             if err <= 1e-10:
                 break
@@ -323,17 +323,17 @@ def close_loops(model, C, m, q, free, tol, max_iter):
     tree = model.tree
     V = np.zeros((1, model.nv))
     phi, J = np.empty((1, m)), np.empty((1, m, model.nv))
-    residual_batch(tree, q[None], V, C, phi)
+    _residual_batch(tree, q[None], V, C, phi)
     err = np.abs(phi[0]).max()
     for _ in range(max_iter):
         if err <= tol:
             break
-        jacobian_batch(tree, q[None], V, C, J)
+        _jacobian_batch(tree, q[None], V, C, J)
         dq = -np.linalg.lstsq(J[0] * free, phi[0], rcond=1e-12)[0] * free
         step = 1.0
         while step > 1e-6:
-            q_new = integrate_q(tree, q, dq, step)
-            residual_batch(tree, q_new[None], V, C, phi)
+            q_new = _integrate_q(tree, q, dq, step)
+            _residual_batch(tree, q_new[None], V, C, phi)
             if np.abs(phi[0]).max() < err:
                 break
             step *= 0.5
@@ -346,20 +346,20 @@ def close_loops(model, C, m, q, free, tol, max_iter):
 # -- kernels -----------------------------------------------------------------------------------------------------
 
 @kernel
-def workspace(nb, nv):
+def _workspace(nb, nv):
     """World poses, motion axes oS (nv, 6), body velocities V and bias accelerations A (nb, 6) at the origin."""
     return np.empty((nb, 3, 3)), np.empty((nb, 3)), np.empty((nv, 6)), np.empty((nb, 6)), np.empty((nb, 6))
 
 
 @inline_kernel
-def work_at(base, o, nb, nv):
-    """The same scratch as :func:`workspace` carved from the buffer at ``base`` from offset o, and the offset
+def _work_at(base, o, nb, nv):
+    """The same scratch as :func:`_workspace` carved from the buffer at ``base`` from offset o, and the offset
     after it."""
-    R, o = take(base, o, (nb, 3, 3))
-    p, o = take(base, o, (nb, 3))
-    oS, o = take(base, o, (nv, 6))
-    V, o = take(base, o, (nb, 6))
-    A, o = take(base, o, (nb, 6))
+    R, o = _take(base, o, (nb, 3, 3))
+    p, o = _take(base, o, (nb, 3))
+    oS, o = _take(base, o, (nv, 6))
+    V, o = _take(base, o, (nb, 6))
+    A, o = _take(base, o, (nb, 6))
     return (R, p, oS, V, A), o
 
 
@@ -375,13 +375,13 @@ def _put(X, i, w, v):
 
 
 @kernel
-def body_motion(tree, q, v, with_v, ws):
+def _body_motion(tree, q, v, with_v, ws):
     """World poses, motion axes oS_k and (with_v) V_i and A_i of every body (module docstring)."""
     parents, S, v_idx, nv_j = tree.parents, tree.S, tree.v_idx, tree.nv_j
     oR, op, oS, V, A = ws
     zero = (0.0, 0.0, 0.0)
     for i in range(parents.shape[0]):
-        _, _, R, p = world_pose(tree, i, q, oR, op)
+        _, _, R, p = _world_pose(tree, i, q, oR, op)
         jw, jv = zero, zero
         for k in range(v_idx[i], v_idx[i] + nv_j[i]):
             w = rot(R, (S[k, 0], S[k, 1], S[k, 2]))
@@ -402,7 +402,7 @@ def body_motion(tree, q, v, with_v, ws):
 
 
 @inline_kernel
-def anchor_pose(C, c, s, oR, op):
+def _anchor_pose(C, c, s, oR, op):
     """World axes (9-tuple) and origin of anchor s (0: a, 1: b) of constraint c."""
     b = C.body[c, s]
     R = (C.R[c, s, 0, 0], C.R[c, s, 0, 1], C.R[c, s, 0, 2], C.R[c, s, 1, 0], C.R[c, s, 1, 1], C.R[c, s, 1, 2],
@@ -415,7 +415,7 @@ def anchor_pose(C, c, s, oR, op):
 
 
 @inline_kernel
-def anchor_motion(V, A, b, x):
+def _anchor_motion(V, A, b, x):
     """Velocity (linear at world point x, angular) and classical bias acceleration (linear, angular) of body b."""
     zero = (0.0, 0.0, 0.0)
     if b < 0:
@@ -427,7 +427,7 @@ def anchor_motion(V, A, b, x):
 
 
 @inline_kernel
-def add_columns(tree, oS, b, x, sign, J, r, lin, D, nang):
+def _add_columns(tree, oS, b, x, sign, J, r, lin, D, nang):
     """J[r:r+3] += sign * linear velocity columns at world point x (if lin), then J[r+3 or r: +nang] +=
     sign * D[j] . angular columns, over the support of body b."""
     parents, v_idx, nv_j = tree.parents, tree.v_idx, tree.nv_j
@@ -452,10 +452,10 @@ def _col(R, k):
 
 
 @kernel
-def constraint_terms(tree, C, q, v, with_J, with_v, ws, phi, J, gamma):
-    """phi (m,) at q; with_J: J = Phi_q (m, nv); with_v: gamma = Phi_q_dot v (m,).  ws from :func:`workspace`."""
+def _constraint_terms(tree, C, q, v, with_J, with_v, ws, phi, J, gamma):
+    """phi (m,) at q; with_J: J = Phi_q (m, nv); with_v: gamma = Phi_q_dot v (m,).  ws from :func:`_workspace`."""
     oR, op, oS, V, A = ws
-    body_motion(tree, q, v, with_v, ws)
+    _body_motion(tree, q, v, with_v, ws)
     if with_J:
         J[:, :] = 0.0
     E = ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0))
@@ -471,14 +471,14 @@ def constraint_terms(tree, C, q, v, with_J, with_v, ws, phi, J, gamma):
             if with_v:
                 gamma[r] = 0.0
             continue
-        Ra, xa = anchor_pose(C, c, 0, oR, op)
-        Rb, xb = anchor_pose(C, c, 1, oR, op)
+        Ra, xa = _anchor_pose(C, c, 0, oR, op)
+        Rb, xb = _anchor_pose(C, c, 1, oR, op)
         ba, bb = C.body[c, 0], C.body[c, 1]
         phi[r], phi[r + 1], phi[r + 2] = xa[0] - xb[0], xa[1] - xb[1], xa[2] - xb[2]
         t1, t2 = _col(Ra, 0), _col(Ra, 1)
         D, nang = E, 0
         if kind == 1:  # weld: log(R_A R_B^T)
-            e = rotation_log(matmul(Ra, transpose(Rb)))
+            e = _rotation_log(matmul(Ra, transpose(Rb)))
             phi[r + 3], phi[r + 4], phi[r + 5] = e
             nang = 3
         elif kind == 2:  # hinge: t_k . (u_B x u_A)
@@ -486,11 +486,11 @@ def constraint_terms(tree, C, q, v, with_J, with_v, ws, phi, J, gamma):
             phi[r + 3], phi[r + 4] = dot(t1, n), dot(t2, n)
             D, nang = (t1, t2, t2), 2
         if with_J:
-            add_columns(tree, oS, ba, xa, 1.0, J, r, True, D, nang)
-            add_columns(tree, oS, bb, xb, -1.0, J, r, True, D, nang)
+            _add_columns(tree, oS, ba, xa, 1.0, J, r, True, D, nang)
+            _add_columns(tree, oS, bb, xb, -1.0, J, r, True, D, nang)
         if with_v:
-            la, wa, aa, ala = anchor_motion(V, A, ba, xa)
-            lb, wb, ab, alb = anchor_motion(V, A, bb, xb)
+            la, wa, aa, ala = _anchor_motion(V, A, ba, xa)
+            lb, wb, ab, alb = _anchor_motion(V, A, bb, xb)
             gamma[r], gamma[r + 1], gamma[r + 2] = aa[0] - ab[0], aa[1] - ab[1], aa[2] - ab[2]
             dw, dal = add(wa, scale(-1.0, wb)), add(ala, scale(-1.0, alb))
             if kind == 1:
@@ -501,35 +501,35 @@ def constraint_terms(tree, C, q, v, with_J, with_v, ws, phi, J, gamma):
 
 
 @kernel
-def residual_batch(tree, Q, V, C, out):
+def _residual_batch(tree, Q, V, C, out):
     """out[b] = phi(Q[b]) (V unused)."""
     nb, nv, m = tree.parents.shape[0], tree.S.shape[0], out.shape[1]
-    ws, J, gamma = workspace(nb, nv), np.empty((m, nv)), np.empty(m)
+    ws, J, gamma = _workspace(nb, nv), np.empty((m, nv)), np.empty(m)
     for b in range(Q.shape[0]):
-        constraint_terms(tree, C, Q[b], V[0], False, False, ws, out[b], J, gamma)
+        _constraint_terms(tree, C, Q[b], V[0], False, False, ws, out[b], J, gamma)
 
 
 @kernel
-def jacobian_batch(tree, Q, V, C, out):
+def _jacobian_batch(tree, Q, V, C, out):
     """out[b] = Phi_q(Q[b]) (V unused)."""
     nb, nv, m = tree.parents.shape[0], tree.S.shape[0], out.shape[1]
-    ws, phi, gamma = workspace(nb, nv), np.empty(m), np.empty(m)
+    ws, phi, gamma = _workspace(nb, nv), np.empty(m), np.empty(m)
     for b in range(Q.shape[0]):
-        constraint_terms(tree, C, Q[b], V[0], True, False, ws, phi, out[b], gamma)
+        _constraint_terms(tree, C, Q[b], V[0], True, False, ws, phi, out[b], gamma)
 
 
 @kernel
-def bias_batch(tree, Q, V, C, out):
+def _bias_batch(tree, Q, V, C, out):
     """out[b] = Phi_q_dot v at (Q[b], V[b]) (V may have one row)."""
     nb, nv, m = tree.parents.shape[0], tree.S.shape[0], out.shape[1]
-    ws, phi, J = workspace(nb, nv), np.empty(m), np.empty((m, nv))
+    ws, phi, J = _workspace(nb, nv), np.empty(m), np.empty((m, nv))
     lv = V.shape[0] - 1
     for b in range(Q.shape[0]):
-        constraint_terms(tree, C, Q[b], V[min(b, lv)], False, True, ws, phi, J, out[b])
+        _constraint_terms(tree, C, Q[b], V[min(b, lv)], False, True, ws, phi, J, out[b])
 
 
 # -- public entry points -------------------------------------------------------------------------------------
-_BATCH = {0: residual_batch, 1: jacobian_batch, 2: bias_batch}
+_BATCH = {0: _residual_batch, 1: _jacobian_batch, 2: _bias_batch}
 
 
 def _terms(model, q, v, what):

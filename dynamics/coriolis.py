@@ -19,8 +19,8 @@ from . import checks
 from ._numba import address, keep_alive, kernel
 from .parallel import run_chunks
 
-from .data import data_at, forward_pass
-from .joints import joint_motion
+from .data import _data_at, _forward_pass
+from .joints import _joint_motion
 from .spatial import add, cross_motion, load3, load33, motion_to_child
 
 
@@ -52,12 +52,12 @@ def _cross_matrices(I, w, vl, B):
 
 
 @kernel
-def coriolis_kernel(tree, q, v, C):
+def _coriolis_kernel(tree, q, v, C):
     nb = tree.parents.shape[0]
     nv = tree.S.shape[0]
-    buf = np.empty(data_at(0, 0, nb)[1])
-    d = data_at(address(buf), 0, nb)[0]
-    forward_pass(tree, q, v, d, True)  # X_i, v_i
+    buf = np.empty(_data_at(0, 0, nb)[1])
+    d = _data_at(address(buf), 0, nb)[0]
+    _forward_pass(tree, q, v, d, True)  # X_i, v_i
     J = np.zeros((nb, 6, nv))
     dJ = np.zeros((nb, 6, nv))
     cols = np.zeros((nb, nv), dtype=np.bool_)  # columns of J_i that can be non-zero (ancestors' dofs)
@@ -69,7 +69,7 @@ def coriolis_kernel(tree, q, v, C):
     for i in range(nb):
         R, p = load33(d.R, i), load3(d.p, i)
         par = tree.parents[i]
-        wJ, vJ = joint_motion(tree, i, v)
+        wJ, vJ = _joint_motion(tree, i, v)
         if par >= 0:  # J_i = X_i J_p (+ S_i),  dJ_i = X_i dJ_p + J_i x v_J (Featherstone 2008, sec. 7.2)
             for k in range(nv):
                 if cols[par, k]:
@@ -118,13 +118,13 @@ def coriolis_kernel(tree, q, v, C):
 
 
 @kernel
-def coriolis_batch(tree, Q, V, out):
+def _coriolis_batch(tree, Q, V, out):
     for b in range(Q.shape[0]):
-        coriolis_kernel(tree, Q[b], V[b], out[b])
+        _coriolis_kernel(tree, Q[b], V[b], out[b])
 
 
 # -- public entry point ----------------------------------------------------------------------------
-_coriolis_batch = coriolis_batch
+_coriolis_batch = _coriolis_batch
 
 
 def coriolis_matrix(model, q, v):

@@ -12,38 +12,38 @@ import numpy as np
 
 from . import checks
 from ._numba import (MATRIX, SingleCall, VECTOR, address, inline_kernel, keep_alive, kernel, scratch)
-from .data import take
-from .checks import NOT_ARRAYS, DONE, GENERAL, config_ok
-from .model import unpack
+from .data import _take
+from .checks import NOT_ARRAYS, DONE, GENERAL, _config_ok
+from .model import _unpack
 from .parallel import run_chunks
-from .joints import joint_transform
+from .joints import _joint_transform
 from .spatial import add, force_to_parent, inertia_times, inertia_to_parent, load3, load33, store3, store33
 
 
 @kernel
-def workspace(nb):
+def _workspace(nb):
     """Scratch: poses (R, p) and composite inertias (m, h, Io)."""
     return np.empty((nb, 3, 3)), np.empty((nb, 3)), np.empty(nb), np.empty((nb, 3)), np.empty((nb, 3, 3))
 
 
 @inline_kernel
-def work_at(base, o, nb):
+def _work_at(base, o, nb):
     """The same scratch carved from the buffer at ``base`` from offset o, and the offset after it."""
-    R, o = take(base, o, (nb, 3, 3))
-    p, o = take(base, o, (nb, 3))
-    m, o = take(base, o, nb)
-    h, o = take(base, o, (nb, 3))
-    Io, o = take(base, o, (nb, 3, 3))
+    R, o = _take(base, o, (nb, 3, 3))
+    p, o = _take(base, o, (nb, 3))
+    m, o = _take(base, o, nb)
+    h, o = _take(base, o, (nb, 3))
+    Io, o = _take(base, o, (nb, 3, 3))
     return (R, p, m, h, Io), o
 
 
 @kernel
-def crba_into(tree, q, ws, M):
+def _crba_into(tree, q, ws, M):
     parents, mass, hs, Ios, S, v_idx, nv_j = tree.parents, tree.mass, tree.h, tree.Io, tree.S, tree.v_idx, tree.nv_j
     Rs, ps, mc, hc, Ioc = ws
     nb = parents.shape[0]
     for i in range(nb):
-        R, p = joint_transform(tree, i, q)
+        R, p = _joint_transform(tree, i, q)
         store33(Rs, i, R)
         store3(ps, i, p)
         mc[i] = mass[i]
@@ -56,7 +56,7 @@ def crba_into(tree, q, ws, M):
             hP, IoP = inertia_to_parent(load33(Rs, i), load3(ps, i), m, h, Io)
             mc[par] += m
             store3(hc, par, add(load3(hc, par), hP))
-            store33(Ioc, par, add9(load33(Ioc, par), IoP))
+            store33(Ioc, par, _add9(load33(Ioc, par), IoP))
         for k in range(v_idx[i], v_idx[i] + nv_j[i]):
             n, f = inertia_times(m, h, Io, (S[k, 0], S[k, 1], S[k, 2]), (S[k, 3], S[k, 4], S[k, 5]))  # F = I^c S_k
             j = i
@@ -75,39 +75,39 @@ def crba_into(tree, q, ws, M):
 
 
 @kernel
-def add9(A, B):
+def _add9(A, B):
     return (A[0] + B[0], A[1] + B[1], A[2] + B[2], A[3] + B[3], A[4] + B[4], A[5] + B[5], A[6] + B[6],
             A[7] + B[7], A[8] + B[8])
 
 
 @kernel
-def crba_batch(tree, Q, out):
-    ws = workspace(tree.parents.shape[0])
+def _crba_batch(tree, Q, out):
+    ws = _workspace(tree.parents.shape[0])
     out[:] = 0.0
     for b in range(Q.shape[0]):
-        crba_into(tree, Q[b], ws, out[b])
+        _crba_into(tree, Q[b], ws, out[b])
 
 
-def crba_single(packed, q, M):
+def _crba_single(packed, q, M):
     """One state from Python into M (zeroed here: a new array from np.empty is ~70 ns cheaper than from
     np.zeros), inputs checked in the call (status codes of :mod:`dynamics.checks`)."""
-    tree, gravity, nq = unpack(packed)
+    tree, gravity, nq = _unpack(packed)
     nb, nv = tree.parents.shape[0], tree.S.shape[0]
-    if not (config_ok(tree, nq, q) and M.shape[0] == nv and M.shape[1] == nv):
+    if not (_config_ok(tree, nq, q) and M.shape[0] == nv and M.shape[1] == nv):
         return GENERAL
     for r in range(nv):
         for c in range(nv):
             M[r, c] = 0.0
-    buf = scratch(work_at(0, 0, nb)[1])
-    crba_into(tree, q, work_at(address(buf), 0, nb)[0], M)
+    buf = scratch(_work_at(0, 0, nb)[1])
+    _crba_into(tree, q, _work_at(address(buf), 0, nb)[0], M)
     keep_alive(buf)
     return DONE
 
 
 
 # -- public entry point ----------------------------------------------------------------------------
-_crba_batch = crba_batch
-_crba_single = SingleCall(crba_single, VECTOR, MATRIX)
+_crba_batch = _crba_batch
+_crba_single = SingleCall(_crba_single, VECTOR, MATRIX)
 
 
 def mass_matrix(model, q):

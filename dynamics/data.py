@@ -4,7 +4,7 @@ the later passes read its results.
 
 For one state, body i with parent p (Featherstone 2008, eqs. 5.7-5.8 with constant S in body coordinates):
 
-    X_i = (R_i, p_i) = joint_transform(i, q)        body i in its parent's frame
+    X_i = (R_i, p_i) = _joint_transform(i, q)        body i in its parent's frame
     v_i = X_i v_p + S_i qd_i                          spatial velocity, body frame
     c_i = v_i x (S_i qd_i)                            velocity-product acceleration
 
@@ -28,7 +28,7 @@ at address 0, keep the end), so no size or offset is ever computed by hand.  The
 from typing import NamedTuple
 
 from ._numba import float_at, inline_kernel, int_at
-from .joints import joint_motion, joint_transform
+from .joints import _joint_motion, _joint_transform
 from .spatial import add, cross_motion, load3, motion_to_child, store3, store33
 
 
@@ -44,39 +44,39 @@ class Data(NamedTuple):
 
 
 @inline_kernel
-def take(base, o, shape):
+def _take(base, o, shape):
     """The float64 array of ``shape`` at offset ``o`` of the buffer at ``base``, and the offset after it."""
     a = float_at(base, o, shape)
     return a, o + a.size
 
 
 @inline_kernel
-def take_int(base, o, shape):
-    """As :func:`take`, an int64 array (integer scratch in a float buffer: both are 8 bytes wide)."""
+def _take_int(base, o, shape):
+    """As :func:`_take`, an int64 array (integer scratch in a float buffer: both are 8 bytes wide)."""
     a = int_at(base, o, shape)
     return a, o + a.size
 
 
 @inline_kernel
-def data_at(base, o, nb):
+def _data_at(base, o, nb):
     """A :class:`Data` for nb bodies at offset o of the buffer at base, and the offset after it."""
-    R, o = take(base, o, (nb, 3, 3))
-    p, o = take(base, o, (nb, 3))
-    w, o = take(base, o, (nb, 3))
-    vl, o = take(base, o, (nb, 3))
-    cw, o = take(base, o, (nb, 3))
-    cv, o = take(base, o, (nb, 3))
+    R, o = _take(base, o, (nb, 3, 3))
+    p, o = _take(base, o, (nb, 3))
+    w, o = _take(base, o, (nb, 3))
+    vl, o = _take(base, o, (nb, 3))
+    cw, o = _take(base, o, (nb, 3))
+    cv, o = _take(base, o, (nb, 3))
     return Data(R, p, w, vl, cw, cv), o
 
 
 @inline_kernel
-def forward_pass(tree, q, v, d, with_v):
+def _forward_pass(tree, q, v, d, with_v):
     """Fill ``d`` (:class:`Data`) at (q, v): poses always; velocities and c_i when ``with_v`` (v is not zero),
     else c_i = 0 and the velocities are not written."""
     parents = tree.parents
     zero = (0.0, 0.0, 0.0)
     for i in range(parents.shape[0]):
-        R, p = joint_transform(tree, i, q)
+        R, p = _joint_transform(tree, i, q)
         store33(d.R, i, R)
         store3(d.p, i, p)
         if not with_v:
@@ -88,7 +88,7 @@ def forward_pass(tree, q, v, d, with_v):
             w, vl = motion_to_child(R, p, zero, zero)
         else:
             w, vl = motion_to_child(R, p, load3(d.w, par), load3(d.vl, par))
-        wJ, vJ = joint_motion(tree, i, v)
+        wJ, vJ = _joint_motion(tree, i, v)
         w, vl = add(w, wJ), add(vl, vJ)
         store3(d.w, i, w)
         store3(d.vl, i, vl)

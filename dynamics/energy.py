@@ -12,17 +12,17 @@ import numpy as np
 from . import checks
 from ._numba import (address, inline_kernel, keep_alive, kernel)
 from .parallel import run_chunks
-from .data import data_at, forward_pass, take
+from .data import _data_at, _forward_pass, _take
 from .spatial import add, dot, inertia_times, load3, load33, matmul, rot, store3, store33
 
 
 @inline_kernel
-def energies(tree, q, v, gravity, kinetic, potential, d, Rw, pw):
+def _energies(tree, q, v, gravity, kinetic, potential, d, Rw, pw):
     """(T, U) at one state (T when ``kinetic``, U when ``potential``, else 0): the forward pass into ``d``
     (:class:`~dynamics.data.Data`), then T from the body velocities and U from the world poses Rw (nb, 3, 3),
     pw (nb, 3) composed from the same transforms."""
     parents, mass, hs, Ios = tree.parents, tree.mass, tree.h, tree.Io
-    forward_pass(tree, q, v, d, kinetic)
+    _forward_pass(tree, q, v, d, kinetic)
     g = (gravity[0], gravity[1], gravity[2])
     T = 0.0
     U = 0.0
@@ -44,21 +44,21 @@ def energies(tree, q, v, gravity, kinetic, potential, d, Rw, pw):
 
 
 @kernel
-def energy_batch(tree, Q, V, gravity, kinetic, potential, out):
+def _energy_batch(tree, Q, V, gravity, kinetic, potential, out):
     """out[b] = (T, U) at (Q[b], V[b]), T only if ``kinetic`` (else 0 and V may have one row), U only if
     ``potential`` (else 0)."""
     nb = tree.parents.shape[0]
-    buf = np.empty(data_at(0, 0, nb)[1] + 12 * nb)
-    d, o = data_at(address(buf), 0, nb)
-    Rw, o = take(address(buf), o, (nb, 3, 3))
-    pw, o = take(address(buf), o, (nb, 3))
+    buf = np.empty(_data_at(0, 0, nb)[1] + 12 * nb)
+    d, o = _data_at(address(buf), 0, nb)
+    Rw, o = _take(address(buf), o, (nb, 3, 3))
+    pw, o = _take(address(buf), o, (nb, 3))
     for b in range(Q.shape[0]):
-        out[b, 0], out[b, 1] = energies(tree, Q[b], V[b if kinetic else 0], gravity, kinetic, potential, d, Rw, pw)
+        out[b, 0], out[b, 1] = _energies(tree, Q[b], V[b if kinetic else 0], gravity, kinetic, potential, d, Rw, pw)
     keep_alive(buf)
 
 
 # -- public entry points ---------------------------------------------------------------------------
-_energy_batch = energy_batch
+_energy_batch = _energy_batch
 
 
 def kinetic_energy(model, q, v):

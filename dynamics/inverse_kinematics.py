@@ -23,13 +23,13 @@ import numpy as np
 
 from . import checks
 from ._numba import borrowed, keep_alive, kernel
-from .configuration import integrate_q
+from .configuration import _integrate_q
 from .errors import InputError
-from .jacobians import jacobian_into
-from .joints import joint_limited
+from .jacobians import _jacobian_into
+from .joints import _joint_limited
 from .kinematics import LOCAL_WORLD_ALIGNED
 from .parallel import run_chunks
-from .spatial import matmul, rotation_log, spd_inverse, transpose
+from .spatial import matmul, _rotation_log, _spd_inverse, transpose
 
 CONVERGED, MAX_ITER, STALLED = 0, 1, 2
 STATUS = ("converged", "max_iter", "stalled")
@@ -41,14 +41,14 @@ MAX_MU = 1e12
 def _error(Rd, pd, R, p, e):
     """e = [p_d - p; log(R_d R^T)]; returns (|position error|, |orientation error|)."""
     e[0], e[1], e[2] = pd[0] - p[0], pd[1] - p[1], pd[2] - p[2]
-    e[3], e[4], e[5] = rotation_log(matmul(Rd, transpose(R)))
+    e[3], e[4], e[5] = _rotation_log(matmul(Rd, transpose(R)))
     return (np.sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2]), np.sqrt(e[3] * e[3] + e[4] * e[4] + e[5] * e[5]))
 
 
 @kernel
 def _clamp(tree, lower, upper, q):
     for i in range(tree.jtype.shape[0]):
-        if joint_limited(tree, i):
+        if _joint_limited(tree, i):
             k, kq = tree.v_idx[i], tree.q_idx[i]
             q[kq] = min(max(q[kq], lower[k]), upper[k])
 
@@ -64,7 +64,7 @@ def _dls_step(J, free, e, r, mu, A, Ainv, scratch, y, dq):
                 x += J[a, k] * free[k] * J[c, k]
             A[a, c] = x
             A[c, a] = x
-    if not spd_inverse(A, r, Ainv, 0, scratch):
+    if not _spd_inverse(A, r, Ainv, 0, scratch):
         return False
     for a in range(r):
         x = 0.0
@@ -84,7 +84,7 @@ def _freeze_blocked(tree, lower, upper, q, dq, free):
     """Freeze (free = 0) each 1-dof joint at a limit that dq pushes further out; True if any was frozen."""
     frozen = False
     for i in range(tree.jtype.shape[0]):
-        if joint_limited(tree, i):
+        if _joint_limited(tree, i):
             k, kq = tree.v_idx[i], tree.q_idx[i]
             if free[k] != 0.0 and ((q[kq] <= lower[k] and dq[k] < 0.0) or (q[kq] >= upper[k] and dq[k] > 0.0)):
                 free[k] = 0.0
@@ -93,10 +93,10 @@ def _freeze_blocked(tree, lower, upper, q, dq, free):
 
 
 @kernel
-def ik_batch(model_tree, Q0, T, model_frames, f, r, tol, max_iter, damping, limits, lower, upper, out):
+def _ik_batch(model_tree, Q0, T, model_frames, f, r, tol, max_iter, damping, limits, lower, upper, out):
     """out[b] = (q solving the IK from Q0[b] towards T[b], status, iterations, residual, position error,
     orientation error); T has B rows or one."""
-    # borrowed: jacobian_into takes the arrays out of the tuples per body and per step: no reference counts
+    # borrowed: _jacobian_into takes the arrays out of the tuples per body and per step: no reference counts
     tree, frames = borrowed(model_tree), borrowed(model_frames)
     nb, nv = tree.parents.shape[0], tree.S.shape[0]
     path, oR, op = np.empty(nb, np.int64), np.empty((nb, 3, 3)), np.empty((nb, 3))
@@ -113,7 +113,7 @@ def ik_batch(model_tree, Q0, T, model_frames, f, r, tol, max_iter, damping, limi
         q = Q0[b].copy()
         if limits:
             _clamp(tree, lower, upper, q)
-        R, p = jacobian_into(tree, frames, q, f, LOCAL_WORLD_ALIGNED, zero, path, oR, op, J)
+        R, p = _jacobian_into(tree, frames, q, f, LOCAL_WORLD_ALIGNED, zero, path, oR, op, J)
         ep, eo = _error(Rd, pd, R, p, e)
         res = np.sqrt(ep * ep + eo * eo) if r == 6 else ep
         mu = damping * damping
@@ -137,10 +137,10 @@ def ik_batch(model_tree, Q0, T, model_frames, f, r, tol, max_iter, damping, limi
             if not solved:
                 mu = max(10.0 * mu, 1e-12)
                 continue
-            qt = integrate_q(tree, q, dq, 1.0)
+            qt = _integrate_q(tree, q, dq, 1.0)
             if limits:
                 _clamp(tree, lower, upper, qt)
-            R, p = jacobian_into(tree, frames, qt, f, LOCAL_WORLD_ALIGNED, zero, path, oR, op, Jt)
+            R, p = _jacobian_into(tree, frames, qt, f, LOCAL_WORLD_ALIGNED, zero, path, oR, op, Jt)
             tp, to = _error(Rd, pd, R, p, et)
             rt = np.sqrt(tp * tp + to * to) if r == 6 else tp
             if rt < res:  # accept
@@ -162,7 +162,7 @@ def ik_batch(model_tree, Q0, T, model_frames, f, r, tol, max_iter, damping, limi
 
 
 # -- public entry point ----------------------------------------------------------------------------
-_ik_batch = ik_batch
+_ik_batch = _ik_batch
 
 
 def inverse_kinematics(model, frame, target, q0, *, position_only=False, tol=1e-10, max_iter=100, damping=1e-6,

@@ -18,23 +18,23 @@ from numba import types
 from . import checks
 from ._numba import (MATRIX, SingleCall, VECTOR, address, borrowed, inline_kernel, keep_alive,
                      kernel, scratch)
-from .checks import DONE, GENERAL, NOT_ARRAYS, REFERENCES, config_ok
-from .kinematics import LOCAL, WORLD, frame_pose, support, world_poses
-from .data import take, take_int
-from .model import unpack, unpack_frames
+from .checks import DONE, GENERAL, NOT_ARRAYS, REFERENCES, _config_ok
+from .kinematics import LOCAL, WORLD, _frame_pose, _support, _world_poses
+from .data import _take, _take_int
+from .model import _unpack, _unpack_frames
 from .parallel import run_chunks
 from .spatial import add, cross, load3, load33, rot, rotT
 
 
 @inline_kernel
-def jacobian_into(tree, frames, q, f, ref, point, path, oR, op, J):
+def _jacobian_into(tree, frames, q, f, ref, point, path, oR, op, J):
     """J (6, nv) of frame f at q in reference ``ref``, at ``point`` (frame axes) from the frame origin.
     Only the support's columns are written: J must be zero elsewhere.  Returns the frame's world pose.
     Inlined: called as a function from J M^-1 J^T's batch it cost that kernel ~30 % (0.7 us per state)."""
     S, v_idx, nv_j = tree.S, tree.v_idx, tree.nv_j
-    n = support(tree.parents, frames.body[f], path)
-    world_poses(tree, q, path, n, oR, op)
-    Rf, pf = frame_pose(frames, f, oR, op)
+    n = _support(tree.parents, frames.body[f], path)
+    _world_poses(tree, q, path, n, oR, op)
+    Rf, pf = _frame_pose(frames, f, oR, op)
     o = add(pf, rot(Rf, point))
     for t in range(n):
         i = path[t]
@@ -51,45 +51,45 @@ def jacobian_into(tree, frames, q, f, ref, point, path, oR, op, J):
 
 
 @kernel
-def jacobian_batch(model_tree, Q, model_frames, f, ref, point, out):
-    # borrowed: jacobian_into takes the arrays out of the tuples per body and per state: no reference counts
+def _jacobian_batch(model_tree, Q, model_frames, f, ref, point, out):
+    # borrowed: _jacobian_into takes the arrays out of the tuples per body and per state: no reference counts
     tree, frames, J = borrowed(model_tree), borrowed(model_frames), borrowed(out)
     nb = tree.parents.shape[0]
     path, oR, op = np.empty(nb, np.int64), np.empty((nb, 3, 3)), np.empty((nb, 3))
     out[:] = 0.0
     pt = (point[0], point[1], point[2])
     for b in range(Q.shape[0]):
-        jacobian_into(tree, frames, Q[b], f, ref, pt, path, oR, op, J[b])
+        _jacobian_into(tree, frames, Q[b], f, ref, pt, path, oR, op, J[b])
     keep_alive(model_tree)
     keep_alive(model_frames)
     keep_alive(out)
 
 
-def jacobian_single(packed, q, f, ref, J):
+def _jacobian_single(packed, q, f, ref, J):
     """One state from Python at the frame origin into J (6, nv), zeroed here; q, the frame index f (-1: not
     found) and the reference code are checked in the call (status codes of dynamics.checks)."""
-    tree, gravity, nq = unpack(packed)
-    frames = unpack_frames(packed)
+    tree, gravity, nq = _unpack(packed)
+    frames = _unpack_frames(packed)
     nb = tree.parents.shape[0]
     if not (0 <= f < frames.body.shape[0] and 0 <= ref <= 2 and J.shape[1] == tree.S.shape[0]
-            and config_ok(tree, nq, q)):
+            and _config_ok(tree, nq, q)):
         return GENERAL
     for r in range(6):
         for k in range(J.shape[1]):
             J[r, k] = 0.0
     buf = scratch(13 * nb)
-    oR, o = take(address(buf), 0, (nb, 3, 3))
-    op, o = take(address(buf), o, (nb, 3))
-    path, o = take_int(address(buf), o, nb)
-    jacobian_into(tree, frames, q, f, ref, (0.0, 0.0, 0.0), path, oR, op, J)
+    oR, o = _take(address(buf), 0, (nb, 3, 3))
+    op, o = _take(address(buf), o, (nb, 3))
+    path, o = _take_int(address(buf), o, nb)
+    _jacobian_into(tree, frames, q, f, ref, (0.0, 0.0, 0.0), path, oR, op, J)
     keep_alive(buf)
     return DONE
 
 
 
 # -- public entry point ----------------------------------------------------------------------------
-_jacobian_batch = jacobian_batch
-_jacobian_single = SingleCall(jacobian_single, VECTOR, types.int64, types.int64, MATRIX)
+_jacobian_batch = _jacobian_batch
+_jacobian_single = SingleCall(_jacobian_single, VECTOR, types.int64, types.int64, MATRIX)
 _ORIGIN = np.zeros(3)
 
 

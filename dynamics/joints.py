@@ -23,7 +23,7 @@ from typing import NamedTuple
 import numpy as np
 
 from ._numba import inline_kernel
-from .spatial import (add, load3, load33, matmul, qexp, qmul, qrot, quat_rotation, quaternion_sq, rot, scale,
+from .spatial import (add, load3, load33, matmul, qexp, qmul, qrot, _quat_rotation, quaternion_sq, rot, scale,
                       skew_poly)
 
 JOINT_REVOLUTE = 0
@@ -85,7 +85,7 @@ def revolute_terms(Xrot, axis):
 
 
 @inline_kernel
-def joint_transform(tree, i, q):
+def _joint_transform(tree, i, q):
     """Pose (R, p) of body i in its parent's frame: placement * joint motion at q."""
     code = tree.jtype[i]
     k = tree.q_idx[i]
@@ -101,12 +101,12 @@ def joint_transform(tree, i, q):
                 X[8] + s * A[i, 2, 2] + t * B[i, 2, 2]), p0
     if code == JOINT_PRISMATIC:
         return X, add(p0, rot(X, scale(q[k], load3(tree.axis, i))))
-    R = matmul(X, quat_rotation(q[k + 3], q[k + 4], q[k + 5], q[k + 6]))
+    R = matmul(X, _quat_rotation(q[k + 3], q[k + 4], q[k + 5], q[k + 6]))
     return R, add(p0, rot(X, (q[k], q[k + 1], q[k + 2])))
 
 
 @inline_kernel
-def joint_motion(tree, i, qd):
+def _joint_motion(tree, i, qd):
     """S_i qd: the joint's motion (w, v) in the body frame for joint rates (or accelerations) qd."""
     S = tree.S
     w0 = w1 = w2 = v0 = v1 = v2 = 0.0
@@ -122,7 +122,7 @@ def joint_motion(tree, i, qd):
 
 
 @inline_kernel
-def project_force(tree, i, n, f, tau):
+def _project_force(tree, i, n, f, tau):
     """tau[dofs of i] = S_i^T (n, f): the generalised force the joint transmits."""
     S = tree.S
     for k in range(tree.v_idx[i], tree.v_idx[i] + tree.nv_j[i]):
@@ -132,7 +132,7 @@ def project_force(tree, i, n, f, tau):
 
 def joint_matrix(code, axis, qi):
     """4x4 motion of a joint of kind ``code`` at its coordinates ``qi`` (in Python, for lock_joints; the
-    kernels use :func:`joint_transform`)."""
+    kernels use :func:`_joint_transform`)."""
     J = np.eye(4)
     if code == JOINT_REVOLUTE:
         x, y, z = axis
@@ -160,19 +160,19 @@ ZERO_QUATERNION_SQ = 1e-16
 
 
 @inline_kernel
-def joint_config_ok(tree, i, q):
+def _joint_config_ok(tree, i, q):
     """Joint i's coordinates in q are a configuration: a free joint's quaternion is not zero."""
     return tree.jtype[i] != JOINT_FREE or quaternion_sq(q, tree.q_idx[i] + 3) >= ZERO_QUATERNION_SQ
 
 
 @inline_kernel
-def joint_limited(tree, i):
+def _joint_limited(tree, i):
     """Joint i's coordinates have position limits (1-dof joints; -inf/inf when the URDF gives none)."""
     return tree.jtype[i] != JOINT_FREE
 
 
 @inline_kernel
-def joint_integrate_delta(tree, i, q, v, dt, delta):
+def _joint_integrate_delta(tree, i, q, v, dt, delta):
     """Chart coordinates of joint i after moving with its velocity v for dt (dynamics.configuration): v dt for
     1-dof joints; for the free joint the SE(3) exponential, (R V(theta) v_lin dt, theta = omega dt)."""
     k = tree.v_idx[i]
@@ -197,7 +197,7 @@ def joint_integrate_delta(tree, i, q, v, dt, delta):
 
 
 @inline_kernel
-def joint_retract(tree, i, q0, delta, q):
+def _joint_retract(tree, i, q0, delta, q):
     """Joint i's part of q = q0 (+) delta: q0 + delta for 1-dof joints; p0 + delta_p and quat0 (x)
     exp(delta_theta), renormalised, for the free joint."""
     k, kq = tree.v_idx[i], tree.q_idx[i]
@@ -213,7 +213,7 @@ def joint_retract(tree, i, q0, delta, q):
 
 
 @inline_kernel
-def joint_chart_rate(tree, i, q, delta, v, out):
+def _joint_chart_rate(tree, i, q, delta, v, out):
     """Joint i's part of d(delta)/dt: v for 1-dof joints; (R(q) v_lin, Jr(delta_theta)^-1 omega) for the free
     joint, Jr^-1 = 1 + [th]/2 + (1/phi^2 - (1 + cos phi)/(2 phi sin phi)) [th]^2."""
     k = tree.v_idx[i]
@@ -233,8 +233,8 @@ def joint_chart_rate(tree, i, q, delta, v, out):
 
 
 @inline_kernel
-def joint_difference(tree, i, q0, q1, out):
-    """Joint i's part of the tangent d with retract(q0, d) == q1: q1 - q0 for 1-dof joints,
+def _joint_difference(tree, i, q0, q1, out):
+    """Joint i's part of the tangent d with _retract(q0, d) == q1: q1 - q0 for 1-dof joints,
     (p1 - p0, log(quat0^-1 quat1)) for the free joint."""
     k, kq = tree.v_idx[i], tree.q_idx[i]
     if tree.jtype[i] != JOINT_FREE:

@@ -2,7 +2,7 @@
 Pinocchio's forwardKinematics / getFrameVelocity / getFrameAcceleration).
 
 Placements.  Body i's world pose composes its parent's with the joint transform (R_i, p_i) of
-:func:`dynamics.joints.joint_transform`, and a frame fixed to body b at (R_bf, p_bf) in it is
+:func:`dynamics.joints._joint_transform`, and a frame fixed to body b at (R_bf, p_bf) in it is
 
     oR_i = oR_p R_i,   op_i = oR_p p_i + op_p,       oR_f = oR_b R_bf,   op_f = oR_b p_bf + op_b.
 
@@ -29,10 +29,10 @@ from numba import types
 
 from . import checks
 from ._numba import (SingleCall, VECTOR, address, inline_kernel, keep_alive, kernel, scratch)
-from .checks import NOT_ARRAYS, DONE, GENERAL, config_ok
-from .joints import joint_motion, joint_transform
-from .data import take
-from .model import FRAME_BODY, FRAME_SHIFTED, FRAME_WORLD, unpack, unpack_frames
+from .checks import NOT_ARRAYS, DONE, GENERAL, _config_ok
+from .joints import _joint_motion, _joint_transform
+from .data import _take
+from .model import FRAME_BODY, FRAME_SHIFTED, FRAME_WORLD, _unpack, _unpack_frames
 from .parallel import run_chunks
 from .spatial import add, cross, cross_motion, load3, load33, matmul, motion_to_child, rot, store3, store33
 
@@ -40,7 +40,7 @@ WORLD, LOCAL, LOCAL_WORLD_ALIGNED = (checks.REFERENCES[k] for k in ("world", "lo
 
 
 @inline_kernel
-def support(parents, body, path):
+def _support(parents, body, path):
     """path[:n] = body's ancestors and body itself, root first; returns n (0 for the world, body -1)."""
     n = 0
     j = body
@@ -54,10 +54,10 @@ def support(parents, body, path):
 
 
 @inline_kernel
-def world_pose(tree, i, q, oR, op):
+def _world_pose(tree, i, q, oR, op):
     """oR[i], op[i] = body i's world pose from its parent's (already there); returns its joint transform
     (R, p) in the parent and its world pose (oR_i, op_i)."""
-    R, p = joint_transform(tree, i, q)
+    R, p = _joint_transform(tree, i, q)
     par = tree.parents[i]
     oRi, opi = R, p
     if par >= 0:
@@ -69,14 +69,14 @@ def world_pose(tree, i, q, oR, op):
 
 
 @inline_kernel
-def world_poses(tree, q, path, n, oR, op):
+def _world_poses(tree, q, path, n, oR, op):
     """oR[i], op[i] = world pose of each body i in path[:n] (parents before children)."""
     for t in range(n):
-        world_pose(tree, path[t], q, oR, op)
+        _world_pose(tree, path[t], q, oR, op)
 
 
 @inline_kernel
-def frame_pose(frames, f, oR, op):
+def _frame_pose(frames, f, oR, op):
     """World pose (R, p) of frame f from its body's world pose (only the products its kind needs)."""
     b, kind = frames.body[f], frames.kind[f]
     if kind == FRAME_BODY:  # most frames (a link's, its joint's)
@@ -91,7 +91,7 @@ def frame_pose(frames, f, oR, op):
 
 
 @inline_kernel
-def in_reference(ref, R, p, w, v):
+def _in_reference(ref, R, p, w, v):
     """A motion (w, v) given in the local frame at pose (R, p), in reference ``ref``: (linear, angular)."""
     if ref == LOCAL:
         return v, w
@@ -101,13 +101,13 @@ def in_reference(ref, R, p, w, v):
     return add(v0, cross(p, w0)), w0
 
 
-def workspace(nb):
+def _workspace(nb):
     """Per-chunk scratch: the support path and the bodies' world poses."""
     return np.empty(nb, np.int64), np.empty((nb, 3, 3)), np.empty((nb, 3))
 
 
 @inline_kernel
-def store_pose(R, p, T):
+def _store_pose(R, p, T):
     """T = [[R, p], [0, 1]] (4x4)."""
     for r in range(3):
         T[r, 0], T[r, 1], T[r, 2], T[r, 3] = R[3 * r], R[3 * r + 1], R[3 * r + 2], p[r]
@@ -116,65 +116,65 @@ def store_pose(R, p, T):
 
 
 @kernel
-def placements_batch(tree, Q, frames, out):
+def _placements_batch(tree, Q, frames, out):
     """out[b, f] = 4x4 world placement of every frame f at Q[b]."""
     nb = tree.parents.shape[0]
     oR, op = np.empty((nb, 3, 3)), np.empty((nb, 3))
     for b in range(Q.shape[0]):
-        placements_into(tree, frames, Q[b], oR, op, out[b])
+        _placements_into(tree, frames, Q[b], oR, op, out[b])
 
 
 @inline_kernel
-def placements_into(tree, frames, q, oR, op, out):
+def _placements_into(tree, frames, q, oR, op, out):
     """out[f] = 4x4 world placement of every frame f at q."""
     for i in range(tree.parents.shape[0]):
-        world_pose(tree, i, q, oR, op)
+        _world_pose(tree, i, q, oR, op)
     for f in range(frames.body.shape[0]):
-        R, p = frame_pose(frames, f, oR, op)
-        store_pose(R, p, out[f])
+        R, p = _frame_pose(frames, f, oR, op)
+        _store_pose(R, p, out[f])
 
 
-def placements_single(packed, q, out):
+def _placements_single(packed, q, out):
     """One state from Python into out (nf, 4, 4), q checked in the call (status codes of dynamics.checks)."""
-    tree, gravity, nq = unpack(packed)
-    frames = unpack_frames(packed)
+    tree, gravity, nq = _unpack(packed)
+    frames = _unpack_frames(packed)
     nb = tree.parents.shape[0]
-    if not (config_ok(tree, nq, q) and out.shape[0] == frames.body.shape[0]):
+    if not (_config_ok(tree, nq, q) and out.shape[0] == frames.body.shape[0]):
         return GENERAL
     buf = scratch(12 * nb)
-    oR, o = take(address(buf), 0, (nb, 3, 3))
-    op, o = take(address(buf), o, (nb, 3))
-    placements_into(tree, frames, q, oR, op, out)
+    oR, o = _take(address(buf), 0, (nb, 3, 3))
+    op, o = _take(address(buf), o, (nb, 3))
+    _placements_into(tree, frames, q, oR, op, out)
     keep_alive(buf)
     return DONE
 
 
 
 @kernel
-def placement_batch(tree, Q, frames, f, out):
+def _placement_batch(tree, Q, frames, f, out):
     """out[b] = 4x4 world placement of frame f at Q[b], computed along its support only."""
     nb = tree.parents.shape[0]
     path, oR, op = np.empty(nb, np.int64), np.empty((nb, 3, 3)), np.empty((nb, 3))
-    n = support(tree.parents, frames.body[f], path)
+    n = _support(tree.parents, frames.body[f], path)
     for b in range(Q.shape[0]):
-        world_poses(tree, Q[b], path, n, oR, op)
-        R, p = frame_pose(frames, f, oR, op)
-        store_pose(R, p, out[b])
+        _world_poses(tree, Q[b], path, n, oR, op)
+        R, p = _frame_pose(frames, f, oR, op)
+        _store_pose(R, p, out[b])
 
 
-#: what :func:`motion_batch` computes
+#: what :func:`_motion_batch` computes
 VELOCITY, ACCELERATION, BIAS_ACCELERATION = 0, 1, 2
 
 
 @kernel
-def motion_batch(tree, Q, V, A, frames, f, ref, what, classical, out):
+def _motion_batch(tree, Q, V, A, frames, f, ref, what, classical, out):
     """out[b] = [linear; angular] velocity, acceleration or bias acceleration (a = 0, A not read) of frame f
     in reference ``ref``.  V and A have B rows or one."""
     parents = tree.parents
     nb = parents.shape[0]
     path, oR, op = np.empty(nb, np.int64), np.empty((nb, 3, 3)), np.empty((nb, 3))
     body = frames.body[f]
-    n = support(parents, body, path)
+    n = _support(parents, body, path)
     Rf, pf = load33(frames.R, f), load3(frames.p, f)
     zero = (0.0, 0.0, 0.0)
     lv, la = V.shape[0] - 1, A.shape[0] - 1
@@ -183,23 +183,23 @@ def motion_batch(tree, Q, V, A, frames, f, ref, what, classical, out):
         w, vl, aw, al = zero, zero, zero, zero  # the parent's motion, then body i's
         for t in range(n):
             i = path[t]
-            R, p, _, _ = world_pose(tree, i, q, oR, op)
+            R, p, _, _ = _world_pose(tree, i, q, oR, op)
             w, vl = motion_to_child(R, p, w, vl)
-            wJ, vJ = joint_motion(tree, i, v)
+            wJ, vJ = _joint_motion(tree, i, v)
             w, vl = add(w, wJ), add(vl, vJ)
             if what != VELOCITY:
                 aw, al = motion_to_child(R, p, aw, al)
                 cw, cv = cross_motion(w, vl, wJ, vJ)
                 aw, al = add(aw, cw), add(al, cv)
                 if what == ACCELERATION:
-                    sw, sv = joint_motion(tree, i, a)
+                    sw, sv = _joint_motion(tree, i, a)
                     aw, al = add(aw, sw), add(al, sv)
-        R, p = frame_pose(frames, f, oR, op)
+        R, p = _frame_pose(frames, f, oR, op)
         fw, fv = motion_to_child(Rf, pf, w, vl)  # the frame's own motion, local axes and origin
-        lin, ang = in_reference(ref, R, p, fw, fv)
+        lin, ang = _in_reference(ref, R, p, fw, fv)
         if what != VELOCITY:
             faw, fav = motion_to_child(Rf, pf, aw, al)
-            alin, aang = in_reference(ref, R, p, faw, fav)
+            alin, aang = _in_reference(ref, R, p, faw, fav)
             if classical:
                 alin = add(alin, cross(ang, lin))
             lin, ang = alin, aang
@@ -208,11 +208,11 @@ def motion_batch(tree, Q, V, A, frames, f, ref, what, classical, out):
 
 
 # -- public entry points ---------------------------------------------------------------------------
-_placements_batch = placements_batch
-_placement_batch = placement_batch
-_motion_batch = motion_batch
+_placements_batch = _placements_batch
+_placement_batch = _placement_batch
+_motion_batch = _motion_batch
 PLACEMENTS = types.float64[:, :, ::1]
-_placements_single = SingleCall(placements_single, VECTOR, PLACEMENTS)
+_placements_single = SingleCall(_placements_single, VECTOR, PLACEMENTS)
 
 
 def forward_kinematics(model, q):

@@ -26,17 +26,17 @@ import numpy as np
 
 from . import checks
 from ._numba import (MATRIX, SingleCall, VECTOR, address, inline_kernel, keep_alive, kernel, scratch)
-from .checks import DONE, GENERAL, NOT_ARRAYS, config_ok
+from .checks import DONE, GENERAL, NOT_ARRAYS, _config_ok
 from .errors import InputError
-from .kinematics import world_pose
-from .data import take, take_int
-from .model import unpack
+from .kinematics import _world_pose
+from .data import _take, _take_int
+from .model import _unpack
 from .parallel import run_chunks
-from .spatial import add, cross, inertia_to_parent, joint_gram, load3, load33, rot, spd_inverse, store_inertia6
+from .spatial import add, cross, inertia_to_parent, _joint_gram, load3, load33, rot, _spd_inverse, _store_inertia6
 
 
 @kernel
-def workspace(nb, nv):
+def _workspace(nb, nv):
     return (np.empty((nb, 3, 3)), np.empty((nb, 3)), np.empty((nb, 6, 6)),  # world poses, I^A (world)
             np.empty((nv, 6)), np.empty((nv, 6)), np.empty((nv, 6)),  # S (world), U, U D^-1
             np.empty((nb, 6, 6)), np.empty((nb, nv, 6)),  # D^-1, F then A (per column a 6-vector)
@@ -44,50 +44,50 @@ def workspace(nb, nv):
 
 
 @inline_kernel
-def work_at(base, o, nb, nv):
+def _work_at(base, o, nb, nv):
     """The same scratch carved from the buffer at ``base`` from offset o, and the offset after it."""
-    oR, o = take(base, o, (nb, 3, 3))
-    op, o = take(base, o, (nb, 3))
-    IA, o = take(base, o, (nb, 6, 6))
-    Sw, o = take(base, o, (nv, 6))
-    U, o = take(base, o, (nv, 6))
-    UD, o = take(base, o, (nv, 6))
-    Dinv, o = take(base, o, (nb, 6, 6))
-    F, o = take(base, o, (nb, nv, 6))
-    nsub, o = take_int(base, o, nb)
-    D, o = take(base, o, (6, 6))
-    scratch, o = take(base, o, (6, 6))
+    oR, o = _take(base, o, (nb, 3, 3))
+    op, o = _take(base, o, (nb, 3))
+    IA, o = _take(base, o, (nb, 6, 6))
+    Sw, o = _take(base, o, (nv, 6))
+    U, o = _take(base, o, (nv, 6))
+    UD, o = _take(base, o, (nv, 6))
+    Dinv, o = _take(base, o, (nb, 6, 6))
+    F, o = _take(base, o, (nb, nv, 6))
+    nsub, o = _take_int(base, o, nb)
+    D, o = _take(base, o, (6, 6))
+    scratch, o = _take(base, o, (6, 6))
     return (oR, op, IA, Sw, U, UD, Dinv, F, nsub, D, scratch), o
 
 
-def minverse_single(packed, q, Minv):
+def _minverse_single(packed, q, Minv):
     """One state from Python, q checked in the call (status codes of dynamics.checks; a singular joint takes
     the general path, which names it)."""
-    tree, gravity, nq = unpack(packed)
+    tree, gravity, nq = _unpack(packed)
     nb, nv = tree.parents.shape[0], tree.S.shape[0]
-    if not config_ok(tree, nq, q):
+    if not _config_ok(tree, nq, q):
         return GENERAL
-    buf = scratch(work_at(0, 0, nb, nv)[1])
-    singular = minverse_into(tree, q, work_at(address(buf), 0, nb, nv)[0], Minv)
+    buf = scratch(_work_at(0, 0, nb, nv)[1])
+    singular = _minverse_into(tree, q, _work_at(address(buf), 0, nb, nv)[0], Minv)
     keep_alive(buf)
     return DONE if singular < 0 else GENERAL
 
 
 @kernel
-def minverse_into(tree, q, ws, Minv):
+def _minverse_into(tree, q, ws, Minv):
     """M^-1 (nv, nv) at q into Minv.  Returns -1, or the index of a body whose joint's D is not positive."""
     parents, mass, hs, Ios, S, v_idx, nv_j = tree.parents, tree.mass, tree.h, tree.Io, tree.S, tree.v_idx, tree.nv_j
     oR, op, IA, Sw, U, UD, Dinv, F, nsub, D, scratch = ws
     nb, nv = parents.shape[0], S.shape[0]
     for i in range(nb):  # world poses, motion axes and inertias
-        _, _, R, p = world_pose(tree, i, q, oR, op)
+        _, _, R, p = _world_pose(tree, i, q, oR, op)
         for k in range(v_idx[i], v_idx[i] + nv_j[i]):
             w = rot(R, (S[k, 0], S[k, 1], S[k, 2]))
             v = add(rot(R, (S[k, 3], S[k, 4], S[k, 5])), cross(p, w))
             Sw[k, 0], Sw[k, 1], Sw[k, 2], Sw[k, 3], Sw[k, 4], Sw[k, 5] = w[0], w[1], w[2], v[0], v[1], v[2]
         m = mass[i]
         h, Io = inertia_to_parent(R, p, m, load3(hs, i), load33(Ios, i))
-        store_inertia6(IA, i, m, h, Io)  # about the world origin
+        _store_inertia6(IA, i, m, h, Io)  # about the world origin
         nsub[i] = nv_j[i]
     for i in range(nb - 1, -1, -1):
         if parents[i] >= 0:
@@ -105,8 +105,8 @@ def minverse_into(tree, q, ws, Minv):
                 for c in range(6):
                     x += IA[i, r, c] * Sw[k0 + a, c]
                 U[k0 + a, r] = x
-        joint_gram(Sw, U, k0, nj, D)  # D = S^T U
-        if not spd_inverse(D, nj, Dinv, i, scratch):
+        _joint_gram(Sw, U, k0, nj, D)  # D = S^T U
+        if not _spd_inverse(D, nj, Dinv, i, scratch):
             return i
         for a in range(nj):
             for r in range(6):
@@ -248,14 +248,14 @@ def _forward_1dof(Sw, UD, A, Minv, i, k0, ns, par, nv):
 
 
 @kernel
-def minverse_batch(tree, Q, out, status):
+def _minverse_batch(tree, Q, out, status):
     """out[b] = M^-1 at Q[b]; status[b] = -1 or a body whose joint makes M singular."""
     nv = tree.S.shape[0]
-    ws, Minv = workspace(tree.parents.shape[0], nv), np.empty((nv, nv))
+    ws, Minv = _workspace(tree.parents.shape[0], nv), np.empty((nv, nv))
     for b in range(Q.shape[0]):
         # into a matrix that stays in cache, then one sequential copy: the kernel's row and column (mirror)
         # writes straight into a large batch's fresh output memory cost ~10% more
-        status[b] = minverse_into(tree, Q[b], ws, Minv)
+        status[b] = _minverse_into(tree, Q[b], ws, Minv)
         out[b] = Minv
 
 
@@ -289,8 +289,8 @@ def run_checked(model, kernel, batched, shared, out, what):
                          f"no mass or inertia (lock it with dynamics.lock_joints, or add mass below it)") from None
 
 
-_minverse_batch = Checked(minverse_batch)
-_minverse_single = SingleCall(minverse_single, VECTOR, MATRIX)
+_minverse_batch = Checked(_minverse_batch)
+_minverse_single = SingleCall(_minverse_single, VECTOR, MATRIX)
 
 
 def inverse_mass_matrix(model, q):

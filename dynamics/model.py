@@ -27,7 +27,7 @@ XK, XKK            (nb,3,3)         Xrot [axis]x and Xrot [axis]x^2 for revolute
 
 The same arrays also exist packed into one flat array, ``Model.packed`` (:func:`pack`, built once with the
 model): a compiled call from Python unboxes each array argument (~60 ns each, ~1 us for the 14 arrays of a
-Tree), so the single-state entry points pass this one and :func:`unpack` rebuilds the :class:`Tree` as views
+Tree), so the single-state entry points pass this one and :func:`_unpack` rebuilds the :class:`Tree` as views
 inside the kernel.  Layout (in order, nothing between; the floats are stored bit for bit as int64):
 
     [nb, nq, nv, parents, jtype, q_idx, v_idx, nv_j,                                   ints (3 + 5 nb)
@@ -106,7 +106,7 @@ def pack(tree, gravity, frames):
 
 
 @inline_kernel
-def unpack(packed):
+def _unpack(packed):
     """(tree, gravity, nq) from the packed model: views with no owner (:func:`dynamics._numba.float_at`), nothing
     copied; they live as long as the call that unpacks them."""
     base = address(packed)
@@ -123,8 +123,8 @@ def unpack(packed):
 
 
 @inline_kernel
-def unpack_frames(packed):
-    """The frames (:class:`Frames`) from the packed model, as :func:`unpack`."""
+def _unpack_frames(packed):
+    """The frames (:class:`Frames`) from the packed model, as :func:`_unpack`."""
     base = address(packed)
     nb, nv = packed[0], packed[2]
     e = 6 + 51 * nb + 6 * nv  # after the tree

@@ -27,7 +27,7 @@ loop is xdd = xdd* exactly for the model, i.e. e'' + Kd e' + Kp e = 0 per task r
 directions the task leaves free.
 
 Errors: e = p_d - p for the position; for the orientation e = log(R_d R^T) (world axes,
-:func:`dynamics.spatial.rotation_log`) and edot = w_d - w, exact to first order in the error.  When J M^-1 J^T
+:func:`dynamics.spatial._rotation_log`) and edot = w_d - w, exact to first order in the error.  When J M^-1 J^T
 is singular (the frame at a singularity of its task rows: a condition number above
 :data:`dynamics.task_space.MAX_CONDITION`, as for :func:`dynamics.operational_space_inertia`) the torque is NaN
 and the simulation stops with a non-finite status; ``damping`` d > 0 uses (J M^-1 J^T + d 1)^-1 instead.
@@ -36,13 +36,13 @@ and the simulation stops with a non-finite status; ``damping`` d > 0 uses (J M^-
 import numpy as np
 
 from ._numba import kernel
-from .configuration import difference
-from .jacobians import jacobian_into
-from .kinematics import BIAS_ACCELERATION, LOCAL_WORLD_ALIGNED, motion_batch
-from .minverse import minverse_into
-from .minverse import workspace as minverse_workspace
-from .rnea import rnea_into
-from .spatial import matmul, rotation_about_axis, rotation_log, spd_inverse, transpose
+from .configuration import _difference
+from .jacobians import _jacobian_into
+from .kinematics import BIAS_ACCELERATION, LOCAL_WORLD_ALIGNED, _motion_batch
+from .minverse import _minverse_into
+from .minverse import _workspace as minverse_workspace
+from .rnea import _rnea_into
+from .spatial import matmul, _rotation_about_axis, _rotation_log, _spd_inverse, transpose
 from .task_space import MAX_CONDITION
 
 
@@ -68,14 +68,14 @@ def orientation_at(times, otable, t):
     if angle == 0.0:
         return Rk, w
     s = (t - times[k]) / h
-    E = rotation_about_axis((psi[0] / angle, psi[1] / angle, psi[2] / angle), s * angle)
+    E = _rotation_about_axis((psi[0] / angle, psi[1] / angle, psi[2] / angle), s * angle)
     return matmul(E, Rk), w
 
 
 @kernel
-def workspace(nb, nv, nq):
+def _workspace(nb, nv, nq):
     """Scratch of :func:`operational_space_into`, one per simulation (its Source): J is zero off the frame's
-    support, which is all jacobian_into leaves untouched, and ``zero`` is never written."""
+    support, which is all _jacobian_into leaves untouched, and ``zero`` is never written."""
     return (np.empty(nb, np.int64), np.empty((nb, 3, 3)), np.empty((nb, 3)), np.zeros((6, nv)),  # path, poses, J
             np.empty((1, nq)), np.empty((1, nv)), np.empty((1, 6)),  # q, v, Jdot v as batches of one
             np.empty((nv, nv)), minverse_workspace(nb, nv), np.empty(nv), np.zeros(nv),  # M^-1, tau_p, zero
@@ -90,17 +90,17 @@ def operational_space_into(src, tree, gravity, f_ext, t, q, v, x_ref, tau_passiv
     frames, f, rows, kt = src.frames, src.frame, src.rows, src.task_gains
     path, oR, op, J, Q1, V1, jdv, Minv, ws_minv, tp, zero, JM, y, A, Lam, scratch = src.ws
     nv, r = v.shape[0], rows.shape[0]
-    R, p = jacobian_into(tree, frames, q, f, LOCAL_WORLD_ALIGNED, (0.0, 0.0, 0.0), path, oR, op, J)
+    R, p = _jacobian_into(tree, frames, q, f, LOCAL_WORLD_ALIGNED, (0.0, 0.0, 0.0), path, oR, op, J)
     Q1[0], V1[0] = q, v
-    motion_batch(tree, Q1, V1, V1, frames, f, LOCAL_WORLD_ALIGNED, BIAS_ACCELERATION, True, jdv)
-    if minverse_into(tree, q, ws_minv, Minv) >= 0:
+    _motion_batch(tree, Q1, V1, V1, frames, f, LOCAL_WORLD_ALIGNED, BIAS_ACCELERATION, True, jdv)
+    if _minverse_into(tree, q, ws_minv, Minv) >= 0:
         tau[:] = np.nan
         return
     # the posture torque tau_p = Kp0 (q_0 - q) - Kd0 v, and b = ID(q, v, 0) - tau_passive into tau
-    difference(tree, q, src.qref, tp)
+    _difference(tree, q, src.qref, tp)
     for i in range(nv):
         tp[i] = src.gains[0, i] * tp[i] - src.gains[1, i] * v[i]
-    rnea_into(tree, q, v, zero, gravity, f_ext, ws_rnea, tau)
+    _rnea_into(tree, q, v, zero, gravity, f_ext, ws_rnea, tau)
     for i in range(nv):
         tau[i] += tp[i] - tau_passive[i]
     # J M^-1 (task rows)
@@ -112,7 +112,7 @@ def operational_space_into(src, tree, gravity, f_ext, t, q, v, x_ref, tau_passiv
             JM[a, c] = x
     # task errors (6 rows, world axes) and y = xdd* - Jdot v - J M^-1 tau_p
     Rd, wd = orientation_at(src.times, src.orientation, t)
-    eo = rotation_log(matmul(Rd, transpose(R)))
+    eo = _rotation_log(matmul(Rd, transpose(R)))
     e = (x_ref[0, 0] - p[0], x_ref[0, 1] - p[1], x_ref[0, 2] - p[2], eo[0], eo[1], eo[2])
     xd_d = (x_ref[1, 0], x_ref[1, 1], x_ref[1, 2], wd[0], wd[1], wd[2])
     xdd_d = (x_ref[2, 0], x_ref[2, 1], x_ref[2, 2], 0.0, 0.0, 0.0)
@@ -131,7 +131,7 @@ def operational_space_into(src, tree, gravity, f_ext, t, q, v, x_ref, tau_passiv
             for s in range(nv):
                 x += JM[a, s] * J[rows[b], s]
             A[a, b] = x
-    ok = spd_inverse(A, r, Lam, 0, scratch)
+    ok = _spd_inverse(A, r, Lam, 0, scratch)
     big_A, big_Lam = 0.0, 0.0
     for a in range(r):  # max diag(A) max diag(A^-1) <= cond(A) <= r^2 times it (A symmetric positive definite)
         big_A, big_Lam = max(big_A, A[a, a]), max(big_Lam, Lam[0, a, a])

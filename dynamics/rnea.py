@@ -19,11 +19,11 @@ import numpy as np
 from . import checks
 from ._numba import (VECTOR, address, inline_kernel, keep_alive, kernel, scratch, SingleCall, view,
                      )
-from .checks import NOT_ARRAYS, DONE, GENERAL, config_ok, nonzero, vector_ok
-from .data import Data, data_at, forward_pass, take
-from .model import unpack
+from .checks import NOT_ARRAYS, DONE, GENERAL, _config_ok, _nonzero, _vector_ok
+from .data import Data, _data_at, _forward_pass, _take
+from .model import _unpack
 from .parallel import run_chunks
-from .joints import joint_motion, joint_transform, project_force
+from .joints import _joint_motion, _joint_transform, _project_force
 from .spatial import (add, cross, cross_force, force_to_parent, inertia_times, load3, load33,
                       motion_to_child, rot, rotT, scale, store3, store33)
 
@@ -40,19 +40,19 @@ class Work(NamedTuple):
 
 
 @inline_kernel
-def work_at(base, o, nb):
+def _work_at(base, o, nb):
     """A :class:`Work` carved from the buffer at ``base`` from offset o (at base 0: only its size), and the
     offset after it."""
-    d, o = data_at(base, o, nb)
-    aw, o = take(base, o, (nb, 3))
-    av, o = take(base, o, (nb, 3))
-    n, o = take(base, o, (nb, 3))
-    f, o = take(base, o, (nb, 3))
+    d, o = _data_at(base, o, nb)
+    aw, o = _take(base, o, (nb, 3))
+    av, o = _take(base, o, (nb, 3))
+    n, o = _take(base, o, (nb, 3))
+    f, o = _take(base, o, (nb, 3))
     return Work(d, aw, av, n, f), o
 
 
 @kernel
-def workspace(nb):
+def _workspace(nb):
     """A :class:`Work` of owned arrays, which the caller may keep (a torque source's scratch)."""
     d = Data(np.empty((nb, 3, 3)), np.empty((nb, 3)), np.empty((nb, 3)), np.empty((nb, 3)), np.empty((nb, 3)),
              np.empty((nb, 3)))
@@ -71,17 +71,17 @@ class GravityWork(NamedTuple):
 
 
 @inline_kernel
-def gravity_work_at(base, o, nb):
-    R, o = take(base, o, (nb, 3, 3))
-    p, o = take(base, o, (nb, 3))
-    g, o = take(base, o, (nb, 3))
-    H, o = take(base, o, (nb, 3))
-    M, o = take(base, o, nb)
+def _gravity_work_at(base, o, nb):
+    R, o = _take(base, o, (nb, 3, 3))
+    p, o = _take(base, o, (nb, 3))
+    g, o = _take(base, o, (nb, 3))
+    H, o = _take(base, o, (nb, 3))
+    M, o = _take(base, o, nb)
     return GravityWork(R, p, g, H, M), o
 
 
 @inline_kernel
-def rnea_terms(tree, q, v, a, gravity, f_ext, ws, tau, with_v, with_a):
+def _rnea_terms(tree, q, v, a, gravity, f_ext, ws, tau, with_v, with_a):
     """RNEA for one state into ``tau``; ``f_ext`` is (nb, 6) [force, torque] per body or (0, 6).
 
     ``with_v=False`` (v is zero) skips the velocity pass and every velocity-product term; ``with_a=False``
@@ -89,7 +89,7 @@ def rnea_terms(tree, q, v, a, gravity, f_ext, ws, tau, with_v, with_a):
     """
     parents, mass, hs, Ios = tree.parents, tree.mass, tree.h, tree.Io
     d = ws.d
-    forward_pass(tree, q, v, d, with_v)  # X_i, v_i, c_i
+    _forward_pass(tree, q, v, d, with_v)  # X_i, v_i, c_i
     zero = (0.0, 0.0, 0.0)
     a0 = (-gravity[0], -gravity[1], -gravity[2])  # the world accelerates up: a_0 = (0, -g)
     nb = parents.shape[0]
@@ -101,7 +101,7 @@ def rnea_terms(tree, q, v, a, gravity, f_ext, ws, tau, with_v, with_a):
         else:
             aw, al = motion_to_child(R, p, load3(ws.aw, par), load3(ws.av, par))
         if with_a:
-            sw, sv = joint_motion(tree, i, a)
+            sw, sv = _joint_motion(tree, i, a)
             aw, al = add(aw, sw), add(al, sv)
         m, h, Io = mass[i], load3(hs, i), load33(Ios, i)
         if with_v:
@@ -121,7 +121,7 @@ def rnea_terms(tree, q, v, a, gravity, f_ext, ws, tau, with_v, with_a):
         store3(ws.f, i, f)
     for i in range(nb - 1, -1, -1):  # tau_i = S_i^T f_i,  f_p += X_i^T f_i
         n, f = load3(ws.n, i), load3(ws.f, i)
-        project_force(tree, i, n, f, tau)
+        _project_force(tree, i, n, f, tau)
         par = parents[i]
         if par >= 0:
             pn, pf = force_to_parent(load33(d.R, i), load3(d.p, i), n, f)
@@ -130,7 +130,7 @@ def rnea_terms(tree, q, v, a, gravity, f_ext, ws, tau, with_v, with_a):
 
 
 @inline_kernel
-def gravity_into(tree, q, gravity, ws, tau):
+def _gravity_into(tree, q, gravity, ws, tau):
     """g(q): RNEA at v = a = 0, where each body's force reduces to the weight of its subtree.
 
     With a_0 = (0, -g) every a_i = (0, -g_i), g_i = R_i^T g_p, so f_i summed over the subtree of i is
@@ -141,7 +141,7 @@ def gravity_into(tree, q, gravity, ws, tau):
     Rs, ps, gs, Hs, Ms = ws
     nb = parents.shape[0]
     for i in range(nb):
-        R, p = joint_transform(tree, i, q)
+        R, p = _joint_transform(tree, i, q)
         par = parents[i]
         g = rotT(R, (gravity[0], gravity[1], gravity[2]) if par < 0 else load3(gs, par))
         store33(Rs, i, R)
@@ -151,7 +151,7 @@ def gravity_into(tree, q, gravity, ws, tau):
         Ms[i] = mass[i]
     for i in range(nb - 1, -1, -1):
         H, M, g = load3(Hs, i), Ms[i], load3(gs, i)
-        project_force(tree, i, cross(g, H), scale(-M, g), tau)  # -H x g = g x H
+        _project_force(tree, i, cross(g, H), scale(-M, g), tau)  # -H x g = g x H
         par = parents[i]
         if par >= 0:
             store3(Hs, par, add(load3(Hs, par), add(rot(load33(Rs, i), H), scale(M, load3(ps, i)))))
@@ -159,66 +159,66 @@ def gravity_into(tree, q, gravity, ws, tau):
 
 
 @kernel
-def gravity_batch(tree, Q, gravity, out):
+def _gravity_batch(tree, Q, gravity, out):
     nb = tree.parents.shape[0]
-    buf = np.empty(gravity_work_at(0, 0, nb)[1])
-    ws = gravity_work_at(address(buf), 0, nb)[0]
+    buf = np.empty(_gravity_work_at(0, 0, nb)[1])
+    ws = _gravity_work_at(address(buf), 0, nb)[0]
     for b in range(Q.shape[0]):
-        gravity_into(tree, Q[b], gravity, ws, out[b])
+        _gravity_into(tree, Q[b], gravity, ws, out[b])
     keep_alive(buf)
 
 
 @kernel
-def rnea_into(tree, q, v, a, gravity, f_ext, ws, tau):
+def _rnea_into(tree, q, v, a, gravity, f_ext, ws, tau):
     """RNEA for one state into ``tau`` with every term."""
-    rnea_terms(tree, q, v, a, gravity, f_ext, ws, tau, True, True)
+    _rnea_terms(tree, q, v, a, gravity, f_ext, ws, tau, True, True)
 
 
 @kernel
-def rnea_batch(tree, Q, V, A, F, gravity, with_v, with_a, out):
+def _rnea_batch(tree, Q, V, A, F, gravity, with_v, with_a, out):
     """Rows of ``out`` = RNEA of the rows of Q, V, A (V or A may have one row when unused); F is
     (1 or B, nb or 0, 6)."""
     nb = tree.parents.shape[0]
-    buf = np.empty(work_at(0, 0, nb)[1])
-    ws = work_at(address(buf), 0, nb)[0]
+    buf = np.empty(_work_at(0, 0, nb)[1])
+    ws = _work_at(address(buf), 0, nb)[0]
     lf, lv, la = F.shape[0] - 1, V.shape[0] - 1, A.shape[0] - 1
     for b in range(Q.shape[0]):
-        rnea_terms(tree, Q[b], V[min(b, lv)], A[min(b, la)], gravity, F[min(b, lf)], ws, out[b], with_v, with_a)
+        _rnea_terms(tree, Q[b], V[min(b, lv)], A[min(b, la)], gravity, F[min(b, lf)], ws, out[b], with_v, with_a)
     keep_alive(buf)
 
 
 # -- one state from Python: inputs checked inside the call (status codes of dynamics.checks) ----------------
-def rnea_single(packed, q, v, a, tau):
-    tree, gravity, nq = unpack(packed)
+def _rnea_single(packed, q, v, a, tau):
+    tree, gravity, nq = _unpack(packed)
     nb, nv = tree.parents.shape[0], tree.S.shape[0]
-    if not (config_ok(tree, nq, q) and vector_ok(v, nv) and vector_ok(a, nv) and tau.shape[0] == nv):
+    if not (_config_ok(tree, nq, q) and _vector_ok(v, nv) and _vector_ok(a, nv) and tau.shape[0] == nv):
         return GENERAL
-    buf = scratch(work_at(0, 0, nb)[1])
-    rnea_terms(tree, q, v, a, gravity, view(buf, 0, (0, 6)), work_at(address(buf), 0, nb)[0], tau, nonzero(v),
-               nonzero(a))
+    buf = scratch(_work_at(0, 0, nb)[1])
+    _rnea_terms(tree, q, v, a, gravity, view(buf, 0, (0, 6)), _work_at(address(buf), 0, nb)[0], tau, _nonzero(v),
+               _nonzero(a))
     keep_alive(buf)
     return DONE
 
 
-def bias_single(packed, q, v, tau):
-    tree, gravity, nq = unpack(packed)
+def _bias_single(packed, q, v, tau):
+    tree, gravity, nq = _unpack(packed)
     nb, nv = tree.parents.shape[0], tree.S.shape[0]
-    if not (config_ok(tree, nq, q) and vector_ok(v, nv) and tau.shape[0] == nv):
+    if not (_config_ok(tree, nq, q) and _vector_ok(v, nv) and tau.shape[0] == nv):
         return GENERAL
-    buf = scratch(work_at(0, 0, nb)[1])
-    rnea_terms(tree, q, v, v, gravity, view(buf, 0, (0, 6)), work_at(address(buf), 0, nb)[0], tau, nonzero(v),
+    buf = scratch(_work_at(0, 0, nb)[1])
+    _rnea_terms(tree, q, v, v, gravity, view(buf, 0, (0, 6)), _work_at(address(buf), 0, nb)[0], tau, _nonzero(v),
                False)
     keep_alive(buf)
     return DONE
 
 
-def gravity_single(packed, q, tau):
-    tree, gravity, nq = unpack(packed)
+def _gravity_single(packed, q, tau):
+    tree, gravity, nq = _unpack(packed)
     nb = tree.parents.shape[0]
-    if not (config_ok(tree, nq, q) and tau.shape[0] == tree.S.shape[0]):
+    if not (_config_ok(tree, nq, q) and tau.shape[0] == tree.S.shape[0]):
         return GENERAL
-    buf = scratch(gravity_work_at(0, 0, nb)[1])
-    gravity_into(tree, q, gravity, gravity_work_at(address(buf), 0, nb)[0], tau)
+    buf = scratch(_gravity_work_at(0, 0, nb)[1])
+    _gravity_into(tree, q, gravity, _gravity_work_at(address(buf), 0, nb)[0], tau)
     keep_alive(buf)
     return DONE
 
@@ -227,11 +227,11 @@ def gravity_single(packed, q, tau):
 
 
 # -- public entry points ---------------------------------------------------------------------------
-_rnea_batch = rnea_batch
-_gravity_batch = gravity_batch
-_rnea_single = SingleCall(rnea_single, VECTOR, VECTOR, VECTOR, VECTOR)
-_bias_single = SingleCall(bias_single, VECTOR, VECTOR, VECTOR)
-_gravity_single = SingleCall(gravity_single, VECTOR, VECTOR)
+_rnea_batch = _rnea_batch
+_gravity_batch = _gravity_batch
+_rnea_single = SingleCall(_rnea_single, VECTOR, VECTOR, VECTOR, VECTOR)
+_bias_single = SingleCall(_bias_single, VECTOR, VECTOR, VECTOR)
+_gravity_single = SingleCall(_gravity_single, VECTOR, VECTOR)
 
 
 def _run(model, q, v, a, gravity, f_ext):

@@ -18,7 +18,7 @@ arithmetic here.  ``load3``/``store3`` move them between tuples and rows of the 
 
 The algebra is :data:`~dynamics._numba.helper` (numba's ``register_jitable``): compiled into each kernel that
 calls it, with no entry point or cache file of its own; called from Python it runs as plain Python.  The
-rotations Python code also uses (``rotation_about_axis``, ``quat_rotation``, ``rotation_log``) are kernels.
+rotations Python code also uses (``_rotation_about_axis``, ``_quat_rotation``, ``_rotation_log``) are kernels.
 """
 
 import numpy as np
@@ -175,7 +175,7 @@ def _block(I, r0, c0):
 
 
 @inline_kernel
-def add_inertia6_to_parent(R, p, I, IA, par):
+def _add_inertia6_to_parent(R, p, I, IA, par):
     """IA[par] += X^T I X for a 6x6 (articulated) inertia I given in the child frame.
 
     With I = [[A, B], [B^T, C]], A' = R A R^T, B' = R B R^T, C' = R C R^T and P = [p]x:
@@ -198,7 +198,7 @@ def add_inertia6_to_parent(R, p, I, IA, par):
 
 
 @inline_kernel
-def store_inertia6(I, i, m, h, Io):
+def _store_inertia6(I, i, m, h, Io):
     """I[i] = the 6x6 rigid-body inertia [[Io, [h]x], [[h]x^T, m 1]] (angular first, eq. 2.63)."""
     for r in range(3):
         for c in range(3):
@@ -213,7 +213,7 @@ def store_inertia6(I, i, m, h, Io):
 
 
 @inline_kernel
-def joint_gram(S, U, k0, nj, D):
+def _joint_gram(S, U, k0, nj, D):
     """D[:nj, :nj] = S^T U over a joint's rows k0 .. k0 + nj of S and U (6-vectors per row): D_i = S_i^T I^A S_i."""
     for a in range(nj):
         for b in range(nj):
@@ -277,7 +277,7 @@ def skew_poly(a, b, t0, t1, t2, x0, x1, x2):
 
 
 @kernel
-def rotation_about_axis(axis, angle):
+def _rotation_about_axis(axis, angle):
     """Rodrigues' formula: exp([axis]x angle) for a unit axis, as a 9-tuple."""
     c = np.cos(angle)
     s = np.sin(angle)
@@ -289,7 +289,7 @@ def rotation_about_axis(axis, angle):
 
 
 @kernel
-def quat_rotation(qx, qy, qz, qw):
+def _quat_rotation(qx, qy, qz, qw):
     """Rotation matrix (9-tuple) of the quaternion (qx, qy, qz, qw), normalised first (Hamilton)."""
     nrm = np.sqrt(qx * qx + qy * qy + qz * qz + qw * qw)
     x, y, z, w = qx / nrm, qy / nrm, qz / nrm, qw / nrm
@@ -299,7 +299,7 @@ def quat_rotation(qx, qy, qz, qw):
 
 
 @kernel
-def rotation_log(R):
+def _rotation_log(R):
     """The rotation vector theta * axis of R (9-tuple), log: SO(3) -> R^3, accurate near 0 and near pi."""
     w = (0.5 * (R[7] - R[5]), 0.5 * (R[2] - R[6]), 0.5 * (R[3] - R[1]))  # sin(theta) axis
     c = min(1.0, max(-1.0, 0.5 * (R[0] + R[4] + R[8] - 1.0)))  # cos(theta)
@@ -323,7 +323,7 @@ def rotation_log(R):
 
 
 @inline_kernel
-def spd_inverse(D, n, Dinv, i, A):
+def _spd_inverse(D, n, Dinv, i, A):
     """Dinv[i, :n, :n] = inverse of the symmetric positive definite D[:n, :n] (Gauss-Jordan without
     pivoting, valid for SPD; A is (6, 6) scratch).  Returns False when a pivot is not positive."""
     for r in range(n):

@@ -18,32 +18,32 @@ import numpy as np
 from . import checks
 from ._numba import borrowed, keep_alive, kernel
 from .errors import InputError
-from .jacobians import jacobian_into
-from .kinematics import support
-from .minverse import Checked, minverse_into, run_checked, workspace
+from .jacobians import _jacobian_into
+from .kinematics import _support
+from .minverse import Checked, _minverse_into, run_checked, _workspace
 
 #: J M^-1 J^T with a larger condition number is singular (half of double precision's digits are gone)
 MAX_CONDITION = 1e8
 
 
 @kernel
-def jmj_batch(model_tree, Q, model_frames, f, ref, rows, out, status):
+def _jmj_batch(model_tree, Q, model_frames, f, ref, rows, out, status):
     """out[b] = J[rows] M^-1 J[rows]^T at Q[b]; status[b] = -1 or a body whose joint makes M singular."""
     # borrowed: the kernels below take the arrays out of the tuples per body and per state: no reference counts
     tree, frames = borrowed(model_tree), borrowed(model_frames)
     nb, nv, r = tree.parents.shape[0], tree.S.shape[0], rows.shape[0]
     path, oR, op = np.empty(nb, np.int64), np.empty((nb, 3, 3)), np.empty((nb, 3))
-    ws = workspace(nb, nv)
+    ws = _workspace(nb, nv)
     J, Minv, JM = np.zeros((6, nv)), np.empty((nv, nv)), np.empty((r, nv))
     cols = np.empty(nv, np.int64)  # the support's columns: J is zero elsewhere
     n = 0
-    for t in range(support(tree.parents, frames.body[f], path)):
+    for t in range(_support(tree.parents, frames.body[f], path)):
         for k in range(tree.v_idx[path[t]], tree.v_idx[path[t]] + tree.nv_j[path[t]]):
             cols[n] = k
             n += 1
     for b in range(Q.shape[0]):
-        jacobian_into(tree, frames, Q[b], f, ref, (0.0, 0.0, 0.0), path, oR, op, J)
-        status[b] = minverse_into(tree, Q[b], ws, Minv)
+        _jacobian_into(tree, frames, Q[b], f, ref, (0.0, 0.0, 0.0), path, oR, op, J)
+        status[b] = _minverse_into(tree, Q[b], ws, Minv)
         for a in range(r):
             for c in range(n):
                 x = 0.0
@@ -61,7 +61,7 @@ def jmj_batch(model_tree, Q, model_frames, f, ref, rows, out, status):
 
 
 # -- public entry point ----------------------------------------------------------------------------
-_jmj_batch = Checked(jmj_batch)
+_jmj_batch = Checked(_jmj_batch)
 
 
 def operational_space_inertia(model, q, frame, *, reference="local_world_aligned", rows=None, damping=0.0):

@@ -13,7 +13,7 @@ array (nv,)            the constant vector
 ``Table(t, tau)``      piecewise linear in t through the rows of tau (N, nv); ``hold="zoh"``: tau[k] on
                        [t_k, t_k+1).  Before t_0 / after t_N-1 the first / last row.
 ``PD(q_target, kp,     kp (q_target - q) + kd (v_target - v) + tau_ff; the position error is the tangent
-kd)``                  vector from q to q_target (:func:`dynamics.integrate.difference`), so it is also
+kd)``                  vector from q to q_target (:func:`dynamics.integrate._difference`), so it is also
                        defined for a free-flyer (whose gains are zero by default unless given per dof).
 ``ComputedTorque(t,    M(q) a* + h(q, v) - tau_passive(q, v) with a* = a_ref + kd (v_ref - v) + kp (q_ref - q)
 q, v, a, kp, kd)``     (inverse dynamics, the RNEA), so the closed loop is e'' + kd e' + kp e = 0 exactly for the
@@ -49,13 +49,13 @@ from . import checks
 from .errors import InputError
 from ._numba import (JIT_OPTIONS, borrowing_kernel, call_address, copy_into, deref, gil_kernel, inline_kernel, kernel,
                      native_address, owned_pack)
-from .configuration import difference
+from .configuration import _difference
 from .crba import mass_matrix
 from .operational_space import operational_space_into
-from .operational_space import workspace as operational_space_workspace
-from .rnea import rnea_into
-from .rnea import workspace as rnea_workspace
-from .spatial import rotation_log
+from .operational_space import _workspace as operational_space_workspace
+from .rnea import _rnea_into
+from .rnea import _workspace as rnea_workspace
+from .spatial import _rotation_log
 
 
 # The objmode block for Python callables re-takes the GIL by design; numba warns about it at compile time.
@@ -285,7 +285,7 @@ def _computed_torque_eval(tag, src, tree, ps, t, q, v, ws, tau):
     reference_at(src.times, src.table, nv, t, qr, vr, ar)
     for i in range(nv):
         ar[i] += src.gains[1, i] * (vr[i] - v[i]) + src.gains[0, i] * (qr[i] - q[i])
-    rnea_into(tree, q, v, ar, ps.gravity, ps.f_ext, ws[0], tau)
+    _rnea_into(tree, q, v, ar, ps.gravity, ps.f_ext, ws[0], tau)
     pas = ws[1][3]
     passive_torques(ps, q, v, pas)
     for i in range(nv):
@@ -332,7 +332,7 @@ def _table_torques(tag, src, tree, ps, t, q, v, ws, tau):
 
 def _pd_torques(tag, src, tree, ps, t, q, v, ws, tau):
     e = ws[1][0]
-    difference(tree, q, src.qref, e)
+    _difference(tree, q, src.qref, e)
     for i in range(tau.shape[0]):
         tau[i] = src.gains[0, i] * e[i] + src.gains[1, i] * (src.gains[2, i] - v[i]) + src.gains[3, i]
 
@@ -546,7 +546,7 @@ def _operational_space_source(model, spec):
     otab = np.zeros((N, 12))
     otab[:, :9] = R.reshape(N, 9)
     for k in range(N - 1):
-        otab[k, 9:] = rotation_log(tuple((R[k + 1] @ R[k].T).ravel()))
+        otab[k, 9:] = _rotation_log(tuple((R[k + 1] @ R[k].T).ravel()))
     if rows is None:
         rows = np.arange(6 if ref.orientation is not None else 3)
     if ref.orientation is None and rows.max() > 2:

@@ -67,7 +67,7 @@ def test_frame_jacobian_fast_path_bit_for_bit_by_name_and_index(model):
 
 
 def test_placements_agree_with_frame_placement(model):
-    """frame_pose by frame kind (built with the model) gives the same placements on the all-frames and one-frame
+    """_frame_pose by frame kind (built with the model) gives the same placements on the all-frames and one-frame
     paths."""
     q = _q(model, 1)
     T = dynamics.forward_kinematics(model, q)

@@ -25,7 +25,7 @@ the rest of the process.
 **Views without reference counts.**  Every array a compiled function holds is reference counted (an atomic
 increment and decrement each time it is bound or passed).  :func:`float_at` and :func:`int_at` make arrays
 with no owner over memory that someone else keeps alive (``numba.carray`` over a pointer): a packed model's
-fields (:func:`dynamics.model.unpack`), a workspace carved from one flat buffer, a state's row.  The rule: the
+fields (:func:`dynamics.model._unpack`), a workspace carved from one flat buffer, a state's row.  The rule: the
 owner of the memory (the caller's array) outlives every view of it, and a view is never stored or returned.
 :func:`borrowed` gives such a view of an array, or of every array of a tuple.  :func:`scratch` is scratch
 memory for one kernel call: on that kernel's stack up to :data:`STACK_FLOATS`, else on the heap (end the

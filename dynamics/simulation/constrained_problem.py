@@ -6,7 +6,7 @@ Same state and functions as :mod:`.problem`, with the ABA of the right-hand side
     M a + C v + g = tau + Phi_q^T lambda,    Phi_q a + Phi_q_dot v = -(2 alpha Phi_q v + beta^2 phi)
 
 After every accepted step ``rebase`` optionally projects the state onto the constraint manifold (positions by
-Gauss-Newton, velocities in the kinetic-energy metric; :func:`dynamics.constrained_dynamics.project_position_kernel`)
+Gauss-Newton, velocities in the kinetic-energy metric; :func:`dynamics.constrained_dynamics._project_position_kernel`)
 and re-evaluates f there, so the next step starts on the manifold.  It also tracks the largest position and
 velocity residuals (max |phi|, max |Phi_q v|) at every accepted step (after projection) and at every sample:
 ``constraint_drift`` of the report.
@@ -21,9 +21,9 @@ from typing import NamedTuple
 import numpy as np
 
 from .._numba import borrowing_kernel, copy_into, deref
-from ..constrained_dynamics import (constrained_accel_kernel, drift_kernel, project_position_kernel,
-                           project_velocity_kernel)
-from ..constrained_dynamics import workspace as constrained_workspace
+from ..constrained_dynamics import (_constrained_accel_kernel, _drift_kernel, _project_position_kernel,
+                           _project_velocity_kernel)
+from ..constrained_dynamics import _workspace as constrained_workspace
 from ..configuration import retract_in
 from ..constraints import arrays
 from .problem import RobotProblem, applied_torques, chart_and_velocity, emit, euler_config, rebase, robot_problem
@@ -37,7 +37,7 @@ ConstrainedProblem = NamedTuple("ConstrainedProblem", list(RobotProblem.__annota
     ("alpha", float),  # Baumgarte gains (1/s)
     ("beta", float),
     ("project", bool),  # project onto the manifold after accepted steps
-    ("ws_con", tuple),  # constrained.workspace(nb, nv, m)
+    ("ws_con", tuple),  # constrained._workspace(nb, nv, m)
     ("lam", np.ndarray),  # (m,) scratch: multipliers of the last rhs evaluation
     ("abuf", np.ndarray),  # (nv,) scratch: accelerations at a sample
     ("vbuf", np.ndarray),  # (nv,) scratch: projected velocity
@@ -67,7 +67,7 @@ def constrained_rhs(p, t, z, dz):
     nv = p.tau_s.shape[0]
     q, v = chart_and_velocity(p, z, dz)
     power_s, power_p = applied_torques(p, t, q, v)
-    if constrained_accel_kernel(p.tree, p.C, p.passive.gravity, q, v, p.tau_p, p.alpha, p.beta, p.ws_con,
+    if _constrained_accel_kernel(p.tree, p.C, p.passive.gravity, q, v, p.tau_p, p.alpha, p.beta, p.ws_con,
                                 dz[nv:2 * nv], p.lam) >= 0:
         dz[nv:2 * nv] = np.nan
     dz[2 * nv] = power_s
@@ -76,7 +76,7 @@ def constrained_rhs(p, t, z, dz):
 
 @borrowing_kernel
 def _track_drift(p, q, v):
-    pos, vel = drift_kernel(p.tree, p.C, q, v, p.ws_con)
+    pos, vel = _drift_kernel(p.tree, p.C, q, v, p.ws_con)
     p.drift[0] = max(p.drift[0], pos)
     p.drift[1] = max(p.drift[1], vel)
 
@@ -90,12 +90,12 @@ def constrained_rebase(p, t, z, dz, mag):
     rebase(p, t, z, dz, mag)
     v = z[nv:2 * nv]
     if p.project:
-        err = project_position_kernel(p.tree, p.C, p.base, p.ws_con, PROJECT_TOL, PROJECT_ITER, p.qbuf)
+        err = _project_position_kernel(p.tree, p.C, p.base, p.ws_con, PROJECT_TOL, PROJECT_ITER, p.qbuf)
         if err <= PROJECT_TOL:
             copy_into(p.base, p.qbuf)
         else:  # keep the step's configuration; the drift and the report say how far off it is
             p.project_failures[0] += 1
-        if project_velocity_kernel(p.tree, p.C, p.base, v, p.ws_con, p.vbuf) < 0:
+        if _project_velocity_kernel(p.tree, p.C, p.base, v, p.ws_con, p.vbuf) < 0:
             copy_into(v, p.vbuf)
         constrained_rhs(p, t, z, dz)
         rebase(p, t, z, dz, mag)  # the magnitudes of the projected state (z's chart part is zero)
@@ -115,7 +115,7 @@ def constrained_emit(p, j, t, z):
     _track_drift(p, q, v)
     if p.out_lam.shape[0] > 0:
         applied_torques(p, t, q, v)
-        constrained_accel_kernel(p.tree, p.C, p.passive.gravity, q, v, p.tau_p, p.alpha, p.beta, p.ws_con, p.abuf,
+        _constrained_accel_kernel(p.tree, p.C, p.passive.gravity, q, v, p.tau_p, p.alpha, p.beta, p.ws_con, p.abuf,
                                  p.out_lam[j])
 
 

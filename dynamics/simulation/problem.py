@@ -22,12 +22,12 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ..aba import aba_into
-from ..aba import workspace as aba_workspace
+from ..aba import _aba_into
+from ..aba import _workspace as aba_workspace
 from numba import typeof, types
 
 from .._numba import address_call, borrowing_kernel, copy_into, deref, inline_kernel, native_address
-from ..configuration import chart_rate_in, chart_tag, integrate_delta, retract_in
+from ..configuration import chart_rate_in, chart_tag, _integrate_delta, retract_in
 from ..joints import JOINT_FREE
 from ..torques import bind_source, call_source, passive_torques, source_workspace
 
@@ -40,8 +40,8 @@ class RobotProblem(NamedTuple):
     tree: object  # the model's Tree
     passive: object  # torques.Passive (also holds gravity and the external forces)
     source_fn: int  # address of the torque source's compiled function (torques.bind_source)
-    source: np.ndarray  # the packed torques.SourceCall (source, tree, passive, workspace), which it keeps alive
-    aba_fn: int  # address of aba_into compiled for this problem's types (:func:`aba_address`)
+    source: np.ndarray  # the packed torques.SourceCall (source, tree, passive, _workspace), which it keeps alive
+    aba_fn: int  # address of _aba_into compiled for this problem's types (:func:`aba_address`)
     chart: object  # configuration.chart_tag(model): its type says whether the model has a free joint
     base: np.ndarray  # (nq,) configuration at the start of the current step (the chart's base)
     qbuf: np.ndarray  # (nq,) scratch: the configuration of the state being evaluated
@@ -71,17 +71,17 @@ def robot_problem(model, passive, source, q0, out_t, outputs):
 
 
 _VEC = types.float64[::1]
-_ABA_ADDRESSES = {}  # argument types -> address of aba_into compiled for them (this process)
-#: ``call_aba(fn, restype, tree, q, v, tau, gravity, f_ext, ws, qdd)``: aba_into through its address
+_ABA_ADDRESSES = {}  # argument types -> address of _aba_into compiled for them (this process)
+#: ``call_aba(fn, restype, tree, q, v, tau, gravity, f_ext, ws, qdd)``: _aba_into through its address
 call_aba = address_call("call_aba", 8)
 
 
 def aba_address(tree, passive, ws):
-    """The address of :func:`dynamics.aba.aba_into` compiled (once per type) for ``rhs``'s arguments: ``rhs``
+    """The address of :func:`dynamics.aba._aba_into` compiled (once per type) for ``rhs``'s arguments: ``rhs``
     calls the ABA through it, so the ABA's code is not linked into rhs and optimised again there."""
     args = (typeof(tree), _VEC, _VEC, _VEC, typeof(passive.gravity), typeof(passive.f_ext), typeof(ws), _VEC)
     if args not in _ABA_ADDRESSES:
-        _ABA_ADDRESSES[args] = native_address(aba_into, types.int64(*args))
+        _ABA_ADDRESSES[args] = native_address(_aba_into, types.int64(*args))
     return _ABA_ADDRESSES[args]
 
 
@@ -148,7 +148,7 @@ def rebase(p, t, z, dz, mag):
 def euler_config(p, z, h):
     p = deref(p)
     nv = p.tau_s.shape[0]
-    integrate_delta(p.tree, p.base, z[nv:2 * nv], h, z[:nv])
+    _integrate_delta(p.tree, p.base, z[nv:2 * nv], h, z[:nv])
 
 
 @borrowing_kernel

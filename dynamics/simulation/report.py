@@ -14,7 +14,7 @@ Non-finite numbers are reported as None (strict JSON); the warnings say why.
 How ``error_estimate`` is computed
 ----------------------------------
 ``error_estimate`` estimates the *global* error of the returned final state, as the max-norm over
-``difference(q_final, q_true)`` (rad or m per velocity coordinate; :func:`dynamics.configuration.difference`)
+``_difference(q_final, q_true)`` (rad or m per velocity coordinate; :func:`dynamics.configuration._difference`)
 and ``v_final - v_true`` (rad/s or m/s).  ``error_estimate_q`` and ``error_estimate_v`` are the two parts.
 It is measured, not modelled, by a second run of the same method on the same problem (``error_estimate=
 "rerun"``, the default):
@@ -52,8 +52,8 @@ import math
 
 import numpy as np
 
-from ..configuration import difference
-from ..energy import energy_batch
+from ..configuration import _difference
+from ..energy import _energy_batch
 from ..errors import InputError
 from .solvers import OK, RADAU, STATUS_NAMES, SWITCH_STIFF
 
@@ -148,7 +148,7 @@ def energy_balance(model, s, t, q, v, w, run):
         v = np.array([s.v0, run.vf])
         w = w[[0, cnt - 1]]
     KU = np.empty((len(q), 2))
-    energy_batch(model.tree, q, v, s.gravity, True, True, KU)
+    _energy_batch(model.tree, q, v, s.gravity, True, True, KU)
     K, U = KU[:, 0], KU[:, 1]
     E = K + U
     W = w.sum(axis=1) if cnt else np.zeros(0)
@@ -215,6 +215,6 @@ def state_error(model, q1, v1, q2, v2):
         d = q1 - q2
     else:
         d = np.empty(model.nv)
-        difference(model.tree, q2, q1, d)
+        _difference(model.tree, q2, q1, d)
     dv = np.asarray(v1, float) - np.asarray(v2, float)
     return float(np.max(np.abs(d), initial=0.0)), float(np.max(np.abs(dv), initial=0.0))

@@ -13,18 +13,18 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ..aba import aba_into
-from ..aba import workspace as aba_workspace
+from ..aba import _aba_into
+from ..aba import _workspace as aba_workspace
 from ..checks import check_model, real_number, vector
-from ..configuration import retract
+from ..configuration import _retract
 from ..errors import InputError
 from ..joints import JOINT_FREE
 from .. import plot
 from ..torques import Passive, make_source, release_callable
 from . import report as R
-from ..constrained_dynamics import (DEFAULT_BAUMGARTE, baumgarte_gains, project_position_kernel,
-                           project_velocity_kernel)
-from ..constrained_dynamics import workspace as constrained_workspace
+from ..constrained_dynamics import (DEFAULT_BAUMGARTE, baumgarte_gains, _project_position_kernel,
+                           _project_velocity_kernel)
+from ..constrained_dynamics import _workspace as constrained_workspace
 from ..constraints import arrays
 from .constrained_problem import PROJECT_TOL, constrained_problem
 from .problem import NQUAD, robot_problem
@@ -187,11 +187,11 @@ def _one_run(model, s, ps, src, dt, out_t, rtol, atol, max_steps, outputs, h0=0.
                   rtol=float(rtol), atol=float(atol), h0=float(h0 or 0.0), hmax=np.inf, blowup=_blowup(s.v0),
                   probe=int(probe and s.fixed and s.duration > 0))
     st, sw, wall = run(s.integrator, p, z, s.duration, opt, watch=watch)
-    if model.nq == nv:  # 1-dof joints only: the chart is q0 + delta (configuration.retract not compiled)
+    if model.nq == nv:  # 1-dof joints only: the chart is q0 + delta (configuration._retract not compiled)
         qf = p.base + z[:nv]
     else:
         qf = np.empty(model.nq)
-        retract(model.tree, p.base, z[:nv], qf)
+        _retract(model.tree, p.base, z[:nv], qf)
     return RunResult(p, st, sw, wall, qf, z[nv:2 * nv].copy())
 
 
@@ -261,11 +261,11 @@ def _project_initial(model, q0, v0, warnings):
     C, m = arrays(model)
     ws = constrained_workspace(model.tree.parents.shape[0], model.nv, m)
     q, v = np.empty(model.nq), np.empty(model.nv)
-    err = project_position_kernel(model.tree, C, q0, ws, PROJECT_TOL, 50, q)
+    err = _project_position_kernel(model.tree, C, q0, ws, PROJECT_TOL, 50, q)
     if not err <= PROJECT_TOL:
         raise InputError(f"q0: the constraints cannot be closed near q0 (max |phi| = {err:.3g} after projection); "
                          "start from dynamics.assemble(model, q0)")
-    project_velocity_kernel(model.tree, C, q, v0, ws, v)
+    _project_velocity_kernel(model.tree, C, q, v0, ws, v)
     moved = max(float(np.max(np.abs(q - q0), initial=0.0)), float(np.max(np.abs(v - v0), initial=0.0)))
     if moved > 1e-9:
         warnings.append(f"project: (q0, v0) moved onto the constraints by up to {moved:.3g}")
@@ -276,7 +276,7 @@ def _check_not_singular(model, q0, v0, g):
     """A joint that moves no mass makes M singular: say which, now, rather than NaN in the first step (the
     ABA kernel the right-hand side uses anyway, not the public forward_dynamics: no second compilation)."""
     nv, nb = model.nv, model.tree.parents.shape[0]
-    body = aba_into(model.tree, q0, v0, np.zeros(nv), g, np.zeros((0, 6)), aba_workspace.py_func(nb, nv),
+    body = _aba_into(model.tree, q0, v0, np.zeros(nv), g, np.zeros((0, 6)), aba_workspace.py_func(nb, nv),
                    np.empty(nv))
     if body >= 0:
         raise InputError(f"q0: the mass matrix is singular at joint {model.joint_names[body]!r}: it moves no mass "
