@@ -369,4 +369,10 @@ def poses(name, x, position_only=False):
         if bad.size:
             where = f" (pose {bad[0]})" if batched else ""
             raise InputError(f"{name}: the rotation part{where} is not a rotation matrix (R R^T != 1 or det R < 0)")
+    bottom = np.flatnonzero(np.abs(T[:, 3] - (0.0, 0.0, 0.0, 1.0)).max(axis=1) > 1e-9)
+    if bottom.size:  # only the top three rows are read: a wrong bottom row would silently become [0, 0, 0, 1]
+        row = ", ".join(f"{x:g}" for x in T[bottom[0], 3])
+        where = f" (pose {bottom[0]})" if batched else ""
+        raise InputError(f"{name}: the bottom row{where} is [{row}]; expected [0, 0, 0, 1] (a homogeneous "
+                         f"transform)")
     return T, batched

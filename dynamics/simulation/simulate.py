@@ -25,7 +25,7 @@ from . import report as R
 from ..constrained import (DEFAULT_BAUMGARTE, baumgarte_gains, project_position_kernel,
                            project_velocity_kernel)
 from ..constrained import workspace as constrained_workspace
-from ..constraints import arrays
+from ..constraints import arrays, warn_drift, warn_off_manifold
 from .constrained_problem import PROJECT_TOL, constrained_problem
 from .problem import NQUAD, robot_problem
 from .progress import check as check_progress
@@ -162,6 +162,7 @@ def _trajectory(model, s, ps, src, main, stability, warnings):
     if s.constrained:
         report["constraint_drift"] = {"position": float(p.drift[0]), "velocity": float(p.drift[1]),
                                       "baumgarte": list(s.baumgarte), "project": s.project}
+        warn_drift(p.drift, warnings)
         if p.project_failures[0]:
             warnings.append(f"project: {int(p.project_failures[0])} position projections did not converge; those "
                             "steps went on from the unprojected configuration (see constraint_drift)")
@@ -251,6 +252,8 @@ def _settings(model, q0, v0, duration, integrator, rtol, atol, dt, sample_dt, gr
         raise InputError(f"project: expected True or False, got {project!r}")
     if constrained and project:
         q0, v0 = _project_initial(model, q0, v0, warnings)
+    elif constrained:
+        warn_off_manifold(model, q0, warnings)
     return Settings(integrator, fixed, q0, v0, duration, rtol, atol, dt, g, int(max_steps),
                     tuple(o for o in OUTPUTS if o in outputs), error_estimate,
                     _sample_times(duration, dt, sample_dt, fixed), constrained, gains, bool(project))
