@@ -21,7 +21,6 @@ from ._numba import (PACKED, VECTOR, Kernel, PythonFunction, borrowing_kernel, h
                      keep_alive, kernel, py_array, py_status, scratch, view)
 from .checks import DONE, GENERAL, config_ok, nonzero, py_packed, py_result, py_state, vector_ok
 from .constrained import constrained_forward_dynamics
-from .errors import InputError
 from .joints import joint_motion, joint_transform
 from .model import unpack
 from .parallel import run_chunks
@@ -265,10 +264,7 @@ def forward_dynamics(model, q, v, tau, *, gravity=None, f_ext=None):
     try:
         run_chunks(_aba_chunk, model.tree, (Q, V, T, F), (g, bool(V.any())), out)
     except _SingularJoint as e:
-        name = model.joint_names[e.body]
-        raise InputError(
-            f"forward dynamics: the mass matrix is singular at joint {name!r}: it moves no mass or inertia "
-            f"(add mass below it, lock it with dynamics.lock_joints, or remove it)") from None
+        raise checks.singular_joint_error(model, e.body, "forward dynamics") from None
     return out if batched else out[0]
 
 

@@ -28,7 +28,6 @@ from . import checks
 from ._numba import MATRIX, VECTOR, Entry, Kernel, inline_kernel, int_view, keep_alive, kernel, scratch, \
     single_signature, view
 from .checks import DONE, F64, GENERAL, NOT_ARRAYS, config_ok
-from .errors import InputError
 from .kinematics import world_pose
 from .model import unpack
 from .parallel import run_chunks
@@ -279,8 +278,7 @@ def run_checked(model, kernel, batched, shared, out, what):
     try:
         run_chunks(kernel, model.tree, batched, shared, out)
     except _SingularJoint as e:
-        raise InputError(f"{what}: the mass matrix is singular at joint {model.joint_names[e.body]!r}: it moves "
-                         f"no mass or inertia (lock it with dynamics.lock_joints, or add mass below it)") from None
+        raise checks.singular_joint_error(model, e.body, what) from None
 
 
 _minverse_batch = Checked(minverse_batch)

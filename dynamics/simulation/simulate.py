@@ -13,9 +13,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ..aba import aba_into
-from ..aba import workspace as aba_workspace
-from ..checks import check_model, real_number, vector
+from ..checks import check_model, real_number, refuse_singular, vector
 from ..configuration import retract
 from ..errors import InputError
 from ..joints import JOINT_FREE
@@ -245,7 +243,7 @@ def _settings(model, q0, v0, duration, integrator, rtol, atol, dt, sample_dt, gr
         if nsteps > max_steps:
             raise InputError(f"max_steps: dt={dt:g} needs {nsteps} steps over {duration:g} s, more than "
                              f"max_steps={max_steps}")
-    _check_not_singular(model, q0, v0, g)
+    refuse_singular(model, q0, "q0")
     constrained = bool(getattr(model, "constraints", ()))
     gains = baumgarte_gains(DEFAULT_BAUMGARTE if baumgarte is None else baumgarte)
     if not isinstance(project, (bool, np.bool_)):
@@ -273,17 +271,6 @@ def _project_initial(model, q0, v0, warnings):
     if moved > 1e-9:
         warnings.append(f"project: (q0, v0) moved onto the constraints by up to {moved:.3g}")
     return q, v
-
-
-def _check_not_singular(model, q0, v0, g):
-    """A joint that moves no mass makes M singular: say which, now, rather than NaN in the first step (the
-    ABA kernel the right-hand side uses anyway, not the public forward_dynamics: no second compilation)."""
-    nv, nb = model.nv, model.tree.parents.shape[0]
-    body = aba_into(model.tree, q0, v0, np.zeros(nv), g, np.zeros((0, 6)), aba_workspace.py_func(nb, nv),
-                   np.empty(nv))
-    if body >= 0:
-        raise InputError(f"q0: the mass matrix is singular at joint {model.joint_names[body]!r}: it moves no mass "
-                         "or inertia (add mass below it, lock it with dynamics.lock_joints, or remove it)")
 
 
 def _passive(model, s, limits, limit_stiffness, limit_damping, friction_eps):
