@@ -452,7 +452,7 @@ def refuse_never_holding(model, constraints, C):
         total = sum(hi for _, hi, _ in segments or ())
         for lo, hi, where in segments or ():
             if lo > total - hi + 1e-9 * (1.0 + total):
-                raise InputError(f"{_label(c, con)}: can never close: the segment of {lo:.3g} m {where} is longer "
+                raise InputError(f"{_label(c, con)}: cannot close in any configuration: the segment of {lo:.3g} m {where} is longer "
                                  f"than the {total - hi:.3g} m of the rest of the chain between the anchors, so "
                                  f"they stay at least {lo - total + hi:.3g} m apart; check the anchors' positions")
     _refuse_cycles(constraints)
@@ -729,10 +729,13 @@ def warn_off_manifold(model, q0, warnings):
     or never, and the motion is not the mechanism's."""
     if not model.constraints:
         return
-    phi = np.abs(constraint_residual(model, q0))
+    C, _ = arrays(model)
+    if np.all(C.kind == COUPLING):  # one row each, in numpy: no kinematics compiled to simulate a gripper
+        phi = np.abs(q0[C.idx[:, 0]] - C.coef[:, 0] * q0[C.idx[:, 2]] - C.coef[:, 1])
+    else:
+        phi = np.abs(constraint_residual(model, q0))
     r = int(np.argmax(phi))
     if phi[r] > MANIFOLD_TOL:
-        C, _ = arrays(model)
         c = int(np.searchsorted(C.row, r, side="right")) - 1
         warnings.append(f"q0: off the constraints: max |phi(q0)| = {phi[r]:.4g} > {MANIFOLD_TOL:g} (at "
                         f"{_label(c, model.constraints[c])}); the motion starts from a mechanism that is not "

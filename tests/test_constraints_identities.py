@@ -213,7 +213,7 @@ def test_loops_that_cannot_close():
     # a rocker pin 2 m out: 2 m against 0.1 + 0.35 + 0.4 m for the rest of the loop, it can never close; refused
     # at load since issue 25 (it used to load and fail in assemble)
     text = open(FOUR_BAR).read().replace('<link_b name="link3" xyz="0.3 0 0"/>', '<link_b name="link3" xyz="2.0 0 0"/>')
-    with pytest.raises(dynamics.URDFError, match=r"can never close: the segment of 2 m .* 0\.85 m"):
+    with pytest.raises(dynamics.URDFError, match=r"cannot close in any configuration: the segment of 2 m .* 0\.85 m"):
         dynamics.load_urdf(text)
 
 

@@ -73,7 +73,7 @@ def test_a_loop_of_a_link_to_itself_is_refused(kind):
 def test_a_loop_anchored_out_of_reach_is_refused():
     """Link 3's anchor 100 m out, the base's at the origin: the anchors' distance is at least 100 - 2 = 98 m
     (the chain between them: 100 m, then 1, 1 and 0 m between joint origins), so they never meet."""
-    with pytest.raises(URDFError, match=r"PointConstraint 'rod': can never close: the segment of 100 m "
+    with pytest.raises(URDFError, match=r"PointConstraint 'rod': cannot close in any configuration: the segment of 100 m "
                                         r"from the anchor on 'l3' to joint 'j3' is longer than the 2 m of the "
                                         r"rest of the chain between the anchors, so they stay at least 98 m apart"):
         dynamics.load_urdf(arm(loop("point", "l3", "base", xyz_a="100 0 0")))
@@ -159,3 +159,10 @@ def test_lock_joints_drops_a_loop_left_on_one_body_when_it_closes():
     assert locked.constraints == () and locked.nv == 2
     with pytest.raises(InputError, match=rf"both ends of loop 'pin' on one rigid body {0.5 * np.sin(0.5):.3g} apart"):
         dynamics.lock_joints(model, {"j3": 0.5})
+
+
+def test_simulate_from_off_a_coupling_warns():
+    """j2 = 2 j1 + 0.1 started at q = (0.3, 0, 0): phi = 0 - 2 * 0.3 - 0.1 = -0.7."""
+    model = dynamics.with_constraints(dynamics.load_urdf(arm()), JointCoupling("j2", "j1", 2.0, 0.1, name="gear"))
+    tr = dynamics.simulate(model, np.array([0.3, 0.0, 0.0]), np.zeros(3), 0.05)
+    assert any("max |phi(q0)| = 0.7 > 1e-06 (at JointCoupling 'gear')" in w for w in tr.report["warnings"])
