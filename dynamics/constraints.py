@@ -318,7 +318,7 @@ def with_constraints(model, constraints, *, at=None):
                          f"joints")
     out.info["constraints"] = {"count": len(out.constraints), "rows": m, "rank": rank,
                                "mobility": model.nv - rank, "closed_near_assembly": bool(err <= 1e-10)}
-    notes = _assembly_notes(out.constraints, C, J, tol, err)
+    notes = _coupling_range_notes(out, len(model.constraints)) + _assembly_notes(out.constraints, C, J, tol, err)
     if notes:
         out = replace(out, warnings=tuple(out.warnings) + tuple(notes))
         for note in notes:
@@ -480,6 +480,24 @@ def _refuse_cycles(constraints):
     for follower in list(leaders):
         if follower not in state:
             visit([follower])
+
+
+def _coupling_range_notes(model, first):
+    """Warnings about the couplings from ``model.constraints[first]`` on that hold nowhere within both joints'
+    limits (legal: the limits are not enforced unless simulate's limits="spring"; but the URDF says the joints
+    never go there)."""
+    notes = []
+    for c, con in enumerate(model.constraints):
+        if c < first or not isinstance(con, JointCoupling):
+            continue
+        (lo_f, hi_f), (lo_l, hi_l) = ((float(model.lower[model.v_slice(j).start]),
+                                       float(model.upper[model.v_slice(j).start])) for j in (con.follower, con.leader))
+        a, b = sorted((con.multiplier * lo_l + con.offset, con.multiplier * hi_l + con.offset))
+        if np.isfinite([lo_f, hi_f, lo_l, hi_l]).all() and (b < lo_f - 1e-12 or a > hi_f + 1e-12):
+            notes.append(f"{_label(c, con)}: {con.follower} = {con.multiplier:g} {con.leader} + {con.offset:g} spans "
+                         f"[{a:g}, {b:g}] over {con.leader}'s limits [{lo_l:g}, {hi_l:g}], outside {con.follower}'s "
+                         f"[{lo_f:g}, {hi_f:g}]: it holds nowhere within the limits; check the multiplier and offset")
+    return notes
 
 
 def _assembly_notes(constraints, C, J, tol, err):

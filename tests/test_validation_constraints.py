@@ -166,3 +166,15 @@ def test_simulate_from_off_a_coupling_warns():
     model = dynamics.with_constraints(dynamics.load_urdf(arm()), JointCoupling("j2", "j1", 2.0, 0.1, name="gear"))
     tr = dynamics.simulate(model, np.array([0.3, 0.0, 0.0]), np.zeros(3), 0.05)
     assert any("max |phi(q0)| = 0.7 > 1e-06 (at JointCoupling 'gear')" in w for w in tr.report["warnings"])
+
+
+def test_a_coupling_outside_the_limits_warns():
+    """j2 = j1 + 10 spans [7, 13] over j1's [-3, 3], outside j2's [-3, 3]: legal (the limits are soft) but it
+    holds nowhere the URDF lets the joints go."""
+    with pytest.warns(UserWarning, match=r"JointCoupling 0 \('j2', 'j1'\): j2 = 1 j1 \+ 10 spans \[7, 13\] over "
+                                         r"j1's limits \[-3, 3\], outside j2's \[-3, 3\]"):
+        model = dynamics.load_urdf(arm(mimic='<mimic joint="j1" offset="10"/>'))
+    assert any("holds nowhere within the limits" in w for w in model.warnings)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        dynamics.load_urdf(arm(mimic='<mimic joint="j1" multiplier="-1" offset="0.5"/>'))
