@@ -1,7 +1,8 @@
 """The ``dynamics`` command line (also ``python -m dynamics``).
 
     dynamics info ROBOT [--floating-base] [--json]       what the model holds: joints with q/v slices, frames
-    dynamics check ROBOT [--floating-base]               every warning and refusal; exit 0 if it loads and simulates, 1 if not
+    dynamics check ROBOT [--floating-base]               every warning and refusal; exit 0 if it loads (and simulate
+                                                         takes it at the neutral configuration), 1 if not
     dynamics simulate ROBOT --duration 2 [--q0 ...] [--torque pd:kp=50,kd=5] [--plot out.png] [--json]
     dynamics serve [--host ...] [--port ...]             the HTTP service (same as python -m service)
 

@@ -415,7 +415,8 @@ def _segments(model, C, c, con):
         up.append([b])
         while up[-1][-1] >= 0:
             up[-1].append(int(model.parents[up[-1][-1]]))
-    common = next(b for b in up[0] if b in set(up[1]))  # -1 (the world) at the latest
+    on_b = set(up[1])
+    common = next(b for b in up[0] if b in on_b)  # -1 (the world) at the latest
     out = []
     for b, p, frame in ends:
         n = float(np.linalg.norm(p))
@@ -452,9 +453,10 @@ def refuse_never_holding(model, constraints, C):
         total = sum(hi for _, hi, _ in segments or ())
         for lo, hi, where in segments or ():
             if lo > total - hi + 1e-9 * (1.0 + total):
-                raise InputError(f"{_label(c, con)}: cannot close in any configuration: the segment of {lo:.3g} m {where} is longer "
-                                 f"than the {total - hi:.3g} m of the rest of the chain between the anchors, so "
-                                 f"they stay at least {lo - total + hi:.3g} m apart; check the anchors' positions")
+                raise InputError(f"{_label(c, con)}: cannot close in any configuration: the segment of {lo:.3g} m "
+                                 f"{where} is longer than the {total - hi:.3g} m of the rest of the chain between "
+                                 f"the anchors, so they stay at least {lo - total + hi:.3g} m apart; check the "
+                                 f"anchors' positions")
     _refuse_cycles(constraints)
 
 

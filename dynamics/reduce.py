@@ -130,7 +130,8 @@ def _keep_constraints(model, reduced, locked):
     """The constraints of ``model`` on the reduced model: a coupling between two locked joints must hold at
     their values (it is dropped), one with a single locked side is refused (the other joint is then fixed
     too: lock it as well); loops stay (frames keep their names), except those whose both ends ended on one
-    body: dropped when they close there, refused when they do not.  Too few free coordinates left is refused by with_constraints, with the rank."""
+    body: dropped when they close there, refused when they do not.  Too few free coordinates left is refused
+    by with_constraints, with the rank."""
     kept = []
     for c in model.constraints:
         if not isinstance(c, JointCoupling):
@@ -166,6 +167,7 @@ def _drop_closed_rigid_loops(reduced, constraints):
         con = constraints[c]
         r = np.abs(phi[C.row[c]:C.row[c] + con.rows]).max()
         if r > 1e-9:
-            raise InputError(f"locked: the joints locked leave both ends of loop {con.name or con.frame_a + '-' + con.frame_b!r} "
-                             f"on one rigid body {r:.3g} apart: the loop cannot close")
+            loop = con.name or con.frame_a + "-" + con.frame_b
+            raise InputError(f"locked: the joints locked leave both ends of loop {loop!r} on one rigid body "
+                             f"{r:.3g} apart: the loop cannot close")
     return [con for c, con in enumerate(constraints) if c not in rigid]

@@ -73,8 +73,8 @@ def test_a_loop_of_a_link_to_itself_is_refused(kind):
 def test_a_loop_anchored_out_of_reach_is_refused():
     """Link 3's anchor 100 m out, the base's at the origin: the anchors' distance is at least 100 - 2 = 98 m
     (the chain between them: 100 m, then 1, 1 and 0 m between joint origins), so they never meet."""
-    with pytest.raises(URDFError, match=r"PointConstraint 'rod': cannot close in any configuration: the segment of 100 m "
-                                        r"from the anchor on 'l3' to joint 'j3' is longer than the 2 m of the "
+    with pytest.raises(URDFError, match=r"PointConstraint 'rod': cannot close in any configuration: the segment "
+                                        r"of 100 m from the anchor on 'l3' to joint 'j3' is longer than the 2 m of the "
                                         r"rest of the chain between the anchors, so they stay at least 98 m apart"):
         dynamics.load_urdf(arm(loop("point", "l3", "base", xyz_a="100 0 0")))
     # the same loop within reach closes: (0, 2.4) m is 2.4 <= 2.5 m from the base
