@@ -22,7 +22,6 @@ from . import checks
 from ._numba import (SingleCall, VECTOR, address, helper, inline_kernel, keep_alive, kernel, scratch, view)
 from .checks import NOT_ARRAYS, DONE, GENERAL, _config_ok, _nonzero, _vector_ok
 from .constrained_dynamics import constrained_forward_dynamics
-from .errors import InputError
 from .joints import _joint_motion
 from .data import Data, _data_at, _forward_pass, _take
 from .model import _unpack
@@ -281,10 +280,7 @@ def forward_dynamics(model, q, v, tau, *, gravity=None, f_ext=None):
     try:
         run_chunks(_aba_chunk, model.tree, (Q, V, T, F), (g, bool(V.any())), out)
     except _SingularJoint as e:
-        name = model.joint_names[e.body]
-        raise InputError(
-            f"forward dynamics: the mass matrix is singular at joint {name!r}: it moves no mass or inertia "
-            f"(add mass below it, lock it with dynamics.lock_joints, or remove it)") from None
+        raise checks.singular_joint_error(model, e.body, "forward dynamics") from None
     return out if batched else out[0]
 
 

@@ -333,4 +333,45 @@ def poses(name, x, position_only=False):
         if bad.size:
             where = f" (pose {bad[0]})" if batched else ""
             raise InputError(f"{name}: the rotation part{where} is not a rotation matrix (R R^T != 1 or det R < 0)")
+    bottom = np.flatnonzero(np.abs(T[:, 3] - (0.0, 0.0, 0.0, 1.0)).max(axis=1) > 1e-9)
+    if bottom.size:  # only the top three rows are read: a wrong bottom row would silently become [0, 0, 0, 1]
+        row = ", ".join(f"{x:g}" for x in T[bottom[0], 3])
+        where = f" (pose {bottom[0]})" if batched else ""
+        raise InputError(f"{name}: the bottom row{where} is [{row}]; expected [0, 0, 0, 1] (a homogeneous "
+                         f"transform)")
     return T, batched
+
+
+# -- a singular mass matrix: one rule (ABA's pivot), one message ------------------------------------------------
+
+def singular_joint_error(model, body, what):
+    """The InputError for a mass matrix found singular at ``body``'s joint, saying what that joint really moves:
+    nothing (no mass or inertia below it), or mass that gives it no inertia along its motion (a point mass on
+    its axis, or inertias too far apart in scale for float64)."""
+    below = np.zeros(model.nbodies, bool)
+    below[body] = True
+    for i in range(body + 1, model.nbodies):  # parents[i] < i: one forward pass marks the subtree
+        below[i] = model.tree.parents[i] >= 0 and below[model.tree.parents[i]]
+    mass = float(np.sum(model.tree.mass[below]))
+    name = model.joint_names[body]
+    if mass == 0.0 and not np.any(model.tree.Io[below]):
+        why = "it moves no mass or inertia (add mass below it, lock it with dynamics.lock_joints, or remove it)"
+    else:
+        masses = model.tree.mass[model.tree.mass > 0]
+        why = (f"the {mass:.3g} kg below it has no inertia along its motion here (a point mass on its axis, or "
+               f"body masses too far apart for float64: {masses.min():.3g} to {masses.max():.3g} kg); give the "
+               f"links below it rotational inertia, or lock it with dynamics.lock_joints")
+    return InputError(f"{what}: the mass matrix is singular at joint {name!r}: {why}")
+
+
+def refuse_singular(model, q, what):
+    """Raise :func:`singular_joint_error` when the mass matrix is singular at q: the articulated-body pivot
+    D = S^T I^A S of some joint is not positive definite.  The rule ``simulate`` applies to q0 and ``dynamics
+    check`` to the neutral configuration, so both say the same."""
+    from .aba import _aba_into, _workspace  # (aba imports this module)
+    nv, nb = model.nv, model.nbodies
+    zero = np.zeros(nv)
+    body = _aba_into(model.tree, q, zero, zero, np.zeros(3), np.zeros((0, 6)), _workspace.py_func(nb, nv),
+                     np.empty(nv))
+    if body >= 0:
+        raise singular_joint_error(model, body, what)

@@ -1,7 +1,8 @@
 """The ``dynamics`` command line (also ``python -m dynamics``).
 
     dynamics info ROBOT [--floating-base] [--json]       what the model holds: joints with q/v slices, frames
-    dynamics check ROBOT [--floating-base]               every warning and refusal; exit 0 if it loads, 1 if not
+    dynamics check ROBOT [--floating-base]               every warning and refusal; exit 0 if it loads (and simulate
+                                                         takes it at the neutral configuration), 1 if not
     dynamics simulate ROBOT --duration 2 [--q0 ...] [--torque pd:kp=50,kd=5] [--plot out.png] [--json]
     dynamics serve [--host ...] [--port ...]             the HTTP service (same as python -m service)
 
@@ -16,6 +17,7 @@ import sys
 import numpy as np
 
 from . import plot, robots
+from .checks import refuse_singular
 from .errors import DynamicsError
 from .simulation import simulate
 from .torques import PD
@@ -118,6 +120,11 @@ def check(args):
         return 1
     for w in model.warnings:
         print(f"warning: {w}")
+    try:  # simulate's own rule, so that check and simulate agree
+        refuse_singular(model, model.neutral(), "model.neutral()")
+    except DynamicsError as e:
+        print(f"refused by simulate and forward dynamics at the neutral configuration: {e}")
+        return 1
     print(f"ok: {model.name} loads (nq={model.nq}, nv={model.nv}, {len(model.warnings)} warnings)")
     return 0
 
@@ -167,7 +174,8 @@ def parser():
     c = robot_command("info", info, "summarise a robot: joints with their q/v slices, frames, warnings")
     c.add_argument("--json", action="store_true", help="print JSON")
     c.add_argument("--lenient", action="store_true", help="accept inertias that break the triangle inequality")
-    robot_command("check", check, "print every warning and refusal; exit 0 if the robot loads, 1 if not")
+    robot_command("check", check, "print every warning and refusal; exit 0 if the robot loads and simulate takes it "
+                  "at the neutral configuration, 1 if not")
     c = robot_command("simulate", simulate_command, "simulate and print the report (exit 2 if not ok)")
     c.add_argument("--duration", type=float, required=True, help="seconds")
     c.add_argument("--q0", help="initial q, comma separated (default: neutral)")

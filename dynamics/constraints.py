@@ -31,6 +31,7 @@ Kinematics run in world coordinates (Featherstone 2008, sec. 2.9): motion axes o
 op_i x oR_i S_w) at the world origin, V_i = V_p + oS_i qd_i, bias acceleration A_i = A_p + V_i x oS_i qd_i.
 """
 
+import warnings as _warnings
 from dataclasses import dataclass, replace
 from typing import NamedTuple
 
@@ -49,6 +50,17 @@ from .spatial import add, cross, cross_motion, dot, load3, load33, matmul, rot, 
 POINT, WELD, REVOLUTE, COUPLING = 0, 1, 2, 3
 #: rows per constraint kind
 ROWS = {POINT: 3, WELD: 6, REVOLUTE: 5, COUPLING: 1}
+#: largest |multiplier| and |offset| of a JointCoupling.  Mimic multipliers are gear ratios (1 to a few hundred
+#: in published URDFs) and offsets joint positions (radians or metres).  The coupling row (1, -multiplier) makes
+#: the constrained dynamics' K = Phi_q M^-1 Phi_q^T as ill-conditioned as multiplier^2 (1e8 here: half the
+#: float64 digits left), and a follower at |q| ~ offset has a float spacing of offset * 2.2e-16 (2.2e-12 here),
+#: which must stay far below the assembly tolerance of 1e-10; at 1e308 neither holds and q = [0, 1e308, 0]
+#: "satisfies" the coupling.
+MAX_COUPLING = 1e4
+#: a start off the constraints, or a drift during a simulation, beyond this (m, rad, or a coupled joint's units)
+#: is reported: a micrometre is far above what Baumgarte's terms and the integrator's default tolerances leave
+#: (the four-bar stays below 1e-7 over 10 s), and far below an opened loop that changes the motion
+MANIFOLD_TOL = 1e-6
 
 
 # -- declarations ----------------------------------------------------------------------------------------------
@@ -145,8 +157,14 @@ class JointCoupling:
     def __post_init__(self):
         object.__setattr__(self, "follower", _name("JointCoupling follower", self.follower))
         object.__setattr__(self, "leader", _name("JointCoupling leader", self.leader))
-        object.__setattr__(self, "multiplier", checks.real_number("JointCoupling multiplier", self.multiplier))
-        object.__setattr__(self, "offset", checks.real_number("JointCoupling offset", self.offset))
+        for attr in ("multiplier", "offset"):
+            x = checks.real_number(f"JointCoupling {attr}", getattr(self, attr))
+            if abs(x) > MAX_COUPLING:
+                raise InputError(f"JointCoupling {attr}: |{attr}| = {abs(x):.3g} exceeds {MAX_COUPLING:.0e}, more "
+                                 f"than float64 dynamics can carry (the coupling's conditioning grows as the "
+                                 f"multiplier squared, the follower's round-off as the offset); expected a gear "
+                                 f"ratio and an offset in the joints' units (radians or metres)")
+            object.__setattr__(self, attr, x)
         if self.follower == self.leader:
             raise InputError(f"JointCoupling: joint {self.follower!r} cannot follow itself")
 
@@ -263,6 +281,11 @@ def with_constraints(model, constraints, *, at=None):
     where they close, a set of constraints that leaves nothing free to move (rank of Phi_q = nv) is refused
     with the rank.  ``model.info["constraints"]`` records rows, rank and mobility there (or at ``at`` when the
     loops do not close near it: ``closed_near_assembly`` False).
+
+    What can never hold is refused (:func:`refuse_never_holding`): a loop whose two anchors are on one rigid
+    body, anchors farther apart than the chain between them can ever bring together, couplings in a cycle.  A
+    warning (``model.warnings`` and Python's ``warnings``) when the loops do not close near ``at``, and for
+    constraints whose rows repeat those before them (redundant rows: their multipliers are not unique).
     """
     checks.check_model(model)
     if isinstance(constraints, (PointConstraint, WeldConstraint, RevoluteConstraint, JointCoupling)):
@@ -287,25 +310,36 @@ def with_constraints(model, constraints, *, at=None):
         fixed.append(c)
     out = replace(model, constraints=tuple(model.constraints) + tuple(fixed), info=dict(model.info))
     C, m = arrays(out)
-    if np.all(C.kind == COUPLING):  # constant rows, always closable: no kinematics compiled to load a gripper
-        J, err = coupling_rows(C, m, model.nv), 0.0
-    else:
-        q1, err = q0, 0.0
-        rng = np.random.default_rng(0)
-        for attempt in range(6):  # a stretched pose (a singular J) can stall: retry from nearby ones
-            start = q0 if attempt == 0 else _integrate_q(model.tree, q0, rng.normal(scale=0.3, size=model.nv), 1.0)
-            q1, err = close_loops(out, C, m, start, np.ones(model.nv), 1e-10, 30)
-            if err <= 1e-10:
-                break
-        J = constraint_jacobian(out, q1)
-    rank = int(np.linalg.matrix_rank(J, tol=1e-9 * max(1.0, np.abs(J).max()))) if m else 0
+    refuse_never_holding(out, out.constraints, C)
+    J, err = _close_near(out, C, m, q0)
+    tol = 1e-9 * max(1.0, np.abs(J).max(initial=0.0))
+    rank = int(np.linalg.matrix_rank(J, tol=tol)) if m else 0
     if m and model.nv and rank >= model.nv and err <= 1e-10:
         raise InputError(f"constraints: over-constrained: the {m} constraint rows have rank {rank} = nv = "
                          f"{model.nv} where the loops close, so nothing can move; remove constraints or unlock "
                          f"joints")
     out.info["constraints"] = {"count": len(out.constraints), "rows": m, "rank": rank,
                                "mobility": model.nv - rank, "closed_near_assembly": bool(err <= 1e-10)}
+    notes = _coupling_range_notes(out, len(model.constraints)) + _assembly_notes(out.constraints, C, J, tol, err)
+    if notes:
+        out = replace(out, warnings=tuple(out.warnings) + tuple(notes))
+        for note in notes:
+            _warnings.warn(note, UserWarning, stacklevel=2)
     return out
+
+
+def _close_near(model, C, m, q0):
+    """(Phi_q, max |phi|) where Gauss-Newton from q0 (then from nearby starts) closes the loops, or gets nearest."""
+    if np.all(C.kind == COUPLING):  # constant rows, always closable: no kinematics compiled to load a gripper
+        return coupling_rows(C, m, model.nv), 0.0
+    q1, err = q0, 0.0
+    rng = np.random.default_rng(0)
+    for attempt in range(6):  # a stretched pose (a singular J) can stall: retry from nearby ones
+        start = q0 if attempt == 0 else _integrate_q(model.tree, q0, rng.normal(scale=0.3, size=model.nv), 1.0)
+        q1, err = close_loops(model, C, m, start, np.ones(model.nv), 1e-10, 30)
+        if err <= 1e-10:
+            break
+    return constraint_jacobian(model, q1), err
 
 
 def coupling_rows(C, m, nv):
@@ -341,6 +375,158 @@ def close_loops(model, C, m, q, free, tol, max_iter):
             break  # no step reduces |phi|: a least-squares minimum with phi != 0
         q, err = q_new, np.abs(phi[0]).max()
     return q, err
+
+
+# -- what can never hold, what repeats ------------------------------------------------------------------------
+
+def _label(c, con):
+    """How a message names constraint c: its kind and name, or its kind, index and the two frames or joints."""
+    if con.name:
+        return f"{type(con).__name__} {con.name!r}"
+    ends = (con.follower, con.leader) if isinstance(con, JointCoupling) else (con.frame_a, con.frame_b)
+    return f"{type(con).__name__} {c} ({ends[0]!r}, {ends[1]!r})"
+
+
+def _joint_origin(model, b):
+    return "the world origin" if b < 0 else f"joint {model.joint_names[b]!r}"
+
+
+def _joint_reach(model, i):
+    """(shortest, longest) distance from the origin of body i's parent to body i's origin (its joint's), over the
+    joint's range; None when it has no bound (a free joint, a prismatic joint without both limits)."""
+    x, kind = np.array(model.tree.Xpos[i]), model.joint_types[i]
+    if kind == "floating":
+        return None
+    if kind != "prismatic":  # a hinge turns about an axis through its origin: the origin stays put
+        return float(np.linalg.norm(x)), float(np.linalg.norm(x))
+    lo, hi = float(model.lower[model.v_index[i]]), float(model.upper[model.v_index[i]])
+    if not (np.isfinite(lo) and np.isfinite(hi)):
+        return None
+    d = model.tree.Xrot[i] @ model.tree.axis[i]  # the slide direction in the parent's frame
+    t = min(max(-float(x @ d), lo), hi)  # the slide's point nearest the parent's origin
+    return float(np.linalg.norm(x + t * d)), max(float(np.linalg.norm(x + lo * d)), float(np.linalg.norm(x + hi * d)))
+
+
+def _segments(model, C, c, con):
+    """The segments from anchor a's origin to anchor b's along the tree (through the joint origins up to the
+    bodies' common ancestor, or the world): [(shortest, longest, where)], each rigid or bounded by its joint's
+    range; None when one of them has no bound."""
+    ends = ((int(C.body[c, 0]), C.p[c, 0], con.frame_a), (int(C.body[c, 1]), C.p[c, 1], con.frame_b))
+    up = []
+    for b, _, _ in ends:
+        up.append([b])
+        while up[-1][-1] >= 0:
+            up[-1].append(int(model.parents[up[-1][-1]]))
+    on_b = set(up[1])
+    common = next(b for b in up[0] if b in on_b)  # -1 (the world) at the latest
+    out = []
+    for b, p, frame in ends:
+        n = float(np.linalg.norm(p))
+        out.append((n, n, f"from the anchor on {frame!r} to {_joint_origin(model, b)}"))
+        while b != common:
+            reach = _joint_reach(model, b)
+            if reach is None:
+                return None
+            parent = int(model.parents[b])
+            out.append((*reach, f"from {_joint_origin(model, parent)} to {_joint_origin(model, b)}"))
+            b = parent
+    return out
+
+
+def refuse_never_holding(model, constraints, C):
+    """InputError naming a constraint that can hold in no configuration (so never at load, nor in a simulation):
+
+    * a loop whose anchors are both fixed to one rigid body (it constrains nothing, or contradicts itself);
+    * a loop whose anchors can never meet: along the tree, the anchor origins are joined by segments whose
+      lengths the joints cannot change (a hinge turns about its own origin) or change within a prismatic
+      joint's limits; the segments close into a polygon only if none is longer than all the others together;
+    * couplings in a cycle (j1 follows j2 follows j1): each joint would follow itself.
+    """
+    for c, con in enumerate(constraints):
+        if C.kind[c] == COUPLING:
+            continue
+        if C.body[c, 0] == C.body[c, 1]:
+            b = int(C.body[c, 0])
+            raise InputError(f"{_label(c, con)}: both anchors are fixed to body "
+                             f"{'the world' if b < 0 else repr(model.body_names[b])} (frames {con.frame_a!r} and "
+                             f"{con.frame_b!r} move as one rigid body), so it constrains nothing, or can never hold; "
+                             f"anchor it between bodies that move relative to each other")
+        segments = _segments(model, C, c, con)
+        total = sum(hi for _, hi, _ in segments or ())
+        for lo, hi, where in segments or ():
+            if lo > total - hi + 1e-9 * (1.0 + total):
+                raise InputError(f"{_label(c, con)}: cannot close in any configuration: the segment of {lo:.3g} m "
+                                 f"{where} is longer than the {total - hi:.3g} m of the rest of the chain between "
+                                 f"the anchors, so they stay at least {lo - total + hi:.3g} m apart; check the "
+                                 f"anchors' positions")
+    _refuse_cycles(constraints)
+
+
+def _refuse_cycles(constraints):
+    """InputError when the couplings' follower -> leader links form a cycle (depth first, as a path of names)."""
+    leaders = {}
+    for con in constraints:
+        if isinstance(con, JointCoupling):
+            leaders.setdefault(con.follower, []).append(con.leader)
+    state = {}  # 1: on the current path, 2: done
+
+    def visit(path):
+        state[path[-1]] = 1
+        for leader in leaders.get(path[-1], ()):
+            if state.get(leader) == 1:
+                cycle = path[path.index(leader):] + [leader]
+                raise InputError(f"JointCoupling: the couplings form a cycle: {' follows '.join(cycle)}, so each "
+                                 f"joint would follow itself; remove one of them")
+            if leader not in state:
+                visit(path + [leader])
+        state[path[-1]] = 2
+
+    for follower in list(leaders):
+        if follower not in state:
+            visit([follower])
+
+
+def _coupling_range_notes(model, first):
+    """Warnings about the couplings from ``model.constraints[first]`` on that hold nowhere within both joints'
+    limits (legal: the limits are not enforced unless simulate's limits="spring"; but the URDF says the joints
+    never go there)."""
+    notes = []
+    for c, con in enumerate(model.constraints):
+        if c < first or not isinstance(con, JointCoupling):
+            continue
+        (lo_f, hi_f), (lo_l, hi_l) = ((float(model.lower[model.v_slice(j).start]),
+                                       float(model.upper[model.v_slice(j).start])) for j in (con.follower, con.leader))
+        a, b = sorted((con.multiplier * lo_l + con.offset, con.multiplier * hi_l + con.offset))
+        if np.isfinite([lo_f, hi_f, lo_l, hi_l]).all() and (b < lo_f - 1e-12 or a > hi_f + 1e-12):
+            notes.append(f"{_label(c, con)}: {con.follower} = {con.multiplier:g} {con.leader} + {con.offset:g} spans "
+                         f"[{a:g}, {b:g}] over {con.leader}'s limits [{lo_l:g}, {hi_l:g}], outside {con.follower}'s "
+                         f"[{lo_f:g}, {hi_f:g}]: it holds nowhere within the limits; check the multiplier and offset")
+    return notes
+
+
+def _assembly_notes(constraints, C, J, tol, err):
+    """Warnings about the assembled constraints: loops that do not close near the assembly configuration, and
+    constraints whose rows add no rank to those before them (J = Phi_q there, tol its rank tolerance)."""
+    notes = []
+    if err > 1e-10:
+        notes.append(f"constraints: the loops do not close near the assembly configuration: max |phi| = {err:.3g} "
+                     f"left by Gauss-Newton from it and 5 nearby starts; start from dynamics.assemble(model, guess) "
+                     f"with a guess near a closed pose, or check the anchors")
+    repeats, kept, rank = [], J[:0], 0
+    for c, con in enumerate(constraints):
+        rows = np.vstack([kept, J[C.row[c]:C.row[c] + con.rows]])
+        r = int(np.linalg.matrix_rank(rows, tol=tol)) if rows.size else 0
+        if r == rank:
+            repeats.append(repr(con.name) if con.name else _label(c, con))
+        else:
+            kept, rank = rows, r
+    if repeats:
+        shown = ", ".join(repeats[:8]) + (", ..." if len(repeats) > 8 else "")
+        notes.append(f"constraints: {len(repeats)} constraint{'s add' if len(repeats) > 1 else ' adds'} no "
+                     f"independent rows to those before them: {shown}; the multipliers are then not unique (the "
+                     f"dynamics take the minimum-norm ones) and, where the repeats disagree, the loops cannot all "
+                     f"close; remove the repeats")
+    return notes
 
 
 # -- kernels -----------------------------------------------------------------------------------------------------
@@ -559,3 +745,34 @@ def constraint_jacobian(model, q):
 def constraint_bias(model, q, v):
     """Phi_q_dot v: (m,) or (B, m), so that d/dt (Phi_q v) = Phi_q a + Phi_q_dot v."""
     return _terms(model, q, v, 2)
+
+
+# -- a simulation on or off the constraints ----------------------------------------------------------------------
+
+def warn_off_manifold(model, q0, warnings):
+    """Append to ``warnings`` (a simulation report's) when q0 is off the constraints by more than
+    :data:`MANIFOLD_TOL`: the first steps would pull it onto them (Baumgarte's terms) with forces of that size,
+    or never, and the motion is not the mechanism's."""
+    if not model.constraints:
+        return
+    C, _ = arrays(model)
+    if np.all(C.kind == COUPLING):  # one row each, in numpy: no kinematics compiled to simulate a gripper
+        phi = np.abs(q0[C.idx[:, 0]] - C.coef[:, 0] * q0[C.idx[:, 2]] - C.coef[:, 1])
+    else:
+        phi = np.abs(constraint_residual(model, q0))
+    r = int(np.argmax(phi))
+    if phi[r] > MANIFOLD_TOL:
+        c = int(np.searchsorted(C.row, r, side="right")) - 1
+        warnings.append(f"q0: off the constraints: max |phi(q0)| = {phi[r]:.4g} > {MANIFOLD_TOL:g} (at "
+                        f"{_label(c, model.constraints[c])}); the motion starts from a mechanism that is not "
+                        f"assembled: start from dynamics.assemble(model, q0), or pass project=True")
+
+
+def warn_drift(drift, warnings):
+    """Append to ``warnings`` when a simulation's constraint drift (position, velocity) went past
+    :data:`MANIFOLD_TOL`: its status alone would say "ok" about a mechanism whose loops opened."""
+    position, velocity = drift
+    if position > MANIFOLD_TOL:
+        warnings.append(f"constraint_drift: the constraints opened by up to {position:.3g} > {MANIFOLD_TOL:g} (m, "
+                        f"rad or a coupled joint's units; velocity rows up to {velocity:.3g}) during the run: "
+                        f"tighten rtol and atol, keep Baumgarte's terms (baumgarte=None), or pass project=True")

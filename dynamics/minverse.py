@@ -27,7 +27,6 @@ import numpy as np
 from . import checks
 from ._numba import (MATRIX, SingleCall, VECTOR, address, inline_kernel, keep_alive, kernel, scratch)
 from .checks import DONE, GENERAL, NOT_ARRAYS, _config_ok
-from .errors import InputError
 from .kinematics import _world_pose
 from .data import _take, _take_int
 from .model import _unpack
@@ -285,8 +284,7 @@ def run_checked(model, kernel, batched, shared, out, what):
     try:
         run_chunks(kernel, model.tree, batched, shared, out)
     except _SingularJoint as e:
-        raise InputError(f"{what}: the mass matrix is singular at joint {model.joint_names[e.body]!r}: it moves "
-                         f"no mass or inertia (lock it with dynamics.lock_joints, or add mass below it)") from None
+        raise checks.singular_joint_error(model, e.body, what) from None
 
 
 _minverse_batch = Checked(_minverse_batch)

@@ -44,7 +44,7 @@ import numpy as np
 
 from .errors import closest
 from ._numba import address, float_at, inline_kernel, int_at
-from .joints import JOINT_FREE, JOINT_NQ, JOINT_NV, JOINT_REVOLUTE, KINDS, URDF_JOINT_CODES, motion_subspace, revolute_terms
+from .joints import JOINT_NQ, JOINT_NV, JOINT_REVOLUTE, KINDS, URDF_JOINT_CODES, motion_subspace, revolute_terms
 
 
 class Tree(NamedTuple):
@@ -303,11 +303,19 @@ class Model:
         return slice(int(self.tree.v_idx[i]), int(self.tree.v_idx[i]) + int(self.tree.nv_j[i]))
 
     def neutral(self) -> np.ndarray:
-        """The neutral configuration: zeros, identity quaternion for a free joint."""
+        """The neutral configuration: zero for each 1-dof joint whose limits allow it, else the middle of its
+        range (the bound, when only one is finite), as MuJoCo clamps ``qpos0`` into the limits; the identity
+        quaternion for a free joint.  Panda's joint 4 (limits [-3.07, -0.07] rad) thus starts at -1.571, the
+        elbow bent, not at 0, outside its range and singular.  Pinocchio's ``neutral`` is zero there."""
         q = np.zeros(self.nq)
-        for code, k in zip(self.tree.jtype, self.tree.q_idx):
-            if code == JOINT_FREE:
-                q[k + 6] = 1.0
+        for code, k, kv in zip(self.tree.jtype, self.tree.q_idx, self.tree.v_idx):
+            kind = KINDS[code]
+            q[k:k + kind.nq] = kind.neutral
+            if not kind.limited:
+                continue
+            lo, hi = float(self.lower[kv]), float(self.upper[kv])
+            if not lo <= 0.0 <= hi:  # a finite bound lies on the side zero left
+                q[k] = (lo + hi) / 2 if np.isfinite(lo) and np.isfinite(hi) else (lo if np.isfinite(lo) else hi)
         return q
 
     def summary(self) -> dict:

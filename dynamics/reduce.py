@@ -7,6 +7,8 @@ welded to the world (fixed base) simply leaves the model.  Frames of merged link
 the body they now belong to.
 """
 
+from dataclasses import replace
+
 import numpy as np
 
 from .constraints import JointCoupling, arrays, constraint_residual, with_constraints
@@ -102,8 +104,9 @@ def lock_joints(model: Model, values: dict) -> Model:
 def _keep_constraints(model, reduced, locked):
     """The constraints of ``model`` on the reduced model: a coupling between two locked joints must hold at
     their values (it is dropped), one with a single locked side is refused (the other joint is then fixed
-    too: lock it as well); loops stay (frames keep their names) and must still close where both ends ended
-    on one body.  Too few free coordinates left is refused by with_constraints, with the rank."""
+    too: lock it as well); loops stay (frames keep their names), except those whose both ends ended on one
+    body: dropped when they close there, refused when they do not.  Too few free coordinates left is refused
+    by with_constraints, with the rank."""
     kept = []
     for c in model.constraints:
         if not isinstance(c, JointCoupling):
@@ -123,15 +126,23 @@ def _keep_constraints(model, reduced, locked):
                              f"other, so lock {other!r}{at} as well")
         else:
             kept.append(c)
-    out = with_constraints(reduced, kept)
-    C, m = arrays(out)
-    loops = [c for c in range(len(out.constraints)) if C.kind[c] != 3]
-    phi = constraint_residual(out, out.neutral()) if loops else np.zeros(m)
-    for c in loops:
-        con = out.constraints[c]
-        if C.body[c, 0] == C.body[c, 1]:
-            r = phi[C.row[c]:C.row[c] + con.rows]
-            if np.abs(r).max() > 1e-9:
-                raise InputError(f"locked: the joints locked leave both ends of loop {con.name or con.frame_a + '-' + con.frame_b!r} "
-                                 f"on one rigid body {np.abs(r).max():.3g} apart: the loop cannot close")
-    return out
+    return with_constraints(reduced, _drop_closed_rigid_loops(reduced, kept))
+
+
+def _drop_closed_rigid_loops(reduced, constraints):
+    """The constraints without the loops whose two ends the locking left on one rigid body: closed, they now
+    constrain nothing (with_constraints refuses such a loop); open, they can never close (refused here)."""
+    held = replace(reduced, constraints=tuple(constraints))
+    C, _ = arrays(held)
+    rigid = [c for c in range(len(constraints)) if C.kind[c] != 3 and C.body[c, 0] == C.body[c, 1]]
+    if not rigid:
+        return constraints
+    phi = constraint_residual(held, held.neutral())  # constant: both ends move together
+    for c in rigid:
+        con = constraints[c]
+        r = np.abs(phi[C.row[c]:C.row[c] + con.rows]).max()
+        if r > 1e-9:
+            loop = con.name or con.frame_a + "-" + con.frame_b
+            raise InputError(f"locked: the joints locked leave both ends of loop {loop!r} on one rigid body "
+                             f"{r:.3g} apart: the loop cannot close")
+    return [con for c, con in enumerate(constraints) if c not in rigid]

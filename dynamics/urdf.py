@@ -51,6 +51,18 @@ INERTIA_WARN = 1e-9
 INERTIA_REFUSE = 1e-2
 #: violations smaller than this (kg m^2) are round-off in any real robot and pass silently
 INERTIA_ABS_TOL = 1e-12
+#: a link heavier than MAX_MASS kg, or with a principal moment above MAX_INERTIA kg m^2, is refused: a hundred
+#: thousand times the heaviest machine ever built (1.4e7 kg), so only a wrong unit or a typo (1e308) gets there,
+#: and the products the dynamics form from it (m g l, m a l, m l^2 w^2 with lengths, rates and accelerations up
+#: to the simulation's blow-up threshold of 1e6) stay below 1e36, far from float64's overflow at 1.8e308; at
+#: 1e308 the inverse dynamics overflow to inf and the other links vanish in its round-off (forward dynamics then
+#: called their joints massless)
+MAX_MASS = 1e12
+MAX_INERTIA = 1e12
+#: a body lighter than this fraction of the robot's mass gets a warning: the composite inertias of the joints
+#: above it carry it below their 12th digit (float64 keeps 16), so its own motion rests on round-off; no
+#: example-robot-data robot comes near (the smallest ratio there is so101's 1e-9 kg placeholder, 1.6e-9)
+MASS_RATIO_WARN = 1e-12
 
 #: a URDF with more links or joints than this is refused while parsing (a robot has tens to a few hundred)
 MAX_LINKS = 10_000
@@ -289,6 +301,14 @@ def _check_inertia(link, mass, I, warnings, strict):
     """Refuse a negative mass; refuse (strict) or warn about an inertia no rigid body can have."""
     if mass < 0:
         raise URDFError(f"link {link!r}: negative mass {mass}")
+    if mass > MAX_MASS:
+        raise URDFError(f"link {link!r}: mass {mass:.3g} kg exceeds {MAX_MASS:.0e} kg, more than float64 dynamics "
+                        f"can carry next to the other links (and more than any machine weighs); check the units")
+    scale = float(np.abs(I).max())
+    if scale > MAX_INERTIA:  # scaled first: the eigenvalues of a 1e308 matrix overflow
+        moment = scale * float(np.abs(np.linalg.eigvalsh(I / scale)).max())
+        raise URDFError(f"link {link!r}: inertia: principal moment {moment:.3g} kg m^2 exceeds {MAX_INERTIA:.0e} "
+                        f"kg m^2, more than float64 dynamics can carry next to the other links; check the units")
     if not np.allclose(I, I.T):
         raise URDFError(f"link {link!r}: inertia matrix is not symmetric")
     ev = np.linalg.eigvalsh(I)
@@ -304,6 +324,17 @@ def _check_inertia(link, mass, I, warnings, strict):
     if strict and rel > INERTIA_REFUSE:
         raise URDFError(msg + "; fix the URDF, or load it with strict_inertia=False to accept it with a warning")
     warnings.append(msg + "; used as is")
+
+
+def _check_mass_ratios(bodies, warnings):
+    """Warn about bodies whose mass is lost in the round-off of the robot's (:data:`MASS_RATIO_WARN`)."""
+    total = sum(b.mass for b in bodies)
+    for b in bodies:
+        if 0.0 < b.mass < MASS_RATIO_WARN * total:
+            warnings.append(f"link {b.name!r}: mass {b.mass:.3g} kg is {b.mass / total:.3g} of the robot's "
+                            f"{total:.3g} kg, below {MASS_RATIO_WARN:.0e}: its motion rests on the round-off of the "
+                            f"rest (float64 keeps 16 digits), so the joint moving it may be found singular; check "
+                            f"the units")
 
 
 def _origin(T, what):
@@ -337,6 +368,7 @@ def load_urdf(source, *, floating_base: bool = False, strict_inertia: bool = Tru
     parent_joint, children, root_link = _tree(links, joints)
     bodies, frames, merged_fixed, couplings = _walk(links, children, root_link, floating_base, mimic,
                                                     strict_inertia, warnings)
+    _check_mass_ratios(bodies, warnings)
     info = {
         "urdf_links": len(links),
         "urdf_joints": len(joints),

@@ -207,13 +207,14 @@ def test_lock_joints_keeps_constraints_consistent():
 
 def test_loops_that_cannot_close():
     fb = dynamics.load_urdf(FOUR_BAR)
-    with pytest.raises(dynamics.InputError, match="cannot close"):
+    with pytest.raises(dynamics.InputError, match=r"cannot close.*max \|phi\| = .* > tol"):
         # the rocker is 0.3 m, the ground 0.4 m: the coupler's tip cannot reach its end from everywhere
         dynamics.assemble(fb, [0.0, 0.0, 0.0], fixed={"theta1": 0.0, "theta2": 0.0})
+    # a rocker pin 2 m out: 2 m against 0.1 + 0.35 + 0.4 m for the rest of the loop, it can never close; refused
+    # at load since issue 25 (it used to load and fail in assemble)
     text = open(FOUR_BAR).read().replace('<link_b name="link3" xyz="0.3 0 0"/>', '<link_b name="link3" xyz="2.0 0 0"/>')
-    far = dynamics.load_urdf(text)
-    with pytest.raises(dynamics.InputError, match=r"max \|phi\| = .* > tol"):
-        dynamics.assemble(far, [0.3, 0.5, 1.5])
+    with pytest.raises(dynamics.URDFError, match=r"cannot close in any configuration: the segment of 2 m .* 0\.85 m"):
+        dynamics.load_urdf(text)
 
 
 def test_bad_urdf_loops_and_mimics():

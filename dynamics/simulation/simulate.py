@@ -13,9 +13,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ..aba import _aba_into
-from ..aba import _workspace as aba_workspace
-from ..checks import check_model, real_number, vector
+from ..checks import check_model, real_number, refuse_singular, vector
 from ..configuration import _retract
 from ..errors import InputError
 from ..joints import JOINT_FREE
@@ -23,9 +21,9 @@ from .. import plot
 from ..torques import Passive, make_source, release_callable
 from . import report as R
 from ..constrained_dynamics import (DEFAULT_BAUMGARTE, baumgarte_gains, _project_position_kernel,
-                           _project_velocity_kernel)
+                                    _project_velocity_kernel)
 from ..constrained_dynamics import _workspace as constrained_workspace
-from ..constraints import arrays
+from ..constraints import arrays, warn_drift, warn_off_manifold
 from .constrained_problem import PROJECT_TOL, constrained_problem
 from .problem import NQUAD, robot_problem
 from .progress import check as check_progress
@@ -162,6 +160,7 @@ def _trajectory(model, s, ps, src, main, stability, warnings):
     if s.constrained:
         report["constraint_drift"] = {"position": float(p.drift[0]), "velocity": float(p.drift[1]),
                                       "baumgarte": list(s.baumgarte), "project": s.project}
+        warn_drift(p.drift, warnings)
         if p.project_failures[0]:
             warnings.append(f"project: {int(p.project_failures[0])} position projections did not converge; those "
                             "steps went on from the unprojected configuration (see constraint_drift)")
@@ -244,13 +243,15 @@ def _settings(model, q0, v0, duration, integrator, rtol, atol, dt, sample_dt, gr
         if nsteps > max_steps:
             raise InputError(f"max_steps: dt={dt:g} needs {nsteps} steps over {duration:g} s, more than "
                              f"max_steps={max_steps}")
-    _check_not_singular(model, q0, v0, g)
+    refuse_singular(model, q0, "q0")
     constrained = bool(getattr(model, "constraints", ()))
     gains = baumgarte_gains(DEFAULT_BAUMGARTE if baumgarte is None else baumgarte)
     if not isinstance(project, (bool, np.bool_)):
         raise InputError(f"project: expected True or False, got {project!r}")
     if constrained and project:
         q0, v0 = _project_initial(model, q0, v0, warnings)
+    elif constrained:
+        warn_off_manifold(model, q0, warnings)
     return Settings(integrator, fixed, q0, v0, duration, rtol, atol, dt, g, int(max_steps),
                     tuple(o for o in OUTPUTS if o in outputs), error_estimate,
                     _sample_times(duration, dt, sample_dt, fixed), constrained, gains, bool(project))
@@ -270,17 +271,6 @@ def _project_initial(model, q0, v0, warnings):
     if moved > 1e-9:
         warnings.append(f"project: (q0, v0) moved onto the constraints by up to {moved:.3g}")
     return q, v
-
-
-def _check_not_singular(model, q0, v0, g):
-    """A joint that moves no mass makes M singular: say which, now, rather than NaN in the first step (the
-    ABA kernel the right-hand side uses anyway, not the public forward_dynamics: no second compilation)."""
-    nv, nb = model.nv, model.tree.parents.shape[0]
-    body = _aba_into(model.tree, q0, v0, np.zeros(nv), g, np.zeros((0, 6)), aba_workspace.py_func(nb, nv),
-                   np.empty(nv))
-    if body >= 0:
-        raise InputError(f"q0: the mass matrix is singular at joint {model.joint_names[body]!r}: it moves no mass "
-                         "or inertia (add mass below it, lock it with dynamics.lock_joints, or remove it)")
 
 
 def _passive(model, s, limits, limit_stiffness, limit_damping, friction_eps):
