@@ -23,11 +23,16 @@ def _functions_over_modules(mod: griffe.Module) -> None:
             mod.set_member(name, griffe.Alias(name, member.members[name], parent=mod))
 
 
+PAGES = {"dynamics": ("", "torques", "plot", "robots"), "service": ("client",)}
+
+
 class RuntimeView(griffe.Extension):
     def on_package(self, *, pkg: griffe.Module, loader: griffe.GriffeLoader, **kwargs: Any) -> None:
-        if pkg.path != "dynamics":
-            return
-        _functions_over_modules(pkg)
-        pkg.docstring = None
-        if not isinstance(pkg.members.get("robots"), griffe.Module):
-            pkg.set_member("robots", loader.load("robots"))
+        if pkg.path == "dynamics":
+            _functions_over_modules(pkg)
+            if not isinstance(pkg.members.get("robots"), griffe.Module):
+                pkg.set_member("robots", loader.load("robots"))
+        for name in PAGES.get(pkg.path, ()):
+            module = pkg.members.get(name) if name else pkg
+            if isinstance(module, griffe.Module):
+                module.docstring = None
