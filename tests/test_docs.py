@@ -146,6 +146,7 @@ def test_site_builds_strictly(tmp_path):
     api = (site / "reference" / "http-api" / "index.html").read_text()
     assert "/v1/robots/{robot_id}/inverse-dynamics" in api and "InverseDynamicsRequest" in api
     assert json.loads((site / "reference" / "openapi.json").read_text())["paths"]
+    assert (site / "guide" / "pd_run.png").stat().st_size > 10_000  # drawn at build time by docs/_hooks/figures.py
 
 
 def test_service_serves_the_built_site_at_guide(tmp_path, monkeypatch):
