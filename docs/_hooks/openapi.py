@@ -75,7 +75,7 @@ def _type(schema: dict[str, Any]) -> str:
     if "const" in schema:
         return f"`{json.dumps(schema['const'])}`"
     if "enum" in schema:
-        return " \\| ".join(f"`{json.dumps(e)}`" for e in schema["enum"])
+        return "one of " + ", ".join(f"`{json.dumps(e)}`" for e in schema["enum"])
     kind = schema.get("type")
     if kind == "array":
         item = _type(schema.get("items", {}))
