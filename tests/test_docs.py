@@ -4,8 +4,9 @@
   saying why, only when mkdocs is not installed: ``pip install -e '.[docs]'``).
 * Every fenced ``python`` block of the README and of each page under ``docs/`` runs, a page's blocks in order in
   one fresh interpreter (later blocks use what earlier ones defined), with the repository root as the working
-  directory. A block that names the service's default address, ``http://127.0.0.1:8000``, runs against a real
-  server (``python -m service``) that this test starts: the address is replaced by the server's.
+  directory (so a block writes its files under a temporary directory, never into the repository). A block that
+  names the service's default address, ``http://127.0.0.1:8000``, runs against a real server
+  (``python -m service``) that this test starts: the address is replaced by the server's.
 * The marker ``<!-- docs-test: skip REASON -->`` on the line before a block's fence skips that block; the
   reason is required and every use is listed by :func:`test_skipped_blocks_say_why`. Use it only for what
   cannot run here (a Ray cluster's address, a second machine).
