@@ -71,6 +71,7 @@ def create_app(settings: Optional[Settings] = None) -> FastAPI:
     errors.install(app)
     for module in (health, robots, dynamics, kinematics, constraints, simulate, jobs):
         app.include_router(module.router)
+    from .routes import guide; guide.mount(app)  # the documentation site at /guide, when it has been built
     app.add_middleware(ApiKeys, keys=settings.api_keys, open_paths=health.OPEN_PATHS)
     app.add_middleware(Options, routes=app.router.routes)  # (before the key check: Allow tells no secret)
     app.add_middleware(errors.RequestIds)  # added last: outermost, so that it sees every exception
