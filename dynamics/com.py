@@ -129,8 +129,8 @@ _com_jacobian_single = SingleCall(_com_jacobian_single, VECTOR, MATRIX)
 
 
 def _run(model, q, v, what):
+    checks.check_model(model)
     if v is None:
-        checks.check_model(model)
         Q, batched = checks.configurations(model, q)
         V, B = Q[:1, :0], Q.shape[0]
     else:

@@ -38,7 +38,7 @@ import numpy as np
 from numba.extending import overload
 
 from ._numba import JIT_OPTIONS, inline_kernel, kernel
-from .checks import vector
+from .checks import check_model, vector
 from .errors import InputError
 from .joints import _joint_chart_rate, _joint_difference, _joint_integrate_delta, _joint_retract
 
@@ -142,6 +142,7 @@ def integrate(model, q, v, dt=1.0):
     Free-flyer quaternions are updated with the exponential map and stay unit length (module docstring).
     q: (nq,), v: (nv,), dt: finite float.  Returns a new (nq,) array.
     """
+    check_model(model)
     q = vector("q", q, model.nq)
     v = vector("v", v, model.nv)
     try:

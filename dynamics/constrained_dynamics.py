@@ -596,6 +596,7 @@ def constrained_forward_dynamics(model, q, v, tau, *, baumgarte=None, gravity=No
                 return a, lam
     except NOT_ARRAYS:  # not a model, or arrays of other types: the general path says what is wrong or converts
         pass
+    checks.check_model(model)
     Q, (V, T), B, batched = checks.state_batch(model, q, (("v", v, model.nv), ("tau", tau, model.nv)))
     C, m = arrays(model)
     out = np.empty((B, model.nv + m))
@@ -609,6 +610,7 @@ def constrained_forward_dynamics(model, q, v, tau, *, baumgarte=None, gravity=No
 
 def project_velocity(model, q, v):
     """The velocity closest to v (kinetic-energy metric) that satisfies Phi_q v = 0: (nv,) or (B, nv)."""
+    checks.check_model(model)
     Q, (V,), B, batched = checks.state_batch(model, q, (("v", v, model.nv),))
     C, _ = arrays(model)
     out = np.empty((B, model.nv))

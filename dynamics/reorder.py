@@ -16,6 +16,7 @@ every joint of ours must appear exactly once, and no other name.
 
 import numpy as np
 
+from .checks import check_model
 from .errors import InputError, closest
 from .joints import kind_of
 
@@ -49,6 +50,7 @@ def reorder(model, x, names, kind="q", *, inverse=False):
     """Map ``x`` given in the joint order ``names`` (another tool's) into ours; ``inverse=True`` maps ours
     into theirs.  ``kind``: "q" (our coordinates, another order), "v" (velocities, accelerations, torques)
     or "pinocchio_q" (a Pinocchio configuration: continuous joints as (cos, sin)).  x: (n,) or (B, n)."""
+    check_model(model)
     if kind not in KINDS:
         raise InputError(f"kind: expected one of {list(KINDS)}, got {kind!r}")
     order = _order(model, names)
