@@ -1,11 +1,12 @@
 """Rigid-body dynamics for robots described by URDF.
 
-    >>> import dynamics
-    >>> model = dynamics.load_urdf("robots/planar_2r.urdf")
-    >>> tau = dynamics.inverse_dynamics(model, q, v, a)
+    >>> import numpy as np, dynamics
+    >>> model = dynamics.load_urdf("planar_2r")          # a bundled robot, or a path to a URDF file
+    >>> q, v, a = model.neutral(), np.zeros(model.nv), np.ones(model.nv)
+    >>> tau = dynamics.inverse_dynamics(model, q, v, a)  # M(q) a + C(q, v) v + g(q)
 
-One module per algorithm: :mod:`~dynamics.rnea` (inverse dynamics), :mod:`~dynamics.crba` (mass matrix),
-:mod:`~dynamics.aba` (forward dynamics), :mod:`~dynamics.energy`, :mod:`~dynamics.coriolis`.
+The public interface is the names below, ``dynamics.torques``, ``dynamics.plot`` and ``dynamics.robots``;
+the modules under them are internal.
 """
 
 from .errors import DeadlineExceeded, DynamicsError, InputError, URDFError
