@@ -237,27 +237,27 @@ def resolve(model, constraints, placements):
 
 
 def arrays(model):
-    """The model's constraints as :class:`ConstraintArrays` (resolved once, kept with the model) and m."""
-    cached = model.__dict__.get("_constraint_arrays")
-    if cached is None:
-        weld_T = [getattr(c, "placement", None) for c in model.constraints]
-        cached = resolve(model, model.constraints, weld_T)
-        object.__setattr__(model, "_constraint_arrays", cached)
-    return cached
+    """The model's constraints as :class:`ConstraintArrays` and m: resolved once by :func:`with_constraints` and
+    kept in the model (``model.constraint_arrays``); resolved here for a model built otherwise."""
+    if model.constraint_arrays is not None:
+        return model.constraint_arrays
+    return resolve(model, model.constraints, [getattr(c, "placement", None) for c in model.constraints])
+
+
+def pack(C):
+    """:class:`ConstraintArrays` as one read-only int64 array, for a single-state entry point (one argument to
+    unbox instead of seven): [nc, kind, row, body, idx, then the float64 bits of R, p, coef]; :func:`_unpack`
+    reads it back as views."""
+    floats = np.concatenate([np.ravel(C.R), np.ravel(C.p), np.ravel(C.coef)]).astype(np.float64)
+    return _frozen(np.concatenate([[C.kind.shape[0]], C.kind, C.row, np.ravel(C.body), np.ravel(C.idx),
+                                   floats.view(np.int64)]), np.int64)
 
 
 def packed(model):
-    """The model's :class:`ConstraintArrays` as one read-only int64 array (kept with the model), for a
-    single-state entry point (one argument to unbox instead of seven): [nc, kind, row, body, idx, then the float64
-    bits of R, p, coef]; :func:`_unpack` reads it back as views."""
-    cached = model.__dict__.get("_constraint_packed")
-    if cached is None:
-        C, _ = arrays(model)
-        floats = np.concatenate([np.ravel(C.R), np.ravel(C.p), np.ravel(C.coef)]).astype(np.float64)
-        cached = _frozen(np.concatenate([[C.kind.shape[0]], C.kind, C.row, np.ravel(C.body), np.ravel(C.idx),
-                                         floats.view(np.int64)]), np.int64)
-        object.__setattr__(model, "_constraint_packed", cached)
-    return cached
+    """The model's constraints packed (:func:`pack`): kept in the model by :func:`with_constraints`."""
+    if model.constraint_packed is not None:
+        return model.constraint_packed
+    return pack(arrays(model)[0])
 
 
 @inline_kernel
@@ -308,8 +308,10 @@ def with_constraints(model, constraints, *, at=None):
             Tb = frame_placement(model, q0, c.frame_b)
             c = replace(c, placement=np.linalg.solve(Ta, Tb))
         fixed.append(c)
-    out = replace(model, constraints=tuple(model.constraints) + tuple(fixed), info=dict(model.info))
+    out = replace(model, constraints=tuple(model.constraints) + tuple(fixed), info=dict(model.info),
+                  constraint_arrays=None, constraint_packed=None)
     C, m = arrays(out)
+    out = replace(out, constraint_arrays=(C, m), constraint_packed=pack(C))
     refuse_never_holding(out, out.constraints, C)
     J, err = _close_near(out, C, m, q0)
     tol = 1e-9 * max(1.0, np.abs(J).max(initial=0.0))

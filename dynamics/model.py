@@ -179,6 +179,11 @@ class Model:
     #: closed loops and coupled joints (:mod:`dynamics.constraints`), added by :func:`dynamics.with_constraints`
     #: or by load_urdf (``<mimic>``, ``<loop>``); empty for a plain tree
     constraints: tuple = ()
+    #: the constraints resolved into flat arrays, ``(ConstraintArrays, m)``, and the same packed into one int64
+    #: array for the single-state calls; set by :func:`dynamics.with_constraints` with ``constraints``
+    #: (:mod:`dynamics.constraints`), None for a plain tree
+    constraint_arrays: tuple = None
+    constraint_packed: np.ndarray = None
 
     def __post_init__(self):
         """What is derived from the fields, computed once here: the model is never written to afterwards."""
@@ -339,6 +344,9 @@ class Model:
         for key, value in state.items():
             if isinstance(value, (Tree, Frames)):
                 value = type(value)(*(_frozen(a, a.dtype.type) for a in value))
+            elif key == "constraint_arrays" and value is not None:
+                C, m = value
+                value = (type(C)(*(_frozen(a, a.dtype.type) for a in C)), m)
             elif isinstance(value, np.ndarray):
                 value = _frozen(value, value.dtype.type)
             object.__setattr__(self, key, value)
