@@ -20,7 +20,7 @@ from .library import lib
 from .models import load_model
 from .protocol import HeaderTimeoutProtocol
 from .settings import Settings, configure_logging
-from .sim import worker
+from .sim import warm
 from .store import RobotStore
 from .warmup import Stage, Warmup
 
@@ -56,11 +56,15 @@ def warmup() -> int:
     stages = [Stage("importing the library", lib), Stage(f"compiling dynamics kernels on {len(robots)} bundled "
                                                          f"robots", dynamics_kernels)]
     if settings.sim_workers > 0:  # no simulation, no warming
-        stages.append(Stage("compiling simulation kernels", worker.warm_up))
-        stages.append(Stage("compiling the operational-space simulation kernels", worker.warm_up_later))
-        stages.append(Stage("compiling the other torque kinds, the free joint and radau", worker.warm_up_rest))
+        stages.append(Stage("compiling simulation kernels", warm.warm_up))
+        stages.append(Stage("compiling the operational-space simulation kernels", warm.warm_up_later))
+        stages.append(Stage("compiling the other torque kinds, the free joint and radau", warm.warm_up_rest))
     run = Warmup()
     run.run(stages)
+    if run.failures:  # the Docker build step: an image whose kernels did not compile is not built
+        for failure in run.failures:
+            print(f"warmup: FAILED {failure['stage']}: {failure['error']}", file=sys.stderr)
+        return 1
     print(f"warmup: compiled kernels on {len(robots)} bundled robots in {run.seconds:.1f} s")
     return 0
 

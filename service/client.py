@@ -180,13 +180,16 @@ class Client:
     def submit(self, robot: Union[str, "Robot"], kind: str, inputs: Mapping[str, Any],
                options: Optional[Mapping[str, Any]] = None) -> "Job":
         """Queue a job (``kind``: simulate_many, inverse_dynamics, forward_dynamics, mass_matrix) and return at
-        once. ``inputs``: arrays by name (q0, v0 and a torque spec whose arrays may have one row per run; or
-        q, v, a / q, v, tau / q); ``options``: duration and simulate's options, gravity, locked. Sent as .npz."""
+        once. ``inputs``: arrays by name (q0, v0 and a torque: an object of ``dynamics.torques`` as
+        ``robot.simulate`` takes, or a spec whose arrays may have one row per run; or q, v, a / q, v, tau / q);
+        ``options``: duration and simulate's options, gravity, locked. Sent as .npz."""
         robot_id = robot.id if isinstance(robot, Robot) else robot
         members: dict[str, Any] = {"robot": np.array(robot_id), "kind": np.array(kind),
                                    "options": np.array(json.dumps(_plain_tree(dict(options or {}))))}
         for name, value in inputs.items():
             if name == "torque" and value is not None:
+                if not isinstance(value, Mapping):  # a torque object of dynamics.torques, as robot.simulate takes
+                    value = torque_spec(value)
                 spec = {k: v for k, v in value.items() if not isinstance(v, np.ndarray)}
                 members["torque"] = np.array(json.dumps(_plain_tree(spec)))
                 members.update({f"torque.{k}": v for k, v in value.items() if isinstance(v, np.ndarray)})

@@ -235,3 +235,23 @@ def finite_or_none(x: float) -> float | None:
     """JSON has no infinity: absent limits (inf) become null."""
     x = float(x)
     return x if np.isfinite(x) else None
+
+
+def finite_report(obj: Any) -> Any:
+    """A simulation report made JSON: numpy scalars and arrays become plain values, NaN and infinity null (JSON
+    has neither)."""
+    if isinstance(obj, dict):
+        return {str(k): finite_report(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [finite_report(v) for v in obj]
+    if isinstance(obj, np.ndarray):
+        return finite_report(obj.tolist())
+    if isinstance(obj, (np.floating, float)):
+        return float(obj) if math.isfinite(obj) else None
+    if isinstance(obj, np.integer):
+        return int(obj)
+    if isinstance(obj, np.bool_):
+        return bool(obj)
+    if obj is None or isinstance(obj, (str, int, bool)):
+        return obj
+    return str(obj)

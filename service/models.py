@@ -97,6 +97,19 @@ def reduce_model(model, locked: tuple):
     return lib().lock_joints(model, {name: (v[0] if len(v) == 1 else list(v)) for name, v in locked})
 
 
+def cached(cache: ModelCache, rid: str, locked: tuple, load: Callable[[], Any],
+           reduce: Callable[[Any, tuple], Any] = reduce_model) -> Any:
+    """The one rule of every process (server, simulation worker, job runner): robot ``rid``'s full model under
+    ``(rid, ())``, built once by ``load()``; the model with ``locked`` held still under ``(rid, locked)``, built
+    once by ``reduce(full, locked)`` (a cached reduced model is used even when the full one was evicted)."""
+    def full() -> Any:
+        return cache.get_or_load((rid, ()), load)
+
+    if not locked:
+        return full()
+    return cache.get_or_load((rid, locked), lambda: reduce(full(), locked))
+
+
 @dataclass(frozen=True)
 class Loaded:
     """What the model cache holds: a model, and the part of every answer's scene that depends only on it."""
@@ -134,13 +147,7 @@ class Models:
             rec = self.record(rid)
             return Loaded.of(load_model(rec.urdf, rec.floating_base))
 
-        if not locked:
-            return self.cache.get_or_load((rid, ()), load)
-
-        def reduce() -> Loaded:  # (a cached reduced model is used even when the full one was evicted)
-            return Loaded.of(reduce_model(self.cache.get_or_load((rid, ()), load).model, locked))
-
-        return self.cache.get_or_load((rid, locked), reduce)
+        return cached(self.cache, rid, locked, load, lambda full, lk: Loaded.of(reduce_model(full.model, lk)))
 
     def is_cached(self, rid: str, locked: tuple) -> bool:
         return self.cache.peek((rid, locked)) is not None

@@ -19,6 +19,7 @@ import numpy as np
 from pydantic import TypeAdapter, ValidationError
 
 from .. import errors, schemas
+from .. import torque as torques
 from ..codec import decode, to_array
 from ..errors import InvalidInput, NotFound, Problem, TooLarge
 from ..models import Models, locked_key
@@ -132,7 +133,7 @@ class Jobs:
                                             for k, v in options.items()}, "locked": [list(x) for x in locked]}
         torque = req.inputs.get("torque")
         if torque is not None:
-            try:
+            try:  # the schema of /simulate's torque, and its translation (service.torque) when the job runs
                 parsed = _TORQUE.validate_python(torque).model_dump(exclude_none=True)
             except ValidationError as e:
                 err = e.errors(include_url=False)[0]
@@ -140,10 +141,8 @@ class Jobs:
                 raise InvalidInput(f"{where}: {err['msg']}", where) from None
             except InvalidInput as e:  # an array field that is no array ("q_target: expected a number, ...")
                 raise InvalidInput(f"inputs.torque.{e.detail}", f"inputs.torque.{e.field}") from None
-            for name, value in list(parsed.items()):
-                if isinstance(value, np.ndarray):
-                    arrays[f"torque.{name}"] = parsed.pop(name)
-            spec["torque"] = parsed
+            spec["torque"], torque_arrays = torques.split(parsed)
+            arrays.update(torque_arrays)
         return arrays, spec
 
     # -- reading ---------------------------------------------------------------------------------------------
@@ -217,10 +216,10 @@ def _payload(decoded: dict[str, Any]) -> dict[str, Any]:
                 out["options"] = parsed
             else:
                 out["inputs"]["torque"] = parsed
-        elif name.startswith("torque."):
-            torque_arrays[name[len("torque."):]] = value
+        elif name.startswith(torques.PREFIX):
+            torque_arrays[name] = value
         else:
             out["inputs"][name] = value
     if torque_arrays:
-        out["inputs"]["torque"] = {**out["inputs"].get("torque", {}), **torque_arrays}
+        out["inputs"]["torque"] = torques.join(out["inputs"].get("torque", {}), torque_arrays)
     return out
