@@ -159,7 +159,7 @@ class Client:
         return Robot(self, r.json())
 
     def robot(self, id_or_name: str) -> "Robot":
-        """A robot by id (bundled robots' ids are their names, e.g. 'planar-2r') or by unique name."""
+        """A robot by id (bundled robots' ids are their names, e.g. 'planar_2r') or by unique name."""
         try:
             return Robot(self, self.request("GET", f"/v1/robots/{id_or_name}").json())
         except ServiceError as e:

@@ -42,7 +42,7 @@ class Settings:
 
     # Where uploaded robots are kept (one JSON file per robot, written atomically).
     store_dir: Path = Path("store")
-    # The read-only robots served under their file stem ('planar_2r.urdf' -> 'planar-2r'); None = none.
+    # The read-only robots served under their file stem ('planar_2r.urdf' -> 'planar_2r'); None = none.
     robots_dir: Path | None = None
     # Largest request body in bytes; enforced while reading, before anything is buffered past it.
     max_body_bytes: int = 8 * 1024 * 1024

@@ -29,6 +29,7 @@ from concurrent.futures import Future, ProcessPoolExecutor
 from concurrent.futures.process import BrokenProcessPool
 from typing import Optional
 
+from ..lifeline import bind_to_parent
 from ..settings import Settings
 from .db import JobDB
 from .files import JobFiles
@@ -100,8 +101,11 @@ class Executor:
             if job is None:
                 return
             if self.pool is None:
+                # (started from this dispatcher thread, which lives as long as the server: the workers' parent-death
+                # signal fires when it ends, service.lifeline)
                 self.pool = ProcessPoolExecutor(max_workers=self.settings.job_workers,
-                                                mp_context=multiprocessing.get_context("spawn"))
+                                                mp_context=multiprocessing.get_context("spawn"),
+                                                initializer=bind_to_parent, initargs=(os.getpid(),))
             future = self.pool.submit(run_job, self.files, job.id, self.boot)
             future.add_done_callback(lambda _: self.wake.set())
             self.running[job.id] = future

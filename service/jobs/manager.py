@@ -21,7 +21,7 @@ from pydantic import TypeAdapter, ValidationError
 from .. import errors, schemas
 from .. import torque as torques
 from ..codec import decode, to_array
-from ..errors import InvalidInput, NotFound, Problem, TooLarge
+from ..errors import InvalidInput, NotFound, Problem, TooLarge, storage_full
 from ..models import Models, locked_key
 from ..settings import Settings
 from .db import ACTIVE, JobDB, JobRecord
@@ -108,8 +108,12 @@ class Jobs:
                                 f"the quota of {s.job_quota_bytes} (DYNAMICS_JOB_QUOTA_BYTES); delete finished jobs "
                                 f"(DELETE /v1/jobs/{{id}})")
         job_id = uuid.uuid4().hex
-        nbytes = write_npz(self.files.inputs(job_id), arrays)
-        self.db.create(job_id, owner, req.robot, req.kind, spec, total, nbytes)
+        try:  # the inputs first (a queued job always has them); on any failure, no file is left behind
+            nbytes = write_npz(self.files.inputs(job_id), arrays)
+            self.db.create(job_id, owner, req.robot, req.kind, spec, total, nbytes)
+        except Exception as e:
+            self.files.remove(job_id)
+            raise storage_full(e, f"the job store {self.files.root}") or e
         if self.executor is not None:
             self.executor.notify()
         return self.describe(self.db.get(job_id))

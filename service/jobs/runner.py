@@ -26,7 +26,7 @@ from typing import Any, Callable, Optional
 
 import numpy as np
 
-from ..errors import InvalidInput
+from ..errors import InvalidInput, storage_full
 from ..library import lib
 from ..models import ModelCache, cached, load_model
 from ..settings import Settings
@@ -180,6 +180,9 @@ def run_job(files: JobFiles, job_id: str, boot: str) -> None:
         elif isinstance(e, ValueError):  # the library's InputError (names the argument) and our own refusals
             db.fail(job_id, str(e), boot)
             files.remove(job_id)
+        elif (full := storage_full(e, f"the job store {files.root}")) is not None:
+            files.remove(job_id)  # (first: the record's update needs room too)
+            db.fail(job_id, full.detail, boot)
         else:
             log.error("job %s failed:\n%s", job_id, traceback.format_exc())
             db.fail(job_id, f"internal error: {type(e).__name__}: {e}", boot)
