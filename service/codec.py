@@ -34,6 +34,10 @@ def media_type(header: str | None) -> str:
     return (header or "").split(";", 1)[0].strip().lower()
 
 
+#: the slowest upload rate allowed beyond DYNAMICS_READ_TIMEOUT (see read_body)
+BODY_BYTES_PER_SECOND = 1 << 20
+
+
 async def read_body(request: Request, limit: int) -> bytes:
     """The request body, refused with 413 as soon as it is known to exceed ``limit`` bytes."""
     declared = request.headers.get("content-length")
@@ -46,17 +50,24 @@ async def read_body(request: Request, limit: int) -> bytes:
             raise _too_large(limit)
     deps = getattr(request.app.state, "deps", None)
     timeout = deps.settings.read_timeout if deps is not None else None
+    loop = asyncio.get_running_loop()
+    started = loop.time()
     chunks: list[bytes] = []
     total = 0
     stream = request.stream().__aiter__()
     while True:
-        try:  # a client that stops sending mid-body is let go after DYNAMICS_READ_TIMEOUT, not held forever
-            chunk = await asyncio.wait_for(stream.__anext__(), timeout)
+        # The whole body is bounded, not only the gaps (a byte every few seconds would hold a connection for
+        # ever): DYNAMICS_READ_TIMEOUT, plus a second per MiB received so that a large upload on a slow link
+        # (1 MiB/s) still makes it.
+        left = None if timeout is None else started + timeout + total / BODY_BYTES_PER_SECOND - loop.time()
+        try:
+            chunk = await asyncio.wait_for(stream.__anext__(), None if left is None else max(0.0, left))
         except StopAsyncIteration:
             break
         except asyncio.TimeoutError:
-            raise RequestTimeout(f"body: nothing received for {timeout:g} s (DYNAMICS_READ_TIMEOUT); send the body "
-                                 f"at once", "body", headers={"Connection": "close"}) from None
+            raise RequestTimeout(f"body: not complete after {loop.time() - started:.0f} s ({total} bytes received; "
+                                 f"DYNAMICS_READ_TIMEOUT is {timeout:g} s, plus 1 s per MiB); send the body at once",
+                                 "body", headers={"Connection": "close"}) from None
         total += len(chunk)
         if total > limit:
             raise _too_large(limit)
