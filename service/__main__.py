@@ -25,8 +25,13 @@ from .store import RobotStore
 from .warmup import Stage, Warmup
 
 
-def _parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="python -m service", description=__doc__.split("\n\n")[0])
+#: what --help says first (plain text: the module docstring is reST)
+DESCRIPTION = ("Run the HTTP service of the dynamics library. Its other settings (limits, API keys, workers) are "
+               "DYNAMICS_* environment variables (see the README's table).")
+
+
+def _parser(prog: str = "python -m service") -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog=prog, description=DESCRIPTION)
     p.add_argument("--host", default=os.environ.get("DYNAMICS_HOST", "127.0.0.1"),
                    help="interface to listen on (default 127.0.0.1; 0.0.0.0 in a container)")
     p.add_argument("--port", type=int, default=int(os.environ.get("DYNAMICS_PORT", "8000")))
@@ -69,8 +74,8 @@ def warmup() -> int:
     return 0
 
 
-def main(argv: list[str] | None = None) -> int:
-    args = _parser().parse_args(argv)
+def main(argv: list[str] | None = None, prog: str = "python -m service") -> int:
+    args = _parser(prog).parse_args(argv)
     if args.store:
         os.environ["DYNAMICS_STORE"] = os.path.abspath(args.store)
     elif "DYNAMICS_STORE" not in os.environ:
