@@ -67,11 +67,15 @@ def model_summary(model) -> dict[str, Any]:
 def _stored_summary(model) -> dict[str, Any]:
     """What the store keeps of a model, to list robots without building them."""
     return {"nq": int(model.nq), "nv": int(model.nv), "joint_names": list(model.joint_names),
-            "bodies": list(model.body_names), "warnings": list(model.warnings)}
+            "bodies": list(model.body_names), "warnings": list(model.warnings),
+            "floating_base": bool(model.floating_base)}
 
 
 def _public(rid: str, name: str, bundled: bool, floating_base: bool, summary: dict[str, Any]) -> dict[str, Any]:
-    return {"id": rid, "name": name, "nq": summary["nq"], "nv": summary["nv"], "floating_base": floating_base,
+    """A robot's public record. ``floating_base`` is the model's (as in its summary: a floating joint below the
+    root floats it too), not only the upload option; records stored before it was kept fall back to the option."""
+    return {"id": rid, "name": name, "nq": summary["nq"], "nv": summary["nv"],
+            "floating_base": bool(summary.get("floating_base", floating_base)),
             "bundled": bundled, "joint_names": summary["joint_names"], "bodies": summary["bodies"],
             "warnings": summary["warnings"]}
 

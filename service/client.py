@@ -25,6 +25,7 @@ import sys
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
+from urllib.parse import quote
 from typing import Any, Mapping, Optional, Union
 
 import httpx
@@ -160,8 +161,10 @@ class Client:
 
     def robot(self, id_or_name: str) -> "Robot":
         """A robot by id (bundled robots' ids are their names, e.g. 'planar_2r') or by unique name."""
-        try:
-            return Robot(self, self.request("GET", f"/v1/robots/{id_or_name}").json())
+        if not isinstance(id_or_name, str) or not id_or_name.strip():
+            raise ValueError(f"robot: expected an id or a name (e.g. 'planar_2r'), got {id_or_name!r}")
+        try:  # (quoted: a name holding '/' or '?' is a name, not a path)
+            return Robot(self, self.request("GET", f"/v1/robots/{quote(id_or_name, safe='')}").json())
         except ServiceError as e:
             if e.status != 404:
                 raise

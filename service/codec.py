@@ -23,7 +23,7 @@ from starlette.requests import Request
 from starlette.responses import Response
 
 from . import memory
-from .errors import BadRequest, InvalidInput, RequestTimeout, TooLarge, UnsupportedMediaType
+from .errors import BadRequest, InvalidInput, RequestTimeout, TooLarge, UnsupportedMediaType, figure
 
 JSON = "application/json"
 NPZ = "application/x-npz"
@@ -126,8 +126,8 @@ def _member_header(zf: zipfile.ZipFile, info: zipfile.ZipInfo) -> tuple[tuple[in
         raise InvalidInput(f"{name}: .npz member holds Python objects; only numeric arrays are accepted", name)
     claimed = math.prod(shape) * dtype.itemsize
     if claimed != info.file_size - header:
-        raise InvalidInput(f"{name}: .npz member declares shape {shape} of {dtype} ({claimed} bytes) but holds "
-                           f"{info.file_size - header} bytes", name)
+        raise InvalidInput(f"{name}: .npz member declares {len(shape)} dimensions of {dtype} ({figure(claimed)} "
+                           f"bytes) but holds {info.file_size - header} bytes", name)
     return shape, dtype
 
 
@@ -170,7 +170,8 @@ def decode_npz(body: bytes, *, max_unpacked: int) -> dict[str, Any]:
 
 
 def _unpacks_too_large(total: int, limit: int) -> TooLarge:
-    return TooLarge(f"body: the .npz archive unpacks to {total} bytes (as float64), over the limit of {limit}; "
+    return TooLarge(f"body: the .npz archive unpacks to {figure(total)} bytes (as float64), over the limit of "
+                    f"{limit}; "
                     f"send smaller batches", "body")
 
 

@@ -25,7 +25,8 @@ from typing import Any, Callable, Iterator, Optional
 
 import numpy as np
 
-from .errors import BudgetExceeded, Failed, InvalidInput, NotOffered, Problem, TooLarge, Unavailable, field_of
+from .errors import (BudgetExceeded, Failed, InvalidInput, NotOffered, Problem, TooLarge, Unavailable, field_of,
+                     figure)
 from .codec import wants_npz
 from .library import lib, parallel
 from .models import Models, load_model, locked_key
@@ -90,8 +91,8 @@ def check_answer_size(numbers: int, npz: bool, settings: Settings, what: str) ->
     if size > limit:
         hint = "send smaller batches" if npz else \
             "ask for .npz (Accept: application/x-npz, 8 bytes a number) or send smaller batches"
-        raise TooLarge(f"answer: {what} is {numbers} numbers, about {size} bytes as {'.npz' if npz else 'JSON'}, "
-                       f"over the limit of {limit} bytes ({env}); {hint}", "answer")
+        raise TooLarge(f"answer: {what} is {figure(numbers)} numbers, about {figure(size)} bytes as "
+                       f"{'.npz' if npz else 'JSON'}, over the limit of {limit} bytes ({env}); {hint}", "answer")
     return size
 
 

@@ -147,6 +147,13 @@ def echo(text: str) -> str:
     return repr(text) if len(text) <= MAX_ECHO else repr(text[:MAX_ECHO]) + f"... ({len(text)} characters)"
 
 
+def figure(n: int | float) -> str:
+    """A count for a message: as is up to 15 digits, else in scientific notation (a job of 1e300 s is "about
+    8.00e+303 bytes", not 304 digits)."""
+    digits = str(int(n))
+    return digits if len(digits) <= 15 else f"{digits[0]}.{digits[1:3]}e+{len(digits) - 1}"
+
+
 def bounded(detail: str) -> str:
     return detail if len(detail) <= MAX_DETAIL else detail[:MAX_DETAIL] + f"... ({len(detail)} characters)"
 

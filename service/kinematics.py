@@ -15,6 +15,7 @@ from typing import Any
 import numpy as np
 
 from .compute import Operation
+from .errors import InvalidInput
 from .library import lib
 
 #: the inverse-kinematics options passed on to the library when given (None: its default)
@@ -44,6 +45,10 @@ def center_of_mass(model, args: dict[str, Any]) -> dict[str, Any]:
 def inverse_kinematics(model, args: dict[str, Any]) -> dict[str, Any]:
     options = {k: args[k] for k in IK_OPTIONS if args.get(k) is not None}
     q, report = lib().inverse_kinematics(model, args["frame"], args["target"], args["q0"], **options)
+    if not np.all(np.isfinite(report["residual"])):  # (a 200 with residual null and "stalled" said nothing)
+        far = float(np.max(np.abs(np.asarray(args["target"], dtype=float))))
+        raise InvalidInput(f"target: the distance to it overflows float64 (a coordinate of {far:.3g}); expected a "
+                           f"target within reach of the robot (coordinates well under 1e150 m)", "target")
     return {"q": q, "report": report}
 
 

@@ -21,7 +21,7 @@ from pydantic import TypeAdapter, ValidationError
 from .. import errors, schemas
 from .. import torque as torques
 from ..codec import decode, to_array
-from ..errors import InvalidInput, NotFound, Problem, TooLarge, storage_full
+from ..errors import InvalidInput, NotFound, Problem, TooLarge, figure, storage_full
 from ..models import Models, locked_key
 from ..settings import Settings
 from .db import ACTIVE, JobDB, JobRecord
@@ -100,7 +100,7 @@ class Jobs:
         total = KINDS[req.kind].total(model, arrays, spec)
         estimate = KINDS[req.kind].result_bytes(model, total, spec)
         if estimate > s.max_job_result_bytes:
-            raise TooLarge(f"inputs: the result would take about {estimate} bytes, over the limit of "
+            raise TooLarge(f"inputs: the result would take about {figure(estimate)} bytes, over the limit of "
                            f"{s.max_job_result_bytes} (DYNAMICS_MAX_JOB_RESULT_BYTES); split the job", "inputs")
         used = self.db.bytes_used(owner)
         if used + estimate + len(body) > s.job_quota_bytes:
