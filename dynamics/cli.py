@@ -30,17 +30,8 @@ TORQUE_HELP = ("torque source: 'zero' (default), 'constant:TAU' (one number per 
                "'pd:kp=K,kd=D[,target=Q]' (PD towards target, default q0; K and D scalars)")
 
 
-def _robot_source(robot):
-    if robot.lower().endswith(".urdf") or "/" in robot or robot.lstrip().startswith("<"):
-        return robot
-    try:
-        return robots.path(robot)
-    except FileNotFoundError:
-        return robot  # load_urdf says it is neither a file nor URDF text
-
-
 def _load(args, strict=True):
-    return load_urdf(_robot_source(args.robot), floating_base=args.floating_base, strict_inertia=strict)
+    return load_urdf(args.robot, floating_base=args.floating_base, strict_inertia=strict)
 
 
 def _numbers(text, what):

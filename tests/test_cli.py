@@ -110,3 +110,18 @@ def test_serve_help_is_a_proper_help():
     out = run("serve", "--help", check=0).stdout
     assert out.startswith("usage: dynamics serve") and "``" not in out and "python -m service [" not in out
     assert "--port" in out and "--store" in out
+
+
+def test_load_urdf_takes_the_bundled_names_the_cli_takes(tmp_path):
+    """Issue 25 D14: load_urdf("puma560") failed while `dynamics info puma560` worked; a near miss names the
+    closest, and a xacro file says to run xacro first."""
+    assert dynamics.load_urdf("puma560").nq == dynamics.load_urdf(dynamics.robots.path("puma560")).nq
+    assert dynamics.load_urdf("planar-2r").nq == 2  # the service's old spelling
+    with pytest.raises(dynamics.URDFError, match="did you mean 'puma560'"):
+        dynamics.load_urdf("puma56")
+    xacro = tmp_path / "arm.urdf.xacro"
+    xacro.write_text('<robot xmlns:xacro="http://www.ros.org/wiki/xacro" name="a"><xacro:property name="l" '
+                     'value="1"/><link name="base"/></robot>')
+    with pytest.raises(dynamics.URDFError, match="run xacro first"):
+        dynamics.load_urdf(str(xacro))
+    assert {"four_bar", "cassie_like_leg", "stewart_platform"} <= set(dynamics.robots.names())
