@@ -229,9 +229,22 @@ class Robot:
         return f"Robot({self.id!r}, name={self.name!r}, nq={self.nq}, nv={self.nv})"
 
     def _call(self, op: str, payload: dict[str, Any], **kw: Any) -> dict[str, Any]:
-        ans = self.client.call(f"/v1/robots/{self.id}/{op}", payload, **kw)
+        ans = self._send(f"/v1/robots/{self.id}/{op}", payload, kw)
         self.last_scene = ans.pop("scene", None)
         return ans
+
+    def _send(self, path: str, payload: dict[str, Any], kw: dict[str, Any]) -> dict[str, Any]:
+        """POST, and when the body is over the server's limit (413 on "body"), the batch in halves (each split
+        again if need be), the answers stacked: a batch within DYNAMICS_MAX_BATCH is never refused for its bytes."""
+        try:
+            return self.client.call(path, payload, **kw)
+        except ServiceError as e:
+            halves = _halves(payload) if (e.status, e.field) == (413, "body") else None
+            if halves is None:
+                raise
+        parts = [self._send(path, half, kw) for half in halves]
+        return {k: (np.concatenate([p[k] for p in parts]) if isinstance(v, np.ndarray) and v.ndim else v)
+                for k, v in parts[0].items()}
 
     @staticmethod
     def _opt(x: Any) -> Any:
@@ -397,6 +410,23 @@ TORQUE_CLASSES: dict[str, tuple[str, tuple[str, ...]]] = {
 NESTED_CLASSES: dict[str, tuple[str, ...]] = {
     "TaskReference": ("t", "position", "velocity", "acceleration", "orientation"),
 }
+
+
+#: the arguments a batch is split along (axis 0) when its body is too large, with their ndim when batched
+BATCHED = {"q": 2, "v": 2, "a": 2, "tau": 2, "f_ext": 3}
+
+
+def _halves(payload: Mapping[str, Any]) -> Optional[list[dict[str, Any]]]:
+    """``payload``'s batch cut in two along its states, None when it holds fewer than two states."""
+    sizes = {v.shape[0] for k, v in payload.items() if isinstance(v, np.ndarray) and v.ndim == BATCHED.get(k)}
+    if len(sizes) != 1 or (size := sizes.pop()) < 2:
+        return None
+    cut = size // 2
+
+    def part(sl: slice) -> dict[str, Any]:
+        return {k: (v[sl] if isinstance(v, np.ndarray) and v.ndim == BATCHED.get(k) else v) for k, v in payload.items()}
+
+    return [part(slice(0, cut)), part(slice(cut, None))]
 
 
 def torque_spec(torque: Any) -> Optional[dict[str, Any]]:

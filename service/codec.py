@@ -76,7 +76,8 @@ async def read_body(request: Request, limit: int) -> bytes:
 
 
 def _too_large(limit: int) -> TooLarge:
-    return TooLarge(f"body: larger than the limit of {limit} bytes (DYNAMICS_MAX_BODY_BYTES)", "body",
+    return TooLarge(f"body: larger than the limit of {limit} bytes (DYNAMICS_MAX_BODY_BYTES); send smaller batches "
+                    f"(the Python client splits them) or submit a job (POST /v1/jobs, client.submit)", "body",
                     headers={"Connection": "close"})
 
 

@@ -87,3 +87,17 @@ def test_inverse_kinematics_towards_1e308_says_why(app):
     r = app.post("/v1/robots/planar_2r/inverse-kinematics",  # unreachable but finite: the library's answer
                  json={"frame": "tip", "target": [5.0, 0, 0], "q0": [0.3, 0.3], "position_only": True})
     assert r.status_code == 200 and r.json()["report"]["status"] == "stalled", r.text
+
+
+def test_the_client_splits_a_batch_over_the_body_limit(tmp_path):
+    """D12: 50,000 Panda states through the client got 413 (8 MiB body limit) though the batch limit is 200,000;
+    the client now splits such a batch, and the 413 itself says what to do."""
+    model = dynamics.load_urdf(dynamics.robots.path("puma560"))
+    q, v, a = np.random.default_rng(0).normal(size=(3, 3000, model.nq))
+    with in_process_app(tmp_path, max_body_bytes=64 * 1024) as app:  # 3000 states: 432 KB as .npz
+        r = app.post("/v1/robots/puma560/inverse-dynamics", json={"q": q.tolist(), "v": v.tolist(), "a": a.tolist()})
+        assert r.status_code == 413 and "client.submit" in r.json()["detail"], r.text
+        c = Client("http://testserver")
+        c._http = app
+        tau = c.robot("puma560").inverse_dynamics(q, v, a)
+    assert np.array_equal(tau, dynamics.inverse_dynamics(model, q, v, a))
