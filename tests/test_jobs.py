@@ -405,3 +405,17 @@ def test_expiry_removes_finished_jobs_and_stale_temporary_files(tmp_path):
     assert db.get("queued").status == "queued"  # an active job never expires
     assert not stale.exists() and fresh.exists()
     executor.close()
+
+
+def test_a_server_stopped_mid_job_leaks_no_semaphore(tmp_path):
+    """Issue 25 D16: stopping the server left the job pool's semaphores to the resource tracker ("leaked
+    semaphore objects to clean up at shutdown")."""
+    server = Server(tmp_path / "store", env=KEYS).start()
+    try:
+        job = Client(server.url, api_key="alice-key").submit("planar_3r", "simulate_many", long_inputs(2000), LONG)
+        wait_for(job, lambda i: i["status"] == "running")
+    finally:
+        server.stop()
+    assert server.proc.returncode == 0 or server.proc.returncode is not None
+    log = server.log.read_text()
+    assert "leaked semaphore" not in log and "Traceback" not in log, log[-3000:]

@@ -179,3 +179,17 @@ def test_a_failed_late_warm_up_shows_in_ready(monkeypatch, tmp_path):
         assert body["failures"] == [{"stage": "compiling the operational-space and computed-torque simulation "
                                               "kernels", "error": "RuntimeError: the operational-space and "
                                                                   "computed-torque kernels did not compile: boom"}]
+
+
+def test_a_workers_compiling_line_is_printed_once_with_a_time():
+    """Issue 25 D16: each worker printed the library's "compiling ..." line twice, bare (Python's last-resort
+    handler). The worker's logging prints it once, with a time and its pid."""
+    import subprocess
+    import sys
+    code = ("import logging; from service.settings import configure_worker_logging; configure_worker_logging(); "
+            "log = logging.getLogger('dynamics.simulation.run'); "
+            "[log.warning('compiling the simulation kernels for %r (first run)', 'rk4') for _ in range(2)]")
+    err = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60,
+                         cwd=ROBOTS.parent).stderr
+    lines = [line for line in err.splitlines() if "compiling" in line]
+    assert len(lines) == 1 and re.match(r"\d{4}-\d\d-\d\d \d\d:\d\d:\d\d,\d+ WARNING worker \d+ ", lines[0]), err

@@ -69,7 +69,9 @@ class Executor:
         if self.pool is not None:
             for process in list(getattr(self.pool, "_processes", {}).values()):  # no public way to stop a job
                 process.terminate()
-            self.pool.shutdown(wait=False, cancel_futures=True)
+            # wait=True: the pool's manager thread sees its workers gone and releases its queues' semaphores
+            # (left to the resource tracker otherwise, which warns of leaked semaphores at exit)
+            self.pool.shutdown(wait=True, cancel_futures=True)
         n = self.db.release(self.boot)
         if n:
             log.info("jobs: %d running job(s) queued again for the next start", n)

@@ -24,6 +24,7 @@ from ..errors import InvalidInput
 from ..library import lib
 from ..lifeline import bind_to_parent
 from ..models import ModelCache, cached, load_model
+from ..settings import configure_worker_logging
 from . import warm
 from .job import Job, Outcome
 
@@ -66,6 +67,7 @@ def handle(job: Job, cache: ModelCache) -> Outcome:
 
 def main(fd: int, status_fd: int, parent: int) -> None:
     bind_to_parent(parent)
+    configure_worker_logging()
     conn, status = Connection(fd), Connection(status_fd)
     cache = ModelCache(16)
     # before "ready": no request's time budget ever runs into a compilation; a failure here is the first job's
