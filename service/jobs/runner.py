@@ -30,6 +30,7 @@ from ..errors import InvalidInput, storage_full
 from ..library import lib
 from ..models import ModelCache, cached, load_model
 from ..settings import Settings
+from ..sim.job import samples
 from .. import torque as torques
 from ..codec import finite_report
 from ..store import RobotStore
@@ -90,9 +91,8 @@ class SimulateMany:
 
     def result_bytes(self, model, total: int, spec: dict[str, Any]) -> int:
         o = spec["options"]
-        dt = o.get("sample_dt") or (o.get("dt") if o.get("integrator") in ("euler", "rk4") else None)
-        samples = int(o["duration"] / dt) + 2 if dt else 1001
-        return 8 * total * samples * (model.nq + 2 * model.nv)
+        count = samples(o["duration"], o.get("sample_dt"), o.get("dt"), o.get("integrator"))
+        return 8 * total * count * (model.nq + 2 * model.nv)
 
 
     def run(self, model, inputs, spec, lo, hi, engine, progress) -> dict[str, Any]:
