@@ -44,7 +44,7 @@ def test_every_operation(api_schema):
                   suppress_health_check=list(HealthCheck))
         def run(case):
             if case.path_parameters and "robot_id" in case.path_parameters and len(statuses) % 4:
-                case.path_parameters["robot_id"] = "planar-2r"  # (a random id is only a 404: a known one mostly)
+                case.path_parameters["robot_id"] = "planar_2r"  # (a random id is only a 404: a known one mostly)
             statuses[case.call_and_validate(checks=CHECKS, timeout=30).status_code] += 1
 
         try:
