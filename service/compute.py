@@ -343,7 +343,11 @@ class Compute:
     def _simulate(self, job: Job, budget: Budget) -> dict[str, Any]:
         try:
             outcome = self.pool.run(dataclasses.replace(job, deadline=budget.deadline), budget.deadline)
-        except PoolTimeout:
+        except PoolTimeout as e:
+            if len(e.args) > 1 and not e.args[1]:  # its worker was still warming up: compiling, not simulating
+                raise Unavailable("simulate: the simulation worker was still compiling the kernels this request "
+                                  "needs (once after a start with an empty cache); retry in a minute", code="starting",
+                                  headers={"Retry-After": "30"}) from None
             raise BudgetExceeded(f"the simulation of {job.duration:g} s", budget.seconds,
                                  "shorten the duration, loosen rtol/atol or use a larger dt") from None
         except PoolBusy as e:

@@ -193,3 +193,28 @@ def test_a_workers_compiling_line_is_printed_once_with_a_time():
                          cwd=ROBOTS.parent).stderr
     lines = [line for line in err.splitlines() if "compiling" in line]
     assert len(lines) == 1 and re.match(r"\d{4}-\d\d-\d\d \d\d:\d\d:\d\d,\d+ WARNING worker \d+ ", lines[0]), err
+
+
+def test_a_request_that_ran_into_a_compilation_gets_503_not_504():
+    """Issue 25 A3: a first operational-space simulate on a cold start answered 504 after 10 s ("shorten the
+    duration"): its worker was compiling. A request whose worker had not finished its warm-up gets the 503 with
+    Retry-After; one whose worker was warm keeps the 504 and its advice."""
+    from types import SimpleNamespace
+
+    from service.compute import Budget, Compute
+    from service.errors import BudgetExceeded, Unavailable
+    from service.sim.pool import PoolTimeout
+
+    def pool(warm):
+        def run(job, deadline):
+            raise PoolTimeout("the simulation ran past the deadline; its worker was stopped", warm)
+        return SimpleNamespace(run=run)
+
+    from service.sim.job import Job
+    job = Job("r", "<robot/>", False, (), np.zeros(1), np.zeros(1), 1.0, {}, None, 1000)
+    with pytest.raises(Unavailable) as e:
+        Compute._simulate(SimpleNamespace(pool=pool(False)), job, Budget.starting_now(10.0))
+    assert e.value.code == "starting" and e.value.headers["Retry-After"].isdigit() and "compiling" in e.value.detail
+    with pytest.raises(BudgetExceeded) as e:
+        Compute._simulate(SimpleNamespace(pool=pool(True)), job, Budget.starting_now(10.0))
+    assert "shorten the duration" in e.value.detail

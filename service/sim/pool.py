@@ -40,7 +40,8 @@ class WorkerCrashed(RuntimeError):
 
 
 class PoolTimeout(Exception):
-    """The job ran past its deadline; its worker was killed."""
+    """The job ran past its deadline; its worker was killed. ``args[1]``: whether that worker had finished its
+    warm-up (if not, the time may have gone into compiling a kernel the request needed)."""
 
 
 class PoolBusy(Exception):
@@ -67,6 +68,7 @@ class _Worker:
         self.status = Connection(status_parent.detach())
         self.jobs = 0
         self.started = time.monotonic()
+        self.warm = False  # True once its whole warm-up (service.sim.warm) is over
 
     def kill(self) -> None:
         for conn in (self.conn, self.status):
@@ -113,16 +115,20 @@ class SimPool:
         threading.Thread(target=self._await_late, args=(w,), daemon=True, name="sim-late").start()
 
     def _await_late(self, w: _Worker) -> None:
-        """The worker's word on its late warm-up: ("late", None) or ("late", "the error")."""
-        try:
-            kind, error = w.status.recv()
-        except (EOFError, OSError, ValueError, TypeError):
-            return
-        if kind == "late" and not self.late.is_set():
+        """The worker's word on its late warm-up: ("late", None | "the error"), then ("rest", ...)."""
+        while True:
+            try:
+                stage, error = w.status.recv()
+            except (EOFError, OSError, ValueError, TypeError):
+                return
             if error:
-                log.error("simulation worker %s: the late warm-up failed: %s", w.proc.pid, error)
-            self.late_error = error
-            self.late.set()
+                log.error("simulation worker %s: the %s warm-up failed: %s", w.proc.pid, stage, error)
+            if stage == "late" and not self.late.is_set():
+                self.late_error = error
+                self.late.set()
+            elif stage == "rest":
+                w.warm = True
+                return
 
     def wait_late(self) -> None:
         """Block until a worker's late warm-up ended; a RuntimeError naming the failure if it failed."""
@@ -182,7 +188,7 @@ class SimPool:
             if not w.conn.poll(max(0.0, deadline - time.monotonic())):
                 self.killed += 1
                 self._replace(w)
-                raise PoolTimeout("the simulation ran past the deadline; its worker was stopped")
+                raise PoolTimeout("the simulation ran past the deadline; its worker was stopped", w.warm)
             answer = w.conn.recv()
         except (EOFError, OSError) as e:
             code = w.proc.poll()

@@ -98,19 +98,22 @@ class LateWarmup:
         self.started = time.monotonic()
         self.error: Optional[str] = None  # why the late warm-up failed (after two attempts), None if it did not
 
-    def start(self, report: Callable[[Optional[str]], None] = lambda error: None) -> None:
-        """Compile in a background thread; ``report(error)`` once the kinds of :attr:`kinds` are compiled (None)
-        or could not be (the traceback's last line): the server shows it in ``/v1/ready``."""
+    def start(self, report: Callable[[str, Optional[str]], None] = lambda stage, error: None) -> None:
+        """Compile in a background thread; ``report("late", error)`` once the kinds of :attr:`kinds` are compiled
+        (None) or could not be (the error in one line: the server shows it in ``/v1/ready``), then
+        ``report("rest", error)`` after :func:`warm_up_rest`."""
         self.started = time.monotonic()
         threading.Thread(target=self._run, args=(report,), daemon=True, name="late-warm-up").start()
 
-    def _run(self, report: Callable[[Optional[str]], None]) -> None:
+    def _run(self, report: Callable[[str, Optional[str]], None]) -> None:
         try:
             self.error = attempt(warm_up_later)
         finally:
             self.done.set()
-        report(self.error)
-        attempt(warm_up_rest)  # no request waits for these: one that comes first compiles its own part
+        report("late", self.error)
+        # no request waits for these: one that comes first compiles its own part (and, past its budget, is told
+        # that the worker was still compiling: service.compute)
+        report("rest", attempt(warm_up_rest))
 
     def wait(self, deadline: float) -> bool:
         """Whether it is done, waiting for it until ``deadline`` (time.monotonic) less a second."""

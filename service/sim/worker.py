@@ -78,9 +78,9 @@ def main(fd: int, status_fd: int, parent: int) -> None:
     except OSError:
         return
 
-    def report(error: Optional[str]) -> None:
+    def report(stage: str, error: Optional[str]) -> None:
         try:
-            status.send(("late", error))
+            status.send((stage, error))
         except OSError:
             pass
 
