@@ -664,7 +664,8 @@ class JobStatus(BaseModel):
     id: str
     robot: str
     kind: str
-    status: Literal["queued", "running", "done", "failed", "cancelled"]
+    status: Literal["queued", "running", "done", "failed", "cancelled", "removed"] = Field(
+        description="'removed' only in the answer to DELETE of a finished job")
     progress: JobProgress
     created: float = Field(description="Unix time of submission")
     started: Optional[float]
