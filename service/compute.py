@@ -336,11 +336,12 @@ class Compute:
                           f"a trajectory of {samples} samples")
         return job, simulation_scene(entry.scene, entry.model.gravity, req.gravity)
 
-    async def simulate(self, job: Job, budget: Budget) -> dict[str, Any]:
-        """The trajectory of ``job`` (arrays and report), computed by a worker process within ``budget``."""
+    async def simulate(self, job: Job, budget: Budget) -> tuple[dict[str, Any], float]:
+        """The trajectory of ``job`` (arrays and report), computed by a worker process within ``budget``, and the
+        seconds the library call took there."""
         return await asyncio.get_running_loop().run_in_executor(self.waiters, self._simulate, job, budget)
 
-    def _simulate(self, job: Job, budget: Budget) -> dict[str, Any]:
+    def _simulate(self, job: Job, budget: Budget) -> tuple[dict[str, Any], float]:
         try:
             outcome = self.pool.run(dataclasses.replace(job, deadline=budget.deadline), budget.deadline)
         except PoolTimeout as e:
@@ -361,4 +362,4 @@ class Compute:
         if outcome.unavailable is not None:  # a kernel the worker compiles in the background (sim/worker.py)
             raise Unavailable(f"simulate: {outcome.unavailable}", code="starting",
                               headers={"Retry-After": str(int(min(60, max(1, math.ceil(outcome.retry_after)))))})
-        return outcome.trajectory
+        return outcome.trajectory, outcome.seconds

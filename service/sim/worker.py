@@ -12,6 +12,7 @@ The HTTP torque spec becomes the library's torque object through :mod:`service.t
 from __future__ import annotations
 
 import sys
+import time
 import traceback
 from multiprocessing.connection import Connection
 from typing import Any, Optional
@@ -29,9 +30,9 @@ from . import warm
 from .job import Job, Outcome
 
 
-def simulate(model, job: Job) -> dict[str, Any] | Outcome:
-    """The trajectory of ``job``, or (a torque source still compiling past the job's deadline) the Outcome
-    that says so."""
+def simulate(model, job: Job) -> Outcome:
+    """The trajectory of ``job`` and the seconds the library call took, or (a torque source still compiling past
+    the job's deadline) the Outcome that says so."""
     options = dict(job.options)
     torque = torques.build(job.torque)
     later = warm.LATER
@@ -43,19 +44,20 @@ def simulate(model, job: Job) -> dict[str, Any] | Outcome:
         options["torque"] = torque
     # The step budget is the service's: a runaway adaptive run ends in a clear "max_steps: ..." 422 rather than
     # in the time budget's 504.
+    started = time.perf_counter()
     traj = lib().simulate(model, job.q0, job.v0, job.duration, max_steps=job.max_steps, **options)
+    seconds = time.perf_counter() - started
     out = {name: np.asarray(getattr(traj, name)) for name in ("t", "q", "v", "tau")}
     if traj.lam is not None:
         out["lambda"] = np.asarray(traj.lam)
     out["report"] = finite_report(dict(traj.report or {}))
-    return out
+    return Outcome(trajectory=out, seconds=seconds)
 
 
 def handle(job: Job, cache: ModelCache) -> Outcome:
     try:
         model = cached(cache, job.robot_id, job.locked, lambda: load_model(job.urdf, job.floating_base))
-        out = simulate(model, job)
-        return out if isinstance(out, Outcome) else Outcome(trajectory=out)
+        return simulate(model, job)
     except InvalidInput as e:  # our own reading of the request (a URDF refused, an unknown torque type)
         return Outcome(input_error=e.detail)
     except ValueError as e:  # the library's InputError, URDFError, DynamicsError: the message names the field
