@@ -185,7 +185,8 @@ class Client:
         """Queue a job (``kind``: simulate_many, inverse_dynamics, forward_dynamics, mass_matrix) and return at
         once. ``inputs``: arrays by name (q0, v0 and a torque: an object of ``dynamics.torques`` as
         ``robot.simulate`` takes, or a spec whose arrays may have one row per run; or q, v, a / q, v, tau / q);
-        ``options``: duration and simulate's options, gravity, locked. Sent as .npz."""
+        ``options``: duration and simulate's options, gravity, locked. Sent as .npz. The Job's ``wait()`` returns
+        its final status, ``result()`` its arrays (for simulate_many: t, q, v, tau, counts, reports)."""
         robot_id = robot.id if isinstance(robot, Robot) else robot
         members: dict[str, Any] = {"robot": np.array(robot_id), "kind": np.array(kind),
                                    "options": np.array(json.dumps(_plain_tree(dict(options or {}))))}
@@ -465,7 +466,8 @@ class Job:
 
     def wait(self, progress: bool = False, timeout: Optional[float] = None, poll: float = 0.5) -> dict[str, Any]:
         """Poll until the job is done, failed or cancelled (a tqdm bar of its items with ``progress``); its
-        final status. ``timeout`` seconds: a ServiceError (code "timeout") if it is still running then."""
+        final status record, not the arrays: :meth:`result` fetches those (``job.wait(); out = job.result()``).
+        ``timeout`` seconds: a ServiceError (code "timeout") if it is still running then."""
         end = None if timeout is None else time.monotonic() + timeout
         bar = None
         try:

@@ -330,7 +330,8 @@ class Compute:
         worker builds the same model."""
         locked = locked_key(req.locked)
         entry = self.models.loaded(rid, locked)
-        job = build_job(self.models.record(rid), locked, req, self.settings)  # (its step and sample limits first)
+        record = entry.record or self.models.record(rid)  # (the cached record: no disk read per request)
+        job = build_job(record, locked, req, self.settings)  # (its step and sample limits first)
         samples = sim_samples(req.duration, req.sample_dt, req.dt, req.integrator)
         check_answer_size(samples * _columns(entry.model, req.outputs), wants_npz(accept), self.settings,
                           f"a trajectory of {samples} samples")

@@ -112,13 +112,15 @@ def cached(cache: ModelCache, rid: str, locked: tuple, load: Callable[[], Any],
 
 @dataclass(frozen=True)
 class Loaded:
-    """What the model cache holds: a model, and the part of every answer's scene that depends only on it."""
+    """What the model cache holds: a model, the part of every answer's scene that depends only on it, and the
+    stored record it was built from (a simulation job carries its URDF to the worker: read once, not per request)."""
     model: Any
     scene: ModelScene
+    record: Optional[RobotRecord] = None
 
     @classmethod
-    def of(cls, model) -> "Loaded":
-        return cls(model, ModelScene.of(model))
+    def of(cls, model, record: Optional[RobotRecord] = None) -> "Loaded":
+        return cls(model, ModelScene.of(model), record)
 
 
 class Models:
@@ -145,16 +147,17 @@ class Models:
 
         def load() -> Loaded:
             rec = self.record(rid)
-            return Loaded.of(load_model(rec.urdf, rec.floating_base))
+            return Loaded.of(load_model(rec.urdf, rec.floating_base), rec)
 
-        return cached(self.cache, rid, locked, load, lambda full, lk: Loaded.of(reduce_model(full.model, lk)))
+        return cached(self.cache, rid, locked, load,
+                      lambda full, lk: Loaded.of(reduce_model(full.model, lk), full.record))
 
     def is_cached(self, rid: str, locked: tuple) -> bool:
         return self.cache.peek((rid, locked)) is not None
 
     def keep(self, rid: str, model) -> None:
         """Cache a model just built from robot ``rid``'s URDF (an upload), so that no request builds it again."""
-        self.cache.get_or_load((rid, ()), lambda: Loaded.of(model))
+        self.cache.get_or_load((rid, ()), lambda: Loaded.of(model, self.store.get(rid)))
 
     def forget(self, rid: str) -> None:
         self.cache.discard(rid)
