@@ -76,7 +76,7 @@ def test_a_413_states_a_huge_size_briefly(app):
                                    "options": {"duration": 1e300, "sample_dt": 1e-3},
                                    "inputs": {"q0": [0.1, 0.2], "v0": [0, 0]}})
     assert r.status_code == 413, r.text
-    assert not re.search(r"\d{20}", r.json()["detail"]) and "e+30" in r.json()["detail"]
+    assert not re.search(r"\d{20}", r.json()["detail"]) and re.search(r"\d\.\d\de\+\d+ bytes", r.json()["detail"])
 
 
 def test_inverse_kinematics_towards_1e308_says_why(app):

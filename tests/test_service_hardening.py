@@ -278,7 +278,7 @@ def test_listing_reads_no_urdf(server, http):
 def test_robots_belong_to_their_key(server, http, chain):
     with client(server, "k2") as other:
         assert chain not in [r["id"] for r in other.get("/v1/robots").json()["robots"]]
-        assert "planar-2r" in [r["id"] for r in other.get("/v1/robots").json()["robots"]]
+        assert "planar_2r" in [r["id"] for r in other.get("/v1/robots").json()["robots"]]
         refused(other.get(f"/v1/robots/{chain}"), 404, "robot")
         refused(other.post(f"/v1/robots/{chain}/gravity-torques", json={"q": [0.0] * 128}), 404, "robot")
         refused(other.post(f"/v1/robots/{chain}/simulate", json={"q0": [0.0] * 128, "v0": [0.0] * 128,
