@@ -19,7 +19,6 @@ from .constraints import check_closed, constraints_info, declare
 from .errors import Conflict, Forbidden, InvalidInput, NotFound, TooLarge, echo
 from .models import Models, load_model
 from .schemas import MAX_NAME
-from .schemas import MAX_NAME
 from .settings import Settings
 from .store import IndexEntry, RobotStore, robot_id
 

@@ -10,7 +10,7 @@ import pytest
 
 import dynamics
 from service.client import Client, ServiceError
-from service_fixtures import ROBOTS, in_process_app
+from service_fixtures import in_process_app
 
 #: a floating joint below the root: the model floats though the upload asked for no floating base
 FLOATING_BELOW_ROOT = """<robot name="drone">

@@ -7,8 +7,6 @@ from __future__ import annotations
 import errno
 import os
 
-import numpy as np
-import pytest
 
 from service import store as store_module
 from service.jobs import runner

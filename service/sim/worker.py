@@ -15,7 +15,7 @@ import sys
 import time
 import traceback
 from multiprocessing.connection import Connection
-from typing import Any, Optional
+from typing import Optional
 
 import numpy as np
 
