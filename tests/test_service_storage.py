@@ -67,3 +67,24 @@ def test_a_job_that_fills_the_disk_fails_with_that_reason(tmp_path, monkeypatch)
     assert failed.status == "failed" and "the job store" in failed.error and "No space left" in failed.error
     assert not files.inputs(claimed.id).exists() and not files.parts(claimed.id).exists()
     jobs.close()
+
+
+def test_a_submit_that_fails_after_writing_its_inputs_leaves_no_file(tmp_path, monkeypatch):
+    """Issue 25 A1: a submit whose database insert failed (an array in the spec's JSON) left its inputs .npz, which
+    no quota counted and no housekeeping removed. Whatever fails after the write, the file goes."""
+    settings = Settings(store_dir=tmp_path, robots_dir=ROBOTS, job_workers=0)
+    jobs = Jobs(settings, Models(RobotStore(settings.store_dir, settings.robots_dir), 4))
+
+    def broken(*args, **kwargs):
+        raise TypeError("Object of type ndarray is not JSON serializable")
+
+    monkeypatch.setattr(jobs.db, "create", broken)
+    try:
+        jobs.submit(None, b'{"robot": "planar_2r", "kind": "mass_matrix", "inputs": {"q": [[0, 0]]}}',
+                    "application/json")
+    except TypeError:
+        pass
+    else:
+        raise AssertionError("the failure was swallowed")
+    assert list((tmp_path / "jobs" / "inputs").iterdir()) == []
+    jobs.close()
