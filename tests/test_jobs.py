@@ -395,15 +395,19 @@ def test_expiry_removes_finished_jobs_and_stale_temporary_files(tmp_path):
     db.create("queued", "", "planar-2r", "mass_matrix", {"options": {}}, 1, 10)
     db.cancel("old")
     stale, fresh = files.root / "parts" / ".a.npz.1.tmp", files.root / "results" / ".b.npz.2.tmp"
-    stale.write_bytes(b"x")
-    fresh.write_bytes(b"x")
-    os.utime(stale, (0, 0))
+    orphan = files.inputs("no-such-job")  # (issue 25 A1: a failed submit's inputs, left by an older version)
+    kept = files.inputs("queued")  # an old job's own inputs stay
+    for path in (stale, fresh, orphan, kept):
+        path.write_bytes(b"x")
+    for path in (stale, orphan, kept):
+        os.utime(path, (0, 0))
     executor = Executor(files, db, settings)
     time.sleep(0.01)
     executor.expire()
     assert db.get("old") is None and not files.inputs("old").exists()
     assert db.get("queued").status == "queued"  # an active job never expires
-    assert not stale.exists() and fresh.exists()
+    assert not stale.exists() and fresh.exists() and not orphan.exists()
+    assert kept.exists()
     executor.close()
 
 

@@ -166,13 +166,14 @@ class Executor:
             self.wake.set()
 
     def expire(self) -> None:
-        """Finished jobs past their expiry, and temporary files a crash left (old enough that no writer of any
-        server process can still be at them)."""
+        """Finished jobs past their expiry, and temporary files a crash left and inputs files without a job (old
+        enough that no writer of any server process can still be at them)."""
         for job_id in self.db.expired(time.time() - self.settings.job_expiry):
             self.files.remove(job_id)
             self.db.delete(job_id)
-        for stale in self.files.root.glob("**/.*.tmp"):
-            try:
+        orphans = [p for p in self.files.root.joinpath("inputs").glob("*.npz") if self.db.get(p.stem) is None]
+        for stale in [*self.files.root.glob("**/.*.tmp"), *orphans]:  # (orphans: inputs of a submit that failed
+            try:                                                       # before its record, by an older version)
                 if stale.stat().st_mtime < time.time() - STALE_TMP_SECONDS:
                     stale.unlink()
             except FileNotFoundError:
