@@ -211,10 +211,11 @@ def _bundled_or_path(path: str) -> str:
     if os.path.isfile(path):
         return path
     from . import robots  # (robots/ is installed as dynamics.robots; imported here, where it is needed)
-    try:
-        return robots.path(path)
-    except FileNotFoundError:
-        pass
+    if "/" not in path and os.sep not in path:  # (a path that is not there is not a robot's name)
+        try:
+            return robots.path(path)
+        except FileNotFoundError:
+            pass
     close = difflib.get_close_matches(os.path.basename(path).removesuffix(".urdf").replace("-", "_"),
                                       robots.names(), n=3, cutoff=0.6)
     hint = f"; did you mean {' or '.join(map(repr, close))}?" if close else f"; bundled robots are {robots.names()}"
