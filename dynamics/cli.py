@@ -3,22 +3,26 @@
     dynamics info ROBOT [--floating-base] [--json]       what the model holds: joints with q/v slices, frames
     dynamics check ROBOT [--floating-base]               every warning and refusal; exit 0 if it loads (and simulate
                                                          takes it at the neutral configuration), 1 if not
-    dynamics simulate ROBOT --duration 2 [--q0 ...] [--torque pd:kp=50,kd=5] [--plot out.png] [--json]
+    dynamics simulate ROBOT --duration 2 [--q0 ...] [--torque pd:kp=50,kd=5] [--plot out.png] [--json] [--strict]
     dynamics serve [--host ...] [--port ...]             the HTTP service (same as python -m service)
 
 ROBOT is a URDF path or the name of a bundled robot (``dynamics.robots.names()``).
+
+Exit codes: 0 done; 1 a bad argument (one line on stderr naming it); 2 a simulation that did not end "ok" (its
+status, its step budget exhausted, or with --strict a warning in its report).
 """
 
 import argparse
 import importlib
 import json
+import os
 import sys
 
 import numpy as np
 
 from . import plot, robots
 from .checks import refuse_singular
-from .errors import DynamicsError
+from .errors import DynamicsError, InputError
 from .simulation import simulate
 from .torques import PD
 from .urdf import load_urdf
@@ -28,17 +32,8 @@ TORQUE_HELP = ("torque source: 'zero' (default), 'constant:TAU' (one number per 
                "'pd:kp=K,kd=D[,target=Q]' (PD towards target, default q0; K and D scalars)")
 
 
-def _robot_source(robot):
-    if robot.lower().endswith(".urdf") or "/" in robot or robot.lstrip().startswith("<"):
-        return robot
-    try:
-        return robots.path(robot)
-    except FileNotFoundError:
-        return robot  # load_urdf says it is neither a file nor URDF text
-
-
 def _load(args, strict=True):
-    return load_urdf(_robot_source(args.robot), floating_base=args.floating_base, strict_inertia=strict)
+    return load_urdf(args.robot, floating_base=args.floating_base, strict_inertia=strict)
 
 
 def _numbers(text, what):
@@ -77,7 +72,7 @@ def info(args):
                "v": [model.v_slice(n).start, model.v_slice(n).stop],
                "lower": _plain(model.lower[model.v_slice(n)][0]), "upper": _plain(model.upper[model.v_slice(n)][0])}
               for n, t in zip(model.joint_names, model.joint_types)]
-    out = dict(model.summary(), joints=joints, frames=sorted(model.frames))
+    out = dict(model.summary(), joints=joints, frames=list(model.frame_names))  # the model's (depth-first) order
     if args.json:
         print(json.dumps(out, indent=2))
         return 0
@@ -87,7 +82,7 @@ def info(args):
     for j in joints:
         print(f"{j['name']:<28} {j['type']:<11} {'%d:%d' % tuple(j['q']):>9} {'%d:%d' % tuple(j['v']):>9}  "
               f"[{_fmt(j['lower'])}, {_fmt(j['upper'])}]")
-    print(f"frames ({len(out['frames'])}): {', '.join(out['frames'][:20])}{' ...' if len(out['frames']) > 20 else ''}")
+    print(f"frames ({len(out['frames'])}): {', '.join(out['frames'])}")
     for key in ("fixed_joints_merged", "links_pruned"):
         print(f"{key}: {len(out.get(key, []))}")
     for w in model.warnings:
@@ -135,7 +130,14 @@ def simulate_command(args):
     v0 = _numbers(args.v0, "--v0") if args.v0 else np.zeros(model.nv)
     options = {k: getattr(args, k) for k in ("integrator", "rtol", "atol", "dt", "sample_dt")
                if getattr(args, k) is not None}
-    traj = simulate(model, q0, v0, args.duration, torque=_torque(args.torque, model, q0), **options)
+    torque = _torque(args.torque, model, q0)
+    try:
+        traj = simulate(model, q0, v0, args.duration, torque=torque, **options)
+    except InputError as e:
+        if not str(e).startswith("max_steps:"):  # a bad argument (exit 1)
+            raise
+        print(f"dynamics simulate: {e}", file=sys.stderr)  # the simulation ran and did not finish
+        return 2
     if args.out:
         np.savez(args.out, t=traj.t, q=traj.q, v=traj.v, tau=traj.tau, report=json.dumps(traj.report))
     if args.plot:
@@ -147,6 +149,10 @@ def simulate_command(args):
         for w in traj.report.get("warnings", []):
             print(f"warning: {w}")
         print(f"final q: {np.array2string(traj.q[-1], precision=6)}")
+    if args.strict and traj.report.get("warnings"):
+        print(f"dynamics simulate: --strict: the report has {len(traj.report['warnings'])} warning(s): "
+              + "; ".join(traj.report["warnings"]), file=sys.stderr)
+        return 2
     return 0 if traj.report.get("status") == "ok" else 2
 
 
@@ -156,7 +162,7 @@ def serve(argv):
         service_main = importlib.import_module("service.__main__").main  # the optional web layer
     except ImportError as e:
         raise SystemExit(f"dynamics serve: the service is not installed ({e})") from None
-    return service_main(list(argv))
+    return service_main(list(argv), prog="dynamics serve")
 
 
 def parser():
@@ -176,7 +182,8 @@ def parser():
     c.add_argument("--lenient", action="store_true", help="accept inertias that break the triangle inequality")
     robot_command("check", check, "print every warning and refusal; exit 0 if the robot loads and simulate takes it "
                   "at the neutral configuration, 1 if not")
-    c = robot_command("simulate", simulate_command, "simulate and print the report (exit 2 if not ok)")
+    c = robot_command("simulate", simulate_command, "simulate and print the report (exit 2 if not ok, or with "
+                                                   "--strict if the report warns)")
     c.add_argument("--duration", type=float, required=True, help="seconds")
     c.add_argument("--q0", help="initial q, comma separated (default: neutral)")
     c.add_argument("--v0", help="initial v, comma separated (default: zero)")
@@ -189,6 +196,7 @@ def parser():
     c.add_argument("--plot", metavar="FILE", help="save a figure of q, v, tau (png, pdf, svg)")
     c.add_argument("--out", metavar="FILE.npz", help="save t, q, v, tau and the report")
     c.add_argument("--json", action="store_true", help="print the report as JSON")
+    c.add_argument("--strict", action="store_true", help="exit 2 when the report has warnings")
     c.add_argument("--lenient", action="store_true", help="accept inertias that break the triangle inequality")
     sub.add_parser("serve", help="run the HTTP service (options: dynamics serve --help)")
     return p
@@ -200,7 +208,12 @@ def main(argv=None):
         return serve(argv[1:])
     args = parser().parse_args(argv)
     try:
-        return args.fn(args)
+        code = args.fn(args)
+        sys.stdout.flush()  # (here, so that a reader that went away is seen below, not at exit)
+        return code
     except (DynamicsError, FileNotFoundError) as e:
         print(f"dynamics {args.command}: {e}", file=sys.stderr)
         return 1
+    except BrokenPipeError:  # `dynamics info ROBOT --json | head`: the reader has all it wanted
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())  # (Python's own flush at exit would fail)
+        return 128 + 13  # as a tool killed by SIGPIPE reports it

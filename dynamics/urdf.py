@@ -205,14 +205,33 @@ def _read_source(source) -> bytes:
     if isinstance(source, str) and source.lstrip().startswith("<"):
         return source.encode("utf-8")
     if isinstance(source, (str, os.PathLike)):
-        path = os.fspath(source)
-        if not os.path.isfile(path):
-            raise URDFError(f"URDF source: {path!r} is neither URDF text nor an existing file")
+        path = _bundled_or_path(os.fspath(source))
         if os.path.getsize(path) > MAX_URDF_BYTES:
             raise URDFError(f"URDF source: {path!r} is larger than {MAX_URDF_BYTES} bytes")
         with open(path, "rb") as fh:
-            return fh.read()
+            data = fh.read()
+        if path.endswith(".xacro") or b"<xacro:" in data:
+            raise URDFError(f"URDF source: {path!r} is a xacro file; run xacro first (xacro {os.path.basename(path)} "
+                            "> robot.urdf) and load its output")
+        return data
     raise URDFError(f"URDF source: expected a path, str or bytes, got {type(source).__name__}")
+
+
+def _bundled_or_path(path: str) -> str:
+    """An existing file, or the name of a bundled robot ("puma560", "planar_2r", as the CLI and the service take
+    them), or an URDFError naming the closest bundled names."""
+    if os.path.isfile(path):
+        return path
+    from . import robots  # (robots/ is installed as dynamics.robots; imported here, where it is needed)
+    if "/" not in path and os.sep not in path:  # (a path that is not there is not a robot's name)
+        try:
+            return robots.path(path)
+        except FileNotFoundError:
+            pass
+    close = difflib.get_close_matches(os.path.basename(path).removesuffix(".urdf").replace("-", "_"),
+                                      robots.names(), n=3, cutoff=0.6)
+    hint = f"; did you mean {' or '.join(map(repr, close))}?" if close else f"; bundled robots are {robots.names()}"
+    raise URDFError(f"URDF source: {path[:200]!r} is neither URDF text nor an existing file nor a bundled robot{hint}")
 
 
 _DECLARATION = re.compile(rb"^\s*(<\?xml\s[^>]*?\?>)", re.S)

@@ -3,6 +3,8 @@
     >>> import dynamics
     >>> model = dynamics.load_urdf(dynamics.robots.path("puma560"))
 
+Bundled: cassie_like_leg, four_bar, pendulum, planar_2r, planar_3r, puma560, rp_arm, stewart_platform
+(:func:`names`); ``dynamics.load_urdf``, the CLI and the service take these names as they are.
 Installed as ``dynamics.robots``, so the files exist outside a checkout too.  Real robots for tests and
 examples come from the ``example-robot-data`` package (see :func:`example_robot_data`).
 """

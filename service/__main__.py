@@ -20,13 +20,18 @@ from .library import lib
 from .models import load_model
 from .protocol import HeaderTimeoutProtocol
 from .settings import Settings, configure_logging
-from .sim import worker
+from .sim import warm
 from .store import RobotStore
 from .warmup import Stage, Warmup
 
 
-def _parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="python -m service", description=__doc__.split("\n\n")[0])
+#: what --help says first (plain text: the module docstring is reST)
+DESCRIPTION = ("Run the HTTP service of the dynamics library. Its other settings (limits, API keys, workers) are "
+               "DYNAMICS_* environment variables (see the README's table).")
+
+
+def _parser(prog: str = "python -m service") -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog=prog, description=DESCRIPTION)
     p.add_argument("--host", default=os.environ.get("DYNAMICS_HOST", "127.0.0.1"),
                    help="interface to listen on (default 127.0.0.1; 0.0.0.0 in a container)")
     p.add_argument("--port", type=int, default=int(os.environ.get("DYNAMICS_PORT", "8000")))
@@ -56,17 +61,21 @@ def warmup() -> int:
     stages = [Stage("importing the library", lib), Stage(f"compiling dynamics kernels on {len(robots)} bundled "
                                                          f"robots", dynamics_kernels)]
     if settings.sim_workers > 0:  # no simulation, no warming
-        stages.append(Stage("compiling simulation kernels", worker.warm_up))
-        stages.append(Stage("compiling the operational-space simulation kernels", worker.warm_up_later))
-        stages.append(Stage("compiling the other torque kinds, the free joint and radau", worker.warm_up_rest))
+        stages.append(Stage("compiling simulation kernels", warm.warm_up))
+        stages.append(Stage("compiling the operational-space simulation kernels", warm.warm_up_later))
+        stages.append(Stage("compiling the other torque kinds, the free joint and radau", warm.warm_up_rest))
     run = Warmup()
     run.run(stages)
+    if run.failures:  # the Docker build step: an image whose kernels did not compile is not built
+        for failure in run.failures:
+            print(f"warmup: FAILED {failure['stage']}: {failure['error']}", file=sys.stderr)
+        return 1
     print(f"warmup: compiled kernels on {len(robots)} bundled robots in {run.seconds:.1f} s")
     return 0
 
 
-def main(argv: list[str] | None = None) -> int:
-    args = _parser().parse_args(argv)
+def main(argv: list[str] | None = None, prog: str = "python -m service") -> int:
+    args = _parser(prog).parse_args(argv)
     if args.store:
         os.environ["DYNAMICS_STORE"] = os.path.abspath(args.store)
     elif "DYNAMICS_STORE" not in os.environ:

@@ -17,8 +17,11 @@ from fastapi_offline import FastAPIOffline
 
 from . import __version__, errors, schemas
 from .auth import ApiKeys
+from .compute import OPERATIONS
+from .constraints import OPERATIONS as CONSTRAINTS
 from .deps import Deps
 from .jobs.manager import Jobs
+from .kinematics import OPERATIONS as KINEMATICS
 from .protocol import Options
 from .routes import constraints, dynamics, health, jobs, kinematics, robots, simulate
 from .settings import Settings, configure_logging
@@ -37,8 +40,7 @@ def _openapi(app: FastAPI):
             return app.openapi_schema
         doc = get_openapi(title=app.title, version=app.version, description=app.description, routes=app.routes)
         components = doc.setdefault("components", {}).setdefault("schemas", {})
-        requests = [schema for routes in (dynamics.ROUTES, kinematics.ROUTES, constraints.ROUTES)
-                    for schema, _, _ in routes.values()]
+        requests = [op.endpoint.request for table in (OPERATIONS, KINEMATICS, CONSTRAINTS) for op in table.values()]
         requests += [schemas.SimulateRequest, schemas.UploadRequest, schemas.JobRequest]
         for model in requests:
             js = model.model_json_schema(ref_template="#/components/schemas/{model}")

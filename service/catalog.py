@@ -6,6 +6,8 @@ their compiled models. Every method may parse XML, build a model or fsync a file
 
 from __future__ import annotations
 
+import difflib
+
 import json
 from typing import Any, Optional
 
@@ -64,11 +66,15 @@ def model_summary(model) -> dict[str, Any]:
 def _stored_summary(model) -> dict[str, Any]:
     """What the store keeps of a model, to list robots without building them."""
     return {"nq": int(model.nq), "nv": int(model.nv), "joint_names": list(model.joint_names),
-            "bodies": list(model.body_names), "warnings": list(model.warnings)}
+            "bodies": list(model.body_names), "warnings": list(model.warnings),
+            "floating_base": bool(model.floating_base)}
 
 
 def _public(rid: str, name: str, bundled: bool, floating_base: bool, summary: dict[str, Any]) -> dict[str, Any]:
-    return {"id": rid, "name": name, "nq": summary["nq"], "nv": summary["nv"], "floating_base": floating_base,
+    """A robot's public record. ``floating_base`` is the model's (as in its summary: a floating joint below the
+    root floats it too), not only the upload option; records stored before it was kept fall back to the option."""
+    return {"id": rid, "name": name, "nq": summary["nq"], "nv": summary["nv"],
+            "floating_base": bool(summary.get("floating_base", floating_base)),
             "bundled": bundled, "joint_names": summary["joint_names"], "bodies": summary["bodies"],
             "warnings": summary["warnings"]}
 
@@ -163,8 +169,9 @@ class Catalog:
     def resolve(self, ref: str, owner: Optional[str]) -> str:
         """A robot's id from an id or a name, as the caller may see it; 404 otherwise (another key's robots are
         not found rather than forbidden: their existence is not told). Reads no URDF: fit for the event loop."""
-        if ref in self.store.bundled_ids():
-            return ref
+        bundled = self.store.bundled_id(ref)
+        if bundled is not None:
+            return bundled
         entry = self.store.lookup(ref) if len(ref) <= 64 else None
         if entry is not None and self._visible(entry, owner):
             return entry.id
@@ -175,7 +182,16 @@ class Catalog:
         if len(own) > 1:
             raise Conflict(f"robot: {echo(ref)} names {len(own)} robots ({', '.join(e.id for e in own[:5])}); "
                            f"use an id", "robot")
-        raise NotFound(f"robot: no robot with id or name {echo(ref)}", "robot")
+        raise NotFound(f"robot: no robot with id or name {echo(ref)}{self._closest(ref, owner)}", "robot")
+
+    def _closest(self, ref: str, owner: Optional[str]) -> str:
+        """"; did you mean 'planar_2r'?" from the names this caller may use, or "; bundled robots are [...]"."""
+        names = self.store.bundled_ids() + sorted({e.name for e in self.store.index().values()
+                                                   if self._visible(e, owner)})
+        close = difflib.get_close_matches(ref[:MAX_NAME].replace("-", "_"), names, n=3, cutoff=0.6)
+        if close:
+            return f"; did you mean {' or '.join(repr(c) for c in close)}?"
+        return f"; bundled robots are {self.store.bundled_ids()} (GET /v1/robots lists yours)"
 
     def list_robots(self, owner: Optional[str] = None) -> list[dict[str, Any]]:
         out = []

@@ -25,6 +25,7 @@ import sys
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
+from urllib.parse import quote
 from typing import Any, Mapping, Optional, Union
 
 import httpx
@@ -159,9 +160,11 @@ class Client:
         return Robot(self, r.json())
 
     def robot(self, id_or_name: str) -> "Robot":
-        """A robot by id (bundled robots' ids are their names, e.g. 'planar-2r') or by unique name."""
-        try:
-            return Robot(self, self.request("GET", f"/v1/robots/{id_or_name}").json())
+        """A robot by id (bundled robots' ids are their names, e.g. 'planar_2r') or by unique name."""
+        if not isinstance(id_or_name, str) or not id_or_name.strip():
+            raise ValueError(f"robot: expected an id or a name (e.g. 'planar_2r'), got {id_or_name!r}")
+        try:  # (quoted: a name holding '/' or '?' is a name, not a path)
+            return Robot(self, self.request("GET", f"/v1/robots/{quote(id_or_name, safe='')}").json())
         except ServiceError as e:
             if e.status != 404:
                 raise
@@ -180,13 +183,17 @@ class Client:
     def submit(self, robot: Union[str, "Robot"], kind: str, inputs: Mapping[str, Any],
                options: Optional[Mapping[str, Any]] = None) -> "Job":
         """Queue a job (``kind``: simulate_many, inverse_dynamics, forward_dynamics, mass_matrix) and return at
-        once. ``inputs``: arrays by name (q0, v0 and a torque spec whose arrays may have one row per run; or
-        q, v, a / q, v, tau / q); ``options``: duration and simulate's options, gravity, locked. Sent as .npz."""
+        once. ``inputs``: arrays by name (q0, v0 and a torque: an object of ``dynamics.torques`` as
+        ``robot.simulate`` takes, or a spec whose arrays may have one row per run; or q, v, a / q, v, tau / q);
+        ``options``: duration and simulate's options, gravity, locked. Sent as .npz. The Job's ``wait()`` returns
+        its final status, ``result()`` its arrays (for simulate_many: t, q, v, tau, counts, reports)."""
         robot_id = robot.id if isinstance(robot, Robot) else robot
         members: dict[str, Any] = {"robot": np.array(robot_id), "kind": np.array(kind),
                                    "options": np.array(json.dumps(_plain_tree(dict(options or {}))))}
         for name, value in inputs.items():
             if name == "torque" and value is not None:
+                if not isinstance(value, Mapping):  # a torque object of dynamics.torques, as robot.simulate takes
+                    value = torque_spec(value)
                 spec = {k: v for k, v in value.items() if not isinstance(v, np.ndarray)}
                 members["torque"] = np.array(json.dumps(_plain_tree(spec)))
                 members.update({f"torque.{k}": v for k, v in value.items() if isinstance(v, np.ndarray)})
@@ -223,9 +230,22 @@ class Robot:
         return f"Robot({self.id!r}, name={self.name!r}, nq={self.nq}, nv={self.nv})"
 
     def _call(self, op: str, payload: dict[str, Any], **kw: Any) -> dict[str, Any]:
-        ans = self.client.call(f"/v1/robots/{self.id}/{op}", payload, **kw)
+        ans = self._send(f"/v1/robots/{self.id}/{op}", payload, kw)
         self.last_scene = ans.pop("scene", None)
         return ans
+
+    def _send(self, path: str, payload: dict[str, Any], kw: dict[str, Any]) -> dict[str, Any]:
+        """POST, and when the body is over the server's limit (413 on "body"), the batch in halves (each split
+        again if need be), the answers stacked: a batch within DYNAMICS_MAX_BATCH is never refused for its bytes."""
+        try:
+            return self.client.call(path, payload, **kw)
+        except ServiceError as e:
+            halves = _halves(payload) if (e.status, e.field) == (413, "body") else None
+            if halves is None:
+                raise
+        parts = [self._send(path, half, kw) for half in halves]
+        return {k: (np.concatenate([p[k] for p in parts]) if isinstance(v, np.ndarray) and v.ndim else v)
+                for k, v in parts[0].items()}
 
     @staticmethod
     def _opt(x: Any) -> Any:
@@ -393,6 +413,23 @@ NESTED_CLASSES: dict[str, tuple[str, ...]] = {
 }
 
 
+#: the arguments a batch is split along (axis 0) when its body is too large, with their ndim when batched
+BATCHED = {"q": 2, "v": 2, "a": 2, "tau": 2, "f_ext": 3}
+
+
+def _halves(payload: Mapping[str, Any]) -> Optional[list[dict[str, Any]]]:
+    """``payload``'s batch cut in two along its states, None when it holds fewer than two states."""
+    sizes = {v.shape[0] for k, v in payload.items() if isinstance(v, np.ndarray) and v.ndim == BATCHED.get(k)}
+    if len(sizes) != 1 or (size := sizes.pop()) < 2:
+        return None
+    cut = size // 2
+
+    def part(sl: slice) -> dict[str, Any]:
+        return {k: (v[sl] if isinstance(v, np.ndarray) and v.ndim == BATCHED.get(k) else v) for k, v in payload.items()}
+
+    return [part(slice(0, cut)), part(slice(cut, None))]
+
+
 def torque_spec(torque: Any) -> Optional[dict[str, Any]]:
     """The ``torque=`` of ``dynamics.simulate`` (a torque object of ``dynamics.torques``, a constant tau, None) or
     an HTTP spec (a mapping) -> the HTTP spec, plain lists inside. The library is not imported for this: an
@@ -429,7 +466,8 @@ class Job:
 
     def wait(self, progress: bool = False, timeout: Optional[float] = None, poll: float = 0.5) -> dict[str, Any]:
         """Poll until the job is done, failed or cancelled (a tqdm bar of its items with ``progress``); its
-        final status. ``timeout`` seconds: a ServiceError (code "timeout") if it is still running then."""
+        final status record, not the arrays: :meth:`result` fetches those (``job.wait(); out = job.result()``).
+        ``timeout`` seconds: a ServiceError (code "timeout") if it is still running then."""
         end = None if timeout is None else time.monotonic() + timeout
         bar = None
         try:

@@ -23,7 +23,7 @@ from starlette.requests import Request
 from starlette.responses import Response
 
 from . import memory
-from .errors import BadRequest, InvalidInput, RequestTimeout, TooLarge, UnsupportedMediaType
+from .errors import BadRequest, InvalidInput, RequestTimeout, TooLarge, UnsupportedMediaType, figure
 
 JSON = "application/json"
 NPZ = "application/x-npz"
@@ -32,6 +32,10 @@ XML_TYPES = ("application/xml", "text/xml")
 
 def media_type(header: str | None) -> str:
     return (header or "").split(";", 1)[0].strip().lower()
+
+
+#: the slowest upload rate allowed beyond DYNAMICS_READ_TIMEOUT (see read_body)
+BODY_BYTES_PER_SECOND = 1 << 20
 
 
 async def read_body(request: Request, limit: int) -> bytes:
@@ -46,17 +50,24 @@ async def read_body(request: Request, limit: int) -> bytes:
             raise _too_large(limit)
     deps = getattr(request.app.state, "deps", None)
     timeout = deps.settings.read_timeout if deps is not None else None
+    loop = asyncio.get_running_loop()
+    started = loop.time()
     chunks: list[bytes] = []
     total = 0
     stream = request.stream().__aiter__()
     while True:
-        try:  # a client that stops sending mid-body is let go after DYNAMICS_READ_TIMEOUT, not held forever
-            chunk = await asyncio.wait_for(stream.__anext__(), timeout)
+        # The whole body is bounded, not only the gaps (a byte every few seconds would hold a connection for
+        # ever): DYNAMICS_READ_TIMEOUT, plus a second per MiB received so that a large upload on a slow link
+        # (1 MiB/s) still makes it.
+        left = None if timeout is None else started + timeout + total / BODY_BYTES_PER_SECOND - loop.time()
+        try:
+            chunk = await asyncio.wait_for(stream.__anext__(), None if left is None else max(0.0, left))
         except StopAsyncIteration:
             break
         except asyncio.TimeoutError:
-            raise RequestTimeout(f"body: nothing received for {timeout:g} s (DYNAMICS_READ_TIMEOUT); send the body "
-                                 f"at once", "body", headers={"Connection": "close"}) from None
+            raise RequestTimeout(f"body: not complete after {loop.time() - started:.0f} s ({total} bytes received; "
+                                 f"DYNAMICS_READ_TIMEOUT is {timeout:g} s, plus 1 s per MiB); send the body at once",
+                                 "body", headers={"Connection": "close"}) from None
         total += len(chunk)
         if total > limit:
             raise _too_large(limit)
@@ -65,7 +76,8 @@ async def read_body(request: Request, limit: int) -> bytes:
 
 
 def _too_large(limit: int) -> TooLarge:
-    return TooLarge(f"body: larger than the limit of {limit} bytes (DYNAMICS_MAX_BODY_BYTES)", "body",
+    return TooLarge(f"body: larger than the limit of {limit} bytes (DYNAMICS_MAX_BODY_BYTES); send smaller batches "
+                    f"(the Python client splits them) or submit a job (POST /v1/jobs, client.submit)", "body",
                     headers={"Connection": "close"})
 
 
@@ -115,8 +127,8 @@ def _member_header(zf: zipfile.ZipFile, info: zipfile.ZipInfo) -> tuple[tuple[in
         raise InvalidInput(f"{name}: .npz member holds Python objects; only numeric arrays are accepted", name)
     claimed = math.prod(shape) * dtype.itemsize
     if claimed != info.file_size - header:
-        raise InvalidInput(f"{name}: .npz member declares shape {shape} of {dtype} ({claimed} bytes) but holds "
-                           f"{info.file_size - header} bytes", name)
+        raise InvalidInput(f"{name}: .npz member declares {len(shape)} dimensions of {dtype} ({figure(claimed)} "
+                           f"bytes) but holds {info.file_size - header} bytes", name)
     return shape, dtype
 
 
@@ -159,7 +171,8 @@ def decode_npz(body: bytes, *, max_unpacked: int) -> dict[str, Any]:
 
 
 def _unpacks_too_large(total: int, limit: int) -> TooLarge:
-    return TooLarge(f"body: the .npz archive unpacks to {total} bytes (as float64), over the limit of {limit}; "
+    return TooLarge(f"body: the .npz archive unpacks to {figure(total)} bytes (as float64), over the limit of "
+                    f"{limit}; "
                     f"send smaller batches", "body")
 
 
@@ -235,3 +248,23 @@ def finite_or_none(x: float) -> float | None:
     """JSON has no infinity: absent limits (inf) become null."""
     x = float(x)
     return x if np.isfinite(x) else None
+
+
+def finite_report(obj: Any) -> Any:
+    """A simulation report made JSON: numpy scalars and arrays become plain values, NaN and infinity null (JSON
+    has neither)."""
+    if isinstance(obj, dict):
+        return {str(k): finite_report(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [finite_report(v) for v in obj]
+    if isinstance(obj, np.ndarray):
+        return finite_report(obj.tolist())
+    if isinstance(obj, (np.floating, float)):
+        return float(obj) if math.isfinite(obj) else None
+    if isinstance(obj, np.integer):
+        return int(obj)
+    if isinstance(obj, np.bool_):
+        return bool(obj)
+    if obj is None or isinstance(obj, (str, int, bool)):
+        return obj
+    return str(obj)

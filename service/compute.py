@@ -21,18 +21,21 @@ import math
 import time
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
-from typing import Any, Callable, Iterator, Optional
+from typing import Any, Callable, Iterator, NamedTuple, Optional
 
 import numpy as np
 
-from .errors import BudgetExceeded, Failed, InvalidInput, NotOffered, Problem, TooLarge, Unavailable, field_of
+from .errors import (BudgetExceeded, Failed, InvalidInput, NotOffered, Problem, TooLarge, Unavailable, field_of,
+                     figure)
 from .codec import wants_npz
 from .library import lib, parallel
 from .models import Models, load_model, locked_key
 from .scene import Terms, simulation_scene, skipped
+from . import schemas
 from .schemas import SimulateRequest
 from .settings import Settings
 from .sim.job import Job, build_job
+from .sim.job import samples as sim_samples
 from .sim.pool import PoolBusy, PoolTimeout, SimPool, WorkerCrashed
 from .warmup import WARMUP_URDF, Warmup
 
@@ -90,9 +93,16 @@ def check_answer_size(numbers: int, npz: bool, settings: Settings, what: str) ->
     if size > limit:
         hint = "send smaller batches" if npz else \
             "ask for .npz (Accept: application/x-npz, 8 bytes a number) or send smaller batches"
-        raise TooLarge(f"answer: {what} is {numbers} numbers, about {size} bytes as {'.npz' if npz else 'JSON'}, "
-                       f"over the limit of {limit} bytes ({env}); {hint}", "answer")
+        raise TooLarge(f"answer: {what} is {figure(numbers)} numbers, about {figure(size)} bytes as "
+                       f"{'.npz' if npz else 'JSON'}, over the limit of {limit} bytes ({env}); {hint}", "answer")
     return size
+
+
+class Endpoint(NamedTuple):
+    """How an operation is offered over HTTP (``POST /v1/robots/{id}/<its key in OPERATIONS>``)."""
+    request: Any   # the request schema (service.schemas)
+    answer: Any    # the answer schema
+    summary: str   # one line for the OpenAPI document
 
 
 @dataclass(frozen=True)
@@ -116,23 +126,41 @@ class Operation:
     iterative: bool = False
     #: the arguments besides q, v, a and tau of the warm-up's call, ``sample(model, args)`` (a frame, a target)
     sample: Optional[Callable[[Any, dict[str, Any]], dict[str, Any]]] = None
+    #: its endpoint: request and answer schemas, summary (the URL segment is its key in the table)
+    endpoint: Optional[Endpoint] = None
 
 
 #: the dynamics endpoints, by URL segment
 OPERATIONS: dict[str, Operation] = {
     "inverse-dynamics": Operation("inverse dynamics", "inverse_dynamics", ("q", "v", "a"), ("gravity", "f_ext"),
-                                  "tau", {"v": "state", "a": "state"}),
+                                  "tau", {"v": "state", "a": "state"},
+        endpoint=Endpoint(schemas.InverseDynamicsRequest, schemas.TauAnswer,
+                          "tau = ID(q, v, a) by RNEA")),
     "forward-dynamics": Operation("forward dynamics", "forward_dynamics", ("q", "v", "tau"), ("gravity", "f_ext"),
-                                  "a", {"v": "state", "a": "computed"}),
-    "mass-matrix": Operation("mass matrix", "mass_matrix", ("q",), (), "mass_matrix"),
+                                  "a", {"v": "state", "a": "computed"},
+        endpoint=Endpoint(schemas.ForwardDynamicsRequest, schemas.AccelerationAnswer,
+                          "a = FD(q, v, tau) by ABA")),
+    "mass-matrix": Operation("mass matrix", "mass_matrix", ("q",), (), "mass_matrix",
+        endpoint=Endpoint(schemas.MassMatrixRequest, schemas.MassMatrixAnswer,
+                          "M(q) by CRBA")),
     "gravity-torques": Operation("gravity torques", "gravity_torques", ("q",), ("gravity",), "tau",
-                                 {"v": "zero", "a": "zero"}),
+                                 {"v": "zero", "a": "zero"},
+        endpoint=Endpoint(schemas.GravityTorquesRequest, schemas.TauAnswer,
+                          "g(q) = ID(q, 0, 0)")),
     "bias-forces": Operation("bias forces", "bias_forces", ("q", "v"), ("gravity",), "tau",
-                             {"v": "state", "a": "zero"}),
+                             {"v": "state", "a": "zero"},
+        endpoint=Endpoint(schemas.BiasForcesRequest, schemas.TauAnswer,
+                          "h(q, v) = ID(q, v, 0)")),
     "coriolis-matrix": Operation("Coriolis matrix", "coriolis_matrix", ("q", "v"), (), "coriolis_matrix",
-                                 per_state=lambda model, args: model.nv * model.nv),
-    "kinetic-energy": Operation("kinetic energy", "kinetic_energy", ("q", "v"), (), "kinetic_energy"),
-    "potential-energy": Operation("potential energy", "potential_energy", ("q",), ("gravity",), "potential_energy"),
+                                 per_state=lambda model, args: model.nv * model.nv,
+        endpoint=Endpoint(schemas.CoriolisMatrixRequest, schemas.CoriolisMatrixAnswer,
+                          "C(q, v): C v + g = h, dM/dt - 2C skew-symmetric")),
+    "kinetic-energy": Operation("kinetic energy", "kinetic_energy", ("q", "v"), (), "kinetic_energy",
+        endpoint=Endpoint(schemas.KineticEnergyRequest, schemas.KineticEnergyAnswer,
+                          "T = 1/2 v^T M(q) v")),
+    "potential-energy": Operation("potential energy", "potential_energy", ("q",), ("gravity",), "potential_energy",
+        endpoint=Endpoint(schemas.PotentialEnergyRequest, schemas.PotentialEnergyAnswer,
+                          "U(q) = -sum m_i g . c_i")),
 }
 
 
@@ -177,16 +205,6 @@ def _finite(out: Any) -> bool:
     if isinstance(out, np.ndarray):
         return out.dtype.kind != "f" or bool(np.isfinite(out).all())
     return not isinstance(out, float) or math.isfinite(out)
-
-
-def _samples(req: SimulateRequest) -> int:
-    """How many samples a simulation answers (dynamics.simulate's rule): every sample_dt, else every step of a
-    fixed-step method, else 1001."""
-    if req.sample_dt is not None:
-        return int(min(req.duration / req.sample_dt, 1e15)) + 2
-    if req.dt is not None and req.integrator in ("euler", "rk4"):
-        return int(min(req.duration / req.dt, 1e15)) + 2
-    return 1001
 
 
 def _columns(model, outputs: Optional[list[str]]) -> int:
@@ -312,20 +330,26 @@ class Compute:
         worker builds the same model."""
         locked = locked_key(req.locked)
         entry = self.models.loaded(rid, locked)
-        job = build_job(self.models.record(rid), locked, req, self.settings)  # (its step and sample limits first)
-        samples = _samples(req)
+        record = entry.record or self.models.record(rid)  # (the cached record: no disk read per request)
+        job = build_job(record, locked, req, self.settings)  # (its step and sample limits first)
+        samples = sim_samples(req.duration, req.sample_dt, req.dt, req.integrator)
         check_answer_size(samples * _columns(entry.model, req.outputs), wants_npz(accept), self.settings,
                           f"a trajectory of {samples} samples")
         return job, simulation_scene(entry.scene, entry.model.gravity, req.gravity)
 
-    async def simulate(self, job: Job, budget: Budget) -> dict[str, Any]:
-        """The trajectory of ``job`` (arrays and report), computed by a worker process within ``budget``."""
+    async def simulate(self, job: Job, budget: Budget) -> tuple[dict[str, Any], float]:
+        """The trajectory of ``job`` (arrays and report), computed by a worker process within ``budget``, and the
+        seconds the library call took there."""
         return await asyncio.get_running_loop().run_in_executor(self.waiters, self._simulate, job, budget)
 
-    def _simulate(self, job: Job, budget: Budget) -> dict[str, Any]:
+    def _simulate(self, job: Job, budget: Budget) -> tuple[dict[str, Any], float]:
         try:
             outcome = self.pool.run(dataclasses.replace(job, deadline=budget.deadline), budget.deadline)
-        except PoolTimeout:
+        except PoolTimeout as e:
+            if len(e.args) > 1 and not e.args[1]:  # its worker was still warming up: compiling, not simulating
+                raise Unavailable("simulate: the simulation worker was still compiling the kernels this request "
+                                  "needs (once after a start with an empty cache); retry in a minute", code="starting",
+                                  headers={"Retry-After": "30"}) from None
             raise BudgetExceeded(f"the simulation of {job.duration:g} s", budget.seconds,
                                  "shorten the duration, loosen rtol/atol or use a larger dt") from None
         except PoolBusy as e:
@@ -339,4 +363,4 @@ class Compute:
         if outcome.unavailable is not None:  # a kernel the worker compiles in the background (sim/worker.py)
             raise Unavailable(f"simulate: {outcome.unavailable}", code="starting",
                               headers={"Retry-After": str(int(min(60, max(1, math.ceil(outcome.retry_after)))))})
-        return outcome.trajectory
+        return outcome.trajectory, outcome.seconds

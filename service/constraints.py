@@ -22,7 +22,8 @@ import numpy as np
 from lxml import etree
 from scipy.spatial.transform import Rotation
 
-from .compute import Operation
+from . import schemas
+from .compute import Endpoint, Operation
 from .errors import InvalidInput
 from .library import lib
 from .models import load_model
@@ -195,12 +196,20 @@ def _guess(model, args: dict[str, Any]) -> dict[str, Any]:
 #: the closed-loop endpoints, by URL segment (routes in service.routes.constraints)
 OPERATIONS: dict[str, Operation] = {
     "constraint-residual": Operation("constraint residual", "constraint_residual", ("q",), (), "residual",
-                                     per_state=_rows),
+                                     per_state=_rows,
+        endpoint=Endpoint(schemas.ConstraintResidualRequest, schemas.ConstraintResidualAnswer,
+                          "phi(q): the loops' and couplings' residual (m,)")),
     "assemble": Operation("assembly", "assemble", ("q_guess",), ("fixed", "tol", "max_iter"), "q", iterative=True,
-                          sample=_guess),
+                          sample=_guess,
+        endpoint=Endpoint(schemas.AssembleRequest, schemas.AssembleAnswer,
+                          "q closing every loop near q_guess (Gauss-Newton); 422 when the loops cannot close")),
     "constrained-forward-dynamics": Operation("constrained forward dynamics", "constrained_forward_dynamics",
                                               ("q", "v", "tau"), ("baumgarte", "gravity"), "a", call=forward,
-                                              per_state=lambda model, args: model.nv + _rows(model, args)),
+                                              per_state=lambda model, args: model.nv + _rows(model, args),
+        endpoint=Endpoint(schemas.ConstrainedForwardDynamicsRequest, schemas.ConstrainedForwardDynamicsAnswer,
+                          "accelerations a and multipliers lambda of the constrained model")),
     "constrained-inverse-dynamics": Operation("constrained inverse dynamics", "constrained_inverse_dynamics",
-                                              ("q", "v", "a"), ("actuated", "gravity"), "tau", sample=_all_joints),
+                                              ("q", "v", "a"), ("actuated", "gravity"), "tau", sample=_all_joints,
+        endpoint=Endpoint(schemas.ConstrainedInverseDynamicsRequest, schemas.TauAnswer,
+                          "torques of the actuated joints for a motion the loops allow")),
 }

@@ -52,6 +52,8 @@ class Deps:
         if pool is not None:
             plural = "es" if pool.size > 1 else ""
             stages.append(Stage(f"compiling simulation kernels in {pool.size} worker process{plural}", pool.wait_ready))
+            stages.append(Stage("compiling the operational-space and computed-torque simulation kernels",
+                                pool.wait_late))
         warmup.start(stages)
         return cls(settings, store, models, Catalog(settings, store, models), compute, pool, warmup)
 

@@ -12,12 +12,13 @@ request field at fault (or null). Bad input is always a 4xx; only a bug in the s
 
 from __future__ import annotations
 
+import errno
 import json
 import logging
 import re
 import sys
 import uuid
-from typing import Any
+from typing import Any, Optional
 
 from fastapi import FastAPI, Request
 from fastapi.exceptions import RequestValidationError
@@ -100,6 +101,25 @@ class BudgetExceeded(Problem):
                          f"X-Time-Budget); {hint}")
 
 
+class StorageFull(Problem):
+    """The disk (or the quota) holding the robot store or the job files is full: 507 Insufficient Storage."""
+
+
+#: the errnos of a full disk or quota
+FULL = (errno.ENOSPC, errno.EDQUOT, errno.EFBIG)
+
+
+def storage_full(error: BaseException, storage: str) -> Optional[StorageFull]:
+    """A :class:`StorageFull` naming ``storage`` ("the robot store /srv/store") for an OSError of a full disk
+    (or SQLite's "database or disk is full"), None for any other error."""
+    full = (isinstance(error, OSError) and error.errno in FULL) or "disk is full" in str(error)
+    if not full:
+        return None
+    why = error.strerror if isinstance(error, OSError) and error.strerror else str(error)
+    return StorageFull(f"storage: {storage} is full ({why}); free space there, or delete robots or finished jobs",
+                       "storage")
+
+
 #: each problem's HTTP status and default code
 STATUS: dict[type[Problem], tuple[int, str]] = {
     BadRequest: (400, "bad_request"), Unauthorized: (401, "unauthorized"), Forbidden: (403, "forbidden"),
@@ -107,6 +127,7 @@ STATUS: dict[type[Problem], tuple[int, str]] = {
     TooLarge: (413, "too_large"), UnsupportedMediaType: (415, "unsupported_media_type"),
     InvalidInput: (422, "invalid_input"), Failed: (500, "internal_error"), NotOffered: (501, "not_implemented"),
     Unavailable: (503, "busy"), BudgetExceeded: (504, "time_budget_exceeded"),
+    StorageFull: (507, "insufficient_storage"),
 }
 
 # Starlette's own refusals (unknown path, wrong method) keep their status; this names them.
@@ -124,6 +145,13 @@ MAX_ECHO = 64
 def echo(text: str) -> str:
     """``repr(text)`` for a message, cut to :data:`MAX_ECHO` characters: a 10,000-character id is not echoed."""
     return repr(text) if len(text) <= MAX_ECHO else repr(text[:MAX_ECHO]) + f"... ({len(text)} characters)"
+
+
+def figure(n: int | float) -> str:
+    """A count for a message: as is up to 15 digits, else in scientific notation (a job of 1e300 s is "about
+    8.00e+303 bytes", not 304 digits)."""
+    digits = str(int(n))
+    return digits if len(digits) <= 15 else f"{digits[0]}.{digits[1:3]}e+{len(digits) - 1}"
 
 
 def bounded(detail: str) -> str:

@@ -14,7 +14,9 @@ from typing import Any
 
 import numpy as np
 
-from .compute import Operation
+from . import schemas
+from .compute import Endpoint, Operation
+from .errors import InvalidInput
 from .library import lib
 
 #: the inverse-kinematics options passed on to the library when given (None: its default)
@@ -44,6 +46,10 @@ def center_of_mass(model, args: dict[str, Any]) -> dict[str, Any]:
 def inverse_kinematics(model, args: dict[str, Any]) -> dict[str, Any]:
     options = {k: args[k] for k in IK_OPTIONS if args.get(k) is not None}
     q, report = lib().inverse_kinematics(model, args["frame"], args["target"], args["q0"], **options)
+    if not np.all(np.isfinite(report["residual"])):  # (a 200 with residual null and "stalled" said nothing)
+        far = float(np.max(np.abs(np.asarray(args["target"], dtype=float))))
+        raise InvalidInput(f"target: the distance to it overflows float64 (a coordinate of {far:.3g}); expected a "
+                           f"target within reach of the robot (coordinates well under 1e150 m)", "target")
     return {"q": q, "report": report}
 
 
@@ -65,17 +71,29 @@ def _rows(args: dict[str, Any]) -> int:
 #: the kinematics endpoints, by URL segment (routes in service.routes.kinematics)
 OPERATIONS: dict[str, Operation] = {
     "kinematics": Operation("forward kinematics", "forward_kinematics", ("q",), ("frames",), "placements",
-                            call=placements, per_state=lambda model, args: 16 * _frames_asked(model, args)),
+                            call=placements, per_state=lambda model, args: 16 * _frames_asked(model, args),
+        endpoint=Endpoint(schemas.KinematicsRequest, schemas.KinematicsAnswer,
+                          "world placements of the asked frames (all by default)")),
     "jacobian": Operation("frame Jacobian", "frame_jacobian", ("q",), ("frame", "reference", "point"), "jacobian",
-                          per_state=lambda model, args: 6 * model.nv, sample=sample),
+                          per_state=lambda model, args: 6 * model.nv, sample=sample,
+        endpoint=Endpoint(schemas.JacobianRequest, schemas.JacobianAnswer,
+                          "a frame's Jacobian J (6, nv), [linear; angular]")),
     "center-of-mass": Operation("centre of mass", "center_of_mass", ("q", "v"), (), "center_of_mass",
-                                call=center_of_mass, per_state=lambda model, args: 6 + 3 * model.nv),
+                                call=center_of_mass, per_state=lambda model, args: 6 + 3 * model.nv,
+        endpoint=Endpoint(schemas.CenterOfMassRequest, schemas.CenterOfMassAnswer,
+                          "centre of mass, its Jacobian and (given v) its velocity")),
     "inverse-mass-matrix": Operation("inverse mass matrix", "inverse_mass_matrix", ("q",), (), "inverse_mass_matrix",
-                                     per_state=lambda model, args: model.nv * model.nv),
+                                     per_state=lambda model, args: model.nv * model.nv,
+        endpoint=Endpoint(schemas.InverseMassMatrixRequest, schemas.InverseMassMatrixAnswer,
+                          "M(q)^-1, directly in O(n^2)")),
     "operational-space-inertia": Operation("operational space inertia", "operational_space_inertia", ("q",),
                                            ("frame", "reference", "rows", "damping"), "operational_space_inertia",
-                                           per_state=lambda model, args: _rows(args) ** 2, sample=sample),
+                                           per_state=lambda model, args: _rows(args) ** 2, sample=sample,
+        endpoint=Endpoint(schemas.OperationalSpaceInertiaRequest, schemas.OperationalSpaceInertiaAnswer,
+                          "Lambda = (J M^-1 J^T)^-1 for a frame's Jacobian rows")),
     "inverse-kinematics": Operation("inverse kinematics", "inverse_kinematics", ("q0",), ("frame",) + IK_OPTIONS,
                                     "q", call=inverse_kinematics, batched=(("target", 2),), iterative=True,
-                                    sample=sample),
+                                    sample=sample,
+        endpoint=Endpoint(schemas.InverseKinematicsRequest, schemas.InverseKinematicsAnswer,
+                          "q placing a frame at a target pose or position (damped least squares), and the report")),
 }

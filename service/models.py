@@ -97,15 +97,30 @@ def reduce_model(model, locked: tuple):
     return lib().lock_joints(model, {name: (v[0] if len(v) == 1 else list(v)) for name, v in locked})
 
 
+def cached(cache: ModelCache, rid: str, locked: tuple, load: Callable[[], Any],
+           reduce: Callable[[Any, tuple], Any] = reduce_model) -> Any:
+    """The one rule of every process (server, simulation worker, job runner): robot ``rid``'s full model under
+    ``(rid, ())``, built once by ``load()``; the model with ``locked`` held still under ``(rid, locked)``, built
+    once by ``reduce(full, locked)`` (a cached reduced model is used even when the full one was evicted)."""
+    def full() -> Any:
+        return cache.get_or_load((rid, ()), load)
+
+    if not locked:
+        return full()
+    return cache.get_or_load((rid, locked), lambda: reduce(full(), locked))
+
+
 @dataclass(frozen=True)
 class Loaded:
-    """What the model cache holds: a model, and the part of every answer's scene that depends only on it."""
+    """What the model cache holds: a model, the part of every answer's scene that depends only on it, and the
+    stored record it was built from (a simulation job carries its URDF to the worker: read once, not per request)."""
     model: Any
     scene: ModelScene
+    record: Optional[RobotRecord] = None
 
     @classmethod
-    def of(cls, model) -> "Loaded":
-        return cls(model, ModelScene.of(model))
+    def of(cls, model, record: Optional[RobotRecord] = None) -> "Loaded":
+        return cls(model, ModelScene.of(model), record)
 
 
 class Models:
@@ -132,22 +147,17 @@ class Models:
 
         def load() -> Loaded:
             rec = self.record(rid)
-            return Loaded.of(load_model(rec.urdf, rec.floating_base))
+            return Loaded.of(load_model(rec.urdf, rec.floating_base), rec)
 
-        if not locked:
-            return self.cache.get_or_load((rid, ()), load)
-
-        def reduce() -> Loaded:  # (a cached reduced model is used even when the full one was evicted)
-            return Loaded.of(reduce_model(self.cache.get_or_load((rid, ()), load).model, locked))
-
-        return self.cache.get_or_load((rid, locked), reduce)
+        return cached(self.cache, rid, locked, load,
+                      lambda full, lk: Loaded.of(reduce_model(full.model, lk), full.record))
 
     def is_cached(self, rid: str, locked: tuple) -> bool:
         return self.cache.peek((rid, locked)) is not None
 
     def keep(self, rid: str, model) -> None:
         """Cache a model just built from robot ``rid``'s URDF (an upload), so that no request builds it again."""
-        self.cache.get_or_load((rid, ()), lambda: Loaded.of(model))
+        self.cache.get_or_load((rid, ()), lambda: Loaded.of(model, self.store.get(rid)))
 
     def forget(self, rid: str) -> None:
         self.cache.discard(rid)

@@ -450,9 +450,16 @@ class HealthAnswer(BaseModel):
     status: Literal["ok"]
 
 
+class WarmupFailure(BaseModel):
+    stage: str
+    error: str
+
+
 class ReadyAnswer(BaseModel):
-    status: Literal["ready"]
+    status: Literal["ready", "degraded"] = Field(description="'degraded': a warm-up stage failed (see failures); "
+                                                             "what it would have compiled compiles on first use")
     warmup_seconds: float = Field(description="how long this process's warm-up took")
+    failures: list[WarmupFailure] = Field(default_factory=list)
 
 
 # -- kinematics and task space (issue 9), the Coriolis matrix and the energies (issue 13) -----------------------
@@ -657,7 +664,8 @@ class JobStatus(BaseModel):
     id: str
     robot: str
     kind: str
-    status: Literal["queued", "running", "done", "failed", "cancelled"]
+    status: Literal["queued", "running", "done", "failed", "cancelled", "removed"] = Field(
+        description="'removed' only in the answer to DELETE of a finished job")
     progress: JobProgress
     created: float = Field(description="Unix time of submission")
     started: Optional[float]

@@ -42,7 +42,7 @@ class Settings:
 
     # Where uploaded robots are kept (one JSON file per robot, written atomically).
     store_dir: Path = Path("store")
-    # The read-only robots served under their file stem ('planar_2r.urdf' -> 'planar-2r'); None = none.
+    # The read-only robots served under their file stem ('planar_2r.urdf' -> 'planar_2r'); None = none.
     robots_dir: Path | None = None
     # Largest request body in bytes; enforced while reading, before anything is buffered past it.
     max_body_bytes: int = 8 * 1024 * 1024
@@ -152,3 +152,29 @@ def configure_logging(level: str) -> None:
         logger.addHandler(handler)
     number = logging.getLevelName(level.upper())  # uvicorn's "trace" is no logging level: debug then
     logger.setLevel(number if isinstance(number, int) else logging.DEBUG)
+
+
+class _Once(logging.Filter):
+    """Lets each distinct message through once (a kernel announced by the run and again by its rerun)."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.seen: set[str] = set()
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        message = record.getMessage()
+        if message in self.seen:
+            return False
+        self.seen.add(message)
+        return True
+
+
+def configure_worker_logging() -> None:
+    """A simulation worker's log: the library's messages (its "compiling ..." announcements) on stderr with a
+    time and the worker's pid, each once; without it Python's last-resort handler prints them bare."""
+    logger = logging.getLogger("dynamics")
+    if not logger.handlers:
+        handler = logging.StreamHandler(sys.stderr)
+        handler.setFormatter(logging.Formatter("%(asctime)s %(levelname)s worker %(process)d %(name)s: %(message)s"))
+        handler.addFilter(_Once())
+        logger.addHandler(handler)

@@ -7,7 +7,8 @@ either wholly there or not at all, and a 201 is only sent once the robot would s
 
 Ids derive from the content: ``sha256(owner, floating_base, name, urdf)``, so the same upload twice gives the same
 id, and two callers with different keys uploading the same file get two robots (neither can delete the other's).
-Bundled robots (``robots/*.urdf``) are read-only and named by their file stem with '_' -> '-'.
+Bundled robots (``robots/*.urdf``) are read-only and named by their file stem, as in the library and the CLI
+(``planar_2r``); the spelling with dashes (``planar-2r``, the service's before) is accepted as an alias.
 """
 
 from __future__ import annotations
@@ -23,6 +24,8 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, BinaryIO, Iterator
+
+from .errors import storage_full
 
 ID_PATTERN = re.compile(r"^[a-z0-9][a-z0-9._-]{0,63}$")
 _RECORD_VERSION = 1
@@ -57,7 +60,7 @@ def robot_id(urdf: str, *, name: str, floating_base: bool, owner: str | None) ->
 
 
 def bundled_name(path: Path) -> str:
-    return path.stem.replace("_", "-").lower()
+    return path.stem.lower()
 
 
 def fsync_dir(path: Path) -> None:
@@ -129,12 +132,20 @@ class RobotStore:
     def bundled_ids(self) -> list[str]:
         return list(self._bundled)
 
+    def bundled_id(self, ref: str) -> str | None:
+        """The bundled robot ``ref`` names ("planar_2r", or its alias "planar-2r"), None if none."""
+        for candidate in (ref, ref.replace("-", "_")):
+            if candidate in self._bundled:
+                return candidate
+        return None
+
     def _path(self, rid: str) -> Path:
         return self.dir / f"{rid}.json"
 
     def get(self, rid: str) -> RobotRecord | None:
         if not ID_PATTERN.match(rid):
             return None
+        rid = self.bundled_id(rid) or rid
         if rid in self._bundled:
             with self._lock:
                 rec = self._bundled_cache.get(rid)
@@ -154,7 +165,7 @@ class RobotStore:
                            summary=d.get("summary", {}))
 
     def exists(self, rid: str) -> bool:
-        return rid in self._bundled or (bool(ID_PATTERN.match(rid)) and self._path(rid).is_file())
+        return self.bundled_id(rid) is not None or (bool(ID_PATTERN.match(rid)) and self._path(rid).is_file())
 
     def uploaded_ids(self) -> list[str]:
         return sorted(self.index())
@@ -202,7 +213,11 @@ class RobotStore:
         doc = {"version": _RECORD_VERSION, "id": rid, "name": name, "floating_base": floating_base,
                "owner": owner, "created": rec.created, "summary": summary, "urdf": urdf}
         data = json.dumps(doc).encode()
-        atomic_write(self._path(rid), data)
+        try:
+            atomic_write(self._path(rid), data)
+        except OSError as e:  # (atomic_write leaves no temporary file behind)
+            raise storage_full(e, f"the robot store {self.dir}") or e
+
         with self._lock:
             self._index[rid] = IndexEntry(rid, name, owner, floating_base, len(data), summary)
         return rec, True

@@ -65,6 +65,7 @@ class Warmup:
         self.current = 0  # index of the stage under way
         self.started = time.monotonic()
         self.seconds: Optional[float] = None  # the whole warm-up's duration, once done
+        self.failures: list[dict[str, str]] = []  # [{"stage": name, "error": one line}] of the stages that failed
         self._done = threading.Event()
 
     def start(self, stages: list[Stage]) -> None:
@@ -81,9 +82,10 @@ class Warmup:
             log.info("warm-up: %s (%s) ...", stage.name, self._stage_number())
             try:
                 stage.run()
-            except Exception:  # noqa: BLE001 - the requests that need it will say what is wrong
+            except Exception as e:  # noqa: BLE001 - shown in /v1/ready; the requests that need it say what is wrong
                 log.exception("warm-up: %s (%s) failed after %.1f s", stage.name, self._stage_number(),
                               time.monotonic() - t0)
+                self.failures.append({"stage": stage.name, "error": f"{type(e).__name__}: {e}"})
                 continue
             log.info("warm-up: %s (%s) done in %.1f s", stage.name, self._stage_number(), time.monotonic() - t0)
         self.seconds = time.monotonic() - self.started

@@ -58,7 +58,9 @@ class Server:
         self.cwd = Path(cwd) if cwd else self.store.parent
         self.python = python
         self.args = args or []
-        self.env = {**os.environ, "DYNAMICS_ROBOTS_DIR": str(ROBOTS), "DYNAMICS_SIM_WORKERS": "1",
+        # PYTHONPATH: the server imports the code under test, not whatever checkout the interpreter has installed
+        self.env = {**os.environ, "PYTHONPATH": os.pathsep.join(filter(None, [str(REPO), os.environ.get("PYTHONPATH")])),
+                    "DYNAMICS_ROBOTS_DIR": str(ROBOTS), "DYNAMICS_SIM_WORKERS": "1",
                     "DYNAMICS_COMPUTE_THREADS": "2", **(env or {})}
         self.proc: subprocess.Popen | None = None
         self.log = self.cwd / f"server-{self.port}.log"
@@ -88,6 +90,13 @@ class Server:
         """SIGKILL the server and its process group (simulation workers included), as a crash would."""
         if self.proc and self.proc.poll() is None:
             os.killpg(self.proc.pid, signal.SIGKILL)
+            self.proc.wait(10)
+
+    def kill_alone(self) -> None:
+        """SIGKILL the server process only, as the OOM killer or ``kill -9 PID`` would: its children are left to
+        notice by themselves."""
+        if self.proc and self.proc.poll() is None:
+            os.kill(self.proc.pid, signal.SIGKILL)
             self.proc.wait(10)
 
     def stop(self) -> None:

@@ -16,7 +16,7 @@ import pytest
 
 import dynamics
 from dynamics import engines
-from dynamics.torques import PD
+from dynamics.torques import PD, ComputedTorque, OperationalSpace, Table, Target, TaskReference
 from service.client import Client, ServiceError
 from service.jobs.db import JobDB
 from service.jobs.executor import Executor
@@ -139,6 +139,73 @@ def test_simulate_many_job_equals_simulate_run_by_run(alice):
         assert np.array_equal(out["q"][k], one.q) and np.array_equal(out["tau"][k], one.tau)
 
 
+def every_torque_kind(model):
+    """(name, the library's torque, its HTTP spec) of every torque kind /simulate takes, on a planar 3R arm."""
+    t = np.linspace(0.0, 0.3, 4)
+    q = np.outer(np.sin(t), np.ones(model.nq))
+    p0 = np.array([1.0, 0.0, 0.5])
+    path = p0 + np.outer(t, [0.0, 0.0, -0.2])
+    return [("zero", None, {"type": "zero"}),
+            ("constant", np.array([0.1, 0.0, -0.1]), {"type": "constant", "tau": [0.1, 0.0, -0.1]}),
+            ("table", Table(t, np.outer(t, [1.0, 0.5, 0.2]), hold="zoh"),
+             {"type": "table", "t": t, "tau": np.outer(t, [1.0, 0.5, 0.2]), "hold": "zoh"}),
+            ("pd", PD(np.ones(3), 50.0, 5.0), {"type": "pd", "q_target": np.ones(3), "kp": 50.0, "kd": 5.0}),
+            ("computed_torque", ComputedTorque(t, q, np.gradient(q, t, axis=0), np.zeros_like(q), 40.0, 10.0),
+             {"type": "computed_torque", "t": t, "q": q, "v": np.gradient(q, t, axis=0), "a": np.zeros_like(q),
+              "kp": 40.0, "kd": 10.0}),
+            ("operational_space reference", OperationalSpace("link3", TaskReference(t, path), 20.0, 8.0, rows=[0, 2]),
+             {"type": "operational_space", "frame": "link3", "reference": {"t": t, "position": path},
+              "kp": 20.0, "kd": 8.0, "rows": [0, 2]}),
+            ("operational_space position", Target("link3", p0, kp=20.0, kd=8.0, rows=[0, 2]),
+             {"type": "operational_space", "frame": "link3", "position": p0, "kp": 20.0, "kd": 8.0,
+              "rows": [0, 2]})]
+
+
+def test_every_torque_kind_runs_as_a_job_as_in_simulate(alice, server):
+    """Issue 25 A1: an operational-space torque with a reference answered 500 (an array in the database's JSON)
+    and left its inputs file behind; with a position the job failed. Every kind now gives, run by run, what
+    dynamics.simulate gives, sent as a spec (JSON and .npz) and as the library's own object."""
+    model = planar3()
+    q0 = np.array([[0.3, 0.6, -0.4], [0.1, 0.2, 0.3]])
+    options = {"duration": 0.3, "integrator": "rk4", "dt": 1e-3, "sample_dt": 0.1, "error_estimate": "none"}
+    for name, torque, spec in every_torque_kind(model):
+        expected = [dynamics.simulate(model, q, np.zeros(3), 0.3, torque=torque,
+                                      **{k: v for k, v in options.items() if k != "duration"}) for q in q0]
+        sent = [spec] + ([torque] if torque is not None and not isinstance(torque, np.ndarray) else [])
+        for how in sent:
+            job = alice.submit("planar_3r", "simulate_many", {"q0": q0, "v0": np.zeros(3), "torque": how}, options)
+            info = job.wait(timeout=300)
+            assert info["status"] == "done", (name, info)
+            out = job.result()
+            for k in range(2):
+                assert np.array_equal(out["q"][k], expected[k].q), name
+                assert np.array_equal(out["tau"][k], expected[k].tau), name
+    body = {"robot": "planar_3r", "kind": "simulate_many", "options": options,  # plain JSON, nested reference
+            "inputs": {"q0": q0.tolist(), "v0": [0, 0, 0], "torque": {**every_torque_kind(model)[5][2],
+                                                                      "reference": {"t": [0.0, 0.3],
+                                                                                    "position": [[1, 0, 0.5]] * 2}}}}
+    r = httpx.post(server.url + "/v1/jobs", json=body, headers={"Authorization": "Bearer alice-key"})
+    assert r.status_code == 202, r.text
+
+
+def test_a_torque_the_library_refuses_is_a_422_at_submission_and_leaves_no_file(alice, server):
+    """A bad spec is refused when submitted (naming the field), and a refused submit leaves nothing on disk."""
+    before = sorted((server.store / "jobs" / "inputs").iterdir())
+    cases = [({"type": "operational_space", "frame": "link3", "kp": 1.0, "kd": 1.0}, "inputs.torque.reference"),
+             ({"type": "operational_space", "frame": "nope", "position": [1, 0, 0], "kp": 1.0, "kd": 1.0},
+              "inputs.torque.frame"),
+             ({"type": "operational_space", "frame": "link3", "reference": {"t": [0.0, 1.0], "position": [[1, 0]]},
+               "kp": 1.0, "kd": 1.0}, "inputs.torque.reference.position"),
+             ({"type": "pd", "q_target": np.ones((5, 3)), "kp": 1.0, "kd": 1.0}, "inputs.q0"),  # 5 runs or 2?
+             ({"type": "pd", "q_target": [1.0, 2.0], "kp": 1.0, "kd": 1.0}, "inputs.torque.q_target")]
+    for spec, field in cases:
+        with pytest.raises(ServiceError) as e:
+            alice.submit("planar_3r", "simulate_many", {"q0": np.zeros((2, 3)), "v0": np.zeros(3), "torque": spec},
+                         {"duration": 0.1})
+        assert (e.value.status, e.value.field) == (422, field), e.value.message
+    assert sorted((server.store / "jobs" / "inputs").iterdir()) == before
+
+
 def test_a_job_belongs_to_its_key(alice, bob, server):
     job = alice.submit("planar-2r", "mass_matrix", {"q": np.zeros((3, 2))})
     job.wait(timeout=300)
@@ -220,7 +287,15 @@ def test_sigkill_mid_job_loses_nothing(tmp_path):
         running = client.submit("planar-3r", "simulate_many", inputs, LONG)
         queued = client.submit("planar-3r", "inverse_dynamics", {"q": q, "v": q, "a": q})
         before = wait_for(running, lambda i: i["status"] == "running" and i["progress"]["done"] > 0)
-        server.kill()
+        children = descendants(server.proc.pid)  # simulation workers, job workers (one mid-part now)
+        assert any("spawn_main" in cmd for _, cmd in children) and any("service.sim.worker" in cmd
+                                                                        for _, cmd in children)
+        server.kill_alone()  # issue 25 A2: its workers lived on for 30 minutes, re-parented to PID 1
+        end = time.monotonic() + 5.0
+        while (alive := [c for c in children if Path(f"/proc/{c[0]}").exists()
+                         and "zombie" not in Path(f"/proc/{c[0]}/status").read_text()]) and time.monotonic() < end:
+            time.sleep(0.1)
+        assert not alive, f"workers outlived their server by 5 s: {alive}"
         server = Server(tmp_path / "store", env=env).start()
         client = Client(server.url, api_key="alice-key")
         assert np.array_equal(client.job(finished.id).result()["mass_matrix"], dynamics.mass_matrix(model, q))
@@ -320,13 +395,31 @@ def test_expiry_removes_finished_jobs_and_stale_temporary_files(tmp_path):
     db.create("queued", "", "planar-2r", "mass_matrix", {"options": {}}, 1, 10)
     db.cancel("old")
     stale, fresh = files.root / "parts" / ".a.npz.1.tmp", files.root / "results" / ".b.npz.2.tmp"
-    stale.write_bytes(b"x")
-    fresh.write_bytes(b"x")
-    os.utime(stale, (0, 0))
+    orphan = files.inputs("no-such-job")  # (issue 25 A1: a failed submit's inputs, left by an older version)
+    kept = files.inputs("queued")  # an old job's own inputs stay
+    for path in (stale, fresh, orphan, kept):
+        path.write_bytes(b"x")
+    for path in (stale, orphan, kept):
+        os.utime(path, (0, 0))
     executor = Executor(files, db, settings)
     time.sleep(0.01)
     executor.expire()
     assert db.get("old") is None and not files.inputs("old").exists()
     assert db.get("queued").status == "queued"  # an active job never expires
-    assert not stale.exists() and fresh.exists()
+    assert not stale.exists() and fresh.exists() and not orphan.exists()
+    assert kept.exists()
     executor.close()
+
+
+def test_a_server_stopped_mid_job_leaks_no_semaphore(tmp_path):
+    """Issue 25 D16: stopping the server left the job pool's semaphores to the resource tracker ("leaked
+    semaphore objects to clean up at shutdown")."""
+    server = Server(tmp_path / "store", env=KEYS).start()
+    try:
+        job = Client(server.url, api_key="alice-key").submit("planar_3r", "simulate_many", long_inputs(2000), LONG)
+        wait_for(job, lambda i: i["status"] == "running")
+    finally:
+        server.stop()
+    assert server.proc.returncode == 0 or server.proc.returncode is not None
+    log = server.log.read_text()
+    assert "leaked semaphore" not in log and "Traceback" not in log, log[-3000:]

@@ -68,7 +68,7 @@ def test_health_list_and_info(http):
     listed = {r["id"]: r for r in http.get("/v1/robots").json()["robots"]}
     for stem in ("planar_2r", "pendulum", "rp_arm", "planar_3r", "puma560"):
         if (ROBOTS / f"{stem}.urdf").exists():
-            assert listed[stem.replace("_", "-")]["bundled"] is True
+            assert listed[stem]["bundled"] is True
     info = http.get("/v1/robots/planar-2r").json()
     assert (info["nq"], info["nv"], info["joint_names"]) == (2, 2, ["joint1", "joint2"])
     j1 = info["joints"][0]

@@ -278,7 +278,7 @@ def test_listing_reads_no_urdf(server, http):
 def test_robots_belong_to_their_key(server, http, chain):
     with client(server, "k2") as other:
         assert chain not in [r["id"] for r in other.get("/v1/robots").json()["robots"]]
-        assert "planar-2r" in [r["id"] for r in other.get("/v1/robots").json()["robots"]]
+        assert "planar_2r" in [r["id"] for r in other.get("/v1/robots").json()["robots"]]
         refused(other.get(f"/v1/robots/{chain}"), 404, "robot")
         refused(other.post(f"/v1/robots/{chain}/gravity-torques", json={"q": [0.0] * 128}), 404, "robot")
         refused(other.post(f"/v1/robots/{chain}/simulate", json={"q0": [0.0] * 128, "v0": [0.0] * 128,
@@ -356,3 +356,29 @@ def test_extreme_urdf_values(http):
     assert np.allclose(taus[0], taus[1], rtol=1e-14, atol=1e-14) and np.abs(taus[0]).max() > 0.1
     urdf = chain_urdf(2).replace('lower="-3.14"', 'lower="nan"')
     refused(http.post("/v1/robots", content=urdf, headers={"Content-Type": "application/xml"}), 422, "urdf")
+
+
+def test_a_body_trickled_one_byte_at_a_time_is_timed_out(server):
+    """Issue 25 A5: one byte every 5 s was never timed out (only a gap over DYNAMICS_READ_TIMEOUT was). Here one
+    byte every 0.5 s (the read timeout is 2 s): the whole body is bounded, so a 408 comes after about 2 s."""
+    with socket.create_connection(("127.0.0.1", server.port), timeout=30) as sock:
+        sock.sendall(b"POST /v1/robots/planar_2r/mass-matrix HTTP/1.1\r\nHost: x\r\nAuthorization: Bearer k1\r\n"
+                     b"Content-Type: application/json\r\nContent-Length: 1000\r\n\r\n")
+        answer = b""
+        for _ in range(40):  # at most 20 s of trickling
+            try:
+                sock.sendall(b" ")
+            except OSError:  # the server answered and closed
+                break
+            sock.settimeout(0.5)
+            try:
+                chunk = sock.recv(4096)
+            except socket.timeout:
+                continue
+            if not chunk:
+                break
+            answer += chunk
+            if b"\r\n\r\n" in answer:
+                break
+    assert answer.startswith(b"HTTP/1.1 408"), answer[:300]
+    assert b"DYNAMICS_READ_TIMEOUT" in answer or b"\r\n\r\n" in answer

@@ -86,11 +86,11 @@ def test_a_request_for_a_source_still_compiling_gets_503_saying_how_long(monkeyp
 
     from service.compute import Budget, Compute
     from service.errors import Unavailable
-    from service.sim import worker
+    from service.sim import warm, worker
     from service.sim.job import Job, Outcome
 
-    later = worker.LateWarmup()  # never started: still compiling
-    monkeypatch.setattr(worker, "LATER", later)
+    later = warm.LateWarmup()  # never started: still compiling
+    monkeypatch.setattr(warm, "LATER", later)
     from service.client import torque_spec
     spec = torque_spec(Target("tip", [1.2, 0.0, 0.9], kp=1.0, kd=1.0, rows=[0, 2]))  # as the schema passes it
     urdf = (ROBOTS / "planar_2r.urdf").read_text()

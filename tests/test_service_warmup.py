@@ -18,7 +18,7 @@ import pytest
 
 import dynamics
 from service.warmup import FIRST_START_GUESS, Stage, Warmup
-from service_fixtures import ROBOTS, Server
+from service_fixtures import ROBOTS, Server, in_process_app
 
 SIM = {"q0": [0.3, -0.2], "v0": [0.0, 0.5], "duration": 0.2, "sample_dt": 0.1}
 
@@ -57,13 +57,15 @@ def test_a_new_server_answers_at_once_logs_its_stages_and_makes_simulate_wait(tm
             while (ready := http.get("/v1/ready")).status_code == 503 and time.monotonic() < deadline:
                 time.sleep(0.1)
             assert ready.status_code == 200 and ready.json()["warmup_seconds"] > 0
+            assert ready.json()["status"] == "ready" and ready.json()["failures"] == []
     finally:
         server.stop()
     log = server.log.read_text()
     for stage, name in enumerate(["importing the library", "compiling dynamics kernels",
-                                  "compiling simulation kernels in 1 worker process"], start=1):
-        assert f"warm-up: {name} (stage {stage}/3) ..." in log, log
-        _seconds(rf"warm-up: {re.escape(name)} \(stage {stage}/3\) done in ([\d.]+) s", log)
+                                  "compiling simulation kernels in 1 worker process",
+                                  "compiling the operational-space and computed-torque simulation kernels"], start=1):
+        assert f"warm-up: {name} (stage {stage}/4) ..." in log, log
+        _seconds(rf"warm-up: {re.escape(name)} \(stage {stage}/4\) done in ([\d.]+) s", log)
     took = _seconds(r"warm-up: ready after ([\d.]+) s", log)
     assert json.loads((server.store / ".warmup.json").read_text())["seconds"] == pytest.approx(took, abs=0.05)
 
@@ -132,11 +134,87 @@ def test_a_failed_stage_is_logged_and_the_next_one_runs(caplog):
 def test_the_rest_of_the_warm_up_reaches_radau_and_the_free_joint(monkeypatch):
     """warm_up_rest compiles what it says: its stiff PD makes auto switch to radau, its floating model has a free
     joint (seen through the simulations it runs)."""
-    from service.sim import worker
+    from service.sim import warm
     runs = []
     simulate = dynamics.simulate
     monkeypatch.setattr(dynamics, "simulate", lambda model, *a, **k: runs.append((model, simulate(model, *a, **k))))
-    worker.warm_up_rest()
+    warm.warm_up_rest()
     assert any(tr.report["switches"] and tr.report["switches"][0]["to"] == "radau" for _, tr in runs)
     assert any(model.nq == model.nv + 1 for model, _ in runs)  # a quaternion: the free joint
     assert all(tr.report["status"] == "ok" for _, tr in runs)
+
+
+def test_the_late_warm_up_compiles_and_warmup_failures_fail_the_build(monkeypatch, capsys):
+    """Issue 25 A3: warm_up_later ran a Target without posture_kp (None, read as NaN) and crashed in every
+    worker; ``python -m service --warmup`` printed the traceback and exited 0."""
+    from service import __main__ as main
+    from service.sim import warm
+    warm.warm_up_later()  # compiles, no exception
+    monkeypatch.setattr(main, "compile_operations", lambda *a, **k: None)  # (the dynamics stage is not the point)
+    monkeypatch.setattr(warm, "warm_up", lambda: None)
+    monkeypatch.setattr(warm, "warm_up_rest", lambda: None)
+
+    def broken():
+        raise RuntimeError("no compiler here")
+
+    monkeypatch.setattr(warm, "warm_up_later", broken)
+    assert main.warmup() == 1
+    assert "FAILED compiling the operational-space simulation kernels: RuntimeError: no compiler here" in \
+        capsys.readouterr().err
+    monkeypatch.setattr(warm, "warm_up_later", lambda: None)
+    assert main.warmup() == 0
+
+
+def test_a_failed_late_warm_up_shows_in_ready(monkeypatch, tmp_path):
+    """A worker whose late warm-up failed: /v1/ready says "degraded" and names the stage and the error."""
+    from service.sim.pool import SimPool
+    monkeypatch.setattr(SimPool, "wait_late", lambda self: (_ for _ in ()).throw(
+        RuntimeError("the operational-space and computed-torque kernels did not compile: boom")))
+    with in_process_app(tmp_path, sim_workers=1) as client:
+        deadline = time.monotonic() + 600
+        while (r := client.get("/v1/ready")).status_code == 503 and time.monotonic() < deadline:
+            time.sleep(0.2)
+        body = r.json()
+        assert r.status_code == 200 and body["status"] == "degraded", body
+        assert body["failures"] == [{"stage": "compiling the operational-space and computed-torque simulation "
+                                              "kernels", "error": "RuntimeError: the operational-space and "
+                                                                  "computed-torque kernels did not compile: boom"}]
+
+
+def test_a_workers_compiling_line_is_printed_once_with_a_time():
+    """Issue 25 D16: each worker printed the library's "compiling ..." line twice, bare (Python's last-resort
+    handler). The worker's logging prints it once, with a time and its pid."""
+    import subprocess
+    import sys
+    code = ("import logging; from service.settings import configure_worker_logging; configure_worker_logging(); "
+            "log = logging.getLogger('dynamics.simulation.run'); "
+            "[log.warning('compiling the simulation kernels for %r (first run)', 'rk4') for _ in range(2)]")
+    err = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60,
+                         cwd=ROBOTS.parent).stderr
+    lines = [line for line in err.splitlines() if "compiling" in line]
+    assert len(lines) == 1 and re.match(r"\d{4}-\d\d-\d\d \d\d:\d\d:\d\d,\d+ WARNING worker \d+ ", lines[0]), err
+
+
+def test_a_request_that_ran_into_a_compilation_gets_503_not_504():
+    """Issue 25 A3: a first operational-space simulate on a cold start answered 504 after 10 s ("shorten the
+    duration"): its worker was compiling. A request whose worker had not finished its warm-up gets the 503 with
+    Retry-After; one whose worker was warm keeps the 504 and its advice."""
+    from types import SimpleNamespace
+
+    from service.compute import Budget, Compute
+    from service.errors import BudgetExceeded, Unavailable
+    from service.sim.pool import PoolTimeout
+
+    def pool(warm):
+        def run(job, deadline):
+            raise PoolTimeout("the simulation ran past the deadline; its worker was stopped", warm)
+        return SimpleNamespace(run=run)
+
+    from service.sim.job import Job
+    job = Job("r", "<robot/>", False, (), np.zeros(1), np.zeros(1), 1.0, {}, None, 1000)
+    with pytest.raises(Unavailable) as e:
+        Compute._simulate(SimpleNamespace(pool=pool(False)), job, Budget.starting_now(10.0))
+    assert e.value.code == "starting" and e.value.headers["Retry-After"].isdigit() and "compiling" in e.value.detail
+    with pytest.raises(BudgetExceeded) as e:
+        Compute._simulate(SimpleNamespace(pool=pool(True)), job, Budget.starting_now(10.0))
+    assert "shorten the duration" in e.value.detail

@@ -29,6 +29,7 @@ from concurrent.futures import Future, ProcessPoolExecutor
 from concurrent.futures.process import BrokenProcessPool
 from typing import Optional
 
+from ..lifeline import bind_to_parent
 from ..settings import Settings
 from .db import JobDB
 from .files import JobFiles
@@ -68,7 +69,9 @@ class Executor:
         if self.pool is not None:
             for process in list(getattr(self.pool, "_processes", {}).values()):  # no public way to stop a job
                 process.terminate()
-            self.pool.shutdown(wait=False, cancel_futures=True)
+            # wait=True: the pool's manager thread sees its workers gone and releases its queues' semaphores
+            # (left to the resource tracker otherwise, which warns of leaked semaphores at exit)
+            self.pool.shutdown(wait=True, cancel_futures=True)
         n = self.db.release(self.boot)
         if n:
             log.info("jobs: %d running job(s) queued again for the next start", n)
@@ -100,8 +103,11 @@ class Executor:
             if job is None:
                 return
             if self.pool is None:
+                # (started from this dispatcher thread, which lives as long as the server: the workers' parent-death
+                # signal fires when it ends, service.lifeline)
                 self.pool = ProcessPoolExecutor(max_workers=self.settings.job_workers,
-                                                mp_context=multiprocessing.get_context("spawn"))
+                                                mp_context=multiprocessing.get_context("spawn"),
+                                                initializer=bind_to_parent, initargs=(os.getpid(),))
             future = self.pool.submit(run_job, self.files, job.id, self.boot)
             future.add_done_callback(lambda _: self.wake.set())
             self.running[job.id] = future
@@ -160,13 +166,14 @@ class Executor:
             self.wake.set()
 
     def expire(self) -> None:
-        """Finished jobs past their expiry, and temporary files a crash left (old enough that no writer of any
-        server process can still be at them)."""
+        """Finished jobs past their expiry, and temporary files a crash left and inputs files without a job (old
+        enough that no writer of any server process can still be at them)."""
         for job_id in self.db.expired(time.time() - self.settings.job_expiry):
             self.files.remove(job_id)
             self.db.delete(job_id)
-        for stale in self.files.root.glob("**/.*.tmp"):
-            try:
+        orphans = [p for p in self.files.root.joinpath("inputs").glob("*.npz") if self.db.get(p.stem) is None]
+        for stale in [*self.files.root.glob("**/.*.tmp"), *orphans]:  # (orphans: inputs of a submit that failed
+            try:                                                       # before its record, by an older version)
                 if stale.stat().st_mtime < time.time() - STALE_TMP_SECONDS:
                     stale.unlink()
             except FileNotFoundError:

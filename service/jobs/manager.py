@@ -19,8 +19,9 @@ import numpy as np
 from pydantic import TypeAdapter, ValidationError
 
 from .. import errors, schemas
+from .. import torque as torques
 from ..codec import decode, to_array
-from ..errors import InvalidInput, NotFound, Problem, TooLarge
+from ..errors import InvalidInput, NotFound, Problem, TooLarge, figure, storage_full
 from ..models import Models, locked_key
 from ..settings import Settings
 from .db import ACTIVE, JobDB, JobRecord
@@ -99,7 +100,7 @@ class Jobs:
         total = KINDS[req.kind].total(model, arrays, spec)
         estimate = KINDS[req.kind].result_bytes(model, total, spec)
         if estimate > s.max_job_result_bytes:
-            raise TooLarge(f"inputs: the result would take about {estimate} bytes, over the limit of "
+            raise TooLarge(f"inputs: the result would take about {figure(estimate)} bytes, over the limit of "
                            f"{s.max_job_result_bytes} (DYNAMICS_MAX_JOB_RESULT_BYTES); split the job", "inputs")
         used = self.db.bytes_used(owner)
         if used + estimate + len(body) > s.job_quota_bytes:
@@ -107,8 +108,12 @@ class Jobs:
                                 f"the quota of {s.job_quota_bytes} (DYNAMICS_JOB_QUOTA_BYTES); delete finished jobs "
                                 f"(DELETE /v1/jobs/{{id}})")
         job_id = uuid.uuid4().hex
-        nbytes = write_npz(self.files.inputs(job_id), arrays)
-        self.db.create(job_id, owner, req.robot, req.kind, spec, total, nbytes)
+        try:  # the inputs first (a queued job always has them); on any failure, no file is left behind
+            nbytes = write_npz(self.files.inputs(job_id), arrays)
+            self.db.create(job_id, owner, req.robot, req.kind, spec, total, nbytes)
+        except Exception as e:
+            self.files.remove(job_id)
+            raise storage_full(e, f"the job store {self.files.root}") or e
         if self.executor is not None:
             self.executor.notify()
         return self.describe(self.db.get(job_id))
@@ -132,7 +137,7 @@ class Jobs:
                                             for k, v in options.items()}, "locked": [list(x) for x in locked]}
         torque = req.inputs.get("torque")
         if torque is not None:
-            try:
+            try:  # the schema of /simulate's torque, and its translation (service.torque) when the job runs
                 parsed = _TORQUE.validate_python(torque).model_dump(exclude_none=True)
             except ValidationError as e:
                 err = e.errors(include_url=False)[0]
@@ -140,10 +145,8 @@ class Jobs:
                 raise InvalidInput(f"{where}: {err['msg']}", where) from None
             except InvalidInput as e:  # an array field that is no array ("q_target: expected a number, ...")
                 raise InvalidInput(f"inputs.torque.{e.detail}", f"inputs.torque.{e.field}") from None
-            for name, value in list(parsed.items()):
-                if isinstance(value, np.ndarray):
-                    arrays[f"torque.{name}"] = parsed.pop(name)
-            spec["torque"] = parsed
+            spec["torque"], torque_arrays = torques.split(parsed)
+            arrays.update(torque_arrays)
         return arrays, spec
 
     # -- reading ---------------------------------------------------------------------------------------------
@@ -217,10 +220,10 @@ def _payload(decoded: dict[str, Any]) -> dict[str, Any]:
                 out["options"] = parsed
             else:
                 out["inputs"]["torque"] = parsed
-        elif name.startswith("torque."):
-            torque_arrays[name[len("torque."):]] = value
+        elif name.startswith(torques.PREFIX):
+            torque_arrays[name] = value
         else:
             out["inputs"][name] = value
     if torque_arrays:
-        out["inputs"]["torque"] = {**out["inputs"].get("torque", {}), **torque_arrays}
+        out["inputs"]["torque"] = torques.join(out["inputs"].get("torque", {}), torque_arrays)
     return out

@@ -26,10 +26,13 @@ from typing import Any, Callable, Optional
 
 import numpy as np
 
+from ..errors import InvalidInput, storage_full
 from ..library import lib
-from ..models import ModelCache, load_model, reduce_model
+from ..models import ModelCache, cached, load_model
 from ..settings import Settings
-from ..sim.worker import build_torque, finite_report
+from ..sim.job import samples
+from .. import torque as torques
+from ..codec import finite_report
 from ..store import RobotStore
 from .db import JobDB, JobRecord
 from .files import JobFiles, Stacked, read_member, read_npz, write_npz
@@ -41,12 +44,6 @@ PROGRESS_EVERY = 0.5
 #: size of the first part (items), before any rate is known
 FIRST_PART = {"simulate_many": 8, "dynamics": 4096}
 _PART_NAME = re.compile(r"^(\d+)-(\d+)\.npz$")
-
-#: ndim of each torque field for ONE run; a field with one more dimension holds one row per run (B first)
-TORQUE_NDIM = {"constant": {"tau": 1}, "table": {"t": 1, "tau": 2},
-               "pd": {"q_target": 1, "kp": 1, "kd": 1, "v_target": 1, "tau_ff": 1},
-               "computed_torque": {"t": 1, "q": 2, "v": 2, "a": 2, "kp": 1, "kd": 1}}
-
 
 # -- the kinds of job ----------------------------------------------------------------------------------------
 @dataclass(frozen=True)
@@ -77,43 +74,33 @@ class Dynamics:
 
 class SimulateMany:
     """Runs of ``dynamics.simulate_many``: q0 (B, nq), v0 (B, nv) (either may be one row), a torque spec whose
-    array fields may hold one row per run (see :data:`TORQUE_NDIM`), the simulate options."""
+    array fields may hold one row per run (see :data:`service.torque.RUN_NDIM`), the simulate options."""
 
     function = "simulate_many"
     states = ("q0", "v0")
 
     def total(self, model, inputs, spec) -> int:
         rows = [inputs[n].shape[0] for n in self.states if inputs[n].ndim == 2]
-        kind = (spec.get("torque") or {}).get("type")
-        for name, ndim in TORQUE_NDIM.get(kind, {}).items():
-            value = inputs.get(f"torque.{name}")
-            if value is not None and value.ndim == ndim + 1:
-                rows.append(value.shape[0])
+        rows += torques.runs(self.torque_spec(inputs, spec)).values()
         return max(rows, default=1)
+
+    @staticmethod
+    def torque_spec(inputs, spec) -> Any:
+        """The job's torque spec with its arrays (kept in the inputs file) put back, or None."""
+        return None if spec.get("torque") is None else torques.join(spec["torque"], inputs)
 
     def result_bytes(self, model, total: int, spec: dict[str, Any]) -> int:
         o = spec["options"]
-        dt = o.get("sample_dt") or (o.get("dt") if o.get("integrator") in ("euler", "rk4") else None)
-        samples = int(o["duration"] / dt) + 2 if dt else 1001
-        return 8 * total * samples * (model.nq + 2 * model.nv)
+        count = samples(o["duration"], o.get("sample_dt"), o.get("dt"), o.get("integrator"))
+        return 8 * total * count * (model.nq + 2 * model.nv)
 
-    def torques(self, inputs, spec, lo, hi) -> Any:
-        torque = spec.get("torque")
-        if torque is None:
-            return None
-        fields = TORQUE_NDIM.get(torque["type"], {})
-        shared = dict(torque, **{n: inputs[f"torque.{n}"] for n in fields if f"torque.{n}" in inputs})
-        per_run = [n for n in fields if n in shared and np.ndim(shared[n]) == fields[n] + 1]
-        if not per_run:
-            return build_torque(shared)
-        return [build_torque(dict(shared, **{n: shared[n][k] for n in per_run})) for k in range(lo, hi)]
 
     def run(self, model, inputs, spec, lo, hi, engine, progress) -> dict[str, Any]:
         options = dict(spec["options"])
         duration = options.pop("duration")
         q0, v0 = (np.broadcast_to(inputs[n], (self.total(model, inputs, spec), inputs[n].shape[-1]))[lo:hi]
                   for n in self.states)
-        out = lib().simulate_many(model, q0, v0, duration, torque=self.torques(inputs, spec, lo, hi),
+        out = lib().simulate_many(model, q0, v0, duration, torque=torques.for_runs(self.torque_spec(inputs, spec), lo, hi),
                                   progress=progress, **engine, **options)
         reports = [dict(finite_report(r), run=lo + k) for k, r in enumerate(out.reports)]
         return {"t": out.t, "q": out.q, "v": out.v, "tau": out.tau, "counts": out.counts,
@@ -160,11 +147,7 @@ def model_of(store: RobotStore, models: ModelCache, robot: str, locked: tuple):
     record = store.get(robot)
     if record is None:
         raise ValueError(f"robot: {robot!r} was deleted before the job ran")
-    model = models.get_or_load((robot, ()), lambda: load_model(record.urdf, record.floating_base))
-    if locked:
-        full = model
-        model = models.get_or_load((robot, locked), lambda: reduce_model(full, locked))
-    return model
+    return cached(models, robot, locked, lambda: load_model(record.urdf, record.floating_base))
 
 
 def parts_done(folder: Path) -> list[tuple[int, int]]:
@@ -197,6 +180,9 @@ def run_job(files: JobFiles, job_id: str, boot: str) -> None:
         elif isinstance(e, ValueError):  # the library's InputError (names the argument) and our own refusals
             db.fail(job_id, str(e), boot)
             files.remove(job_id)
+        elif (full := storage_full(e, f"the job store {files.root}")) is not None:
+            files.remove(job_id)  # (first: the record's update needs room too)
+            db.fail(job_id, full.detail, boot)
         else:
             log.error("job %s failed:\n%s", job_id, traceback.format_exc())
             db.fail(job_id, f"internal error: {type(e).__name__}: {e}", boot)
@@ -264,4 +250,11 @@ def check_inputs(kind_name: str, model, inputs: dict[str, np.ndarray], spec: dic
         if not (one_row or x.shape == (total, n)):
             rows = f"({n},) or ({total}, {n})" if kind_name == "simulate_many" else f"(B, {n})"
             return f"inputs.{name}: expected shape {rows}, got {x.shape}"
+    if kind_name == "simulate_many":  # the first run's torque, as /simulate would read it (a 422 now, not later)
+        try:
+            torques.check(model, SimulateMany.torque_spec(inputs, spec), total)
+        except InvalidInput as e:
+            return f"inputs.{e.detail}"
+        except ValueError as e:  # the library's InputError: "torque.kp: expected ..."
+            return f"inputs.{e}"
     return None

@@ -22,20 +22,6 @@ from ..auth import caller
 from ..deps import Deps, budget
 from . import ERRORS, body_doc
 
-#: URL segment -> (request schema, answer schema, summary); the operation itself is service.compute.OPERATIONS'
-ROUTES: dict[str, tuple[type[BaseModel], type[BaseModel], str]] = {
-    "inverse-dynamics": (schemas.InverseDynamicsRequest, schemas.TauAnswer, "tau = ID(q, v, a) by RNEA"),
-    "forward-dynamics": (schemas.ForwardDynamicsRequest, schemas.AccelerationAnswer, "a = FD(q, v, tau) by ABA"),
-    "mass-matrix": (schemas.MassMatrixRequest, schemas.MassMatrixAnswer, "M(q) by CRBA"),
-    "gravity-torques": (schemas.GravityTorquesRequest, schemas.TauAnswer, "g(q) = ID(q, 0, 0)"),
-    "bias-forces": (schemas.BiasForcesRequest, schemas.TauAnswer, "h(q, v) = ID(q, v, 0)"),
-    "coriolis-matrix": (schemas.CoriolisMatrixRequest, schemas.CoriolisMatrixAnswer,
-                        "C(q, v): C v + g = h, dM/dt - 2C skew-symmetric"),
-    "kinetic-energy": (schemas.KineticEnergyRequest, schemas.KineticEnergyAnswer, "T = 1/2 v^T M(q) v"),
-    "potential-energy": (schemas.PotentialEnergyRequest, schemas.PotentialEnergyAnswer,
-                         "U(q) = -sum m_i g . c_i"),
-}
-
 router = APIRouter(prefix="/v1")
 
 
@@ -74,13 +60,15 @@ def _compute(d: Deps, op: Operation, robot_id: str, args: dict, accept: Optional
     return encode(result, accept)
 
 
-def add_routes(router: APIRouter, routes: dict[str, tuple[type[BaseModel], type[BaseModel], str]],
-               operations: dict[str, Operation]) -> None:
-    """``POST /v1/robots/{id}/<segment>`` for each of ``routes``, answered by ``operations[segment]``."""
-    for segment, (schema, answer_schema, summary) in routes.items():
-        router.add_api_route(f"/robots/{{robot_id}}/{segment}", _route(operations[segment], schema),
+def add_routes(router: APIRouter, operations: dict[str, Operation]) -> None:
+    """``POST /v1/robots/{id}/<segment>`` for each operation of ``operations`` (by segment), as its endpoint says."""
+    for segment, op in operations.items():
+        schema, answer_schema, summary = op.endpoint
+        router.add_api_route(f"/robots/{{robot_id}}/{segment}", _route(op, schema),
                              methods=["POST"], response_model=answer_schema, responses=ERRORS,
                              openapi_extra=body_doc(schema), summary=summary)
 
 
-add_routes(router, ROUTES, OPERATIONS)
+add_routes(router, OPERATIONS)
+#: URL segment -> its Endpoint (request schema, answer schema, summary), read from OPERATIONS
+ROUTES = {segment: op.endpoint for segment, op in OPERATIONS.items()}

@@ -30,11 +30,14 @@ async def health() -> Response:
 
 
 @router.get(READY_PATH, response_model=schemas.ReadyAnswer, responses={503: {"model": schemas.ErrorAnswer}},
-            summary="readiness: 200 once the warm-up compiled every kernel; 503 before, saying how long it takes")
+            summary="readiness: 200 once the warm-up is over (status 'degraded' and its failures if a stage failed); "
+                    "503 before, saying how long it takes")
 async def ready(d: Deps = Depends(deps)) -> Response:
     warmup = d.warmup
     if not warmup.done:
         raise Unavailable(f"ready: {warmup.status()}", code="starting",
                           headers={"Retry-After": str(warmup.retry_after())})
-    body = {"status": "ready", "warmup_seconds": round(warmup.seconds, 3)}
+    # A stage that failed leaves the service up (what compiled answers) but says so: "degraded", and what failed
+    body = {"status": "degraded" if warmup.failures else "ready", "warmup_seconds": round(warmup.seconds, 3),
+            "failures": warmup.failures}
     return Response(json.dumps(body).encode(), media_type=JSON)

@@ -9,11 +9,12 @@ from fastapi import APIRouter, Depends, Request
 from starlette.responses import Response
 
 from .. import schemas
-from ..codec import decode, encode, read_body
-from ..compute import Budget
+from ..codec import NPZ, decode, encode, media_type, read_body
+from ..compute import INLINE_BYTES, Budget
 from ..auth import caller
 from ..deps import Deps, budget, deps
 from ..errors import InvalidInput
+from ..models import locked_key
 from ..sim.job import Job
 from . import ERRORS, body_doc
 
@@ -29,17 +30,31 @@ async def simulate(robot_id: str, request: Request, d: Deps = Depends(deps),
     robot_id = d.catalog.resolve(robot_id, caller(request))
     body = await read_body(request, d.settings.max_body_bytes)
     await d.compute.await_workers(time_budget)
-    accept = request.headers.get("accept")
-    job, scene = await d.compute.run_within(time_budget, _job, d, robot_id, body, request.headers.get("content-type"),
-                                            accept)
+    accept, content_type = request.headers.get("accept"), request.headers.get("content-type")
+    if len(body) <= INLINE_BYTES and media_type(content_type) != NPZ:  # small: decoded here (microseconds), and
+        req = _request(d, body, content_type)                           # built here too if its model is cached
+        if d.compute.models.is_cached(robot_id, locked_key(req.locked)):
+            job, scene = d.compute.simulation_job(robot_id, req, accept)
+        else:  # (a URDF to parse: milliseconds, off the event loop)
+            job, scene = await d.compute.run_within(time_budget, d.compute.simulation_job, robot_id, req, accept)
+    else:
+        job, scene = await d.compute.run_within(time_budget, _job, d, robot_id, body, content_type, accept)
     del body
-    trajectory = await d.compute.simulate(job, time_budget)
-    return await d.compute.run_within(time_budget, encode, {**trajectory, "scene": scene}, accept)
+    trajectory, seconds = await d.compute.simulate(job, time_budget)
+    response = await d.compute.run_within(time_budget, encode, {**trajectory, "scene": scene}, accept)
+    # the library call's own time: what the service adds is the rest (benchmarks.service measures it)
+    response.headers["Server-Timing"] = f"library;dur={seconds * 1e3:.3f}"
+    return response
 
 
 def _job(d: Deps, robot_id: str, body: bytes, content_type: Optional[str],
          accept: Optional[str]) -> tuple[Job, dict[str, Any]]:
     """In a compute thread: decode the request, then the job and the scene of its answer."""
+    return d.compute.simulation_job(robot_id, _request(d, body, content_type), accept)
+
+
+def _request(d: Deps, body: bytes, content_type: Optional[str]) -> schemas.SimulateRequest:
+    """The body -> the validated request."""
     payload = decode(body, content_type, max_unpacked=8 * d.settings.max_body_bytes)
     for name, kind in (("torque", "object"), ("outputs", "list")):  # in .npz these travel as JSON strings
         if isinstance(payload.get(name), str) and payload[name].lstrip()[:1] in ("{", "["):
@@ -47,4 +62,4 @@ def _job(d: Deps, robot_id: str, body: bytes, content_type: Optional[str],
                 payload[name] = json.loads(payload[name])
             except json.JSONDecodeError:
                 raise InvalidInput(f"{name}: not a JSON {kind}", name) from None
-    return d.compute.simulation_job(robot_id, schemas.validate(schemas.SimulateRequest, payload), accept)
+    return schemas.validate(schemas.SimulateRequest, payload)

@@ -36,26 +36,38 @@ class Job:
 
 @dataclass(frozen=True)
 class Outcome:
-    """A worker's answer: the trajectory (t, q, v, tau, report), or the library's input error, or a failure, or
-    ``unavailable``: what the worker still compiles and for how long (``retry_after`` seconds, about)."""
+    """A worker's answer: the trajectory (t, q, v, tau, report) and the seconds its library call took, or the
+    library's input error, or a failure, or ``unavailable``: what the worker still compiles and for how long
+    (``retry_after`` seconds, about)."""
     trajectory: Optional[dict[str, Any]] = None
     input_error: Optional[str] = None
     error: Optional[str] = None
     unavailable: Optional[str] = None
     retry_after: float = 0.0
+    seconds: float = 0.0  # the library call's wall time in the worker (the answer's Server-Timing)
+
+
+def samples(duration: float, sample_dt: Optional[float], dt: Optional[float], integrator: Optional[str]) -> int:
+    """How many samples ``dynamics.simulate`` returns at most, its rule in the one place the service needs it:
+    every ``sample_dt``, else every step of a fixed-step method (euler, rk4), else 1001. (Capped at 1e15 + 2: a
+    count for limits and estimates, never an allocation.)"""
+    spacing = sample_dt if sample_dt is not None else dt if integrator in ("euler", "rk4") else None
+    if spacing is None:
+        return 1001
+    return int(min(duration / spacing, 1e15)) + 2
 
 
 def build_job(record: RobotRecord, locked: tuple, req: SimulateRequest, settings: Settings) -> Job:
     """The job of a simulation request, within the service's limits of steps and samples."""
     s = settings
-    if req.sample_dt is not None and req.duration / req.sample_dt + 1 > s.max_samples:
-        raise InvalidInput(f"sample_dt: {req.duration:g} s every {req.sample_dt:g} s is over the limit of "
-                           f"{s.max_samples} samples (DYNAMICS_MAX_SAMPLES)", "sample_dt")
     if req.dt is not None and req.duration / req.dt > s.max_sim_steps:
         raise InvalidInput(f"dt: {req.duration:g} s in steps of {req.dt:g} s is over the limit of "
                            f"{s.max_sim_steps} steps (DYNAMICS_MAX_SIM_STEPS)", "dt")
-    if req.sample_dt is None and req.dt is not None and req.integrator in ("euler", "rk4") \
-            and req.duration / req.dt + 1 > s.max_samples:  # fixed-step runs sample every step by default
+    if samples(req.duration, req.sample_dt, req.dt, req.integrator) - 1 > s.max_samples:
+        if req.sample_dt is not None:
+            raise InvalidInput(f"sample_dt: {req.duration:g} s every {req.sample_dt:g} s is over the limit of "
+                               f"{s.max_samples} samples (DYNAMICS_MAX_SAMPLES)", "sample_dt")
+        # fixed-step runs sample every step by default
         raise InvalidInput(f"sample_dt: a sample at every step of {req.dt:g} s is over the limit of "
                            f"{s.max_samples} samples (DYNAMICS_MAX_SAMPLES); give a larger sample_dt", "sample_dt")
     options = {k: getattr(req, k) for k in SIMULATE_OPTIONS if getattr(req, k) is not None}

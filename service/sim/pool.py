@@ -18,6 +18,7 @@ that runs an event loop and threads, and it works inside uvicorn's own worker pr
 from __future__ import annotations
 
 import logging
+import os
 import queue
 import socket
 import subprocess
@@ -25,7 +26,8 @@ import sys
 import threading
 import time
 from multiprocessing.connection import Connection
-from typing import Any
+from concurrent.futures import ThreadPoolExecutor
+from typing import Any, Optional
 
 log = logging.getLogger("service")
 
@@ -38,7 +40,8 @@ class WorkerCrashed(RuntimeError):
 
 
 class PoolTimeout(Exception):
-    """The job ran past its deadline; its worker was killed."""
+    """The job ran past its deadline; its worker was killed. ``args[1]``: whether that worker had finished its
+    warm-up (if not, the time may have gone into compiling a kernel the request needed)."""
 
 
 class PoolBusy(Exception):
@@ -46,24 +49,33 @@ class PoolBusy(Exception):
 
 
 class _Worker:
+    """A worker process and its two connections: jobs (request, answer) and ``status`` (what the worker says of
+    its own, unasked: its late warm-up's outcome)."""
+
     def __init__(self) -> None:
         parent, child = socket.socketpair()
+        status_parent, status_child = socket.socketpair()
         try:
             self.proc = subprocess.Popen(
-                [sys.executable, "-m", "service.sim.worker", str(child.fileno())],
-                pass_fds=(child.fileno(),), stdin=subprocess.DEVNULL, close_fds=True,
+                [sys.executable, "-m", "service.sim.worker", str(child.fileno()), str(status_child.fileno()),
+                 str(os.getpid())],
+                pass_fds=(child.fileno(), status_child.fileno()), stdin=subprocess.DEVNULL, close_fds=True,
             )
         finally:
             child.close()
+            status_child.close()
         self.conn = Connection(parent.detach())
+        self.status = Connection(status_parent.detach())
         self.jobs = 0
         self.started = time.monotonic()
+        self.warm = False  # True once its whole warm-up (service.sim.warm) is over
 
     def kill(self) -> None:
-        try:
-            self.conn.close()
-        except OSError:
-            pass
+        for conn in (self.conn, self.status):
+            try:
+                conn.close()
+            except OSError:
+                pass
         if self.proc.poll() is None:
             self.proc.kill()
         # Reap in the background so that no zombie stays and the caller does not wait.
@@ -80,17 +92,50 @@ class SimPool:
         self._lock = threading.Lock()
         self._closed = False
         self.ready = threading.Event()  # set when the first worker is ready, and stays set
+        self.late = threading.Event()   # set when the first worker's late warm-up ended (service.sim.warm)
+        self.late_error: Optional[str] = None  # why it failed, None if it did not
         self.killed = 0
+        # Every worker is started from this one thread, which lives as long as the pool: a worker's parent-death
+        # signal (service.lifeline) fires when the thread that started it ends.
+        self._spawner = ThreadPoolExecutor(max_workers=1, thread_name_prefix="sim-spawn")
         for _ in range(self.size):
             self._spawn()
 
     def _spawn(self) -> None:
+        if not self._closed:
+            self._spawner.submit(self._start)
+
+    def _start(self) -> None:
         if self._closed:
             return
         w = _Worker()
         with self._lock:
             self._all.add(w)
         threading.Thread(target=self._await_ready, args=(w,), daemon=True, name="sim-ready").start()
+        threading.Thread(target=self._await_late, args=(w,), daemon=True, name="sim-late").start()
+
+    def _await_late(self, w: _Worker) -> None:
+        """The worker's word on its late warm-up: ("late", None | "the error"), then ("rest", ...)."""
+        while True:
+            try:
+                stage, error = w.status.recv()
+            except (EOFError, OSError, ValueError, TypeError):
+                return
+            if error:
+                log.error("simulation worker %s: the %s warm-up failed: %s", w.proc.pid, stage, error)
+            if stage == "late" and not self.late.is_set():
+                self.late_error = error
+                self.late.set()
+            elif stage == "rest":
+                w.warm = True
+                return
+
+    def wait_late(self) -> None:
+        """Block until a worker's late warm-up ended; a RuntimeError naming the failure if it failed."""
+        self.late.wait()
+        if self.late_error:
+            raise RuntimeError(f"the operational-space and computed-torque kernels did not compile: "
+                               f"{self.late_error}")
 
     def _await_ready(self, w: _Worker) -> None:
         try:
@@ -143,7 +188,7 @@ class SimPool:
             if not w.conn.poll(max(0.0, deadline - time.monotonic())):
                 self.killed += 1
                 self._replace(w)
-                raise PoolTimeout("the simulation ran past the deadline; its worker was stopped")
+                raise PoolTimeout("the simulation ran past the deadline; its worker was stopped", w.warm)
             answer = w.conn.recv()
         except (EOFError, OSError) as e:
             code = w.proc.poll()
@@ -165,3 +210,4 @@ class SimPool:
             self._all.clear()
         for w in workers:
             w.kill()
+        self._spawner.shutdown(wait=False, cancel_futures=True)
