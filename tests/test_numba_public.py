@@ -153,7 +153,7 @@ CALL_TIMEOUT, TOTAL_TIMEOUT = 60, 1800
 # each callable run in a forked child: a call that kills it (a signal; SIGALRM after CALL_TIMEOUT s for a hang)
 # is reported, and a new child goes on with the next call.
 CALLER = r"""
-import importlib, inspect, json, os, signal, sys, warnings
+import importlib, inspect, json, os, signal, sys, time, warnings
 import numpy as np
 
 modules, urdf, call_timeout = json.loads(sys.argv[1]), sys.argv[2], int(sys.argv[3])
@@ -221,16 +221,19 @@ for name, attr, obj, calls in groups:
                 label, args = calls[j]
                 os.write(progress_w, b"%d\n" % j)
                 signal.alarm(call_timeout)
+                t0 = time.process_time()
                 try:
                     obj(*args)
                 except BaseException as e:
                     signal.alarm(0)
                     cls = type(e)
                     emit(module=name, name=attr, input=label, raised=f"{cls.__module__}.{cls.__qualname__}",
-                         input_error=isinstance(e, (ValueError, TypeError)), message=" ".join(str(e).split())[:160])
+                         input_error=isinstance(e, (ValueError, TypeError)), message=" ".join(str(e).split())[:160],
+                         cpu=time.process_time() - t0)
                 else:
                     signal.alarm(0)
-                    emit(module=name, name=attr, input=label, raised=None, input_error=False, message="")
+                    emit(module=name, name=attr, input=label, raised=None, input_error=False, message="",
+                         cpu=time.process_time() - t0)
             os._exit(0)
         os.close(progress_w)
         with os.fdopen(progress_r, "rb") as f:
