@@ -210,7 +210,7 @@ def _read_source(source) -> bytes:
             raise URDFError(f"URDF source: {path!r} is larger than {MAX_URDF_BYTES} bytes")
         with open(path, "rb") as fh:
             data = fh.read()
-        if path.endswith(".xacro") or b"<xacro:" in data:
+        if path.endswith(".xacro"):  # by name only: real URDFs (Talos) keep stray <xacro:...> elements that load fine
             raise URDFError(f"URDF source: {path!r} is a xacro file; run xacro first (xacro {os.path.basename(path)} "
                             "> robot.urdf) and load its output")
         return data
