@@ -20,10 +20,10 @@ import numpy as np
 
 from . import checks
 from ._numba import (SingleCall, VECTOR, address, helper, inline_kernel, keep_alive, kernel, scratch, view)
-from .checks import NOT_ARRAYS, DONE, GENERAL, _config_ok, _nonzero, _vector_ok
+from .checks import NOT_ARRAYS, DONE, GENERAL, _config_shape_ok, _finite, _nonzero
 from .constrained_dynamics import constrained_forward_dynamics
 from .joints import _joint_motion
-from .data import Data, _data_at, _forward_pass, _take
+from .data import Data, _data_at, _forward_body, _take
 from .model import _unpack
 from .parallel import run_chunks
 from .rnea import bias_forces, inverse_dynamics
@@ -98,8 +98,7 @@ def _aba_into(tree, q, v, tau, gravity, f_ext, ws, qdd):
 def _aba_terms(tree, q, v, tau, gravity, f_ext, ws, qdd, with_v):
     """ABA for one state: Featherstone's three passes (RBDA Table 7.1).  ``with_v=False`` (v is zero) skips
     the velocity products c_i and v x* I v.  Returns -1, or the body whose joint is singular."""
-    _forward_pass(tree, q, v, ws.d, with_v)  # X_i, v_i, c_i
-    _rigid_body_terms(tree, f_ext, ws, with_v)
+    _rigid_body_terms(tree, q, v, f_ext, ws, with_v)
     singular = _articulated_inertias(tree, tau, ws)
     if singular >= 0:
         return singular
@@ -108,14 +107,14 @@ def _aba_terms(tree, q, v, tau, gravity, f_ext, ws, qdd, with_v):
 
 
 @inline_kernel
-def _rigid_body_terms(tree, f_ext, ws, with_v):
-    """Pass 1, after the forward pass: I^A_i = I_i and p^A_i = v_i x* I_i v_i - f_ext_i."""
+def _rigid_body_terms(tree, q, v, f_ext, ws, with_v):
+    """Pass 1: the forward pass (X_i, v_i, c_i), and I^A_i = I_i, p^A_i = v_i x* I_i v_i - f_ext_i."""
     mass, hs, Ios, d = tree.mass, tree.h, tree.Io, ws.d
     zero = (0.0, 0.0, 0.0)
     for i in range(tree.parents.shape[0]):
+        R, p, w, vl, cw, cv = _forward_body(tree, i, q, v, d, with_v)
         m, h, Io = mass[i], load3(hs, i), load33(Ios, i)
         if with_v:
-            w, vl = load3(d.w, i), load3(d.vl, i)
             hn, hf = inertia_times(m, h, Io, w, vl)
             bn, bf = cross_force(w, vl, hn, hf)
         else:
@@ -220,24 +219,24 @@ def _aba_batch(tree, Q, V, T, F, gravity, with_v, out, status):
     keep_alive(buf)
 
 
-def _aba_single(packed, q, v, tau, qdd):
+def _aba_one(packed, q, v, tau, qdd):
     """One state from Python, inputs checked in the call (status codes of :mod:`dynamics.checks`; a singular
     joint takes the general path, which names it)."""
     tree, gravity, nq = _unpack(packed)
     nb, nv = tree.parents.shape[0], tree.S.shape[0]
-    if not (_config_ok(tree, nq, q) and _vector_ok(v, nv) and _vector_ok(tau, nv) and qdd.shape[0] == nv):
+    if not (_config_shape_ok(tree, nq, q) and v.shape[0] == nv and tau.shape[0] == nv and qdd.shape[0] == nv):
         return GENERAL
     buf = scratch(_work_at(0, 0, nb, nv)[1])
     singular = _aba_terms(tree, q, v, tau, gravity, view(buf, 0, (0, 6)), _work_at(address(buf), 0, nb, nv)[0], qdd,
                          _nonzero(v))
     keep_alive(buf)
-    return DONE if singular < 0 else GENERAL
+    return DONE if singular < 0 and _finite(qdd) else GENERAL
 
 
 
 # -- public entry point ----------------------------------------------------------------------------
 _aba_batch = _aba_batch
-_aba_single = SingleCall(_aba_single, VECTOR, VECTOR, VECTOR, VECTOR)
+_aba_single = SingleCall(_aba_one, VECTOR, VECTOR, VECTOR, VECTOR)
 
 
 def _aba_chunk(tree, Q, V, T, F, gravity, with_v, out):

@@ -15,7 +15,7 @@ import math
 
 import numpy as np
 
-from ._numba import DONE, GENERAL, inline_kernel, kernel  # noqa: F401 (the status codes' home for the algorithms)
+from ._numba import DONE, GENERAL, address, float_at, inline_kernel, kernel  # noqa: F401 (the status codes' home for the algorithms)
 from .errors import InputError
 from .joints import JOINT_FREE, KINDS, ZERO_QUATERNION_SQ, _joint_config_ok
 from .spatial import quaternion_sq
@@ -64,6 +64,34 @@ def _vector_ok(x, n):
         return False
     for k in range(n):
         if not np.isfinite(x[k]):
+            return False
+    return True
+
+
+@inline_kernel
+def _config_shape_ok(tree, nq, q):
+    """q has length nq and, on a model with a free joint (the only joint with nq != nv), non-zero quaternions.
+    Its values' finiteness is checked on the result (:func:`_finite`)."""
+    if q.shape[0] != nq:
+        return False
+    if nq != tree.S.shape[0]:
+        for i in range(tree.jtype.shape[0]):
+            if not _joint_config_ok(tree, i, q):
+                return False
+    return True
+
+
+@inline_kernel
+def _finite(x):
+    """Every value of the C-contiguous float64 array x is finite.  The single calls in which every input value
+    reaches the result (RNEA, ABA, all frame placements: a nan or inf anywhere in q, v, a or tau makes a nan or
+    inf in the root's torque or acceleration, or in a frame, since nan * 0 and inf * 0 are nan) check the result
+    instead of each input first (not CRBA or M^-1, which the first joint's angle never reaches, nor g(q), which
+    a floating base's position never reaches): checking first cost ~0.5 us of Panda's 1.2 us RNEA call (measured), and
+    on a non-finite result the general path names the input (or returns the same overflowed result)."""
+    flat = float_at(address(x), 0, x.size)
+    for k in range(x.size):
+        if not np.isfinite(flat[k]):
             return False
     return True
 

@@ -114,18 +114,18 @@ def _com_single_into(packed, q, what, out):
     return DONE
 
 
-def _com_single(packed, q, com):
+def _com_one(packed, q, com):
     return _com_single_into(packed, q, COM, view(com, 0, (3, 1)))
 
 
-def _com_jacobian_single(packed, q, J):
+def _com_jacobian_one(packed, q, J):
     return _com_single_into(packed, q, JACOBIAN, J)
 
 
 # -- public entry points ---------------------------------------------------------------------------
 _com_batch = _com_batch
-_com_single = SingleCall(_com_single, VECTOR, VECTOR)
-_com_jacobian_single = SingleCall(_com_jacobian_single, VECTOR, MATRIX)
+_com_single = SingleCall(_com_one, VECTOR, VECTOR)
+_com_jacobian_single = SingleCall(_com_jacobian_one, VECTOR, MATRIX)
 
 
 def _run(model, q, v, what):

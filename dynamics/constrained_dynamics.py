@@ -376,7 +376,7 @@ def _constrained_fd_batch(tree, Q, V, T, C, gravity, alpha, beta, out, status):
     keep_alive(out)
 
 
-def _constrained_fd_single(packed, packed_C, q, v, tau, alpha, beta, a, lam):
+def _constrained_fd_one(packed, packed_C, q, v, tau, alpha, beta, a, lam):
     """One state from Python into a (nv,) and lam (m,), inputs checked in the same compiled call: DONE, or
     GENERAL for a non-finite input, a zero quaternion or a singular M (the general path then says which).  The
     model and its constraints come packed (two arrays to unbox, not nineteen) and the scratch is one buffer."""
@@ -558,7 +558,7 @@ class _Checked:
 
 
 _fd_batch = _Checked(_constrained_fd_batch, -1)
-_fd_single = SingleCall(_constrained_fd_single, PACKED, VECTOR, VECTOR, VECTOR, types.float64, types.float64, VECTOR,
+_fd_single = SingleCall(_constrained_fd_one, PACKED, VECTOR, VECTOR, VECTOR, types.float64, types.float64, VECTOR,
                         VECTOR)
 _project_batch = _Checked(_project_batch, -1)
 _id_batch = _Checked(_constrained_id_batch, 0)

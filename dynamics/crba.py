@@ -88,12 +88,12 @@ def _crba_batch(tree, Q, out):
         _crba_into(tree, Q[b], ws, out[b])
 
 
-def _crba_single(packed, q, M):
+def _crba_one(packed, q, M):
     """One state from Python into M (zeroed here: a new array from np.empty is ~70 ns cheaper than from
     np.zeros), inputs checked in the call (status codes of :mod:`dynamics.checks`)."""
     tree, gravity, nq = _unpack(packed)
     nb, nv = tree.parents.shape[0], tree.S.shape[0]
-    if not (_config_ok(tree, nq, q) and M.shape[0] == nv and M.shape[1] == nv):
+    if not (_config_ok(tree, nq, q) and M.shape[0] == nv and M.shape[1] == nv):  # q[0] never reaches M
         return GENERAL
     for r in range(nv):
         for c in range(nv):
@@ -107,7 +107,7 @@ def _crba_single(packed, q, M):
 
 # -- public entry point ----------------------------------------------------------------------------
 _crba_batch = _crba_batch
-_crba_single = SingleCall(_crba_single, VECTOR, MATRIX)
+_crba_single = SingleCall(_crba_one, VECTOR, MATRIX)
 
 
 def mass_matrix(model, q):

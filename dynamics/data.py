@@ -70,28 +70,36 @@ def _data_at(base, o, nb):
 
 
 @inline_kernel
+def _forward_body(tree, i, q, v, d, with_v):
+    """Body i's step of the forward pass (its parent's is done): stores body i's entries of ``d`` and returns
+    them, (R, p, w, vl, cw, cv), so that a pass fused with it (RNEA's, ABA's first) keeps them in registers.
+    Without ``with_v`` the velocities are zero and not stored, c_i = 0 is."""
+    R, p = _joint_transform(tree, i, q)
+    store33(d.R, i, R)
+    store3(d.p, i, p)
+    zero = (0.0, 0.0, 0.0)
+    if not with_v:
+        store3(d.cw, i, zero)
+        store3(d.cv, i, zero)
+        return R, p, zero, zero, zero, zero
+    par = tree.parents[i]
+    if par < 0:
+        w, vl = motion_to_child(R, p, zero, zero)
+    else:
+        w, vl = motion_to_child(R, p, load3(d.w, par), load3(d.vl, par))
+    wJ, vJ = _joint_motion(tree, i, v)
+    w, vl = add(w, wJ), add(vl, vJ)
+    store3(d.w, i, w)
+    store3(d.vl, i, vl)
+    cw, cv = cross_motion(w, vl, wJ, vJ)
+    store3(d.cw, i, cw)
+    store3(d.cv, i, cv)
+    return R, p, w, vl, cw, cv
+
+
+@inline_kernel
 def _forward_pass(tree, q, v, d, with_v):
     """Fill ``d`` (:class:`Data`) at (q, v): poses always; velocities and c_i when ``with_v`` (v is not zero),
     else c_i = 0 and the velocities are not written."""
-    parents = tree.parents
-    zero = (0.0, 0.0, 0.0)
-    for i in range(parents.shape[0]):
-        R, p = _joint_transform(tree, i, q)
-        store33(d.R, i, R)
-        store3(d.p, i, p)
-        if not with_v:
-            store3(d.cw, i, zero)
-            store3(d.cv, i, zero)
-            continue
-        par = parents[i]
-        if par < 0:
-            w, vl = motion_to_child(R, p, zero, zero)
-        else:
-            w, vl = motion_to_child(R, p, load3(d.w, par), load3(d.vl, par))
-        wJ, vJ = _joint_motion(tree, i, v)
-        w, vl = add(w, wJ), add(vl, vJ)
-        store3(d.w, i, w)
-        store3(d.vl, i, vl)
-        cw, cv = cross_motion(w, vl, wJ, vJ)
-        store3(d.cw, i, cw)
-        store3(d.cv, i, cv)
+    for i in range(tree.parents.shape[0]):
+        _forward_body(tree, i, q, v, d, with_v)

@@ -65,7 +65,7 @@ def _jacobian_batch(model_tree, Q, model_frames, f, ref, point, out):
     keep_alive(out)
 
 
-def _jacobian_single(packed, q, f, ref, J):
+def _jacobian_one(packed, q, f, ref, J):
     """One state from Python at the frame origin into J (6, nv), zeroed here; q, the frame index f (-1: not
     found) and the reference code are checked in the call (status codes of dynamics.checks)."""
     tree, gravity, nq = _unpack(packed)
@@ -89,7 +89,7 @@ def _jacobian_single(packed, q, f, ref, J):
 
 # -- public entry point ----------------------------------------------------------------------------
 _jacobian_batch = _jacobian_batch
-_jacobian_single = SingleCall(_jacobian_single, VECTOR, types.int64, types.int64, MATRIX)
+_jacobian_single = SingleCall(_jacobian_one, VECTOR, types.int64, types.int64, MATRIX)
 _ORIGIN = np.zeros(3)
 
 

@@ -29,7 +29,7 @@ from numba import types
 
 from . import checks
 from ._numba import (SingleCall, VECTOR, address, inline_kernel, keep_alive, kernel, scratch)
-from .checks import NOT_ARRAYS, DONE, GENERAL, _config_ok
+from .checks import NOT_ARRAYS, DONE, GENERAL, _config_shape_ok, _finite
 from .joints import _joint_motion, _joint_transform
 from .data import _take
 from .model import FRAME_BODY, FRAME_SHIFTED, FRAME_WORLD, _unpack, _unpack_frames
@@ -134,19 +134,19 @@ def _placements_into(tree, frames, q, oR, op, out):
         _store_pose(R, p, out[f])
 
 
-def _placements_single(packed, q, out):
+def _placements_one(packed, q, out):
     """One state from Python into out (nf, 4, 4), q checked in the call (status codes of dynamics.checks)."""
     tree, gravity, nq = _unpack(packed)
     frames = _unpack_frames(packed)
     nb = tree.parents.shape[0]
-    if not (_config_ok(tree, nq, q) and out.shape[0] == frames.body.shape[0]):
+    if not (_config_shape_ok(tree, nq, q) and out.shape[0] == frames.body.shape[0]):
         return GENERAL
     buf = scratch(12 * nb)
     oR, o = _take(address(buf), 0, (nb, 3, 3))
     op, o = _take(address(buf), o, (nb, 3))
     _placements_into(tree, frames, q, oR, op, out)
     keep_alive(buf)
-    return DONE
+    return DONE if _finite(out) else GENERAL
 
 
 
@@ -212,7 +212,7 @@ _placements_batch = _placements_batch
 _placement_batch = _placement_batch
 _motion_batch = _motion_batch
 PLACEMENTS = types.float64[:, :, ::1]
-_placements_single = SingleCall(_placements_single, VECTOR, PLACEMENTS)
+_placements_single = SingleCall(_placements_one, VECTOR, PLACEMENTS)
 
 
 def forward_kinematics(model, q):

@@ -59,12 +59,12 @@ def _work_at(base, o, nb, nv):
     return (oR, op, IA, Sw, U, UD, Dinv, F, nsub, D, scratch), o
 
 
-def _minverse_single(packed, q, Minv):
+def _minverse_one(packed, q, Minv):
     """One state from Python, q checked in the call (status codes of dynamics.checks; a singular joint takes
     the general path, which names it)."""
     tree, gravity, nq = _unpack(packed)
     nb, nv = tree.parents.shape[0], tree.S.shape[0]
-    if not _config_ok(tree, nq, q):
+    if not (_config_ok(tree, nq, q) and Minv.shape[0] == nv and Minv.shape[1] == nv):  # q[0] never reaches M^-1
         return GENERAL
     buf = scratch(_work_at(0, 0, nb, nv)[1])
     singular = _minverse_into(tree, q, _work_at(address(buf), 0, nb, nv)[0], Minv)
@@ -288,7 +288,7 @@ def run_checked(model, kernel, batched, shared, out, what):
 
 
 _minverse_batch = Checked(_minverse_batch)
-_minverse_single = SingleCall(_minverse_single, VECTOR, MATRIX)
+_minverse_single = SingleCall(_minverse_one, VECTOR, MATRIX)
 
 
 def inverse_mass_matrix(model, q):

@@ -19,8 +19,8 @@ import numpy as np
 from . import checks
 from ._numba import (VECTOR, address, inline_kernel, keep_alive, kernel, scratch, SingleCall, view,
                      )
-from .checks import NOT_ARRAYS, DONE, GENERAL, _config_ok, _nonzero, _vector_ok
-from .data import Data, _data_at, _forward_pass, _take
+from .checks import NOT_ARRAYS, DONE, GENERAL, _config_ok, _config_shape_ok, _finite, _nonzero
+from .data import Data, _data_at, _forward_body, _take
 from .model import _unpack
 from .parallel import run_chunks
 from .joints import _joint_motion, _joint_transform, _project_force
@@ -89,12 +89,11 @@ def _rnea_terms(tree, q, v, a, gravity, f_ext, ws, tau, with_v, with_a):
     """
     parents, mass, hs, Ios = tree.parents, tree.mass, tree.h, tree.Io
     d = ws.d
-    _forward_pass(tree, q, v, d, with_v)  # X_i, v_i, c_i
     zero = (0.0, 0.0, 0.0)
     a0 = (-gravity[0], -gravity[1], -gravity[2])  # the world accelerates up: a_0 = (0, -g)
     nb = parents.shape[0]
-    for i in range(nb):  # a_i = X_i a_p + S_i qdd_i + c_i,  f_i = I a + v x* I v - f_ext
-        R, p = load33(d.R, i), load3(d.p, i)
+    for i in range(nb):  # X_i, v_i, c_i;  a_i = X_i a_p + S_i qdd_i + c_i,  f_i = I a + v x* I v - f_ext
+        R, p, w, vl, cw, cv = _forward_body(tree, i, q, v, d, with_v)
         par = parents[i]
         if par < 0:
             aw, al = motion_to_child(R, p, zero, a0)
@@ -105,10 +104,9 @@ def _rnea_terms(tree, q, v, a, gravity, f_ext, ws, tau, with_v, with_a):
             aw, al = add(aw, sw), add(al, sv)
         m, h, Io = mass[i], load3(hs, i), load33(Ios, i)
         if with_v:
-            aw, al = add(aw, load3(d.cw, i)), add(al, load3(d.cv, i))
+            aw, al = add(aw, cw), add(al, cv)
         n, f = inertia_times(m, h, Io, aw, al)
         if with_v:
-            w, vl = load3(d.w, i), load3(d.vl, i)
             hn, hf = inertia_times(m, h, Io, w, vl)
             bn, bf = cross_force(w, vl, hn, hf)
             n, f = add(n, bn), add(f, bf)
@@ -188,34 +186,34 @@ def _rnea_batch(tree, Q, V, A, F, gravity, with_v, with_a, out):
 
 
 # -- one state from Python: inputs checked inside the call (status codes of dynamics.checks) ----------------
-def _rnea_single(packed, q, v, a, tau):
+def _rnea_one(packed, q, v, a, tau):
     tree, gravity, nq = _unpack(packed)
     nb, nv = tree.parents.shape[0], tree.S.shape[0]
-    if not (_config_ok(tree, nq, q) and _vector_ok(v, nv) and _vector_ok(a, nv) and tau.shape[0] == nv):
+    if not (_config_shape_ok(tree, nq, q) and v.shape[0] == nv and a.shape[0] == nv and tau.shape[0] == nv):
         return GENERAL
     buf = scratch(_work_at(0, 0, nb)[1])
     _rnea_terms(tree, q, v, a, gravity, view(buf, 0, (0, 6)), _work_at(address(buf), 0, nb)[0], tau, _nonzero(v),
                _nonzero(a))
     keep_alive(buf)
-    return DONE
+    return DONE if _finite(tau) else GENERAL
 
 
-def _bias_single(packed, q, v, tau):
+def _bias_one(packed, q, v, tau):
     tree, gravity, nq = _unpack(packed)
     nb, nv = tree.parents.shape[0], tree.S.shape[0]
-    if not (_config_ok(tree, nq, q) and _vector_ok(v, nv) and tau.shape[0] == nv):
+    if not (_config_shape_ok(tree, nq, q) and v.shape[0] == nv and tau.shape[0] == nv):
         return GENERAL
     buf = scratch(_work_at(0, 0, nb)[1])
     _rnea_terms(tree, q, v, v, gravity, view(buf, 0, (0, 6)), _work_at(address(buf), 0, nb)[0], tau, _nonzero(v),
                False)
     keep_alive(buf)
-    return DONE
+    return DONE if _finite(tau) else GENERAL
 
 
-def _gravity_single(packed, q, tau):
+def _gravity_one(packed, q, tau):
     tree, gravity, nq = _unpack(packed)
     nb = tree.parents.shape[0]
-    if not (_config_ok(tree, nq, q) and tau.shape[0] == tree.S.shape[0]):
+    if not (_config_ok(tree, nq, q) and tau.shape[0] == tree.S.shape[0]):  # a base's position never reaches g
         return GENERAL
     buf = scratch(_gravity_work_at(0, 0, nb)[1])
     _gravity_into(tree, q, gravity, _gravity_work_at(address(buf), 0, nb)[0], tau)
@@ -229,9 +227,9 @@ def _gravity_single(packed, q, tau):
 # -- public entry points ---------------------------------------------------------------------------
 _rnea_batch = _rnea_batch
 _gravity_batch = _gravity_batch
-_rnea_single = SingleCall(_rnea_single, VECTOR, VECTOR, VECTOR, VECTOR)
-_bias_single = SingleCall(_bias_single, VECTOR, VECTOR, VECTOR)
-_gravity_single = SingleCall(_gravity_single, VECTOR, VECTOR)
+_rnea_single = SingleCall(_rnea_one, VECTOR, VECTOR, VECTOR, VECTOR)
+_bias_single = SingleCall(_bias_one, VECTOR, VECTOR, VECTOR)
+_gravity_single = SingleCall(_gravity_one, VECTOR, VECTOR)
 
 
 def _run(model, q, v, a, gravity, f_ext):
