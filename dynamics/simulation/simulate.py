@@ -20,7 +20,9 @@ from ..configuration import retract
 from ..errors import InputError
 from ..joints import JOINT_FREE
 from .. import plot
-from ..torques import Passive, make_source, release_callable
+from ..control.passive import Passive
+from ..control.registry import release_callable
+from ..control.validation import make_source
 from . import report as R
 from ..constrained import (DEFAULT_BAUMGARTE, baumgarte_gains, project_position_kernel,
                            project_velocity_kernel)

@@ -35,15 +35,15 @@ and the simulation stops with a non-finite status; ``damping`` d > 0 uses (J M^-
 
 import numpy as np
 
-from ._numba import kernel
-from .configuration import difference
-from .jacobians import jacobian_into
-from .kinematics import BIAS_ACCELERATION, LOCAL_WORLD_ALIGNED, motion_batch
-from .minverse import minverse_into
-from .minverse import workspace as minverse_workspace
-from .rnea import rnea_into
-from .spatial import matmul, rotation_about_axis, rotation_log, spd_inverse, transpose
-from .task_space import MAX_CONDITION
+from .._numba import kernel
+from ..configuration import difference
+from ..jacobians import jacobian_into
+from ..kinematics import BIAS_ACCELERATION, LOCAL_WORLD_ALIGNED, motion_batch
+from ..minverse import minverse_into
+from ..minverse import workspace as minverse_workspace
+from ..rnea import rnea_into
+from ..spatial import matmul, rotation_about_axis, rotation_log, spd_inverse, transpose
+from ..task_space import MAX_CONDITION
 
 
 @kernel
