@@ -25,3 +25,9 @@ class DeadlineExceeded(TimeoutError):
     def __init__(self, message, *, done=0, total=0):
         super().__init__(message)
         self.done, self.total = done, total
+
+
+class SimulationWarning(UserWarning):
+    """A simulation finished but its report has warnings (``report["warnings"]``: an inaccurate error estimate,
+    a run that stopped early, ...): each is also emitted with this category, so that
+    ``warnings.simplefilter("error", dynamics.SimulationWarning)`` turns them into errors and "ignore" hides them."""

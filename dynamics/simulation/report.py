@@ -62,8 +62,9 @@ WHY = {"nonfinite": "a NaN/inf appeared in the state or its derivative",
        "step_too_small": "the step size collapsed below the time resolution"}
 
 
-def run_status(st, s, blowup, stability, warnings):
-    """The report's status for the run's statistics; raises InputError when the step budget ran out."""
+def run_status(st, s, blowup, stability, warnings, why=None):
+    """The report's status for the run's statistics; raises InputError when the step budget ran out.  ``why``:
+    a more precise reason for a stopped run than the statistics give (a singular task)."""
     status = STATUS_NAMES[st["status"]]
     t_final = float(st["t"]) if s.duration > 0 else 0.0
     if status == "max_steps":
@@ -71,7 +72,7 @@ def run_status(st, s, blowup, stability, warnings):
                          f"{s.duration:g} s; raise max_steps, loosen rtol/atol, or use integrator='radau' if "
                          "the problem is stiff")
     if status != "ok":
-        status = f"unstable: {WHY[status].format(blowup=blowup)} at t={t_final:.6g} s"
+        status = f"unstable: {why or WHY[status].format(blowup=blowup)} at t={t_final:.6g} s"
         warnings.append(f"simulation stopped early, {status}; the trajectory ends at the last good sample")
         if s.fixed and stability and stability["dt_times_spectral_radius"] <= stability["limit"]:
             warnings.append(f"{s.integrator}: consider a smaller dt or integrator='radau'")

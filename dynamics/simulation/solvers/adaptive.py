@@ -31,9 +31,7 @@ def solve_adaptive(p, m, z, t0, t_end, out_t, opt, stats, switches):
     st.rhs_evals += 1
     status = state_status(f0, 0, 0, opt.blowup)
     t = t0
-    j = 0
-    if status == OK:
-        j = _emit(p, m, j, out_t, t, 0.0, zold, z, zi, st)
+    j = _emit(p, m, 0, out_t, t, 0.0, zold, z, zi, st)  # the initial state, also when f(t0, z0) is not finite
     h = opt.h0
     if h <= 0:
         h = initial_step(p, t, z, f0, stepper_order(m), opt.rtol, opt.atol, mag, opt.ne, t_end, st)

@@ -28,7 +28,7 @@ def solve_fixed(p, m, z, t0, t_end, out_t, opt, stats):
     if opt.probe and status == OK:
         st.rho0 = jacobian_spectral_radius(p, t0, z, f0, opt.ne)
     j = 0
-    while status == OK and j < out_t.shape[0] and out_t[j] <= t0:  # the initial state
+    while j < out_t.shape[0] and out_t[j] <= t0:  # the initial state, also when f(t0, z0) is not finite
         problem_emit(p, j, t0, z)
         j += 1
     t = t0
