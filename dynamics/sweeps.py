@@ -140,9 +140,9 @@ def map_batches(fn, model, *arrays, engine="threads", chunk=None, progress=None,
     and stacked: for batches too large for one call or one machine (``fn``: inverse_dynamics, mass_matrix, ...).
     The arrays travel to each worker once; ``progress`` counts chunks.
 
-    ``engine="processes"`` runs on threads, with a ``UserWarning`` saying so: the batched kernels release the GIL, so threads already use every core, while local processes
-    pickled every chunk both ways (measured at 0.14 efficiency on 2 M Talos states, issue 24).  For more than
-    one machine, use ``engine="ray"``."""
+    ``engine="processes"`` runs on threads, with a ``UserWarning`` saying so: the batched kernels release the
+    GIL, so threads already use every core, while local processes pickled every chunk both ways (measured at
+    0.14 efficiency on 2 M Talos states, issue 24).  For more than one machine, use ``engine="ray"``."""
     check_model(model)
     engines.check_engine(engine)
     if engine == "processes":

@@ -18,4 +18,5 @@ def test_bit_identical_to_recorded(name):
     got = {key: digest(value) for key, value in numbers(cases()[name]()).items()}
     assert set(got) == set(RECORDED[name])
     for key, d in got.items():
-        assert d == RECORDED[name][key], f"{name}: {key} differs (last row {d['last']} against {RECORDED[name][key]['last']})"
+        want = RECORDED[name][key]
+        assert d == want, f"{name}: {key} differs (last row {d['last']} against {want['last']})"

@@ -15,14 +15,25 @@ The implementation is the attribute's ``py_func`` compiled by the overload itsel
 dispatcher: a wrapper calling the dispatcher would be one more compiled layer, and numba optimises each layer
 again together with all the code it links in (the ABA).
 
+**Arrays without reference counts.**  numba counts the references of every array a compiled function binds,
+an atomic increment and decrement each time: a right-hand side that reads the problem's tuples (the model's
+tree, the ABA workspace, the torque source) paid ~2 us per evaluation for it on the 2R arm, four times the
+arithmetic.  Arrays made by ``numba.carray`` over a pointer have no owner, and numba skips their counts.
+:func:`borrow` rebuilds a problem (NamedTuples and tuples of arrays, nested) with every C-contiguous array
+(except the read-only ones: the model's) replaced by such a view of the same memory, once per run at the entry
+point; the pointer comes from the
+integer address by the cast of numba's own ``intrinsic`` documentation example (:func:`_address_as_pointer`).
+The rule: the borrowed value never outlives the call that made it (never stored or returned), and the caller
+holds the original (the entry point's argument, held by its Python caller) meanwhile.
+
 **Python from compiled code.**  :data:`python_kernel` is a cached kernel that holds the GIL (``nogil=False``
 spelled out), for the one function that calls back into Python through ``numba.objmode`` (a Python-callable
 torque): numba warns about an object-mode block in a function that would release the GIL, and we do not
 silence warnings for the process.
 """
 
-from numba import njit
-from numba.extending import overload
+from numba import carray, njit, types
+from numba.extending import intrinsic, overload
 
 from . import JIT_OPTIONS
 
@@ -54,3 +65,48 @@ def interface_call(name, params):
     exec(f"def _typer_{name}({args}):\n    return typer({args})", {"typer": typer}, ns)
     overload(stub, jit_options=_IMPL_OPTIONS)(ns[f"_typer_{name}"])
     return stub
+
+
+@intrinsic
+def _address_as_pointer(typingctx, address, like):
+    """The integer ``address`` as a pointer to the dtype of the array ``like`` (numba's documentation example
+    of an intrinsic, ``cast_int_to_byte_ptr``, typed by the array)."""
+    if not (isinstance(address, types.Integer) and isinstance(like, types.Array)):
+        return None
+    sig = types.CPointer(like.dtype)(address, like)
+
+    def codegen(context, builder, signature, args):
+        return builder.inttoptr(args[0], context.get_value_type(signature.return_type))
+    return sig, codegen
+
+
+def borrow(x):
+    """``x`` (an array, a tuple or NamedTuple of them, nested, or any other value) with every C-contiguous
+    array replaced by an owner-less view of the same memory (module docstring), in compiled code."""
+    raise NotImplementedError("borrow: compiled code only")
+
+
+def _same(x):
+    return x
+
+
+def _borrow_array(x):
+    return carray(_address_as_pointer(x.ctypes.data, x), x.shape)
+
+
+@overload(borrow, jit_options=_IMPL_OPTIONS)
+def _ov_borrow(x):
+    if isinstance(x, types.Array):
+        # records keep numba's own handling; read-only arrays (the model's) too: a borrowed copy would be
+        # writable, a new type, and every kernel reading it (the ABA) would compile a second time for it
+        plain = isinstance(x.dtype, (types.Number, types.Boolean)) and x.mutable
+        return _borrow_array if x.layout == "C" and x.ndim > 0 and plain else _same
+    if isinstance(x, types.BaseTuple) and len(x) > 0:
+        # one function per tuple type: each field borrowed, the NamedTuple class (or a plain tuple) rebuilt
+        items = ", ".join(f"borrow(x[{k}])" for k in range(len(x)))
+        cls = getattr(x, "instance_class", None)
+        ns = {"borrow": borrow, "cls": cls}
+        body = f"cls({items})" if isinstance(x, types.BaseNamedTuple) else f"({items},)"
+        exec(f"def impl(x):\n    return {body}", ns)
+        return ns["impl"]
+    return _same

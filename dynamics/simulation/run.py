@@ -13,49 +13,51 @@ import threading
 import time
 
 from .._numba import kernel
+from .._numba.boundary import borrow
 from . import solvers
 
 log = logging.getLogger("dynamics.simulation")
 
 
 # One entry point per method, compiled (and cached) once per problem type.  Six small functions, not one generic
-# one: a run compiles only its own method's solver (a generic entry would compile them all).
+# one: a run compiles only its own method's solver (a generic entry would compile them all).  The solver gets
+# the problem borrowed (no reference counts on its arrays; p, the argument, holds them for the call).
 @kernel
 def _euler(p, z, t0, t_end, out_t, opt, stats, sw):
-    return solvers.solve_euler(p, z, t0, t_end, out_t, opt, stats, sw)
+    return solvers.solve_euler(borrow(p), z, t0, t_end, out_t, opt, stats, sw)
 
 
 @kernel
 def _rk4(p, z, t0, t_end, out_t, opt, stats, sw):
-    return solvers.solve_rk4(p, z, t0, t_end, out_t, opt, stats, sw)
+    return solvers.solve_rk4(borrow(p), z, t0, t_end, out_t, opt, stats, sw)
 
 
 @kernel
 def _rk45(p, z, t0, t_end, out_t, opt, stats, sw):
-    return solvers.solve_rk45(p, z, t0, t_end, out_t, opt, stats, sw)
+    return solvers.solve_rk45(borrow(p), z, t0, t_end, out_t, opt, stats, sw)
 
 
 @kernel
 def _dop853(p, z, t0, t_end, out_t, opt, stats, sw):
-    return solvers.solve_dop853(p, z, t0, t_end, out_t, opt, stats, sw)
+    return solvers.solve_dop853(borrow(p), z, t0, t_end, out_t, opt, stats, sw)
 
 
 @kernel
 def _radau(p, z, t0, t_end, out_t, opt, stats, sw):
-    return solvers.solve_radau(p, z, t0, t_end, out_t, opt, stats, sw)
+    return solvers.solve_radau(borrow(p), z, t0, t_end, out_t, opt, stats, sw)
 
 
 @kernel
 def _auto(p, z, t0, t_end, out_t, opt, stats, sw):
-    return solvers.solve_auto(p, z, t0, t_end, out_t, opt, stats, sw)
+    return solvers.solve_auto(borrow(p), z, t0, t_end, out_t, opt, stats, sw)
 
 
 ENTRY = {"euler": _euler, "rk4": _rk4, "rk45": _rk45, "dop853": _dop853, "radau": _radau, "auto": _auto}
 
 
-#: seconds to compile a method's entry point with a problem's functions from an empty cache (2R arm and Panda,
-#: measured on a loaded 2-core machine)
-COMPILE_SECONDS = {"euler": 10, "rk4": 10, "rk45": 15, "dop853": 20, "radau": 25, "auto": 25}
+#: seconds to compile a method's entry point with a problem's functions from an empty cache (2R arm, process CPU
+#: less the library's, on a loaded 2-core machine: rk4 ~13, auto ~24)
+COMPILE_SECONDS = {"euler": 15, "rk4": 15, "rk45": 20, "dop853": 25, "radau": 25, "auto": 25}
 #: a first call that has not returned after this many seconds is compiling (numba's cache loads in less)
 ANNOUNCE_AFTER = 1.5
 _SEEN = set()  # the (method, problem kind) pairs run in this process: their entry points are compiled
