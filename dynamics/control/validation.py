@@ -40,9 +40,22 @@ def _times(name, t):
     return np.ascontiguousarray(t)
 
 
+def _read_only(frames):
+    """``model.frame_arrays`` with every array a read-only view: a model unpickled in a worker process has them
+    writable, a different numba type, and the worker would compile the simulation again instead of loading the
+    caller's from numba's cache."""
+    views = []
+    for a in frames:
+        v = a.view()
+        v.flags.writeable = False
+        views.append(v)
+    return type(frames)(*views)
+
+
 def _source_for(model):
     """Source(...) with the operational-space fields set to placeholders of the right types."""
-    frames, rows, task_gains, orientation = model.frame_arrays, np.zeros(0, np.int64), np.zeros((2, 6)), _IDENTITY
+    frames, rows, task_gains, orientation = _read_only(model.frame_arrays), np.zeros(0, np.int64), np.zeros((2, 6)), \
+        _IDENTITY
 
     def build(kind, times, table, gains, qref, slot):
         return Source(kind, times, table, gains, qref, slot, frames, -1, rows, task_gains, orientation, 0.0, None)
@@ -119,7 +132,7 @@ def _operational_space_source(model, spec):
         gains[1] = 2.0 * np.sqrt(gains[0] * np.diag(mass_matrix(model, qref)))
     damping = checks.real_number("torque.damping", spec.damping, lo=0.0)
     return Source(OPERATIONAL_SPACE, times, np.ascontiguousarray(np.concatenate([p, pd, pdd], 1)), gains, qref,
-                  -1, model.frame_arrays, f, rows.astype(np.int64), task_gains, otab, float(damping),
+                  -1, _read_only(model.frame_arrays), f, rows.astype(np.int64), task_gains, otab, float(damping),
                   operational_space_workspace(model.tree.parents.shape[0], nv, nq))
 
 
