@@ -20,7 +20,8 @@ an atomic increment and decrement each time: a right-hand side that reads the pr
 tree, the ABA workspace, the torque source) paid ~2 us per evaluation for it on the 2R arm, four times the
 arithmetic.  Arrays made by ``numba.carray`` over a pointer have no owner, and numba skips their counts.
 :func:`borrow` rebuilds a problem (NamedTuples and tuples of arrays, nested) with every C-contiguous array
-(except the read-only ones: the model's) replaced by such a view of the same memory, once per run at the entry
+replaced by such a view of the same memory (writable in type: a kernel that must share the run's compiled
+callees borrows its arguments too, :func:`dynamics.simulation.problem.singular_body`), once per run at the entry
 point; the pointer comes from the
 integer address by the cast of numba's own ``intrinsic`` documentation example (:func:`_address_as_pointer`).
 The rule: the borrowed value never outlives the call that made it (never stored or returned), and the caller
@@ -97,9 +98,7 @@ def _borrow_array(x):
 @overload(borrow, jit_options=_IMPL_OPTIONS)
 def _ov_borrow(x):
     if isinstance(x, types.Array):
-        # records keep numba's own handling; read-only arrays (the model's) too: a borrowed copy would be
-        # writable, a new type, and every kernel reading it (the ABA) would compile a second time for it
-        plain = isinstance(x.dtype, (types.Number, types.Boolean)) and x.mutable
+        plain = isinstance(x.dtype, (types.Number, types.Boolean))  # records keep numba's own handling
         return _borrow_array if x.layout == "C" and x.ndim > 0 and plain else _same
     if isinstance(x, types.BaseTuple) and len(x) > 0:
         # one function per tuple type: each field borrowed, the NamedTuple class (or a plain tuple) rebuilt

@@ -24,7 +24,8 @@ import numpy as np
 
 from ..aba import aba_into
 from ..aba import workspace as aba_workspace
-from .._numba import copy_into, generic_kernel, inline_kernel
+from .._numba import copy_into, generic_kernel, inline_kernel, keep_alive, kernel
+from .._numba.boundary import borrow
 from ..configuration import chart_rate_in, chart_tag, integrate_delta, retract_in
 from ..joints import JOINT_FREE
 from ..control.dispatch import kind_tag, source_workspace, torque_eval
@@ -66,6 +67,20 @@ def robot_problem(model, passive, source, q0, out_t, outputs):
         np.empty(nv), np.empty(nv), ws, out_t,
         np.zeros((T if "q" in outputs else 0, nq)), np.zeros((T if "v" in outputs else 0, nv)),
         np.zeros((T if "tau" in outputs else 0, nv)), np.zeros((T, NQUAD)), np.zeros(1, np.int64))
+
+
+@kernel
+def singular_body(tree, q, v, gravity, ws):
+    """The ABA at (q, v) with zero torque, as ``rhs`` calls it: -1, or the body whose joint makes M singular
+    (simulate's check of q0).  Its arguments borrowed as the run's are, so that the ABA compiled here is the one
+    the run uses (one compilation, not two)."""
+    nv = v.shape[0]
+    owner = np.zeros(2 * nv)
+    buf = borrow(owner)
+    body = aba_into(borrow(tree), borrow(q), borrow(v)[0:nv], buf[:nv], borrow(gravity), np.zeros((0, 6)),
+                    borrow(ws), buf[nv:])
+    keep_alive(owner)
+    return body
 
 
 @inline_kernel

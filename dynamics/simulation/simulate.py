@@ -14,7 +14,6 @@ from warnings import warn
 
 import numpy as np
 
-from ..aba import aba_into
 from ..aba import workspace as aba_workspace
 from ..checks import check_model, real_number, vector
 from ..configuration import retract
@@ -32,7 +31,7 @@ from ..constrained import (DEFAULT_BAUMGARTE, baumgarte_gains, project_position_
 from ..constrained import workspace as constrained_workspace
 from ..constraints import arrays
 from .constrained_problem import PROJECT_TOL, constrained_problem
-from .problem import NQUAD, robot_problem
+from .problem import NQUAD, robot_problem, singular_body
 from .progress import check as check_progress
 from .progress import watcher
 from .run import run
@@ -300,9 +299,7 @@ def _project_initial(model, q0, v0, warnings):
 def _check_not_singular(model, q0, v0, g):
     """A joint that moves no mass makes M singular: say which, now, rather than NaN in the first step (the
     ABA kernel the right-hand side uses anyway, not the public forward_dynamics: no second compilation)."""
-    nv, nb = model.nv, model.tree.parents.shape[0]
-    body = aba_into(model.tree, q0, v0, np.zeros(nv), g, np.zeros((0, 6)), aba_workspace.py_func(nb, nv),
-                   np.empty(nv))
+    body = singular_body(model.tree, q0, v0, g, aba_workspace.py_func(model.tree.parents.shape[0], model.nv))
     if body >= 0:
         raise InputError(f"q0: the mass matrix is singular at joint {model.joint_names[body]!r}: it moves no mass "
                          "or inertia (add mass below it, lock it with dynamics.lock_joints, or remove it)")
