@@ -21,7 +21,7 @@ q, v, a, kp, kd)``     (inverse dynamics, the RNEA), so the closed loop is e'' +
                        Hermite polynomials, which are C2 and consistent (v_ref = q_ref', a_ref = v_ref').
 ``OperationalSpace(    operational-space control of a frame's position (and orientation) along a reference
 frame, reference,      trajectory: tau = J^T (Lambda xdd* + mu + p) + N tau_0 with a null-space posture task
-kp, kd)``, ``Target``  (:mod:`dynamics.operational_space`); ``Target`` holds a fixed pose.
+kp, kd)``, ``Target``  (:mod:`dynamics.control.operational_space`); ``Target`` holds a fixed pose.
 callable f(t, q, v)    called from the compiled loop through ``numba.objmode`` (one Python call per
                        right-hand-side evaluation; everything else stays compiled).
 =====================  ========================================================================================

@@ -121,7 +121,7 @@ _EVAL = {tag: fn for tag, fn in _KINDS.values()}
 
 
 def kind_tag(kind):
-    """The tag of a source kind: passed with the source (:class:`SourceCall`), its numba type selects the one
+    """The tag of a source kind: passed with the source (the problem's ``tag`` field), its numba type selects the one
     evaluation :func:`torque_eval` compiles."""
     return _KINDS[kind][0]()
 

@@ -14,7 +14,7 @@ KIND_NAMES = ("zero", "constant", "table_linear", "table_zoh", "pd", "computed_t
 class Source(NamedTuple):
     """Compiled form of a torque source: one numba type for every kind except the operational space, whose
     workspace ``ws`` is None in the others (the operational-space workspace is large).  Which kind's
-    evaluation is compiled is told by its tag (:func:`kind_tag`, in :class:`SourceCall`)."""
+    evaluation is compiled is told by its tag (:func:`~.dispatch.kind_tag`, which the problem carries)."""
 
     kind: int
     times: np.ndarray  # (N,) table or reference times
@@ -64,7 +64,7 @@ class ComputedTorque:
 
 
 class OperationalSpace:
-    """Operational-space control of ``frame`` along ``reference`` (:mod:`dynamics.operational_space`).
+    """Operational-space control of ``frame`` along ``reference`` (:mod:`dynamics.control.operational_space`).
 
     reference: ``(t, position)`` or ``(t, position, orientation)``, or a :class:`TaskReference` (which can also
     give the velocities and accelerations): t (N,) strictly increasing, position (N, 3) of the frame origin in
