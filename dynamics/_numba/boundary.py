@@ -15,7 +15,9 @@ a warm call fell from ~30 ms to ~0.4 ms.
 
 The implementation is the attribute's ``py_func`` compiled by the overload itself, not a call to its
 dispatcher: a wrapper calling the dispatcher would be one more compiled layer, and numba optimises each layer
-again together with all the code it links in (the ABA).
+again together with all the code it links in (the ABA).  Known cost: numba keys an overload's implementation by its caller's
+flags, and a stepper's implementation is compiled without a Python wrapper while the entry point has one, so
+``rhs`` is compiled twice per problem type (~2.5 of a first rk4 simulate's ~17 CPU s).
 
 **Arrays without reference counts.**  numba counts the references of every array a compiled function binds,
 an atomic increment and decrement each time: a right-hand side that reads the problem's tuples (the model's
