@@ -9,7 +9,7 @@ The public interface is the names below, ``dynamics.torques``, ``dynamics.plot``
 the modules under them are internal.
 """
 
-from .errors import DeadlineExceeded, DynamicsError, InputError, URDFError
+from .errors import DeadlineExceeded, DynamicsError, InputError, SimulationWarning, URDFError
 from .model import Model
 from .urdf import load_urdf
 from .rnea import bias_forces, gravity_torques, inverse_dynamics
@@ -38,7 +38,7 @@ from .simulation.work_precision import WorkPrecision, work_precision
 from .sweeps import Trajectories, map_batches, simulate_many
 
 __all__ = [
-    "DeadlineExceeded", "DynamicsError", "InputError", "URDFError", "Model", "load_urdf",
+    "DeadlineExceeded", "DynamicsError", "InputError", "SimulationWarning", "URDFError", "Model", "load_urdf",
     "inverse_dynamics", "gravity_torques", "bias_forces", "mass_matrix", "forward_dynamics",
     "kinetic_energy", "potential_energy", "coriolis_matrix", "lock_joints", "reorder",
     "simulate", "Trajectory", "integrate", "torques", "robots", "plot",

@@ -14,16 +14,24 @@ of one item.
 Progress: ``progress=None`` shows a tqdm bar when stderr is a terminal and nothing otherwise, ``True``/``False``
 force it on/off, and a callable ``progress(done, total)`` is called after every chunk (for programs).
 
+Processes: workers start by forkserver (spawn elsewhere), which imports the main script again in each worker
+process; a script that calls us at its top level, outside ``if __name__ == "__main__":``, would then run again
+in every worker and break the pool.  :func:`check_main_guard` finds that before any worker starts and says so.
+Workers load the compiled kernels from numba's on-disk cache, warmed by the caller (``simulate_many`` runs its
+first simulation in the calling process).
+
 Ray is optional (``pip install 'dynamics[ray]'``).  ``engine="ray"`` connects to ``ray_address`` (an existing
 cluster, e.g. "ray://head:10001" or "auto"), or starts a local Ray on first use.
 """
 
+import ast
 import importlib
 import math
 import multiprocessing
 import os
 import sys
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, ThreadPoolExecutor, wait
+from concurrent.futures.process import BrokenProcessPool
 
 from .errors import InputError
 from .parallel import num_threads
@@ -113,6 +121,40 @@ def _process_call(fn, chunk):
     return fn(_process_shared["shared"], chunk)
 
 
+def _is_main_test(test):
+    """``__name__ == "__main__"`` (either way round)."""
+    if not (isinstance(test, ast.Compare) and len(test.ops) == 1 and isinstance(test.ops[0], ast.Eq)):
+        return False
+    sides = [test.left, test.comparators[0]]
+    return (any(isinstance(x, ast.Name) and x.id == "__name__" for x in sides)
+            and any(isinstance(x, ast.Constant) and x.value == "__main__" for x in sides))
+
+
+def check_main_guard():
+    """Raise InputError if the main script called us from its top level outside an ``if __name__ ==
+    "__main__":`` block (module docstring).  Interactive sessions, ``python -c`` and notebooks pass: their main
+    module is not imported again by the workers."""
+    main = sys.modules.get("__main__")
+    path = getattr(main, "__file__", None)
+    frame = sys._getframe(1)
+    while frame is not None and not (frame.f_code.co_name == "<module>" and frame.f_globals is vars(main)):
+        frame = frame.f_back
+    if frame is None or not path or not os.path.isfile(path):
+        return
+    try:
+        with open(path, encoding="utf-8") as f:
+            tree = ast.parse(f.read())
+    except (OSError, SyntaxError, ValueError):
+        return
+    line = frame.f_lineno
+    for node in tree.body:
+        if isinstance(node, ast.If) and _is_main_test(node.test) and node.lineno <= line <= node.end_lineno:
+            return
+    raise InputError(f"engine='processes': {os.path.basename(path)} line {line} starts worker processes from the "
+                     "script's top level; each worker imports the script again and would run it again. Put the "
+                     "script's work under `if __name__ == \"__main__\":` (or use engine='threads')")
+
+
 def _collect(futures_by_start, progress, total):
     """Wait for every future, reporting progress as chunks finish; results in the order of their starts."""
     out, pending = {}, dict(futures_by_start)
@@ -135,10 +177,15 @@ def map_chunks(fn, shared, items, *, engine="threads", chunk=1, progress=None, d
             with ThreadPoolExecutor(max_workers=num_threads(), thread_name_prefix="dynamics-map") as pool:
                 return _collect({k: pool.submit(fn, shared, c) for k, c in chunks}, bar, len(items))
         if engine == "processes":
+            check_main_guard()
             context = multiprocessing.get_context("forkserver" if os.name == "posix" else "spawn")
-            with ProcessPoolExecutor(max_workers=num_threads(), mp_context=context, initializer=_process_init,
-                                     initargs=(shared,)) as pool:
-                return _collect({k: pool.submit(_process_call, fn, c) for k, c in chunks}, bar, len(items))
+            try:
+                with ProcessPoolExecutor(max_workers=num_threads(), mp_context=context, initializer=_process_init,
+                                         initargs=(shared,)) as pool:
+                    return _collect({k: pool.submit(_process_call, fn, c) for k, c in chunks}, bar, len(items))
+            except BrokenProcessPool as e:
+                raise RuntimeError("engine='processes': a worker process died (killed, out of memory, or it failed "
+                                   "to import the main script); its error is printed above") from e
         return _map_ray(fn, shared, chunks, bar, ray_address)
     finally:
         bar.close()

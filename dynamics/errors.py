@@ -29,6 +29,12 @@ class DeadlineExceeded(TimeoutError):
         self.done, self.total = done, total
 
 
+class SimulationWarning(UserWarning):
+    """A simulation finished but its report has warnings (``report["warnings"]``: an inaccurate error estimate,
+    a run that stopped early, ...): each is also emitted with this category, so that
+    ``warnings.simplefilter("error", dynamics.SimulationWarning)`` turns them into errors and "ignore" hides them."""
+
+
 def closest(name, names, what):
     """An InputError for an unknown ``name`` that lists the closest of ``names``."""
     near = difflib.get_close_matches(str(name), [str(n) for n in names], n=5, cutoff=0.4)

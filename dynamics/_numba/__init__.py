@@ -220,7 +220,3 @@ class SingleCall:
         self.call = self.dispatcher
         return self.dispatcher(*args)
 
-
-# TEMPORARY, until the simulation's public-API boundary lands (issue 22): the simulation still imports these
-from ._address import (address_call, borrowing_kernel, call_address, deref, native_address, owned_pack,  # noqa
-                       pack)

@@ -20,7 +20,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .._numba import borrowing_kernel, copy_into, deref
+from .._numba import copy_into, generic_kernel
 from ..constrained_dynamics import (_constrained_accel_kernel, _drift_kernel, _project_position_kernel,
                            _project_velocity_kernel)
 from ..constrained_dynamics import _workspace as constrained_workspace
@@ -60,10 +60,9 @@ def constrained_problem(model, passive, source, q0, out_t, outputs, alpha, beta,
         np.zeros((T if "lambda" in outputs else 0, m)), np.zeros(2), np.zeros(1, np.int64))
 
 
-@borrowing_kernel
+@generic_kernel
 def constrained_rhs(p, t, z, dz):
     """dz = f(t, z) with the constrained accelerations (NaN when M is singular); p.lam = the multipliers."""
-    p = deref(p)  # a pointer when called through the solvers' Handle
     nv = p.tau_s.shape[0]
     q, v = chart_and_velocity(p, z, dz)
     power_s, power_p = applied_torques(p, t, q, v)
@@ -74,18 +73,17 @@ def constrained_rhs(p, t, z, dz):
     dz[2 * nv + 1] = power_p
 
 
-@borrowing_kernel
+@generic_kernel
 def _track_drift(p, q, v):
     pos, vel = _drift_kernel(p.tree, p.C, q, v, p.ws_con)
     p.drift[0] = max(p.drift[0], pos)
     p.drift[1] = max(p.drift[1], vel)
 
 
-@borrowing_kernel
+@generic_kernel
 def constrained_rebase(p, t, z, dz, mag):
     """:func:`.problem.rebase`, then (``p.project``) the projection onto phi = 0, Phi_q v = 0 and f(t, z) again
     at the projected state; then the drift of the state the next step starts from."""
-    p = deref(p)  # a pointer when called through the solvers' Handle
     nv = p.tau_s.shape[0]
     rebase(p, t, z, dz, mag)
     v = z[nv:2 * nv]
@@ -102,11 +100,10 @@ def constrained_rebase(p, t, z, dz, mag):
     _track_drift(p, p.base, v)
 
 
-@borrowing_kernel
+@generic_kernel
 def constrained_emit(p, j, t, z):
     """:func:`.problem.emit`, the drift at the sample and, when kept, its multipliers (those the simulation
     applies there: Baumgarte terms included)."""
-    p = deref(p)  # a pointer when called through the solvers' Handle
     nv = p.tau_s.shape[0]
     emit(p, j, t, z)
     q = p.qbuf

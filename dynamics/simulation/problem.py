@@ -24,12 +24,12 @@ import numpy as np
 
 from ..aba import _aba_into
 from ..aba import _workspace as aba_workspace
-from numba import typeof, types
-
-from .._numba import address_call, borrowing_kernel, copy_into, deref, inline_kernel, native_address
+from .._numba import copy_into, generic_kernel, inline_kernel, keep_alive, kernel
+from .._numba.boundary import borrow
 from ..configuration import chart_rate_in, chart_tag, _integrate_delta, retract_in
 from ..joints import JOINT_FREE
-from ..torques import bind_source, call_source, passive_torques, source_workspace
+from ..control.dispatch import kind_tag, source_workspace, torque_eval
+from ..control.passive import passive_torques
 
 NQUAD = 2  # W_source, W_passive
 
@@ -39,9 +39,9 @@ class RobotProblem(NamedTuple):
 
     tree: object  # the model's Tree
     passive: object  # torques.Passive (also holds gravity and the external forces)
-    source_fn: int  # address of the torque source's compiled function (torques.bind_source)
-    source: np.ndarray  # the packed torques.SourceCall (source, tree, passive, _workspace), which it keeps alive
-    aba_fn: int  # address of _aba_into compiled for this problem's types (:func:`aba_address`)
+    source: object  # torques.Source
+    ws_source: tuple  # torques.source_workspace(...)
+    tag: object  # torques.kind_tag(source.kind): its type selects the one source evaluation compiled
     chart: object  # configuration.chart_tag(model): its type says whether the model has a free joint
     base: np.ndarray  # (nq,) configuration at the start of the current step (the chart's base)
     qbuf: np.ndarray  # (nq,) scratch: the configuration of the state being evaluated
@@ -60,36 +60,34 @@ def robot_problem(model, passive, source, q0, out_t, outputs):
     """A :class:`RobotProblem` for a run from q0 that keeps ``outputs`` (of "q", "v", "tau") at ``out_t``."""
     nv, nq, nb = model.nv, model.nq, model.tree.parents.shape[0]
     T = out_t.shape[0]
-    source_fn, source_buf = bind_source(source, model.tree, passive, source_workspace(source, nb, nv))
     ws = aba_workspace.py_func(nb, nv)  # numpy's allocations from Python: the compiled kernel would cost 0.2 s
     return RobotProblem(
-        model.tree, passive, source_fn, source_buf, aba_address(model.tree, passive, ws), chart_tag(model),
+        model.tree, passive, source, source_workspace(source, nb, nv), kind_tag(source.kind), chart_tag(model),
         q0.copy(), np.empty(nq),
         np.empty(nv), np.empty(nv), ws, out_t,
         np.zeros((T if "q" in outputs else 0, nq)), np.zeros((T if "v" in outputs else 0, nv)),
         np.zeros((T if "tau" in outputs else 0, nv)), np.zeros((T, NQUAD)), np.zeros(1, np.int64))
 
 
-_VEC = types.float64[::1]
-_ABA_ADDRESSES = {}  # argument types -> address of _aba_into compiled for them (this process)
-#: ``call_aba(fn, restype, tree, q, v, tau, gravity, f_ext, ws, qdd)``: _aba_into through its address
-call_aba = address_call("call_aba", 8)
-
-
-def aba_address(tree, passive, ws):
-    """The address of :func:`dynamics.aba._aba_into` compiled (once per type) for ``rhs``'s arguments: ``rhs``
-    calls the ABA through it, so the ABA's code is not linked into rhs and optimised again there."""
-    args = (typeof(tree), _VEC, _VEC, _VEC, typeof(passive.gravity), typeof(passive.f_ext), typeof(ws), _VEC)
-    if args not in _ABA_ADDRESSES:
-        _ABA_ADDRESSES[args] = native_address(_aba_into, types.int64(*args))
-    return _ABA_ADDRESSES[args]
+@kernel
+def singular_body(tree, q, v, gravity, ws):
+    """The ABA at (q, v) with zero torque, as ``rhs`` calls it: -1, or the body whose joint makes M singular
+    (simulate's check of q0).  Its arguments borrowed as the run's are, so that the ABA compiled here is the one
+    the run uses (one compilation, not two)."""
+    nv = v.shape[0]
+    owner = np.zeros(2 * nv)
+    buf = borrow(owner)
+    body = _aba_into(borrow(tree), borrow(q), borrow(v)[0:nv], buf[:nv], borrow(gravity), np.zeros((0, 6)),
+                    borrow(ws), buf[nv:])
+    keep_alive(owner)
+    return body
 
 
 @inline_kernel
 def applied_torques(p, t, q, v):
     """p.tau_p = source + passive torques at (t, q, v); returns the powers (v . tau_source, v . tau_passive)."""
     tau_s, tau_p = p.tau_s, p.tau_p
-    call_source(p.source_fn, p.source, t, q, v, tau_s)
+    torque_eval(p.tag, p.source, p.tree, p.passive, t, q, v, p.ws_source, tau_s)
     passive_torques(p.passive, q, v, tau_p)
     power_s = 0.0
     power_p = 0.0
@@ -109,25 +107,22 @@ def chart_and_velocity(p, z, dz):
     return p.qbuf, z[nv:2 * nv]
 
 
-@borrowing_kernel
+@generic_kernel
 def rhs(p, t, z, dz):
     """dz = f(t, z): chart rate, ABA accelerations (NaN when the articulated inertia is singular), powers."""
-    p = deref(p)
     nv = p.tau_s.shape[0]
     q, v = chart_and_velocity(p, z, dz)
     power_s, power_p = applied_torques(p, t, q, v)
-    if call_aba(p.aba_fn, types.int64, p.tree, q, v, p.tau_p, p.passive.gravity, p.passive.f_ext, p.ws_aba,
-                dz[nv:2 * nv]) >= 0:
+    if _aba_into(p.tree, q, v, p.tau_p, p.passive.gravity, p.passive.f_ext, p.ws_aba, dz[nv:2 * nv]) >= 0:
         dz[nv:2 * nv] = np.nan
     dz[2 * nv] = power_s
     dz[2 * nv + 1] = power_p
 
 
-@borrowing_kernel
+@generic_kernel
 def rebase(p, t, z, dz, mag):
     """Fold the chart coordinates into ``base``, rewrite dz's chart part for the new chart, and the
     magnitudes of the state for the relative tolerance (|q| per 1-dof coordinate and free-flyer position)."""
-    p = deref(p)
     tree, base = p.tree, p.base
     nv = p.tau_s.shape[0]
     retract_in(p.chart, tree, base, z[:nv], p.qbuf)
@@ -144,18 +139,16 @@ def rebase(p, t, z, dz, mag):
             mag[k] = abs(base[tree.q_idx[i]])
 
 
-@borrowing_kernel
+@generic_kernel
 def euler_config(p, z, h):
-    p = deref(p)
     nv = p.tau_s.shape[0]
     _integrate_delta(p.tree, p.base, z[nv:2 * nv], h, z[:nv])
 
 
-@borrowing_kernel
+@generic_kernel
 def emit(p, j, t, z):
     """Write sample j.  An output the caller did not ask for has zero rows: it is neither kept nor, for the
     torques, computed."""
-    p = deref(p)
     nv = p.tau_s.shape[0]
     p.out_t[j] = t
     q = p.out_q[j] if p.out_q.shape[0] > 0 else p.qbuf  # qbuf is free between right-hand-side evaluations
@@ -163,7 +156,7 @@ def emit(p, j, t, z):
     if p.out_v.shape[0] > 0:
         copy_into(p.out_v[j], z[nv:2 * nv])
     if p.out_tau.shape[0] > 0:
-        call_source(p.source_fn, p.source, t, q, z[nv:2 * nv], p.out_tau[j])
+        torque_eval(p.tag, p.source, p.tree, p.passive, t, q, z[nv:2 * nv], p.ws_source, p.out_tau[j])
     copy_into(p.out_w[j], z[2 * nv:])
     p.count[0] = j + 1
 

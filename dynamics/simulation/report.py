@@ -25,7 +25,8 @@ It is measured, not modelled, by a second run of the same method on the same pro
 * fixed-step methods (``euler``, ``rk4``, order p = 1, 4): a second run with dt/2, and Richardson's estimate
   ``|y(dt) - y(dt/2)| * 2^p / (2^p - 1)``.
 
-The second run costs 1-3x the first and is timed separately (``error_estimate_wall_time_s``).  With
+The second run costs 1-3x the first (Panda under PD, 1 s, auto: ~2x) and is timed separately
+(``error_estimate_wall_time_s``; ``cost_of_estimate`` is its ratio to the run's ``wall_time_s``).  With
 ``error_estimate="local"`` the report gives instead the sum over accepted steps of the max-norm of the local
 error estimates (adaptive methods only): cheap, but it can understate the global error of unstable or chaotic
 dynamics, whose local errors grow.  ``"none"`` skips it (``error_estimate`` is None).
@@ -62,8 +63,9 @@ WHY = {"nonfinite": "a NaN/inf appeared in the state or its derivative",
        "step_too_small": "the step size collapsed below the time resolution"}
 
 
-def run_status(st, s, blowup, stability, warnings):
-    """The report's status for the run's statistics; raises InputError when the step budget ran out."""
+def run_status(st, s, blowup, stability, warnings, why=None):
+    """The report's status for the run's statistics; raises InputError when the step budget ran out.  ``why``:
+    a more precise reason for a stopped run than the statistics give (a singular task)."""
     status = STATUS_NAMES[st["status"]]
     t_final = float(st["t"]) if s.duration > 0 else 0.0
     if status == "max_steps":
@@ -71,7 +73,7 @@ def run_status(st, s, blowup, stability, warnings):
                          f"{s.duration:g} s; raise max_steps, loosen rtol/atol, or use integrator='radau' if "
                          "the problem is stiff")
     if status != "ok":
-        status = f"unstable: {WHY[status].format(blowup=blowup)} at t={t_final:.6g} s"
+        status = f"unstable: {why or WHY[status].format(blowup=blowup)} at t={t_final:.6g} s"
         warnings.append(f"simulation stopped early, {status}; the trajectory ends at the last good sample")
         if s.fixed and stability and stability["dt_times_spectral_radius"] <= stability["limit"]:
             warnings.append(f"{s.integrator}: consider a smaller dt or integrator='radau'")
@@ -135,7 +137,8 @@ def error_estimate(model, s, run, rerun, order, warnings):
     elif s.duration == 0:
         est = est_q = est_v = 0.0
     return {"error_estimate": est, "error_estimate_q": est_q, "error_estimate_v": est_v,
-            "error_estimate_method": method, "error_estimate_wall_time_s": wall}
+            "error_estimate_method": method, "error_estimate_wall_time_s": wall,
+            "cost_of_estimate": wall / run.wall if run.wall > 0 else 0.0}
 
 
 def energy_balance(model, s, t, q, v, w, run):

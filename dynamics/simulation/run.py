@@ -1,112 +1,103 @@
 """The compiled entry points: one cached kernel per method, so a call compiles (or loads) only the method it
 runs (``auto``: rk45 and radau), and the stability probe of the fixed-step methods.
 
-Each entry point takes a :class:`~.solvers.interface.Handle` of the problem (:mod:`.problem`): the address of
-the problem's value and of its functions compiled for a pointer to it (:func:`handle`).  So the solvers are
-compiled once, and cached, for every problem type (a constrained problem, an operational-space torque source),
-and without the problem's code: the ABA and the torque source are optimised once, in the problem's own
-functions, not again in every solver that calls them.  A new problem type compiles its four functions only.
-The rule of borrowed values (:mod:`dynamics._numba`) holds: :func:`run` holds the problem, and the buffer of its
-packed value, until the entry point returns.
+Each entry point takes the problem itself (:mod:`.problem`, :mod:`.constrained_problem`): numba compiles the
+method's solver together with the problem's functions (the ABA or the KKT solve, the torque source; reached
+through :mod:`dynamics._numba.boundary`'s interface calls), once per method and problem type, and caches the
+result on disk.  A call from Python is then numba's dispatcher and nothing else: no packing, no addresses, and
+the GIL released for the whole loop (``nogil``), so runs on several threads overlap.
 """
 
 import logging
+import threading
 import time
 
-from numba import typeof, types
-
-from .._numba import kernel, native_address, pack
+from .._numba import kernel
+from .._numba.boundary import borrow
 from . import solvers
-from .solvers.interface import BY_REFERENCE, Handle
 
 log = logging.getLogger("dynamics.simulation")
 
 
-_ADDRESSES = {}  # (problem type, function name) -> its address (this process)
-
-
-def handle(p, needs=("rhs", "rebase", "emit")):
-    """The :class:`~.solvers.interface.Handle` of problem p, and the buffer holding p's value (keep both, and
-    p, alive while the handle is used).  The problem's functions take the problem or a pointer to it
-    (:func:`dynamics._numba.deref`): each is compiled, and cached, once per problem type for a pointer, and
-    only those in ``needs`` (the others' addresses are 0: euler_config serves the Euler method alone)."""
-    ty = typeof(p)
-    addresses = []
-    for name, args in BY_REFERENCE.items():
-        key = (ty, name)
-        if key not in _ADDRESSES and name in needs:
-            _ADDRESSES[key] = native_address(getattr(type(p), name), types.none(types.CPointer(ty), *args))
-        addresses.append(_ADDRESSES.get(key, 0))
-    buf = pack(p)
-    return Handle(buf.ctypes.data, *addresses), buf
-
-
-# One entry point per method, compiled once for every problem type (they take a Handle).  Six small functions,
-# not one generic one: a run compiles only its own method's solver (a generic entry would compile them all).
+# One entry point per method, compiled (and cached) once per problem type.  Six small functions, not one generic
+# one: a run compiles only its own method's solver (a generic entry would compile them all).  The solver gets
+# the problem borrowed (no reference counts on its arrays; p, the argument, holds them for the call).
 @kernel
-def _euler(h, z, t0, t_end, out_t, opt, stats, sw):
-    return solvers.solve_euler(h, z, t0, t_end, out_t, opt, stats, sw)
+def _euler(p, z, t0, t_end, out_t, opt, stats, sw):
+    return solvers.solve_euler(borrow(p), z, t0, t_end, out_t, opt, stats, sw)
 
 
 @kernel
-def _rk4(h, z, t0, t_end, out_t, opt, stats, sw):
-    return solvers.solve_rk4(h, z, t0, t_end, out_t, opt, stats, sw)
+def _rk4(p, z, t0, t_end, out_t, opt, stats, sw):
+    return solvers.solve_rk4(borrow(p), z, t0, t_end, out_t, opt, stats, sw)
 
 
 @kernel
-def _rk45(h, z, t0, t_end, out_t, opt, stats, sw):
-    return solvers.solve_rk45(h, z, t0, t_end, out_t, opt, stats, sw)
+def _rk45(p, z, t0, t_end, out_t, opt, stats, sw):
+    return solvers.solve_rk45(borrow(p), z, t0, t_end, out_t, opt, stats, sw)
 
 
 @kernel
-def _dop853(h, z, t0, t_end, out_t, opt, stats, sw):
-    return solvers.solve_dop853(h, z, t0, t_end, out_t, opt, stats, sw)
+def _dop853(p, z, t0, t_end, out_t, opt, stats, sw):
+    return solvers.solve_dop853(borrow(p), z, t0, t_end, out_t, opt, stats, sw)
 
 
 @kernel
-def _radau(h, z, t0, t_end, out_t, opt, stats, sw):
-    return solvers.solve_radau(h, z, t0, t_end, out_t, opt, stats, sw)
+def _radau(p, z, t0, t_end, out_t, opt, stats, sw):
+    return solvers.solve_radau(borrow(p), z, t0, t_end, out_t, opt, stats, sw)
 
 
 @kernel
-def _auto(h, z, t0, t_end, out_t, opt, stats, sw):
-    return solvers.solve_auto(h, z, t0, t_end, out_t, opt, stats, sw)
+def _auto(p, z, t0, t_end, out_t, opt, stats, sw):
+    return solvers.solve_auto(borrow(p), z, t0, t_end, out_t, opt, stats, sw)
 
 
 ENTRY = {"euler": _euler, "rk4": _rk4, "rk45": _rk45, "dop853": _dop853, "radau": _radau, "auto": _auto}
 
 
-#: seconds to compile a method's entry point and the problem's functions from an empty cache (2R arm, measured
-#: on a loaded 2-core machine, process CPU time less the library's)
-COMPILE_SECONDS = {"euler": 12, "rk4": 12, "rk45": 20, "dop853": 25, "radau": 30, "auto": 18}
-#: the problem functions a method calls (euler_config serves the symplectic Euler method alone)
-NEEDS = {"euler": ("rhs", "rebase", "emit", "euler_config")}
+#: seconds to compile a method's entry point with a problem's functions from an empty cache (2R arm, process CPU
+#: less the library's, on a loaded 2-core machine: rk4 ~13, auto ~24)
+COMPILE_SECONDS = {"euler": 15, "rk4": 15, "rk45": 20, "dop853": 25, "radau": 25, "auto": 25}
+#: a first call that has not returned after this many seconds is compiling (numba's cache loads in less)
+ANNOUNCE_AFTER = 1.5
+_SEEN = set()  # the (method, problem kind) pairs run in this process: their entry points are compiled
+_SEEN_LOCK = threading.Lock()
 
 
-def _loaded(dispatcher, sig):
-    """Whether ``dispatcher`` is compiled for ``sig`` (a tuple of argument types, or a Signature: numba's cache
-    keys an overload by the form it was compiled with, a Signature for :func:`native_address`) in this process
-    or in numba's on-disk cache (then loaded now)."""
-    if tuple(getattr(sig, "args", sig)) in dispatcher.overloads:
-        return True
-    try:
-        cres = dispatcher._cache.load_overload(sig, dispatcher.targetctx)  # numba's own cache lookup
-    except Exception:  # numba internals moved: stay quiet rather than fail a simulation
-        return True
-    if cres is None:
-        return False
-    dispatcher.add_overload(cres)
-    return True
+def _kind(method, p):
+    """What selects a compiled entry point, in Python terms (cheaper than numba's typeof of the whole problem):
+    the method, the problem's class, its torque kind and its chart (free joint or not)."""
+    return method, type(p), type(p.tag), type(p.chart), p.ws_source[0] is None
 
 
-def _announce(dispatcher, name, args, also=()):
-    """Say once, before numba compiles ``dispatcher`` for these arguments (or a (dispatcher, argument types)
-    pair of ``also``), that it is about to and for how long; kernels already compiled in this process or found
-    in numba's on-disk cache say nothing."""
-    if all(_loaded(d, types_) for d, types_ in ((dispatcher, tuple(map(dispatcher.typeof_pyval, args))), *also)):
-        return
-    log.warning("compiling the simulation kernels for %r (first run, about %d s; cached afterwards)", name,
-                COMPILE_SECONDS.get(name, 20))
+class _announcing:
+    """Around the first call of ``dispatcher`` for a kind of problem in this process: if it has neither
+    returned nor gained a compiled signature after ``after`` seconds, numba is compiling: say so once, and for
+    about how long (a timer thread; loading numba's on-disk cache is quicker and says nothing, and a long run
+    after a quick load is not mistaken for a compilation).  Later calls of the same key pass through."""
+
+    def __init__(self, dispatcher, key, name, after=ANNOUNCE_AFTER):
+        self.dispatcher, self.key, self.name, self.after, self.timer = dispatcher, key, name, after, None
+
+    def __enter__(self):
+        with _SEEN_LOCK:
+            first = self.key not in _SEEN
+            _SEEN.add(self.key)
+        if first:
+            self.compiled = len(self.dispatcher.signatures)
+            self.timer = threading.Timer(self.after, self._still_compiling)
+            self.timer.daemon = True
+            self.timer.start()
+        return self
+
+    def _still_compiling(self):
+        if len(self.dispatcher.signatures) == self.compiled:
+            log.warning("compiling the simulation kernels for %r (first run, about %d s; cached afterwards)",
+                        self.name, COMPILE_SECONDS.get(self.name, 20))
+
+    def __exit__(self, *exc):
+        if self.timer is not None:
+            self.timer.cancel()
 
 
 def run(method, p, z, t_end, opt, t0=0.0, watch=None):
@@ -115,20 +106,14 @@ def run(method, p, z, t_end, opt, t0=0.0, watch=None):
     log's used rows, wall time of the run)."""
     entry = ENTRY[method]
     stats, sw = solvers.new_stats(), solvers.new_switch_log()
-    needs = NEEDS.get(method, ("rhs", "rebase", "emit"))
-    ty = typeof(p)
-    problem_fns = [(getattr(type(p), n), types.none(types.CPointer(ty), *BY_REFERENCE[n])) for n in needs]
-    _announce(entry, method, (Handle(0, 0, 0, 0, 0), z, float(t0), float(t_end), p.out_t, opt, stats, sw),
-              problem_fns)
-    h, buf = handle(p, needs)
-    args = (h, z, float(t0), float(t_end), p.out_t, opt, stats, sw)
-    tic = time.perf_counter()
-    if watch is None:
-        entry(*args)
-    else:
-        with watch(p):
+    args = (p, z, float(t0), float(t_end), p.out_t, opt, stats, sw)
+    with _announcing(entry, _kind(method, p), method):
+        tic = time.perf_counter()
+        if watch is None:
             entry(*args)
-    wall = time.perf_counter() - tic
-    del buf  # held (with p) until the entry point returned
+        else:
+            with watch(p):
+                entry(*args)
+        wall = time.perf_counter() - tic
     st = stats[0]
     return st, sw[:st["switches"]], wall

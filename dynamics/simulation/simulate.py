@@ -10,26 +10,32 @@ leaves compiled code (through ``numba.objmode``, once per right-hand-side evalua
 
 import math
 from typing import NamedTuple
+from warnings import warn
 
 import numpy as np
 
-from ..checks import check_model, real_number, refuse_singular, vector
+from ..aba import _workspace as aba_workspace
+from ..checks import check_model, real_number, singular_joint_error, vector
 from ..configuration import _retract
-from ..errors import InputError
+from ..errors import InputError, SimulationWarning
 from ..joints import JOINT_FREE
+from ..task_space import operational_space_inertia
 from .. import plot
-from ..torques import Passive, make_source, release_callable
+from ..control.passive import Passive
+from ..control.registry import release_callable
+from ..control.sources import OPERATIONAL_SPACE
+from ..control.validation import make_source
 from . import report as R
 from ..constrained_dynamics import (DEFAULT_BAUMGARTE, baumgarte_gains, _project_position_kernel,
                                     _project_velocity_kernel)
 from ..constrained_dynamics import _workspace as constrained_workspace
 from ..constraints import arrays, warn_drift, warn_off_manifold
 from .constrained_problem import PROJECT_TOL, constrained_problem
-from .problem import NQUAD, robot_problem
+from .problem import NQUAD, robot_problem, singular_body
 from .progress import check as check_progress
 from .progress import watcher
 from .run import run
-from .solvers import ADAPTIVE, FIXED, ORDER, STABILITY_LIMIT, Options
+from .solvers import ADAPTIVE, FIXED, NONFINITE, ORDER, STABILITY_LIMIT, Options
 
 __all__ = ["simulate", "Trajectory", "INTEGRATORS", "OUTPUTS", "DEFAULT_OUTPUTS"]
 
@@ -129,10 +135,13 @@ def simulate(model, q0, v0, duration, *, torque=None, integrator="auto", rtol=1e
         main = _one_run(model, s, ps, src, s.dt, s.out_t, s.rtol, s.atol, max_steps, s.outputs,
                         h0=s.dt if not s.fixed else 0.0, watch=watcher(progress, s.duration), probe=True)
         stability = _stability(s, main.stats["rho0"], warnings)
-        return _trajectory(model, s, ps, src, main, stability, warnings)
+        traj = _trajectory(model, s, ps, src, main, stability, warnings)
     finally:
         if src.slot >= 0:
             release_callable(src.slot)
+    for message in traj.report["warnings"]:  # also where Python programs look (filters, -W error)
+        warn(message, SimulationWarning, stacklevel=2)
+    return traj
 
 
 def _trajectory(model, s, ps, src, main, stability, warnings):
@@ -140,7 +149,10 @@ def _trajectory(model, s, ps, src, main, stability, warnings):
     report = {"integrator": s.integrator, "rtol": None if s.fixed else s.rtol, "atol": None if s.fixed else s.atol,
               "dt": s.dt}
     blowup = _blowup(s.v0)
-    status, t_final = R.run_status(main.stats, s, blowup, stability, warnings)
+    p = main.problem
+    cnt = int(p.count[0])
+    why = _why_nonfinite(model, s, src, main) if main.stats["status"] == NONFINITE else None
+    status, t_final = R.run_status(main.stats, s, blowup, stability, warnings, why)
     report.update(status=status, t_final=t_final, switches=R.switches(main.switches))
     report.update(R.statistics(main.stats, main.wall))
     if stability is not None:
@@ -152,8 +164,6 @@ def _trajectory(model, s, ps, src, main, stability, warnings):
     errors = R.error_estimate(model, s, main, rerun, ORDER.get(s.integrator, 0), warnings)
     R.accuracy_warnings(s, errors, main.qf, main.vf, warnings)
     report.update(errors)
-    p = main.problem
-    cnt = int(p.count[0])
     t, q, v, tau, w = p.out_t[:cnt], p.out_q[:cnt], p.out_v[:cnt], p.out_tau[:cnt], p.out_w[:cnt]
     report.update(R.energy_balance(model, s, t, q, v, w, main))
     lam = None
@@ -169,6 +179,22 @@ def _trajectory(model, s, ps, src, main, stability, warnings):
         lam = np.zeros((cnt, 0))
     report["warnings"] = warnings
     return Trajectory(t.copy(), q.copy(), v.copy(), tau.copy(), R.json_safe(report), lam)
+
+
+def _why_nonfinite(model, s, src, main):
+    """Why a run met a NaN, when the torque source can say: an operational-space task that is singular at the
+    last good state (the same verdict and condition number as :func:`dynamics.operational_space_inertia`).
+    None otherwise (the report's generic reason stands)."""
+    if src.kind != OPERATIONAL_SPACE or src.damping > 0:
+        return None
+    p = main.problem
+    cnt = int(p.count[0])
+    q = p.out_q[cnt - 1] if cnt and p.out_q.shape[0] else s.q0
+    try:
+        operational_space_inertia(model, q, int(src.frame), rows=src.rows)
+    except InputError as e:
+        return f"the operational-space task is singular: {e}"
+    return None
 
 
 def _one_run(model, s, ps, src, dt, out_t, rtol, atol, max_steps, outputs, h0=0.0, watch=None, probe=False):
@@ -243,7 +269,7 @@ def _settings(model, q0, v0, duration, integrator, rtol, atol, dt, sample_dt, gr
         if nsteps > max_steps:
             raise InputError(f"max_steps: dt={dt:g} needs {nsteps} steps over {duration:g} s, more than "
                              f"max_steps={max_steps}")
-    refuse_singular(model, q0, "q0")
+    _check_not_singular(model, q0, v0, g)
     constrained = bool(getattr(model, "constraints", ()))
     gains = baumgarte_gains(DEFAULT_BAUMGARTE if baumgarte is None else baumgarte)
     if not isinstance(project, (bool, np.bool_)):
@@ -271,6 +297,15 @@ def _project_initial(model, q0, v0, warnings):
     if moved > 1e-9:
         warnings.append(f"project: (q0, v0) moved onto the constraints by up to {moved:.3g}")
     return q, v
+
+
+def _check_not_singular(model, q0, v0, g):
+    """A singular M at q0: say which joint and why now (:func:`dynamics.checks.singular_joint_error`, the rule
+    ``dynamics check`` applies too), rather than NaN in the first step; through the run's own ABA
+    (:func:`.problem.singular_body`), so that it compiles once."""
+    body = singular_body(model.tree, q0, v0, g, aba_workspace.py_func(model.tree.parents.shape[0], model.nv))
+    if body >= 0:
+        raise singular_joint_error(model, body, "q0")
 
 
 def _passive(model, s, limits, limit_stiffness, limit_damping, friction_eps):

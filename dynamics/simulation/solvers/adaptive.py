@@ -8,7 +8,8 @@ state checks, the samples in each accepted step, and the re-centring of the char
 
 import numpy as np
 
-from ..._numba import copy_into, generic_inline
+from ..._numba import copy_into, generic_inline, keep_alive
+from ..._numba.boundary import borrow
 from .interface import (MAX_STEPS, OK, STEP_TOO_SMALL, problem_emit, problem_rebase, problem_rhs, stepper_attempt,
                         stepper_dense, stepper_order)
 from .linalg import initial_step, max_abs, state_status
@@ -16,24 +17,25 @@ from .linalg import initial_step, max_abs, state_status
 
 @generic_inline
 def solve_adaptive(p, m, z, t0, t_end, out_t, opt, stats, switches):
-    """Integrate z from t0 to t_end with error control by the method m; returns the status (also in stats)."""
+    """Integrate z from t0 to t_end with error control by the method m; returns the status (also in stats).
+    Its vectors and the stepper's are borrowed (no reference counts in the step loop; :func:`.fixed.solve_fixed`)."""
     st = stats[0]
     n = z.shape[0]
-    mag = np.zeros(n)
-    f0 = np.empty(n)  # f(t, z) in the current chart
-    fnew = np.empty(n)
-    znew = np.empty(n)
-    zold = np.empty(n)
-    errv = np.empty(n)
-    zi = np.empty(n)
+    owner, m_owner = np.zeros(7 * n), m  # the vectors below and the stepper's are borrowed from these
+    m, z, out_t, buf = borrow(m), borrow(z), borrow(out_t), borrow(owner)
+    mag = buf[:n]
+    f0 = buf[n:2 * n]  # f(t, z) in the current chart
+    fnew = buf[2 * n:3 * n]
+    znew = buf[3 * n:4 * n]
+    zold = buf[4 * n:5 * n]
+    errv = buf[5 * n:6 * n]
+    zi = buf[6 * n:]
     problem_rebase(p, t0, z, f0, mag)  # magnitudes of the initial state (z's chart part is zero)
     problem_rhs(p, t0, z, f0)
     st.rhs_evals += 1
     status = state_status(f0, 0, 0, opt.blowup)
     t = t0
-    j = 0
-    if status == OK:
-        j = _emit(p, m, j, out_t, t, 0.0, zold, z, zi, st)
+    j = _emit(p, m, 0, out_t, t, 0.0, zold, z, zi, st)  # the initial state, also when f(t0, z0) is not finite
     h = opt.h0
     if h <= 0:
         h = initial_step(p, t, z, f0, stepper_order(m), opt.rtol, opt.atol, mag, opt.ne, t_end, st)
@@ -78,6 +80,8 @@ def solve_adaptive(p, m, z, t0, t_end, out_t, opt, stats, switches):
     st.t = t
     st.local_error = local_err
     st.h = h
+    keep_alive(owner)
+    keep_alive(m_owner)
     return status
 
 

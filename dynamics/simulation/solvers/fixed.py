@@ -7,28 +7,33 @@ The slope at the end of a step serves the interpolant of that step and, re-expre
 
 import numpy as np
 
-from ..._numba import copy_into, generic_inline
+from ..._numba import copy_into, generic_inline, keep_alive
+from ..._numba.boundary import borrow
 from .interface import NONFINITE, OK, problem_emit, problem_rebase, problem_rhs, stepper_fixed_dense, stepper_step
 from .linalg import jacobian_spectral_radius, state_status
 
 
 @generic_inline
 def solve_fixed(p, m, z, t0, t_end, out_t, opt, stats):
-    """Integrate z from t0 to t_end with the fixed-step method m; returns the status (also in stats)."""
+    """Integrate z from t0 to t_end with the fixed-step method m; returns the status (also in stats).  Its
+    vectors and the stepper's are borrowed (:func:`dynamics._numba.boundary.borrow`: no reference counts in
+    the step loop), their owners kept alive to the end."""
     st = stats[0]
     n = z.shape[0]
-    mag = np.zeros(n)
-    f0 = np.empty(n)  # slope at the start of the step
-    f1 = np.empty(n)  # slope at its end
-    z0 = np.empty(n)
-    zi = np.empty(n)
+    owner, m_owner = np.zeros(5 * n), m  # the vectors below and the stepper's are borrowed from these
+    m, z, out_t, buf = borrow(m), borrow(z), borrow(out_t), borrow(owner)
+    mag = buf[:n]
+    f0 = buf[n:2 * n]  # slope at the start of the step
+    f1 = buf[2 * n:3 * n]  # slope at its end
+    z0 = buf[3 * n:4 * n]
+    zi = buf[4 * n:]
     problem_rhs(p, t0, z, f0)
     st.rhs_evals += 1
     status = OK if state_status(f0, 0, 0, opt.blowup) == OK else NONFINITE
     if opt.probe and status == OK:
         st.rho0 = jacobian_spectral_radius(p, t0, z, f0, opt.ne)
     j = 0
-    while status == OK and j < out_t.shape[0] and out_t[j] <= t0:  # the initial state
+    while j < out_t.shape[0] and out_t[j] <= t0:  # the initial state, also when f(t0, z0) is not finite
         problem_emit(p, j, t0, z)
         j += 1
     t = t0
@@ -60,5 +65,7 @@ def solve_fixed(p, m, z, t0, t_end, out_t, opt, stats):
     st.t = t
     st.h = opt.dt
     st.local_error = np.nan  # fixed-step methods have no embedded error estimate
+    keep_alive(owner)
+    keep_alive(m_owner)
     return status
 

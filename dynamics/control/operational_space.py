@@ -35,15 +35,15 @@ and the simulation stops with a non-finite status; ``damping`` d > 0 uses (J M^-
 
 import numpy as np
 
-from ._numba import kernel
-from .configuration import _difference
-from .jacobians import _jacobian_into
-from .kinematics import BIAS_ACCELERATION, LOCAL_WORLD_ALIGNED, _motion_batch
-from .minverse import _minverse_into
-from .minverse import _workspace as minverse_workspace
-from .rnea import _rnea_into
-from .spatial import matmul, _rotation_about_axis, _rotation_log, _spd_inverse, transpose
-from .task_space import MAX_CONDITION
+from .._numba import kernel
+from ..configuration import _difference
+from ..jacobians import _jacobian_into
+from ..kinematics import BIAS_ACCELERATION, LOCAL_WORLD_ALIGNED, _motion_batch
+from ..minverse import _minverse_into
+from ..minverse import _workspace as minverse_workspace
+from ..rnea import _rnea_into
+from ..spatial import matmul, _rotation_about_axis, _rotation_log, _spd_inverse, transpose
+from ..task_space import MAX_CONDITION
 
 
 @kernel
