@@ -234,6 +234,18 @@ def _aba_one(packed, q, v, tau, qdd):
 
 
 
+def refuse_singular(model, q, what):
+    """Raise :func:`singular_joint_error` when the mass matrix is singular at q: the articulated-body pivot
+    D = S^T I^A S of some joint is not positive definite.  The rule ``simulate`` applies to q0 and ``dynamics
+    check`` to the neutral configuration, so both say the same."""
+    nv, nb = model.nv, model.nbodies
+    zero = np.zeros(nv)
+    body = _aba_into(model.tree, q, zero, zero, np.zeros(3), np.zeros((0, 6)), _workspace.py_func(nb, nv),
+                     np.empty(nv))
+    if body >= 0:
+        raise checks.singular_joint_error(model, body, what)
+
+
 # -- public entry point ----------------------------------------------------------------------------
 _aba_batch = _aba_batch
 _aba_single = SingleCall(_aba_one, VECTOR, VECTOR, VECTOR, VECTOR)

@@ -390,16 +390,3 @@ def singular_joint_error(model, body, what):
                f"body masses too far apart for float64: {masses.min():.3g} to {masses.max():.3g} kg); give the "
                f"links below it rotational inertia, or lock it with dynamics.lock_joints")
     return InputError(f"{what}: the mass matrix is singular at joint {name!r}: {why}")
-
-
-def refuse_singular(model, q, what):
-    """Raise :func:`singular_joint_error` when the mass matrix is singular at q: the articulated-body pivot
-    D = S^T I^A S of some joint is not positive definite.  The rule ``simulate`` applies to q0 and ``dynamics
-    check`` to the neutral configuration, so both say the same."""
-    from .aba import _aba_into, _workspace  # (aba imports this module)
-    nv, nb = model.nv, model.nbodies
-    zero = np.zeros(nv)
-    body = _aba_into(model.tree, q, zero, zero, np.zeros(3), np.zeros((0, 6)), _workspace.py_func(nb, nv),
-                     np.empty(nv))
-    if body >= 0:
-        raise singular_joint_error(model, body, what)

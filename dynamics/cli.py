@@ -21,7 +21,7 @@ import sys
 import numpy as np
 
 from . import plot, robots
-from .checks import refuse_singular
+from .aba import refuse_singular
 from .errors import DynamicsError, InputError
 from .simulation import simulate
 from .torques import PD

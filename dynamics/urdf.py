@@ -222,15 +222,15 @@ def _bundled_or_path(path: str) -> str:
     them), or an URDFError naming the closest bundled names."""
     if os.path.isfile(path):
         return path
-    from . import robots  # (robots/ is installed as dynamics.robots; imported here, where it is needed)
+    from .robots import names, path as robot_path  # (robots/ is installed as dynamics.robots)
     if "/" not in path and os.sep not in path:  # (a path that is not there is not a robot's name)
         try:
-            return robots.path(path)
+            return robot_path(path)
         except FileNotFoundError:
             pass
     close = difflib.get_close_matches(os.path.basename(path).removesuffix(".urdf").replace("-", "_"),
-                                      robots.names(), n=3, cutoff=0.6)
-    hint = f"; did you mean {' or '.join(map(repr, close))}?" if close else f"; bundled robots are {robots.names()}"
+                                      names(), n=3, cutoff=0.6)
+    hint = f"; did you mean {' or '.join(map(repr, close))}?" if close else f"; bundled robots are {names()}"
     raise URDFError(f"URDF source: {path[:200]!r} is neither URDF text nor an existing file nor a bundled robot{hint}")
 
 

@@ -4,7 +4,7 @@ decorators below; no other module spells numba options.
 
 Everything here is numba's public API: ``njit`` and its documented options, ``numba.carray``,
 ``numba.extending.intrinsic`` used as numba's own documentation uses it (an integer cast to a pointer, a stack
-allocation through llvmlite's IRBuilder), ``register_jitable``.  Nothing changes numba or Python's warnings for
+allocation through the IR builder numba hands an intrinsic), ``register_jitable``.  Nothing changes numba or Python's warnings for
 the rest of the process.
 
 * :data:`kernel`: cached to disk, GIL released, ``error_model="numpy"`` (no Python zero-division checks in
@@ -153,7 +153,7 @@ STACK_FLOATS = 8192
 
 @intrinsic
 def _stack_pointer(typingctx, n):
-    """n float64 on the stack of the function this is compiled into (llvmlite's ``alloca``)."""
+    """n float64 on the stack of the function this is compiled into (the IR builder's ``alloca``)."""
     if not isinstance(n, types.Integer):
         return None
 
