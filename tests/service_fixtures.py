@@ -61,6 +61,9 @@ class Server:
         # PYTHONPATH: the server imports the code under test, not whatever checkout the interpreter has installed
         self.env = {**os.environ, "PYTHONPATH": os.pathsep.join(filter(None, [str(REPO), os.environ.get("PYTHONPATH")])),
                     "DYNAMICS_ROBOTS_DIR": str(ROBOTS), "DYNAMICS_SIM_WORKERS": "1",
+                    # a request's budget long enough for its worker to compile a new kind of simulation (a torque
+                    # type, an integrator) from an empty cache on a loaded 2-core machine; the budget tests set theirs
+                    "DYNAMICS_TIME_BUDGET": "300",
                     "DYNAMICS_COMPUTE_THREADS": "2", **(env or {})}
         self.proc: subprocess.Popen | None = None
         self.log = self.cwd / f"server-{self.port}.log"

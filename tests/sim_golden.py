@@ -36,7 +36,7 @@ def _panda():
 
 def _panda_pd(model):
     rng = np.random.default_rng(3)
-    target = model.neutral() + rng.uniform(-0.3, 0.3, model.nq)
+    target = np.zeros(model.nq) + rng.uniform(-0.3, 0.3, model.nq)  # (zeros: neutral() as it was recorded)
     return PD(target, 200.0, 20.0, tau_ff=dynamics.gravity_torques(model, target))
 
 
@@ -50,7 +50,7 @@ def cases():
     fb_v0 = dynamics.project_velocity(four_bar, fb_q0, np.array([1.0, 0.0, 0.0]))
     two_r = dynamics.load_urdf(os.path.join(REPO, "robots", "planar_2r.urdf"))
     panda = _panda()
-    pq0 = panda.neutral() + 0.1
+    pq0 = np.zeros(panda.nq) + 0.1  # neutral() before it kept joint 4 within its limits, as recorded
     t = np.linspace(0.0, 0.5, 6)
     ref_q = np.stack([0.3 * np.sin(t), 0.2 * np.cos(t)], 1)
     ref_v = np.stack([0.3 * np.cos(t), -0.2 * np.sin(t)], 1)
