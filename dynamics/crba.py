@@ -13,7 +13,7 @@ import numpy as np
 from . import checks
 from ._numba import (MATRIX, SingleCall, VECTOR, address, inline_kernel, keep_alive, kernel, scratch)
 from .data import _take
-from .checks import NOT_ARRAYS, DONE, GENERAL, _config_ok
+from .checks import NOT_ARRAYS, DONE, GENERAL, _config_shape_ok, _finite, _roots_finite
 from .model import _unpack
 from .parallel import run_chunks
 from .joints import _joint_transform
@@ -93,7 +93,8 @@ def _crba_one(packed, q, M):
     np.zeros), inputs checked in the call (status codes of :mod:`dynamics.checks`)."""
     tree, gravity, nq = _unpack(packed)
     nb, nv = tree.parents.shape[0], tree.S.shape[0]
-    if not (_config_ok(tree, nq, q) and M.shape[0] == nv and M.shape[1] == nv):  # q[0] never reaches M
+    if not (_config_shape_ok(tree, nq, q) and _roots_finite(tree, nq, q) and M.shape[0] == nv
+            and M.shape[1] == nv):
         return GENERAL
     for r in range(nv):
         for c in range(nv):
@@ -101,7 +102,7 @@ def _crba_one(packed, q, M):
     buf = scratch(_work_at(0, 0, nb)[1])
     _crba_into(tree, q, _work_at(address(buf), 0, nb)[0], M)
     keep_alive(buf)
-    return DONE
+    return DONE if _finite(M) else GENERAL
 
 
 

@@ -26,7 +26,7 @@ import numpy as np
 
 from . import checks
 from ._numba import (MATRIX, SingleCall, VECTOR, address, inline_kernel, keep_alive, kernel, scratch)
-from .checks import DONE, GENERAL, NOT_ARRAYS, _config_ok
+from .checks import DONE, GENERAL, NOT_ARRAYS, _config_shape_ok, _finite, _roots_finite
 from .kinematics import _world_pose
 from .data import _take, _take_int
 from .model import _unpack
@@ -64,12 +64,13 @@ def _minverse_one(packed, q, Minv):
     the general path, which names it)."""
     tree, gravity, nq = _unpack(packed)
     nb, nv = tree.parents.shape[0], tree.S.shape[0]
-    if not (_config_ok(tree, nq, q) and Minv.shape[0] == nv and Minv.shape[1] == nv):  # q[0] never reaches M^-1
+    if not (_config_shape_ok(tree, nq, q) and _roots_finite(tree, nq, q) and Minv.shape[0] == nv
+            and Minv.shape[1] == nv):
         return GENERAL
     buf = scratch(_work_at(0, 0, nb, nv)[1])
     singular = _minverse_into(tree, q, _work_at(address(buf), 0, nb, nv)[0], Minv)
     keep_alive(buf)
-    return DONE if singular < 0 else GENERAL
+    return DONE if singular < 0 and _finite(Minv) else GENERAL
 
 
 @kernel

@@ -19,7 +19,7 @@ import numpy as np
 from . import checks
 from ._numba import (VECTOR, address, inline_kernel, keep_alive, kernel, scratch, SingleCall, view,
                      )
-from .checks import NOT_ARRAYS, DONE, GENERAL, _config_ok, _config_shape_ok, _finite, _nonzero
+from .checks import NOT_ARRAYS, DONE, GENERAL, _config_shape_ok, _finite, _nonzero, _roots_finite
 from .data import Data, _data_at, _forward_body, _take
 from .model import _unpack
 from .parallel import run_chunks
@@ -213,12 +213,12 @@ def _bias_one(packed, q, v, tau):
 def _gravity_one(packed, q, tau):
     tree, gravity, nq = _unpack(packed)
     nb = tree.parents.shape[0]
-    if not (_config_ok(tree, nq, q) and tau.shape[0] == tree.S.shape[0]):  # a base's position never reaches g
+    if not (_config_shape_ok(tree, nq, q) and _roots_finite(tree, nq, q) and tau.shape[0] == tree.S.shape[0]):
         return GENERAL
     buf = scratch(_gravity_work_at(0, 0, nb)[1])
     _gravity_into(tree, q, gravity, _gravity_work_at(address(buf), 0, nb)[0], tau)
     keep_alive(buf)
-    return DONE
+    return DONE if _finite(tau) else GENERAL
 
 
 
