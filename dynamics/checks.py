@@ -14,6 +14,7 @@ the same error as always, so every message has one source.
 import math
 
 import numpy as np
+from numba.core.errors import NumbaError
 
 from ._numba import DONE, GENERAL, address, float_at, inline_kernel, kernel  # noqa: F401 (the status codes' home for the algorithms)
 from .errors import InputError
@@ -49,7 +50,7 @@ _first_zero_quaternion_k = _first_zero_quaternion
 
 #: float64, the dtype the general path's fast checks compare with; NOT_ARRAYS: what a non-array raises there
 F64 = np.dtype(np.float64)
-NOT_ARRAYS = (AttributeError, TypeError)
+NOT_ARRAYS = (AttributeError, TypeError, NumbaError)  # NumbaError: older numba refuses a big-endian array so
 
 
 @inline_kernel
