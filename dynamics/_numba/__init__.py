@@ -17,7 +17,6 @@ the rest of the process.
   index would pickle every problem type it saw (a test's ODE class too) and fail to load where that module is
   not importable.  They are compiled into a cached caller, whose cache holds the whole machine code.
 * :data:`generic_inline`: a generic function inlined into its caller.
-* :data:`gil_kernel`: cached but holding the GIL, for a function that calls back into Python.
 * :data:`helper`: numba's ``register_jitable``: a small function (the spatial algebra) compiled into each
   compiled caller, with no Python entry point or cache file of its own (those were most of a small kernel's
   compile and cache-load time); called from Python it runs as plain Python.
@@ -51,7 +50,6 @@ kernel = njit(**JIT_OPTIONS)
 inline_kernel = njit(**JIT_OPTIONS, inline="always")
 generic_kernel = njit(**GENERIC_OPTIONS)
 generic_inline = njit(**GENERIC_OPTIONS, inline="always")
-gil_kernel = njit(cache=True, error_model="numpy")
 helper = register_jitable
 
 #: status codes of the single-state kernels: done; take the general path (it raises the clear error, or
@@ -101,12 +99,6 @@ def view(buf, start, shape):
     """``buf[start:start + prod(shape)].reshape(shape)`` of a C-contiguous 1-D float64 buffer, with no owner
     and unchecked: the caller keeps ``buf`` alive and in bounds."""
     return float_at(address(buf), start, shape)
-
-
-@inline_kernel
-def int_view(buf, start, shape):
-    """:func:`view` of a 64-bit buffer read as int64 (integer scratch carved from a float buffer)."""
-    return int_at(address(buf), start, shape)
 
 
 def borrowed(x):
