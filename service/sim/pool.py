@@ -48,6 +48,10 @@ class PoolBusy(Exception):
     """No worker became free before the deadline."""
 
 
+#: seconds a worker still warming up may go on with a job whose request gave up on it
+WARM_GRACE = 600.0
+
+
 class _Worker:
     """A worker process and its two connections: jobs (request, answer) and ``status`` (what the worker says of
     its own, unasked: its late warm-up's outcome)."""
@@ -186,6 +190,10 @@ class SimPool:
         try:
             w.conn.send(job)
             if not w.conn.poll(max(0.0, deadline - time.monotonic())):
+                if not w.warm:  # still compiling its warm-up's kernels: killing it would lose them, and its
+                    # replacement would start over (a short budget would then never meet a warm worker)
+                    threading.Thread(target=self._finish, args=(w,), daemon=True, name="sim-finish").start()
+                    raise PoolTimeout("the simulation's worker was still warming up", False)
                 self.killed += 1
                 self._replace(w)
                 raise PoolTimeout("the simulation ran past the deadline; its worker was stopped", w.warm)
@@ -202,6 +210,20 @@ class SimPool:
         w.jobs += 1
         self._idle.put(w)
         return answer
+
+    def _finish(self, w: _Worker) -> None:
+        """Let a warming-up worker finish the job its request gave up on (its answer dropped), then take jobs
+        again; one still busy after WARM_GRACE seconds is replaced after all."""
+        try:
+            if w.conn.poll(WARM_GRACE):
+                w.conn.recv()
+                w.jobs += 1
+                self._idle.put(w)
+                return
+        except (EOFError, OSError):
+            pass
+        self.killed += 1
+        self._replace(w)
 
     def close(self) -> None:
         self._closed = True
