@@ -462,6 +462,9 @@ def _project_position_kernel(tree, C, q, ws, tol, max_iter, q_out):
 
 @kernel
 def _project_batch(tree, Q, V, C, out, status):
+    # the arguments as views with no owner: no reference counts in the loops (dynamics._numba.borrowed)
+    tree, Q, V = borrowed(tree), borrowed(Q), borrowed(V)
+    C, out, status = borrowed(C), borrowed(out), borrowed(status)
     nb, nv = tree.parents.shape[0], tree.S.shape[0]
     ws = _workspace(nb, nv, _C_rows(C))
     lv = V.shape[0] - 1
@@ -528,6 +531,10 @@ def _constrained_id_kernel(tree, C, gravity, q, v, a, actuated, ws, tau_out):
 
 @kernel
 def _constrained_id_batch(tree, Q, V, A, C, gravity, actuated, out, status):
+    # the arguments as views with no owner: no reference counts in the loops (dynamics._numba.borrowed)
+    tree, Q, V = borrowed(tree), borrowed(Q), borrowed(V)
+    A, C, gravity = borrowed(A), borrowed(C), borrowed(gravity)
+    actuated, out, status = borrowed(actuated), borrowed(out), borrowed(status)
     nb, nv = tree.parents.shape[0], tree.S.shape[0]
     ws = _workspace(nb, nv, _C_rows(C))
     lv, la = V.shape[0] - 1, A.shape[0] - 1

@@ -10,7 +10,7 @@ along g.
 import numpy as np
 
 from . import checks
-from ._numba import (address, inline_kernel, keep_alive, kernel)
+from ._numba import (borrowed, address, inline_kernel, keep_alive, kernel)
 from .parallel import run_chunks
 from .data import _data_at, _forward_pass, _take
 from .spatial import add, dot, inertia_times, load3, load33, matmul, rot, store3, store33
@@ -47,6 +47,10 @@ def _energies(tree, q, v, gravity, kinetic, potential, d, Rw, pw):
 def _energy_batch(tree, Q, V, gravity, kinetic, potential, out):
     """out[b] = (T, U) at (Q[b], V[b]), T only if ``kinetic`` (else 0 and V may have one row), U only if
     ``potential`` (else 0)."""
+    # the arguments as views with no owner: no reference counts in the loops (dynamics._numba.borrowed)
+    tree, Q, V = borrowed(tree), borrowed(Q), borrowed(V)
+    gravity, kinetic, potential = borrowed(gravity), borrowed(kinetic), borrowed(potential)
+    out = borrowed(out)
     nb = tree.parents.shape[0]
     buf = np.empty(_data_at(0, 0, nb)[1] + 12 * nb)
     d, o = _data_at(address(buf), 0, nb)
