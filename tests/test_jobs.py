@@ -203,7 +203,8 @@ def test_a_torque_the_library_refuses_is_a_422_at_submission_and_leaves_no_file(
             alice.submit("planar_3r", "simulate_many", {"q0": np.zeros((2, 3)), "v0": np.zeros(3), "torque": spec},
                          {"duration": 0.1})
         assert (e.value.status, e.value.field) == (422, field), e.value.message
-    assert sorted((server.store / "jobs" / "inputs").iterdir()) == before
+    # nothing new (an earlier test's job may finish meanwhile and take its own inputs file with it)
+    assert set((server.store / "jobs" / "inputs").iterdir()) <= set(before)
 
 
 def test_a_job_belongs_to_its_key(alice, bob, server):
