@@ -89,13 +89,13 @@ class Warmup:
                 continue
             log.info("warm-up: %s (%s) done in %.1f s", stage.name, self._stage_number(), time.monotonic() - t0)
         self.seconds = time.monotonic() - self.started
-        self._done.set()
-        log.info("warm-up: ready after %.1f s", self.seconds)
-        if self.history is not None:
+        if self.history is not None:  # before ready: a caller that waited for ready finds the store settled
             try:
                 atomic_write(self.history, json.dumps({"seconds": self.seconds}).encode())
             except OSError as e:
                 log.warning("warm-up: could not record its duration in %s: %s", self.history, e)
+        self._done.set()
+        log.info("warm-up: ready after %.1f s", self.seconds)
 
     def _heartbeat(self) -> None:
         while not self._done.wait(HEARTBEAT):

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import errno
 import os
+import time
 
 
 from service import store as store_module
@@ -25,6 +26,13 @@ def no_space(fd):
     raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
 
 
+def wait_ready(client, timeout=120.0):
+    deadline = time.monotonic() + timeout
+    while client.get("/v1/ready").status_code != 200:
+        assert time.monotonic() < deadline, "the warm-up did not end"
+        time.sleep(0.05)
+
+
 def files_under(path):
     return sorted(p.relative_to(path) for p in path.rglob("*") if p.is_file() and p.suffix != ".lock"
                   and p.name != "jobs.db" and not p.name.startswith("jobs.db-"))
@@ -32,6 +40,7 @@ def files_under(path):
 
 def test_a_full_disk_answers_507_naming_the_storage(tmp_path, monkeypatch):
     with in_process_app(tmp_path / "store") as client:
+        wait_ready(client)  # the warm-up writes its record in the background: not while the disk is "full"
         before = files_under(tmp_path / "store")
         monkeypatch.setattr(store_module.os, "fsync", no_space)
         r = client.post("/v1/robots", json={"name": "p", "urdf": URDF})
