@@ -267,6 +267,132 @@ TorqueSpec = Annotated[Union[ZeroTorque, ConstantTorque, TableTorque, PDTorque, 
                              OperationalSpaceTorque], Field(discriminator="type")]
 
 
+# -- contact with the world (issue 19): the ``contact`` of a simulation, translated by service.contact ---------
+#: the most robot geometries plus world objects, pairs, excluded pairs and materials one request may declare;
+#: a longer list is refused by its length before any item of it is read
+MAX_CONTACT_GEOMETRIES = 512
+MAX_CONTACT_PAIRS = 4096
+MAX_CONTACT_MATERIALS = 256
+
+
+def _at_most(limit: int, what: str) -> Any:
+    """A BeforeValidator refusing a list longer than ``limit`` at once (pydantic would read every item first: a
+    list of 10^6 pairs costs seconds before its length is looked at)."""
+    def check(value: Any, info: ValidationInfo) -> Any:
+        if isinstance(value, str) and value.lstrip()[:1] in ("[", "{"):  # (.npz: a JSON string)
+            try:
+                value = json.loads(value)
+            except json.JSONDecodeError:
+                return value
+        if isinstance(value, (list, dict)) and len(value) > limit:
+            raise InvalidInput(f"contact.{info.field_name}: {len(value)} {what} is over the limit of {limit}",
+                               f"contact.{info.field_name}")
+        return value
+    return BeforeValidator(check)
+
+
+Vector3 = Annotated[list[float], Field(min_length=3, max_length=3)]
+Pose4 = Annotated[list[Annotated[list[float], Field(min_length=4, max_length=4)]],
+                  Field(min_length=4, max_length=4, description="(4, 4) pose [[R, p], [0, 0, 0, 1]] in the frame")]
+GeometryName = Optional[str]
+_FRAME = ("a frame of the robot (GET /v1/robots/{id}: frames) the primitive is fixed to, or 'world' for a static "
+          "object")
+_LENGTH = {"gt": 0, "le": 1e6}
+
+
+class _Primitive(_Request):
+    frame: str = Field("world", min_length=1, max_length=MAX_NAME, description=_FRAME)
+    name: Optional[str] = Field(None, min_length=1, max_length=MAX_NAME,
+                                description="names the geometry in materials, pairs, exclude and the outputs")
+
+
+class SphereGeometry(_Primitive):
+    """dynamics.Sphere: ``radius`` (m) centred at ``offset`` in the frame."""
+    type: Literal["sphere"]
+    radius: float = Field(**_LENGTH)
+    offset: Optional[Vector3] = None
+
+
+class BoxGeometry(_Primitive):
+    """dynamics.Box: full edge lengths ``size`` (x, y, z, m) at ``pose``; on 'world' a step, a table."""
+    type: Literal["box"]
+    size: Vector3
+    pose: Optional[Pose4] = None
+
+
+class CapsuleGeometry(_Primitive):
+    """dynamics.Capsule: the points within ``radius`` of a segment of ``length`` along the pose's z axis."""
+    type: Literal["capsule"]
+    radius: float = Field(**_LENGTH)
+    length: float = Field(ge=0, le=1e6)
+    pose: Optional[Pose4] = None
+
+
+class CylinderGeometry(_Primitive):
+    """dynamics.Cylinder: ``radius`` and ``length`` along the pose's z axis, centred at its origin."""
+    type: Literal["cylinder"]
+    radius: float = Field(**_LENGTH)
+    length: float = Field(**_LENGTH)
+    pose: Optional[Pose4] = None
+
+
+class ContactPointGeometry(_Primitive):
+    """dynamics.ContactPoint: a point fixed in the frame (a sole's corner, a fingertip)."""
+    type: Literal["point"]
+    point: Vector3
+
+
+class HalfSpaceGeometry(_Request):
+    """dynamics.HalfSpace: the solid ``normal . x <= offset`` (a wall, an incline), normal into the free space."""
+    type: Literal["half_space"]
+    normal: Vector3
+    offset: float = 0.0
+    name: Optional[str] = Field(None, min_length=1, max_length=MAX_NAME)
+
+
+RobotGeometry = Annotated[Union[SphereGeometry, BoxGeometry, CapsuleGeometry, CylinderGeometry,
+                                ContactPointGeometry], Field(discriminator="type")]
+WorldObject = Annotated[Union[SphereGeometry, BoxGeometry, CapsuleGeometry, CylinderGeometry, HalfSpaceGeometry],
+                        Field(discriminator="type")]
+Pair = Annotated[list[Annotated[str, Field(min_length=1, max_length=MAX_NAME)]], Field(min_length=2, max_length=2)]
+
+
+class GroundSpec(_Request):
+    """dynamics.Ground: the half-space ``normal . x <= height``; an incline is a ground with a tilted normal."""
+    normal: Vector3 = Field([0.0, 0.0, 1.0], description="normalised by the library")
+    height: float = 0.0
+
+
+class MaterialSpec(_Request):
+    """dynamics.Material: any field left out takes the library's default (see the contact guide)."""
+    model_config = ConfigDict(extra="allow", strict=True, allow_inf_nan=False)
+
+
+class ContactSpec(_Request):
+    """dynamics.Contact: compliant contact of the robot's geometry with the ground and the world's objects."""
+    ground: Union[GroundSpec, bool] = Field(True, description="true: the plane z = 0 (default); false: no ground")
+    friction: Optional[float] = Field(None, ge=0, description="Coulomb coefficient of every pair (the default "
+                                                              "material's friction)")
+    material: Optional[MaterialSpec] = Field(None, description="the default material (its friction overrides "
+                                                               "friction)")
+    objects: Annotated[list[WorldObject], _at_most(MAX_CONTACT_GEOMETRIES, "objects")] = Field(
+        default_factory=list, description="static world objects: boxes, half-spaces, spheres, capsules, cylinders")
+    geometries: Annotated[Optional[list[RobotGeometry]], _at_most(MAX_CONTACT_GEOMETRIES, "geometries")] = Field(
+        None, description="the robot's contact geometry; default the URDF's collision primitives (GET the robot: "
+                          "collision_geometry)")
+    materials: Annotated[Optional[dict[str, MaterialSpec]], _at_most(MAX_CONTACT_MATERIALS, "materials")] = Field(
+        None, description="materials by geometry name ('ground', a geometry's or object's name)")
+    pairs: Annotated[Optional[list[Pair]], _at_most(MAX_CONTACT_PAIRS, "pairs")] = Field(
+        None, description="only these pairs of geometry names may touch; default every pair the filters allow")
+    self_collision: bool = Field(False, description="the robot's geometries touch each other (adjacent bodies "
+                                                    "never)")
+    exclude: Annotated[list[Pair], _at_most(MAX_CONTACT_PAIRS, "exclude")] = Field(
+        default_factory=list, description="pairs of geometry or body names that never touch")
+    outputs: list[Literal["forces", "penetration", "slip"]] = Field(
+        default_factory=list, max_length=3, description="per sample and active contact: forces (world frame: point, "
+                                                        "normal and friction force), penetration depth, slip speed")
+
+
 class SimulateRequest(_Request):
     model_config = _example(q0=[0.3, -0.2], v0=[0.0, 0.5], duration=1.0, sample_dt=0.01, integrator="auto",
                             torque={"type": "pd", "q_target": [0.5, 0.5], "kp": 50.0, "kd": 4.0})
@@ -298,6 +424,9 @@ class SimulateRequest(_Request):
                                                          "(10, 10); [0, 0] for none")
     project: Optional[bool] = Field(None, description="robots with constraints: project (q, v) onto the constraint "
                                                       "manifold after every accepted step (default false)")
+    contact: Optional[ContactSpec] = Field(None, description="contact with the ground and the world's objects "
+                                                             "(dynamics.Contact); default none: the robot touches "
+                                                             "nothing")
 
 
 #: the SimulateRequest fields passed on to dynamics.simulate as keyword arguments (None = library default)
@@ -638,7 +767,7 @@ class PotentialEnergyAnswer(BaseModel):
 # -- jobs (POST /v1/jobs; service.jobs) -------------------------------------------------------------------------
 JOB_KINDS = ("simulate_many", "inverse_dynamics", "forward_dynamics", "mass_matrix")
 _JOB_OPTION_FIELDS = {name: (f.annotation, f) for name, f in SimulateRequest.model_fields.items()
-                      if name in SIMULATE_OPTIONS or name == "locked"}
+                      if name in SIMULATE_OPTIONS or name in ("locked", "contact")}
 #: a job's options: simulate's (duration required for simulate_many), gravity for dynamics, locked joints
 JobOptions = create_model("JobOptions", __base__=_Request, **_JOB_OPTION_FIELDS,
                           duration=(Optional[float], Field(None, gt=0, description="simulate_many: seconds per run")))
