@@ -30,6 +30,8 @@ from .constraints import (JointCoupling, PointConstraint, RevoluteConstraint, We
                           constraint_jacobian, constraint_residual, with_constraints)
 from .constrained_dynamics import constrained_forward_dynamics, constrained_inverse_dynamics, project_velocity
 from .assemble import assemble
+from .contact.config import Contact, Material
+from .contact.evaluation import contact_forces
 
 from . import plot, robots, torques
 from .configuration import integrate
@@ -49,4 +51,5 @@ __all__ = [
     "PointConstraint", "WeldConstraint", "RevoluteConstraint", "JointCoupling", "with_constraints",
     "constraint_residual", "constraint_jacobian", "constraint_bias", "constrained_forward_dynamics",
     "constrained_inverse_dynamics", "project_velocity", "assemble",
+    "Contact", "Material", "contact_forces",
 ]
