@@ -26,7 +26,8 @@ from ..constrained_dynamics import (_constrained_accel_kernel, _drift_kernel, _p
 from ..constrained_dynamics import _workspace as constrained_workspace
 from ..configuration import retract_in
 from ..constraints import arrays
-from .problem import RobotProblem, applied_torques, chart_and_velocity, emit, euler_config, rebase, robot_problem
+from .problem import (RobotProblem, applied_torques, chart_and_velocity, emit, euler_config, quadratures, rebase,
+                      robot_problem)
 
 #: Gauss-Newton of the position projection: stop below this max |phi| (m or rad), after at most PROJECT_ITER steps
 PROJECT_TOL = 1e-12
@@ -48,14 +49,14 @@ ConstrainedProblem = NamedTuple("ConstrainedProblem", list(RobotProblem.__annota
 ConstrainedProblem.__doc__ = """RobotProblem's fields (read by name by the reused functions) and the constraints'."""
 
 
-def constrained_problem(model, passive, source, q0, out_t, outputs, alpha, beta, project):
+def constrained_problem(model, passive, source, q0, out_t, outputs, alpha, beta, project, contact=None):
     """A :class:`ConstrainedProblem`: :func:`.problem.robot_problem` plus the constraints, Baumgarte gains
     alpha, beta (1/s), ``project`` and, when "lambda" is in ``outputs``, the multipliers per sample."""
     C, m = arrays(model)
     nv, nb = model.nv, model.tree.parents.shape[0]
     T = out_t.shape[0]
     return ConstrainedProblem(
-        *robot_problem(model, passive, source, q0, out_t, outputs), C, float(alpha), float(beta), bool(project),
+        *robot_problem(model, passive, source, q0, out_t, outputs, contact), C, float(alpha), float(beta), bool(project),
         constrained_workspace(nb, nv, m), np.zeros(m), np.empty(nv), np.empty(nv),
         np.zeros((T if "lambda" in outputs else 0, m)), np.zeros(2), np.zeros(1, np.int64))
 
@@ -65,12 +66,11 @@ def constrained_rhs(p, t, z, dz):
     """dz = f(t, z) with the constrained accelerations (NaN when M is singular); p.lam = the multipliers."""
     nv = p.tau_s.shape[0]
     q, v = chart_and_velocity(p, z, dz)
-    power_s, power_p = applied_torques(p, t, q, v)
+    power_s, power_p, power_c = applied_torques(p, t, q, v)
     if _constrained_accel_kernel(p.tree, p.C, p.passive.gravity, q, v, p.tau_p, p.alpha, p.beta, p.ws_con,
                                 dz[nv:2 * nv], p.lam) >= 0:
         dz[nv:2 * nv] = np.nan
-    dz[2 * nv] = power_s
-    dz[2 * nv + 1] = power_p
+    quadratures(dz, nv, power_s, power_p, power_c)
 
 
 @generic_kernel

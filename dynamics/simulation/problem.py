@@ -4,11 +4,13 @@ The equations of motion (Featherstone 2008, eq. 1.1, solved by the ABA, :mod:`dy
 
     M(q) v' + C(q, v) v + g(q) = tau_source(t, q, v) + tau_passive(q, v),      q' = v  (on the manifold)
 
-The integrated state is z = [delta (nv), v (nv), W_source, W_passive]: delta is the chart coordinate of q
-around ``base``, the configuration at the start of the current step (:mod:`dynamics.configuration`;
-re-centred after every step by ``rebase`` so free-flyer quaternions stay unit length), and the two
-quadratures integrate the power of the source and of the passive torques, W' = v . tau, for the energy
-balance.
+The integrated state is z = [delta (nv), v (nv), W_source, W_passive (, W_contact)]: delta is the chart
+coordinate of q around ``base``, the configuration at the start of the current step
+(:mod:`dynamics.configuration`; re-centred after every step by ``rebase`` so free-flyer quaternions stay unit
+length), and the quadratures integrate the power of the source and of the passive torques, W' = v . tau, for
+the energy balance, and with contact (``contact``: a :class:`dynamics.contact.resolve.ContactModel`) the power
+of the contact forces, whose generalised force J_c^T f_c joins the passive torques.  Without contact
+(``contact`` None) the contact calls compile to nothing (:mod:`dynamics.contact.resolve`).
 
 :class:`RobotProblem` carries the four functions of the solvers' problem interface
 (:mod:`.solvers.interface`) as class attributes.  They read the problem by field name, so a second problem
@@ -30,8 +32,9 @@ from ..configuration import chart_rate_in, chart_tag, _integrate_delta, retract_
 from ..joints import JOINT_FREE
 from ..control.dispatch import kind_tag, source_workspace, torque_eval
 from ..control.passive import passive_torques
+from ..contact.calls import contact_emit, contact_torques, contact_track
 
-NQUAD = 2  # W_source, W_passive
+NQUAD = 2  # W_source, W_passive; a run with contact has a third, W_contact (z and out_w one longer)
 
 
 class RobotProblem(NamedTuple):
@@ -52,12 +55,14 @@ class RobotProblem(NamedTuple):
     out_q: np.ndarray  # (T, nq) or (0, nq) when q is not kept
     out_v: np.ndarray  # (T, nv) or (0, nv)
     out_tau: np.ndarray  # (T, nv) or (0, nv): applied source torques
-    out_w: np.ndarray  # (T, 2) work of the source and passive torques
+    out_w: np.ndarray  # (T, 2) work of the source and passive torques (T, 3): and of the contact forces
     count: np.ndarray  # (1,) int64: samples written (also read by the progress bar while the run goes)
+    contact: object  # None, or a dynamics.contact.resolve.ContactModel
 
 
-def robot_problem(model, passive, source, q0, out_t, outputs):
-    """A :class:`RobotProblem` for a run from q0 that keeps ``outputs`` (of "q", "v", "tau") at ``out_t``."""
+def robot_problem(model, passive, source, q0, out_t, outputs, contact=None):
+    """A :class:`RobotProblem` for a run from q0 that keeps ``outputs`` (of "q", "v", "tau") at ``out_t``;
+    ``contact``: None or the run's :class:`dynamics.contact.resolve.ContactModel`."""
     nv, nq, nb = model.nv, model.nq, model.tree.parents.shape[0]
     T = out_t.shape[0]
     ws = aba_workspace.py_func(nb, nv)  # numpy's allocations from Python: the compiled kernel would cost 0.2 s
@@ -66,7 +71,8 @@ def robot_problem(model, passive, source, q0, out_t, outputs):
         q0.copy(), np.empty(nq),
         np.empty(nv), np.empty(nv), ws, out_t,
         np.zeros((T if "q" in outputs else 0, nq)), np.zeros((T if "v" in outputs else 0, nv)),
-        np.zeros((T if "tau" in outputs else 0, nv)), np.zeros((T, NQUAD)), np.zeros(1, np.int64))
+        np.zeros((T if "tau" in outputs else 0, nv)), np.zeros((T, NQUAD + (contact is not None))),
+        np.zeros(1, np.int64), contact)
 
 
 @kernel
@@ -85,7 +91,8 @@ def singular_body(tree, q, v, gravity, ws):
 
 @inline_kernel
 def applied_torques(p, t, q, v):
-    """p.tau_p = source + passive torques at (t, q, v); returns the powers (v . tau_source, v . tau_passive)."""
+    """p.tau_p = source + passive + contact torques at (t, q, v); returns the powers (v . tau_source,
+    v . tau_passive, contact power)."""
     tau_s, tau_p = p.tau_s, p.tau_p
     torque_eval(p.tag, p.source, p.tree, p.passive, t, q, v, p.ws_source, tau_s)
     passive_torques(p.passive, q, v, tau_p)
@@ -95,7 +102,8 @@ def applied_torques(p, t, q, v):
         power_s += v[k] * tau_s[k]
         power_p += v[k] * tau_p[k]
         tau_p[k] += tau_s[k]
-    return power_s, power_p
+    power_c = contact_torques(p.contact, p.tree, q, v, tau_p)  # its power: sum_k F_k . v_rel_k (= v . J_c^T f_c)
+    return power_s, power_p, power_c
 
 
 @inline_kernel
@@ -112,11 +120,19 @@ def rhs(p, t, z, dz):
     """dz = f(t, z): chart rate, ABA accelerations (NaN when the articulated inertia is singular), powers."""
     nv = p.tau_s.shape[0]
     q, v = chart_and_velocity(p, z, dz)
-    power_s, power_p = applied_torques(p, t, q, v)
+    power_s, power_p, power_c = applied_torques(p, t, q, v)
     if _aba_into(p.tree, q, v, p.tau_p, p.passive.gravity, p.passive.f_ext, p.ws_aba, dz[nv:2 * nv]) >= 0:
         dz[nv:2 * nv] = np.nan
+    quadratures(dz, nv, power_s, power_p, power_c)
+
+
+@inline_kernel
+def quadratures(dz, nv, power_s, power_p, power_c):
+    """The quadratures' rates: W_source, W_passive and, in a run with contact, W_contact."""
     dz[2 * nv] = power_s
     dz[2 * nv + 1] = power_p
+    if dz.shape[0] > 2 * nv + 2:
+        dz[2 * nv + 2] = power_c
 
 
 @generic_kernel
@@ -127,6 +143,7 @@ def rebase(p, t, z, dz, mag):
     nv = p.tau_s.shape[0]
     retract_in(p.chart, tree, base, z[:nv], p.qbuf)
     copy_into(base, p.qbuf)
+    contact_track(p.contact, tree, t, base, z[nv:2 * nv])
     z[:nv] = 0.0
     chart_rate_in(p.chart, tree, base, z[:nv], z[nv:2 * nv], dz[:nv])
     for i in range(tree.jtype.shape[0]):
@@ -157,6 +174,7 @@ def emit(p, j, t, z):
         copy_into(p.out_v[j], z[nv:2 * nv])
     if p.out_tau.shape[0] > 0:
         torque_eval(p.tag, p.source, p.tree, p.passive, t, q, z[nv:2 * nv], p.ws_source, p.out_tau[j])
+    contact_emit(p.contact, p.tree, j, q, z[nv:2 * nv])
     copy_into(p.out_w[j], z[2 * nv:])
     p.count[0] = j + 1
 

@@ -221,3 +221,69 @@ def state_error(model, q1, v1, q2, v2):
         _difference(model.tree, q2, q1, d)
     dv = np.asarray(v1, float) - np.asarray(v2, float)
     return float(np.max(np.abs(d), initial=0.0)), float(np.max(np.abs(dv), initial=0.0))
+
+
+# ---------------------------------------------------------------------------------------------------------
+# contact (simulate(..., contact=...))
+def contact_report(model, s, run, w, warnings):
+    """The report's ``contact`` fields: the largest penetration over the accepted steps (m), the time in contact
+    (s: the accepted steps that end with a contact), the work of the contact forces W_c (J: what they gave the
+    robot), the elastic energy E_el = 1/2 k x^2 the contacts hold at the start and the end, and the energy the
+    contacts dissipated (damping and friction): -W_c - (E_el(T) - E_el(0)) >= 0."""
+    from ..contact.evaluation import elastic_energy_at
+    c = run.problem.contact
+    work = float(w[-1, 2]) if len(w) and w.shape[1] > 2 else 0.0
+    e0 = elastic_energy_at(model, s.contact, s.q0, s.v0)
+    e1 = elastic_energy_at(model, s.contact, run.qf, run.vf)
+    out = {"max_penetration": float(c.track[0]), "time_in_contact": float(c.track[1]), "work_contact": work,
+           "elastic_energy_initial": e0, "elastic_energy_final": e1, "energy_dissipated": -work - (e1 - e0),
+           "pairs": int(s.contact.scene.pair_a.shape[0]), "max_contacts": int(s.contact.scene.max_contacts)}
+    allowance = min([m.penetration_allowance for m in [s.contact.contact.friction,
+                                                       *s.contact.contact.materials.values()]])
+    if out["max_penetration"] > 10 * allowance:
+        warnings.append(f"contact: the largest penetration {out['max_penetration']:.3g} m is more than 10x the "
+                        f"penetration allowance ({allowance:g} m): stiffen the material or check the geometry")
+    if s.integrator == "auto" and any(x["to"] == "radau" for x in switches(run.switches)):
+        out["stiff"] = "auto switched to radau where contact made the problem stiff (see switches)"
+    return out
+
+
+def contact_spectral_radius(model, resolved):
+    """An estimate of the largest |eigenvalue| contact adds to the right-hand side (1/s), for the fixed-step
+    stability warning: per pair, the normal spring-damper (stiffness k, the damping k x d at the static sinking
+    x = m g / k, m = the mass of the moving body's whole tree) and the friction's viscous slope 2 mu_s f_n / v_s
+    at f_n = m g (rate 2 mu_s g / v_s)."""
+    from ..contact.forces import K_DISS, K_MU_S, K_STIFF, K_VS
+    tree = model.tree
+    g = max(float(np.linalg.norm(model.gravity)), 1.0)
+    root = np.arange(len(tree.parents))
+    for i in range(len(tree.parents)):
+        if tree.parents[i] >= 0:
+            root[i] = root[tree.parents[i]]
+    tree_mass = {r: float(np.sum(tree.mass[root == r])) for r in set(root.tolist())}
+    rho = 0.0
+    for j, (a, b) in enumerate(resolved.pair_body):
+        body = a if a >= 0 else b
+        if body < 0:
+            continue
+        m = max(tree_mass[int(root[body])], 1e-12)
+        k, d, mu, vs = (resolved.mat[j, c] for c in (K_STIFF, K_DISS, K_MU_S, K_VS))
+        omega, damp = math.sqrt(k / m), 0.5 * d * g
+        rho = max(rho, damp + math.sqrt(damp * damp + omega * omega), 2 * mu * g / vs)
+    return rho
+
+
+def contact_stability(model, s, stability, warnings):
+    """Fixed-step methods with contact: dt against the stiffness contact adds (:func:`contact_spectral_radius`),
+    which the probe at t0 misses when nothing touches yet; a warning when dt * rho exceeds the method's limit."""
+    from .solvers import STABILITY_LIMIT
+    rho = contact_spectral_radius(model, s.contact)
+    limit = STABILITY_LIMIT[s.integrator]
+    stability = dict(stability or {}, contact_spectral_radius=rho, dt_times_contact_spectral_radius=s.dt * rho,
+                     limit=limit)
+    if s.dt * rho > limit:
+        warnings.insert(0, f"dt={s.dt:g} is too large for the contact's stiffness: dt * (estimated contact "
+                        f"spectral radius {rho:.3g} 1/s) = {s.dt * rho:.3g} > {limit} ({s.integrator}'s stability "
+                        f"limit); expect blow-up or chatter in contact: use dt < {limit / rho:.3g}, a softer "
+                        "Material (penetration_allowance, stiction_velocity), or integrator='radau'/'auto'")
+    return stability

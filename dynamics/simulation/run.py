@@ -66,8 +66,8 @@ _SEEN_LOCK = threading.Lock()
 
 def _kind(method, p):
     """What selects a compiled entry point, in Python terms (cheaper than numba's typeof of the whole problem):
-    the method, the problem's class, its torque kind and its chart (free joint or not)."""
-    return method, type(p), type(p.tag), type(p.chart), p.ws_source[0] is None
+    the method, the problem's class, its torque kind, its chart (free joint or not) and whether it has contact."""
+    return method, type(p), type(p.tag), type(p.chart), p.ws_source[0] is None, p.contact is None
 
 
 class _announcing:

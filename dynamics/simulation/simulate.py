@@ -48,7 +48,8 @@ DEFAULT_OUTPUTS = ("q", "v", "tau")
 class Trajectory(NamedTuple):
     """t (T,), q (T, nq), v (T, nv), tau (T, nv) applied source torques, report (dict), lam (T, m): the
     constraint multipliers per sample (rows and frames of :mod:`dynamics.constraints`), None unless
-    ``outputs`` asked for "lambda"."""
+    ``outputs`` asked for "lambda"; contacts: the active contacts per sample
+    (:class:`dynamics.contact.outputs.ContactSamples`), None unless the contact asked for "contacts"."""
 
     t: np.ndarray
     q: np.ndarray
@@ -56,6 +57,7 @@ class Trajectory(NamedTuple):
     tau: np.ndarray
     report: dict
     lam: object = None
+    contacts: object = None
 
     def plot(self, path=None, *, joint_names=None, show=False):
         """q, v and tau against t with the report's verdict in the title (:func:`dynamics.plot.trajectory`;
@@ -82,6 +84,7 @@ class Settings(NamedTuple):
     constrained: bool  # model.constraints non-empty: the KKT right-hand side (.constrained_problem)
     baumgarte: tuple  # (alpha, beta) in 1/s
     project: bool
+    contact: object  # None, or the contact resolved for the model (dynamics.contact.resolve.Resolved)
 
 
 class RunResult(NamedTuple):
@@ -96,7 +99,7 @@ class RunResult(NamedTuple):
 def simulate(model, q0, v0, duration, *, torque=None, integrator="auto", rtol=1e-6, atol=1e-8, dt=None,
              sample_dt=None, gravity=None, max_steps=1_000_000, limits=None, limit_stiffness=1e4,
              limit_damping=100.0, friction_eps=1e-3, error_estimate="rerun", outputs=DEFAULT_OUTPUTS,
-             progress=None, baumgarte=None, project=False):
+             progress=None, baumgarte=None, project=False, contact=None):
     """Simulate the robot from (q0, v0) for ``duration`` seconds; returns a :class:`Trajectory`.
 
     torque: None, an (nv,) constant, :class:`dynamics.torques.Table`, :class:`~dynamics.torques.PD`,
@@ -121,6 +124,11 @@ def simulate(model, q0, v0, duration, *, torque=None, integrator="auto", rtol=1e
         ``project=True`` projects (q, v) onto phi = 0, Phi_q v = 0 at the start and after every accepted step
         (:mod:`dynamics.simulation.constrained_problem`).  The report adds ``constraint_drift``: the largest
         max|phi| ("position", m or rad) and max|Phi_q v| ("velocity") over the accepted steps and the samples.
+    contact: None, or a :class:`dynamics.Contact`: compliant contact with the ground, the world's objects and
+        between the model's bodies (:mod:`dynamics.contact`); its generalised force J_c^T f_c joins the
+        torques.  The report adds ``contact`` (largest penetration, time in contact, the work of the contact
+        forces and the energy they dissipated; :mod:`dynamics.simulation.report`), and ``Trajectory.contacts``
+        holds the active contacts per sample when the Contact's ``outputs`` ask for "contacts".
 
     Raises InputError for bad arguments and when the step budget is exceeded; a run that goes unstable
     stops, returns the samples up to the failure and says so in ``report["status"]`` and ``warnings``.
@@ -128,13 +136,15 @@ def simulate(model, q0, v0, duration, *, torque=None, integrator="auto", rtol=1e
     warnings = []
     progress = check_progress(progress)
     s = _settings(model, q0, v0, duration, integrator, rtol, atol, dt, sample_dt, gravity, max_steps,
-                  error_estimate, outputs, warnings, baumgarte, project)
+                  error_estimate, outputs, warnings, baumgarte, project, contact)
     ps = _passive(model, s, limits, limit_stiffness, limit_damping, friction_eps)
     src = make_source(model, torque)
     try:
         main = _one_run(model, s, ps, src, s.dt, s.out_t, s.rtol, s.atol, max_steps, s.outputs,
                         h0=s.dt if not s.fixed else 0.0, watch=watcher(progress, s.duration), probe=True)
         stability = _stability(s, main.stats["rho0"], warnings)
+        if s.contact is not None and s.fixed and s.duration > 0:
+            stability = R.contact_stability(model, s, stability, warnings)
         traj = _trajectory(model, s, ps, src, main, stability, warnings)
     finally:
         if src.slot >= 0:
@@ -177,8 +187,13 @@ def _trajectory(model, s, ps, src, main, stability, warnings):
         lam = p.out_lam[:cnt].copy() if "lambda" in s.outputs else None
     elif "lambda" in s.outputs:
         lam = np.zeros((cnt, 0))
+    contacts = None
+    if s.contact is not None:
+        report["contact"] = R.contact_report(model, s, main, w, warnings)
+        from ..contact.outputs import contact_samples
+        contacts = contact_samples(s.contact, p.contact, cnt)
     report["warnings"] = warnings
-    return Trajectory(t.copy(), q.copy(), v.copy(), tau.copy(), R.json_safe(report), lam)
+    return Trajectory(t.copy(), q.copy(), v.copy(), tau.copy(), R.json_safe(report), lam, contacts)
 
 
 def _why_nonfinite(model, s, src, main):
@@ -200,12 +215,16 @@ def _why_nonfinite(model, s, src, main):
 def _one_run(model, s, ps, src, dt, out_t, rtol, atol, max_steps, outputs, h0=0.0, watch=None, probe=False):
     """One compiled run of s.integrator from (q0, v0); samples kept at out_t (``outputs`` of q, v, tau)."""
     nv = model.nv
+    cm = None
+    if s.contact is not None:  # the contact modules are imported by a run with contact only
+        from ..contact.resolve import contact_model
+        cm = contact_model(s.contact, model, out_t.shape[0])
     if s.constrained:
         alpha, beta = s.baumgarte
-        p = constrained_problem(model, ps, src, s.q0, out_t, outputs, alpha, beta, s.project)
+        p = constrained_problem(model, ps, src, s.q0, out_t, outputs, alpha, beta, s.project, cm)
     else:
-        p = robot_problem(model, ps, src, s.q0, out_t, outputs)
-    z = np.zeros(2 * nv + NQUAD)
+        p = robot_problem(model, ps, src, s.q0, out_t, outputs, cm)
+    z = np.zeros(2 * nv + NQUAD + (cm is not None))
     z[nv:2 * nv] = s.v0
     nsteps = max(1, math.ceil(s.duration / dt * (1 - 1e-12))) if s.fixed and s.duration > 0 else 0
     opt = Options(nc=nv, nvel=nv, ne=2 * nv, max_steps=int(max_steps), nsteps=nsteps, dt=float(dt or 0.0),
@@ -241,7 +260,7 @@ def _stability(s, rho, warnings):
 # ---------------------------------------------------------------------------------------------------
 # checks
 def _settings(model, q0, v0, duration, integrator, rtol, atol, dt, sample_dt, gravity, max_steps,
-              error_estimate, outputs, warnings, baumgarte, project):
+              error_estimate, outputs, warnings, baumgarte, project, contact=None):
     """Check every argument once, with an error that names it; returns :class:`Settings`."""
     check_model(model)
     if integrator not in INTEGRATORS:
@@ -278,9 +297,13 @@ def _settings(model, q0, v0, duration, integrator, rtol, atol, dt, sample_dt, gr
         q0, v0 = _project_initial(model, q0, v0, warnings)
     elif constrained:
         warn_off_manifold(model, q0, warnings)
+    resolved = None
+    if contact is not None:
+        from ..contact.resolve import resolve
+        resolved = resolve(contact, model, g)
     return Settings(integrator, fixed, q0, v0, duration, rtol, atol, dt, g, int(max_steps),
                     tuple(o for o in OUTPUTS if o in outputs), error_estimate,
-                    _sample_times(duration, dt, sample_dt, fixed), constrained, gains, bool(project))
+                    _sample_times(duration, dt, sample_dt, fixed), constrained, gains, bool(project), resolved)
 
 
 def _project_initial(model, q0, v0, warnings):

@@ -1,0 +1,56 @@
+"""The simulation's calls into contact (:mod:`dynamics.simulation.problem`), each compiled to nothing when the
+problem has no contact (its ``contact`` field is None): a run without contact neither compiles nor imports the
+narrow phase.  For a :class:`dynamics.contact.resolve.ContactModel` they compile its implementations in
+:mod:`.resolve` (imported then)."""
+
+from numba import types
+from numba.extending import overload
+
+from .._numba import JIT_OPTIONS
+
+
+def contact_torques(c, tree, q, v, tau):
+    """tau += the generalised contact force; returns the contact power (0.0 without contact)."""
+    raise NotImplementedError("contact_torques: compiled code only")
+
+
+def contact_track(c, tree, t, q, v):
+    """After an accepted step ending at (t, q, v): the largest penetration and the time in contact."""
+    raise NotImplementedError("contact_track: compiled code only")
+
+
+def contact_emit(c, tree, j, q, v):
+    """Sample j: keep the active contacts at (q, v) when the run keeps them."""
+    raise NotImplementedError("contact_emit: compiled code only")
+
+
+def _no_power(c, tree, q, v, tau):
+    return 0.0
+
+
+def _nothing(c, tree, a, q, v):
+    return None
+
+
+@overload(contact_torques, jit_options=JIT_OPTIONS)
+def _ov_contact_torques(c, tree, q, v, tau):
+    if isinstance(c, types.NoneType):
+        return _no_power
+    from .resolve import _power
+    return _power
+
+
+@overload(contact_track, jit_options=JIT_OPTIONS)
+def _ov_contact_track(c, tree, t, q, v):
+    if isinstance(c, types.NoneType):
+        return _nothing
+    from .resolve import _track
+    return _track
+
+
+@overload(contact_emit, jit_options=JIT_OPTIONS)
+def _ov_contact_emit(c, tree, j, q, v):
+    if isinstance(c, types.NoneType):
+        return _nothing
+    from .resolve import _emit
+    return _emit

@@ -1,0 +1,163 @@
+"""A :class:`~dynamics.contact.config.Contact` made concrete for one model: the scene (:func:`.scene.build_scene`),
+each pair's material row (the combination rules of :mod:`.config`), and the buffers of the compiled evaluation;
+and that evaluation, which the simulation's right-hand side calls (:func:`contact_torques`).
+
+:class:`ContactModel` (K = scene.max_contacts, the narrow phase's capacity; nb bodies; T kept samples):
+
+===========  ================  ==================================================================================
+field        shape             meaning
+===========  ================  ==================================================================================
+scene        SceneArrays       the geometry and candidate pairs (:mod:`.scene`)
+pair_body    (npairs, 2) int   the bodies of each pair's geometries a and b (-1: the world)
+mat          (npairs, 5)       each pair's k (N/m), d (s/m), mu_s, mu_d, v_s (m/s) (:data:`.forces.K_STIFF` ...)
+buf          ContactBuffer     the narrow phase's contacts of the last evaluation (pair, point, normal, depth)
+ws           ContactWork       forward pass, world poses, body wrenches (:mod:`.forces`)
+detail       (K, 8)            per contact of the last evaluation: f_n, f_t (3), slip (3), elastic energy
+tau          (nv,)             scratch: a generalised force nobody reads (tracking, outputs)
+track        (3,)              largest penetration over the accepted steps (m), time in contact (s), last step's t
+out          (T, K, 15) or 0   contacts kept per sample (:data:`OUT_COLUMNS`); out_n (T,) int64 how many
+===========  ================  ==================================================================================
+"""
+
+from typing import NamedTuple
+
+import numpy as np
+
+from .._numba import inline_kernel, kernel
+from ..errors import InputError
+from .config import Contact, combine
+from .forces import (D_FN, D_FT, D_SLIP, NDETAIL, NMAT, apply_contacts, contact_work, generalized_forces,
+                     world_kinematics)
+from .narrow_phase import _collide, contact_buffer
+from .scene import build_scene
+
+#: columns of a kept contact (ContactModel.out): pair index, point (3), normal (3), normal force, friction (3),
+#: depth, slip velocity (3)
+OUT_COLUMNS = ("pair", "point", "point", "point", "normal", "normal", "normal", "normal_force", "friction",
+               "friction", "friction", "depth", "slip", "slip", "slip")
+NOUT = len(OUT_COLUMNS)
+
+
+class ContactModel(NamedTuple):
+    """The compiled evaluation's record (fields in the module docstring)."""
+
+    scene: tuple
+    pair_body: np.ndarray
+    mat: np.ndarray
+    buf: tuple
+    ws: tuple
+    detail: np.ndarray
+    tau: np.ndarray
+    track: np.ndarray
+    out: np.ndarray
+    out_n: np.ndarray
+
+
+class Resolved(NamedTuple):
+    """A Contact resolved for a model: the scene (with names) and the pairs' materials, shared by every run of
+    a simulate call; :func:`contact_model` makes each run's buffers."""
+
+    scene: object  # scene.Scene
+    pair_body: np.ndarray
+    mat: np.ndarray
+    contact: Contact
+
+
+def model_mass(model):
+    return float(np.sum(model.tree.mass))
+
+
+def resolve(contact, model, gravity=None):
+    """A :class:`Resolved` for ``contact`` (a :class:`Contact`) on ``model``; materials combined per pair."""
+    if not isinstance(contact, Contact):
+        raise InputError(f"contact: expected dynamics.Contact(...) or None, got {type(contact).__name__}")
+    scene = build_scene(model, contact.geometries, contact.world, self_collision=contact.self_collision,
+                        exclude=contact.exclude, pairs=contact.pairs)
+    names = list(scene.names)
+    for name in contact.materials:
+        if name not in names:
+            import difflib
+            near = difflib.get_close_matches(name, names, n=5, cutoff=0.4)
+            raise InputError(f"materials: no geometry named {name!r} in the scene; "
+                             + (f"closest: {near}" if near else f"there are {len(names)}: {names[:12]}"))
+    g = float(np.linalg.norm(model.gravity if gravity is None else gravity)) or 9.81
+    mass = max(model_mass(model), 1e-300)
+    per_geom = [contact.materials.get(n, contact.friction) for n in names]
+    kd = [m.defaults(mass, g) for m in per_geom]
+    npairs = scene.pair_a.shape[0]
+    mat = np.zeros((npairs, NMAT))
+    pair_body = np.zeros((npairs, 2), np.int64)
+    for j, (a, b) in enumerate(zip(scene.pair_a, scene.pair_b)):
+        pair_body[j] = scene.body[a], scene.body[b]
+        mat[j] = combine(kd[a], kd[b], per_geom[a], per_geom[b])
+    return Resolved(scene, pair_body, mat, contact)
+
+
+def contact_model(r, model, T=0):
+    """A :class:`ContactModel` of the resolved contact ``r`` with its own buffers (T samples kept when the
+    contact asked for "contacts")."""
+    nb, nv = model.tree.parents.shape[0], model.nv
+    K = int(r.scene.max_contacts)
+    T = T if "contacts" in r.contact.outputs else 0
+    return ContactModel(r.scene.arrays, r.pair_body, r.mat, contact_buffer(r.scene), contact_work(nb),
+                        np.zeros((K, NDETAIL)), np.zeros(nv), np.array([0.0, 0.0, 0.0]), np.zeros((T, K, NOUT)),
+                        np.zeros(T, np.int64))
+
+
+@inline_kernel
+def evaluate(c, tree, q, v, tau):
+    """tau += the generalised contact force at (q, v); returns (contact power, number of contacts)."""
+    world_kinematics(tree, q, v, c.ws)
+    n = _collide(c.scene, c.ws.oR, c.ws.op, c.buf)
+    b = c.buf
+    power = apply_contacts(n, b.pair, b.point, b.normal, b.depth, c.pair_body, c.mat, c.ws, c.detail)
+    generalized_forces(tree, c.ws, tau)
+    return power, n
+
+
+@kernel
+def evaluate_kernel(c, tree, q, v, f_ext, tau):
+    """From Python: f_ext = the body wrenches, tau += the generalised force; returns (power, n)."""
+    world_kinematics(tree, q, v, c.ws)
+    n = _collide(c.scene, c.ws.oR, c.ws.op, c.buf)
+    b = c.buf
+    power = apply_contacts(n, b.pair, b.point, b.normal, b.depth, c.pair_body, c.mat, c.ws, c.detail)
+    for i in range(f_ext.shape[0]):
+        for r in range(6):
+            f_ext[i, r] = c.ws.fb[i, r]
+    generalized_forces(tree, c.ws, tau)
+    return power, n
+
+
+# ---------------------------------------------------------------------------------------------------------
+# the implementations of the simulation's calls (:mod:`.calls`) for a ContactModel
+def _power(c, tree, q, v, tau):
+    return evaluate(c, tree, q, v, tau)[0]
+
+
+def _track(c, tree, t, q, v):
+    world_kinematics(tree, q, v, c.ws)
+    n = _collide(c.scene, c.ws.oR, c.ws.op, c.buf)
+    tr = c.track
+    for k in range(n):
+        tr[0] = max(tr[0], c.buf.depth[k])
+    if n > 0:
+        tr[1] += t - tr[2]
+    tr[2] = t
+
+
+def _emit(c, tree, j, q, v):
+    if c.out.shape[0] == 0:
+        return
+    n = evaluate(c, tree, q, v, c.tau)[1]
+    c.out_n[j] = n
+    b, o = c.buf, c.out[j]
+    for k in range(n):
+        o[k, 0] = b.pair[k]
+        for r in range(3):
+            o[k, 1 + r] = b.point[k, r]
+            o[k, 4 + r] = b.normal[k, r]
+            o[k, 8 + r] = c.detail[k, D_FT + r]
+            o[k, 12 + r] = c.detail[k, D_SLIP + r]
+        o[k, 7] = c.detail[k, D_FN]
+        o[k, 11] = b.depth[k]
