@@ -63,6 +63,7 @@ def warmup() -> int:
     if settings.sim_workers > 0:  # no simulation, no warming
         stages.append(Stage("compiling simulation kernels", warm.warm_up))
         stages.append(Stage("compiling the operational-space simulation kernels", warm.warm_up_later))
+        stages.append(Stage("compiling the contact simulation kernels", warm.warm_up_contact))
         stages.append(Stage("compiling the other torque kinds, the free joint and radau", warm.warm_up_rest))
     run = Warmup()
     run.run(stages)

@@ -16,6 +16,7 @@ from lxml import etree
 
 from .codec import finite_or_none, jsonable
 from .constraints import check_closed, constraints_info, declare
+from .contact import robot_geometry
 from .errors import Conflict, Forbidden, InvalidInput, NotFound, TooLarge, echo
 from .models import Models, load_model
 from .schemas import MAX_NAME
@@ -215,6 +216,7 @@ class Catalog:
         info.update(_inertial(model))
         info["summary"] = model_summary(model)
         info["constraints"] = constraints_info(model)
+        info["collision_geometry"] = robot_geometry(model)
         return info
 
     def delete(self, rid: str, owner: Optional[str]) -> None:

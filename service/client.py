@@ -59,6 +59,10 @@ class Trajectory:
     tau: np.ndarray
     report: dict = field(default_factory=dict)
     lam: Optional[np.ndarray] = None  # (K, m) constraint multipliers when outputs asked for "lambda"
+    #: with contact outputs ["contacts"]: one row per active contact per sample, {"sample" (N,), "pair" (N,),
+    #: "pairs" [(a, b)], "point" (N, 3), "normal" (N, 3), "normal_force" (N,), "friction" (N, 3), "depth" (N,),
+    #: "slip" (N, 3)} (world frame; the service's form of ``dynamics.Trajectory.contacts``)
+    contacts: Optional[dict] = None
 
 
 def _as_array(x: Any) -> np.ndarray:
@@ -380,20 +384,26 @@ class Robot:
     def simulate(self, q0, v0, duration: float, *, torque: Any = None,
                  integrator: Optional[str] = None, rtol: Optional[float] = None, atol: Optional[float] = None,
                  dt: Optional[float] = None, sample_dt: Optional[float] = None, gravity=None,
-                 locked=None, outputs=None, baumgarte=None, project: Optional[bool] = None) -> Trajectory:
+                 locked=None, outputs=None, baumgarte=None, project: Optional[bool] = None,
+                 contact: Any = None) -> Trajectory:
         """``torque``: what ``dynamics.simulate`` takes (``dynamics.torques.PD``, ``Table``, ``ComputedTorque``,
         ``OperationalSpace``, a constant tau, None) or the HTTP form {"type": "zero" | "constant" | "table" | "pd" |
-        "computed_torque" | "operational_space", ...} (see the API docs)."""
+        "computed_torque" | "operational_space", ...} (see the API docs). ``contact``: a ``dynamics.Contact`` or
+        its HTTP form {"ground": ..., "friction": ..., "objects": [...], ...}."""
         payload = {"q0": _as_array(q0), "v0": _as_array(v0), "duration": float(duration),
                    "torque": torque_spec(torque), "integrator": integrator,
                    "rtol": rtol, "atol": atol, "dt": dt, "sample_dt": sample_dt, "gravity": self._opt(gravity),
                    "locked": self._locked(locked), "outputs": None if outputs is None else list(outputs),
-                   "baumgarte": self._opt(baumgarte), "project": project}
+                   "baumgarte": self._opt(baumgarte), "project": project, "contact": contact_spec(contact)}
         ans = self._call("simulate", payload, npz_answer=True)
         report = ans.get("report", {})
         if isinstance(report, str):
             report = json.loads(report)
-        return Trajectory(t=ans["t"], q=ans["q"], v=ans["v"], tau=ans["tau"], report=report, lam=ans.get("lambda"))
+        contacts = {k.split(".", 1)[1]: v for k, v in ans.items() if k.startswith("contacts.")} or None
+        if contacts is not None and isinstance(contacts.get("pairs"), str):
+            contacts["pairs"] = [tuple(p) for p in json.loads(contacts["pairs"])]
+        return Trajectory(t=ans["t"], q=ans["q"], v=ans["v"], tau=ans["tau"], report=report, lam=ans.get("lambda"),
+                          contacts=contacts)
 
 
 #: the library's torque classes (dynamics.torques) the service knows: class name -> (HTTP type, attributes sent)
@@ -538,6 +548,57 @@ def _plain(obj: Any) -> Any:
     if isinstance(obj, (np.floating, np.integer)):
         return obj.item()
     raise TypeError(f"not JSON serialisable: {type(obj).__name__}")
+
+
+#: the library's contact declarations (dynamics.Sphere, ...) -> (HTTP type, attributes sent besides frame, name)
+CONTACT_CLASSES: dict[str, tuple[str, tuple[str, ...]]] = {
+    "Sphere": ("sphere", ("radius", "offset")), "Box": ("box", ("size", "pose")),
+    "Capsule": ("capsule", ("radius", "length", "pose")), "Cylinder": ("cylinder", ("radius", "length", "pose")),
+    "ContactPoint": ("point", ("point",)), "HalfSpace": ("half_space", ("normal", "offset")),
+}
+_MATERIAL_FIELDS = ("stiffness", "dissipation", "mu_static", "mu_dynamic", "stiction_velocity",
+                    "penetration_allowance")
+
+
+def contact_spec(contact: Any) -> Optional[dict[str, Any]]:
+    """A ``dynamics.Contact`` or an HTTP contact spec (a mapping) -> the HTTP spec, plain lists inside. The
+    library is not imported for this (its objects are read by their class names and attributes)."""
+    if contact is None or isinstance(contact, Mapping):
+        return None if contact is None else _plain_tree(dict(contact))
+    if type(contact).__name__ != "Contact":
+        raise TypeError(f"contact: expected a dynamics.Contact or a mapping, got {type(contact).__name__}")
+    ground = contact.ground
+    spec: dict[str, Any] = {
+        "ground": False if ground is None else {"normal": list(ground.normal), "height": ground.height},
+        "friction": _material_spec(contact.friction),
+        "objects": [_geometry_spec(g) for g in contact.objects],
+        "materials": {name: _material_spec(m) for name, m in contact.materials.items()},
+        "self_collision": bool(contact.self_collision),
+        "exclude": [list(p) for p in contact.exclude], "outputs": list(contact.outputs)}
+    if contact.geometries is not None:
+        spec["geometries"] = [_geometry_spec(g) for g in contact.geometries]
+    if contact.pairs is not None:
+        spec["pairs"] = [list(p) for p in contact.pairs]
+    return _plain_tree(spec)
+
+
+def _geometry_spec(g: Any) -> dict[str, Any]:
+    kind, attributes = CONTACT_CLASSES.get(type(g).__name__, (None, ()))
+    if kind is None:
+        raise TypeError(f"contact: expected dynamics.Sphere, Box, Capsule, Cylinder, ContactPoint or HalfSpace, got "
+                        f"{type(g).__name__}")
+    spec = {"type": kind, **{name: getattr(g, name) for name in attributes}}
+    if hasattr(g, "frame"):
+        spec["frame"] = g.frame
+    if g.name is not None:
+        spec["name"] = g.name
+    return spec
+
+
+def _material_spec(m: Any) -> Any:
+    if isinstance(m, (int, float)):
+        return m
+    return {name: getattr(m, name) for name in _MATERIAL_FIELDS if getattr(m, name) is not None}
 
 
 def _plain_tree(obj: Any) -> Any:

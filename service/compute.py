@@ -28,6 +28,7 @@ import numpy as np
 from .errors import (BudgetExceeded, Failed, InvalidInput, NotOffered, Problem, TooLarge, Unavailable, field_of,
                      figure)
 from .codec import wants_npz
+from .contact import check_frames
 from .library import lib, parallel
 from .models import Models, load_model, locked_key
 from .scene import Terms, simulation_scene, skipped
@@ -332,15 +333,24 @@ class Compute:
         entry = self.models.loaded(rid, locked)
         record = entry.record or self.models.record(rid)  # (the cached record: no disk read per request)
         job = build_job(record, locked, req, self.settings)  # (its step and sample limits first)
+        check_frames(entry.model, job.contact)
         samples = sim_samples(req.duration, req.sample_dt, req.dt, req.integrator)
         check_answer_size(samples * _columns(entry.model, req.outputs), wants_npz(accept), self.settings,
                           f"a trajectory of {samples} samples")
         return job, simulation_scene(entry.scene, entry.model.gravity, req.gravity)
 
-    async def simulate(self, job: Job, budget: Budget) -> tuple[dict[str, Any], float]:
+    async def simulate(self, job: Job, budget: Budget, accept: Optional[str] = None) -> tuple[dict[str, Any], float]:
         """The trajectory of ``job`` (arrays and report), computed by a worker process within ``budget``, and the
-        seconds the library call took there."""
-        return await asyncio.get_running_loop().run_in_executor(self.waiters, self._simulate, job, budget)
+        seconds the library call took there. Its active contacts (asked by the contact's outputs: their count is
+        known only now) are checked against the answer's size limit with the rest."""
+        trajectory, seconds = await asyncio.get_running_loop().run_in_executor(self.waiters, self._simulate, job,
+                                                                                budget)
+        contacts = sum(v.size for k, v in trajectory.items() if k.startswith("contacts.") and isinstance(v, np.ndarray))
+        if contacts:
+            numbers = contacts + sum(v.size for v in trajectory.values() if isinstance(v, np.ndarray))
+            check_answer_size(numbers, wants_npz(accept), self.settings,
+                              f"a trajectory with {trajectory['contacts.sample'].shape[0]} contacts")
+        return trajectory, seconds
 
     def _simulate(self, job: Job, budget: Budget) -> tuple[dict[str, Any], float]:
         try:

@@ -81,11 +81,13 @@ def load_model(urdf: str | bytes, floating_base: bool):
     """``dynamics.load_urdf`` on a document; a URDF the library refuses is an InvalidInput naming ``urdf``.
 
     Always bytes: the library reads a str that does not start with '<' as a file path, and no path named by a
-    caller may ever be opened.
+    caller may ever be opened. Always with the URDF's collision primitives (``model.collision_geometry``, what a
+    simulation's contact uses by default): one model per robot and locked set, as the cache keys say, and a
+    primitive the library refuses (a negative radius) is a 422 at upload, not at the first contact request.
     """
     data = urdf.encode("utf-8") if isinstance(urdf, str) else urdf
     try:
-        return lib().load_urdf(data, floating_base=floating_base)
+        return lib().load_urdf(data, floating_base=floating_base, collision=True)
     except ValueError as e:  # URDFError names the link or joint at fault
         message = str(e)
         raise InvalidInput(message if message.lower().startswith("urdf") else f"urdf: {message}", "urdf") from None

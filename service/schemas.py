@@ -295,13 +295,13 @@ Vector3 = Annotated[list[float], Field(min_length=3, max_length=3)]
 Pose4 = Annotated[list[Annotated[list[float], Field(min_length=4, max_length=4)]],
                   Field(min_length=4, max_length=4, description="(4, 4) pose [[R, p], [0, 0, 0, 1]] in the frame")]
 GeometryName = Optional[str]
-_FRAME = ("a frame of the robot (GET /v1/robots/{id}: frames) the primitive is fixed to, or 'world' for a static "
-          "object")
+_FRAME = ("geometries: the frame of the robot (GET /v1/robots/{id}: frames) the primitive is fixed to (required); "
+          "objects: 'world' (the default)")
 _LENGTH = {"gt": 0, "le": 1e6}
 
 
 class _Primitive(_Request):
-    frame: str = Field("world", min_length=1, max_length=MAX_NAME, description=_FRAME)
+    frame: Optional[str] = Field(None, min_length=1, max_length=MAX_NAME, description=_FRAME)
     name: Optional[str] = Field(None, min_length=1, max_length=MAX_NAME,
                                 description="names the geometry in materials, pairs, exclude and the outputs")
 
@@ -364,23 +364,31 @@ class GroundSpec(_Request):
 
 
 class MaterialSpec(_Request):
-    """dynamics.Material: any field left out takes the library's default (see the contact guide)."""
-    model_config = ConfigDict(extra="allow", strict=True, allow_inf_nan=False)
+    """dynamics.Material; a field left out takes the library's default (the guide's contact page lists them)."""
+    stiffness: Optional[float] = Field(None, gt=0, description="N/m; default from the penetration allowance and "
+                                                               "the robot's weight")
+    dissipation: Optional[float] = Field(None, ge=0, description="Hunt-Crossley d, s/m; default critical damping "
+                                                                 "at the allowance")
+    mu_static: Optional[float] = Field(None, ge=0, description="default 1")
+    mu_dynamic: Optional[float] = Field(None, ge=0, description="default mu_static")
+    stiction_velocity: Optional[float] = Field(None, gt=0, description="m/s, default 1e-3")
+    penetration_allowance: Optional[float] = Field(None, gt=0, description="m, default 1e-3")
+
+
+Friction = Union[Annotated[float, Field(ge=0)], MaterialSpec]
 
 
 class ContactSpec(_Request):
     """dynamics.Contact: compliant contact of the robot's geometry with the ground and the world's objects."""
     ground: Union[GroundSpec, bool] = Field(True, description="true: the plane z = 0 (default); false: no ground")
-    friction: Optional[float] = Field(None, ge=0, description="Coulomb coefficient of every pair (the default "
-                                                              "material's friction)")
-    material: Optional[MaterialSpec] = Field(None, description="the default material (its friction overrides "
-                                                               "friction)")
+    friction: Optional[Friction] = Field(None, description="every geometry's material: a Coulomb coefficient "
+                                                           "(static = dynamic) or a material; default mu = 1")
     objects: Annotated[list[WorldObject], _at_most(MAX_CONTACT_GEOMETRIES, "objects")] = Field(
         default_factory=list, description="static world objects: boxes, half-spaces, spheres, capsules, cylinders")
     geometries: Annotated[Optional[list[RobotGeometry]], _at_most(MAX_CONTACT_GEOMETRIES, "geometries")] = Field(
         None, description="the robot's contact geometry; default the URDF's collision primitives (GET the robot: "
                           "collision_geometry)")
-    materials: Annotated[Optional[dict[str, MaterialSpec]], _at_most(MAX_CONTACT_MATERIALS, "materials")] = Field(
+    materials: Annotated[Optional[dict[str, Friction]], _at_most(MAX_CONTACT_MATERIALS, "materials")] = Field(
         None, description="materials by geometry name ('ground', a geometry's or object's name)")
     pairs: Annotated[Optional[list[Pair]], _at_most(MAX_CONTACT_PAIRS, "pairs")] = Field(
         None, description="only these pairs of geometry names may touch; default every pair the filters allow")
@@ -388,9 +396,10 @@ class ContactSpec(_Request):
                                                     "never)")
     exclude: Annotated[list[Pair], _at_most(MAX_CONTACT_PAIRS, "exclude")] = Field(
         default_factory=list, description="pairs of geometry or body names that never touch")
-    outputs: list[Literal["forces", "penetration", "slip"]] = Field(
-        default_factory=list, max_length=3, description="per sample and active contact: forces (world frame: point, "
-                                                        "normal and friction force), penetration depth, slip speed")
+    outputs: list[Literal["contacts"]] = Field(
+        default_factory=list, max_length=1, description="['contacts']: every active contact per sample in the answer "
+                                                        "(contact.point, normal, normal_force, friction, depth, slip; "
+                                                        "world frame)")
 
 
 class SimulateRequest(_Request):
@@ -488,6 +497,24 @@ class TrajectoryAnswer(BaseModel):
     tau: list[list[float]] = Field(description="(K, nv) applied joint torques")
     lam: Optional[list[list[float]]] = Field(None, alias="lambda",
                                              description="(K, m) constraint multipliers, when outputs has 'lambda'")
+    contacts_sample: Optional[list[int]] = Field(
+        None, alias="contacts.sample", description="with contact.outputs ['contacts'], one row per active contact "
+                                                   "per sample, in sample order: (N,) the index of its sample")
+    contacts_pair: Optional[list[int]] = Field(None, alias="contacts.pair",
+                                               description="(N,) index into contacts.pairs")
+    contacts_pairs: Optional[list[list[str]]] = Field(None, alias="contacts.pairs", description=(
+        "(P, 2) the geometry names of each candidate pair (a, b); the normal points from b to a"))
+    contacts_point: Optional[list[list[float]]] = Field(None, alias="contacts.point",
+                                                        description="(N, 3) contact point, world frame, m")
+    contacts_normal: Optional[list[list[float]]] = Field(None, alias="contacts.normal",
+                                                         description="(N, 3) unit normal from b towards a")
+    contacts_normal_force: Optional[list[float]] = Field(None, alias="contacts.normal_force",
+                                                         description="(N,) f_n >= 0 on a, N")
+    contacts_friction: Optional[list[list[float]]] = Field(None, alias="contacts.friction",
+                                                           description="(N, 3) friction force on a, world frame, N")
+    contacts_depth: Optional[list[float]] = Field(None, alias="contacts.depth", description="(N,) penetration, m")
+    contacts_slip: Optional[list[list[float]]] = Field(None, alias="contacts.slip", description=(
+        "(N, 3) tangential velocity of a relative to b at the point, m/s"))
     report: dict[str, Any] = Field(description="dynamics.Trajectory.report: status, integrator, steps, "
                                                "error_estimate, energy_drift, warnings, wall time, ...")
     scene: Scene
@@ -551,6 +578,17 @@ class FrameInfo(BaseModel):
     placement: list[list[float]] = Field(description="(4, 4) pose of the frame in that body's frame (or the world)")
 
 
+class CollisionItem(BaseModel):
+    """One collision primitive of the robot (dynamics.CollisionGeometry)."""
+    name: str = Field(description="names it in a contact's materials, pairs and exclude")
+    body: Optional[str] = Field(description="the body it is fixed to (its link may have been merged into it)")
+    frame: str = Field(description="the URDF link it was declared on")
+    kind: Literal["sphere", "box", "capsule", "cylinder", "point"]
+    size: list[float] = Field(description="sphere (radius, 0, 0); box full edges (x, y, z); capsule and cylinder "
+                                          "(radius, length, 0), axis along the local z; point (0, 0, 0); m")
+    pose: list[list[float]] = Field(description="(4, 4) pose in the body's frame")
+
+
 class RobotInfo(RobotSummary):
     joints: list[JointInfo]
     gravity: list[float]
@@ -563,6 +601,9 @@ class RobotInfo(RobotSummary):
                                                 "kinematics answers")
     summary: ModelSummary
     constraints: Optional["ConstraintsInfo"] = Field(None, description="loops and couplings; absent when none")
+    collision_geometry: list[CollisionItem] = Field(
+        default_factory=list, description="the URDF's collision primitives (meshes are left out), the contact "
+                                          "geometry of a simulation whose contact declares none")
 
 
 class RobotList(BaseModel):

@@ -31,6 +31,7 @@ from ..library import lib
 from ..models import ModelCache, cached, load_model
 from ..settings import Settings
 from ..sim.job import samples
+from .. import contact as contacts
 from .. import torque as torques
 from ..codec import finite_report
 from ..store import RobotStore
@@ -98,6 +99,8 @@ class SimulateMany:
     def run(self, model, inputs, spec, lo, hi, engine, progress) -> dict[str, Any]:
         options = dict(spec["options"])
         duration = options.pop("duration")
+        if options.get("contact") is not None:  # the HTTP spec, as /simulate's (service.contact)
+            options["contact"] = contacts.build(options["contact"])
         q0, v0 = (np.broadcast_to(inputs[n], (self.total(model, inputs, spec), inputs[n].shape[-1]))[lo:hi]
                   for n in self.states)
         out = lib().simulate_many(model, q0, v0, duration, torque=torques.for_runs(self.torque_spec(inputs, spec), lo, hi),
@@ -178,7 +181,8 @@ def run_job(files: JobFiles, job_id: str, boot: str) -> None:
         if now is None or now.status != "running" or now.boot != boot:  # cancelled or deleted under our feet
             files.remove(job_id, keep_result=now is not None and now.status == "done")
         elif isinstance(e, ValueError):  # the library's InputError (names the argument) and our own refusals
-            db.fail(job_id, str(e), boot)
+            contact = (now.spec.get("options") or {}).get("contact") is not None
+            db.fail(job_id, contacts.qualify(str(e)) if contact else str(e), boot)
             files.remove(job_id)
         elif (full := storage_full(e, f"the job store {files.root}")) is not None:
             files.remove(job_id)  # (first: the record's update needs room too)
@@ -250,6 +254,16 @@ def check_inputs(kind_name: str, model, inputs: dict[str, np.ndarray], spec: dic
         if not (one_row or x.shape == (total, n)):
             rows = f"({n},) or ({total}, {n})" if kind_name == "simulate_many" else f"(B, {n})"
             return f"inputs.{name}: expected shape {rows}, got {x.shape}"
+    if kind_name == "simulate_many" and spec["options"].get("contact") is not None:
+        contact = spec["options"]["contact"]
+        if contact.get("outputs"):
+            return "options.contact.outputs: the contacts per sample are not kept by simulate_many jobs (each run's " \
+                   "report has its contact summary); use /simulate for them"
+        try:  # the declarations the library refuses and unknown frames (a 422 now, not when the job runs)
+            contacts.build(contact)
+            contacts.check_frames(model, contact)
+        except InvalidInput as e:
+            return f"options.{e.detail}"
     if kind_name == "simulate_many":  # the first run's torque, as /simulate would read it (a 422 now, not later)
         try:
             torques.check(model, SimulateMany.torque_spec(inputs, spec), total)

@@ -40,7 +40,7 @@ async def simulate(robot_id: str, request: Request, d: Deps = Depends(deps),
     else:
         job, scene = await d.compute.run_within(time_budget, _job, d, robot_id, body, content_type, accept)
     del body
-    trajectory, seconds = await d.compute.simulate(job, time_budget)
+    trajectory, seconds = await d.compute.simulate(job, time_budget, accept)
     response = await d.compute.run_within(time_budget, encode, {**trajectory, "scene": scene}, accept)
     # the library call's own time: what the service adds is the rest (benchmarks.service measures it)
     response.headers["Server-Timing"] = f"library;dur={seconds * 1e3:.3f}"
@@ -56,7 +56,7 @@ def _job(d: Deps, robot_id: str, body: bytes, content_type: Optional[str],
 def _request(d: Deps, body: bytes, content_type: Optional[str]) -> schemas.SimulateRequest:
     """The body -> the validated request."""
     payload = decode(body, content_type, max_unpacked=8 * d.settings.max_body_bytes)
-    for name, kind in (("torque", "object"), ("outputs", "list")):  # in .npz these travel as JSON strings
+    for name, kind in (("torque", "object"), ("outputs", "list"), ("contact", "object")):  # in .npz these travel as JSON strings
         if isinstance(payload.get(name), str) and payload[name].lstrip()[:1] in ("{", "["):
             try:
                 payload[name] = json.loads(payload[name])

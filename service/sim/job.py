@@ -32,6 +32,7 @@ class Job:
     torque: Optional[dict[str, Any]]  # the HTTP torque spec ({"type": "pd", ...}), None for no torque
     max_steps: int                # the service's step budget, whatever the request says
     deadline: float = math.inf    # the request's deadline on time.monotonic's clock (the same in every process)
+    contact: Optional[dict[str, Any]] = None  # the HTTP contact spec (service.contact), None for no contact
 
 
 @dataclass(frozen=True)
@@ -73,4 +74,5 @@ def build_job(record: RobotRecord, locked: tuple, req: SimulateRequest, settings
     options = {k: getattr(req, k) for k in SIMULATE_OPTIONS if getattr(req, k) is not None}
     return Job(robot_id=record.id, urdf=record.urdf, floating_base=record.floating_base, locked=locked,
                q0=req.q0, v0=req.v0, duration=req.duration, options=options,
-               torque=req.torque.model_dump() if req.torque is not None else None, max_steps=s.max_sim_steps)
+               torque=req.torque.model_dump() if req.torque is not None else None, max_steps=s.max_sim_steps,
+               contact=req.contact.model_dump(exclude_none=True) if req.contact is not None else None)

@@ -1,7 +1,8 @@
 """What a simulation worker compiles: :func:`warm_up` before it says "ready" (a tiny simulation per integrator
 and problem type), then, in a background thread (:class:`LateWarmup`), the operational-space and computed-torque
-sources (:func:`warm_up_later`) and the rest (:func:`warm_up_rest`). ``python -m service --warmup`` (the Docker
-build step) runs the same three in one process, so that a failure here fails the build.
+sources (:func:`warm_up_later`), a simulation with contact (:func:`warm_up_contact`) and the rest
+(:func:`warm_up_rest`). ``python -m service --warmup`` (the Docker build step) runs the same four in one process,
+so that a failure here fails the build.
 """
 
 from __future__ import annotations
@@ -13,6 +14,7 @@ from typing import Callable, Optional
 
 import numpy as np
 
+from .. import contact as contacts
 from .. import torque as torques
 from ..library import lib
 from ..models import load_model
@@ -51,6 +53,18 @@ def warm_up_later() -> None:
     torque = torques.build({"type": "computed_torque", "t": t, "q": np.zeros((2, 1)), "v": np.zeros((2, 1)),
                            "a": np.zeros((2, 1)), "kp": 1.0, "kd": 1.0})
     lib().simulate(model, np.array([0.1]), np.zeros(1), 0.01, torque=torque)
+
+
+def warm_up_contact() -> None:
+    """A simulation with contact: its problem type (the narrow phase, the force law, the contact quadrature) is
+    compiled only for runs with contact, ~10-20 s from an empty cache. A floating body with a sphere on the
+    default ground, as most contact requests are (a free base with feet)."""
+    floating = load_model(WARMUP_URDF, floating_base=True)
+    q0 = floating.neutral()
+    q0[2] = 0.6  # the sphere on the arm's end (0.5 m below the base) 0.05 m from touching
+    contact = contacts.build({"geometries": [{"type": "sphere", "frame": "arm", "radius": 0.05,
+                                              "offset": [0.0, 0.0, -0.5]}]})
+    lib().simulate(floating, q0, np.zeros(floating.nv), 0.2, contact=contact)
 
 
 def warm_up_rest() -> None:
@@ -93,8 +107,12 @@ class LateWarmup:
     #: under one
     SECONDS = 45.0
 
+    #: seconds the contact kernels take from an empty numba cache (loaded 2-core machine)
+    CONTACT_SECONDS = 30.0
+
     def __init__(self) -> None:
         self.done = threading.Event()
+        self.contact_done = threading.Event()  # warm_up_contact ended (compiled, or failed: a request compiles)
         self.started = time.monotonic()
         self.error: Optional[str] = None  # why the late warm-up failed (after two attempts), None if it did not
 
@@ -111,6 +129,11 @@ class LateWarmup:
         finally:
             self.done.set()
         report("late", self.error)
+        try:
+            error = attempt(warm_up_contact)
+        finally:
+            self.contact_done.set()
+        report("contact", error)
         # no request waits for these: one that comes first compiles its own part (and, past its budget, is told
         # that the worker was still compiling: service.compute)
         report("rest", attempt(warm_up_rest))
@@ -118,6 +141,17 @@ class LateWarmup:
     def wait(self, deadline: float) -> bool:
         """Whether it is done, waiting for it until ``deadline`` (time.monotonic) less a second."""
         return self.done.is_set() or self.done.wait(max(0.0, deadline - time.monotonic() - 1.0))
+
+    def wait_contact(self, deadline: float) -> bool:
+        """Whether the contact kernels are compiled, waiting for them until ``deadline`` less a second."""
+        return self.contact_done.is_set() or self.contact_done.wait(max(0.0, deadline - time.monotonic() - 1.0))
+
+    def contact_unavailable(self) -> Outcome:
+        elapsed = time.monotonic() - self.started
+        left = max(1.0, self.SECONDS + self.CONTACT_SECONDS - elapsed)
+        return Outcome(unavailable=f"this worker is still compiling the contact simulation kernels (for {elapsed:.0f} "
+                                  f"s since its start, about {left:.0f} s left, once after the service starts with "
+                                  "an empty cache); retry then", retry_after=left)
 
     def unavailable(self) -> Outcome:
         elapsed = time.monotonic() - self.started

@@ -19,6 +19,7 @@ from typing import Optional
 
 import numpy as np
 
+from .. import contact as contacts
 from .. import torque as torques
 from ..codec import finite_report
 from ..errors import InvalidInput
@@ -42,6 +43,10 @@ def simulate(model, job: Job) -> Outcome:
             return later.unavailable()
     if torque is not None:
         options["torque"] = torque
+    if job.contact is not None:
+        options["contact"] = contacts.build(job.contact)  # (a bad declaration: a 422 at once, before any wait)
+        if not later.wait_contact(job.deadline):
+            return later.contact_unavailable()
     # The step budget is the service's: a runaway adaptive run ends in a clear "max_steps: ..." 422 rather than
     # in the time budget's 504.
     started = time.perf_counter()
@@ -50,6 +55,7 @@ def simulate(model, job: Job) -> Outcome:
     out = {name: np.asarray(getattr(traj, name)) for name in ("t", "q", "v", "tau")}
     if traj.lam is not None:
         out["lambda"] = np.asarray(traj.lam)
+    out.update(contacts.samples(getattr(traj, "contacts", None)))
     out["report"] = finite_report(dict(traj.report or {}))
     return Outcome(trajectory=out, seconds=seconds)
 
@@ -61,7 +67,7 @@ def handle(job: Job, cache: ModelCache) -> Outcome:
     except InvalidInput as e:  # our own reading of the request (a URDF refused, an unknown torque type)
         return Outcome(input_error=e.detail)
     except ValueError as e:  # the library's InputError, URDFError, DynamicsError: the message names the field
-        return Outcome(input_error=str(e))
+        return Outcome(input_error=contacts.qualify(str(e)) if job.contact is not None else str(e))
     except Exception as e:  # noqa: BLE001 - reported to the server, which answers 500
         traceback.print_exc()
         return Outcome(error=f"{type(e).__name__}: {e}")
