@@ -3,7 +3,8 @@
     dynamics info ROBOT [--floating-base] [--json]       what the model holds: joints with q/v slices, frames
     dynamics check ROBOT [--floating-base]               every warning and refusal; exit 0 if it loads (and simulate
                                                          takes it at the neutral configuration), 1 if not
-    dynamics simulate ROBOT --duration 2 [--q0 ...] [--torque pd:kp=50,kd=5] [--plot out.png] [--json] [--strict]
+    dynamics simulate ROBOT --duration 2 [--q0 ...] [--torque pd:kp=50,kd=5] [--contact ground:mu=0.8]
+                                         [--plot out.png] [--json] [--strict]
     dynamics serve [--host ...] [--port ...]             the HTTP service (same as python -m service)
 
 ROBOT is a URDF path or the name of a bundled robot (``dynamics.robots.names()``).
@@ -22,18 +23,24 @@ import numpy as np
 
 from . import plot, robots
 from .aba import refuse_singular
+from .contact.config import PENETRATION_ALLOWANCE, Contact, Material
+from .contact.geometry import Ground
 from .errors import DynamicsError, InputError
 from .simulation import simulate
 from .torques import PD
 from .urdf import load_urdf
 
 INTEGRATORS = ("auto", "rk45", "dop853", "radau", "rk4", "euler")
+CONTACT_HELP = ("contact with a ground plane, the robot's URDF collision primitives touching it: 'ground' (z = 0, "
+                "the default material) or 'ground:mu=M,height=H,normal=NX,NY,NZ,stiffness=K,dissipation=D,"
+                "allowance=DELTA' (any of them; see the contact guide)")
 TORQUE_HELP = ("torque source: 'zero' (default), 'constant:TAU' (one number per joint, comma separated), or "
                "'pd:kp=K,kd=D[,target=Q]' (PD towards target, default q0; K and D scalars)")
 
 
 def _load(args, strict=True):
-    return load_urdf(args.robot, floating_base=args.floating_base, strict_inertia=strict)
+    collision = getattr(args, "contact", None) is not None  # (the collision primitives: what contact touches with)
+    return load_urdf(args.robot, floating_base=args.floating_base, strict_inertia=strict, collision=collision)
 
 
 def _numbers(text, what):
@@ -64,6 +71,36 @@ def _torque(spec, model, q0):
         target = _numbers(fields["target"], "--torque target") if "target" in fields else q0
         return PD(target, float(fields["kp"]), float(fields["kd"]))
     raise DynamicsError(f"--torque: unknown kind {kind!r}; {TORQUE_HELP}")
+
+
+def _contact(spec):
+    """Parse --contact into a dynamics.Contact (None without --contact)."""
+    if spec is None:
+        return None
+    kind, _, rest = spec.partition(":")
+    if kind != "ground":
+        raise DynamicsError(f"--contact: unknown kind {kind!r}; {CONTACT_HELP}")
+    fields = {}
+    last = None
+    for part in filter(None, (p.strip() for p in rest.replace(";", ",").split(","))):
+        key, eq, value = part.partition("=")
+        if eq:
+            last = key.strip()
+            fields[last] = value.strip()
+        elif last == "normal":  # normal=0,0,1: the numbers after the first
+            fields["normal"] += " " + part
+        else:
+            raise DynamicsError(f"--contact: expected key=value, got {part!r}; {CONTACT_HELP}")
+    known = {"mu", "height", "normal", "stiffness", "dissipation", "allowance"}
+    if set(fields) - known:
+        raise DynamicsError(f"--contact: unknown key {sorted(set(fields) - known)[0]!r}; {CONTACT_HELP}")
+    number = {k: float(_numbers(v, f"--contact {k}")[0]) for k, v in fields.items() if k != "normal"}
+    ground = Ground(_numbers(fields["normal"], "--contact normal") if "normal" in fields else (0.0, 0.0, 1.0),
+                    number.get("height", 0.0))
+    material = Material(stiffness=number.get("stiffness"), dissipation=number.get("dissipation"),
+                        mu_static=number.get("mu", 1.0),
+                        penetration_allowance=number.get("allowance", PENETRATION_ALLOWANCE))
+    return Contact(ground=ground, friction=material)
 
 
 def info(args):
@@ -131,6 +168,9 @@ def simulate_command(args):
     options = {k: getattr(args, k) for k in ("integrator", "rtol", "atol", "dt", "sample_dt")
                if getattr(args, k) is not None}
     torque = _torque(args.torque, model, q0)
+    contact = _contact(args.contact)
+    if contact is not None:
+        options["contact"] = contact
     try:
         traj = simulate(model, q0, v0, args.duration, torque=torque, **options)
     except InputError as e:
@@ -149,6 +189,10 @@ def simulate_command(args):
         for w in traj.report.get("warnings", []):
             print(f"warning: {w}")
         print(f"final q: {np.array2string(traj.q[-1], precision=6)}")
+        c = traj.report.get("contact")
+        if c:
+            print(f"contact: largest penetration {c['max_penetration']:.3g} m, {c['time_in_contact']:.3g} s in "
+                  f"contact, {c['energy_dissipated']:.4g} J dissipated ({c['pairs']} pairs)")
     if args.strict and traj.report.get("warnings"):
         print(f"dynamics simulate: --strict: the report has {len(traj.report['warnings'])} warning(s): "
               + "; ".join(traj.report["warnings"]), file=sys.stderr)
@@ -188,6 +232,7 @@ def parser():
     c.add_argument("--q0", help="initial q, comma separated (default: neutral)")
     c.add_argument("--v0", help="initial v, comma separated (default: zero)")
     c.add_argument("--torque", default="zero", help=TORQUE_HELP)
+    c.add_argument("--contact", metavar="ground[:mu=M,...]", help=CONTACT_HELP)
     c.add_argument("--integrator", choices=INTEGRATORS)
     c.add_argument("--rtol", type=float)
     c.add_argument("--atol", type=float)
