@@ -28,7 +28,11 @@ def _no_power(c, tree, q, v, tau):
     return 0.0
 
 
-def _nothing(c, tree, a, q, v):
+def _no_track(c, tree, t, q, v):  # numba matches an overload's implementation by its parameter names
+    return None
+
+
+def _no_emit(c, tree, j, q, v):
     return None
 
 
@@ -43,7 +47,7 @@ def _ov_contact_torques(c, tree, q, v, tau):
 @overload(contact_track, jit_options=JIT_OPTIONS)
 def _ov_contact_track(c, tree, t, q, v):
     if isinstance(c, types.NoneType):
-        return _nothing
+        return _no_track
     from .resolve import _track
     return _track
 
@@ -51,6 +55,6 @@ def _ov_contact_track(c, tree, t, q, v):
 @overload(contact_emit, jit_options=JIT_OPTIONS)
 def _ov_contact_emit(c, tree, j, q, v):
     if isinstance(c, types.NoneType):
-        return _nothing
+        return _no_emit
     from .resolve import _emit
     return _emit

@@ -238,11 +238,12 @@ def contact_report(model, s, run, w, warnings):
     out = {"max_penetration": float(c.track[0]), "time_in_contact": float(c.track[1]), "work_contact": work,
            "elastic_energy_initial": e0, "elastic_energy_final": e1, "energy_dissipated": -work - (e1 - e0),
            "pairs": int(s.contact.scene.pair_a.shape[0]), "max_contacts": int(s.contact.scene.max_contacts)}
-    allowance = min([m.penetration_allowance for m in [s.contact.contact.friction,
-                                                       *s.contact.contact.materials.values()]])
-    if out["max_penetration"] > 10 * allowance:
+    defaults = [m for m in (s.contact.contact.friction, *s.contact.contact.materials.values()) if m.stiffness is None]
+    allowance = min((m.penetration_allowance for m in defaults), default=None)
+    if allowance is not None and out["max_penetration"] > 10 * allowance:
         warnings.append(f"contact: the largest penetration {out['max_penetration']:.3g} m is more than 10x the "
-                        f"penetration allowance ({allowance:g} m): stiffen the material or check the geometry")
+                        f"penetration allowance ({allowance:g} m) the default stiffness was made for: lower the "
+                        "allowance, give a stiffness, or check the geometry")
     if s.integrator == "auto" and any(x["to"] == "radau" for x in switches(run.switches)):
         out["stiff"] = "auto switched to radau where contact made the problem stiff (see switches)"
     return out
