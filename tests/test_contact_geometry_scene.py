@@ -10,7 +10,7 @@ import yourdfpy
 
 import dynamics
 from dynamics import Box, Capsule, ContactPoint, Cylinder, Ground, HalfSpace, InputError, Sphere, URDFError
-from dynamics.contact.narrow_phase import _body_world_poses, _broad_phase, _collide, contact_buffer
+from dynamics.contact.narrow_phase import _body_world_poses, _broad_phase, _collide, contact_buffer, find_contacts
 from dynamics.contact.scene import MAX_PER_PAIR, build_scene
 from tests.robots import erd
 
@@ -322,3 +322,28 @@ def test_free_body_against_pinocchio(geometry, inertia):
     np.testing.assert_allclose(M[robot.nv:, robot.nv:], pin.crba(ref, data, qb), rtol=1e-12, atol=1e-14)
     assert not M[:robot.nv, robot.nv:].any()
     np.testing.assert_allclose(dynamics.forward_dynamics(model, q, v, tau), a, rtol=1e-10, atol=1e-10)
+
+
+def test_urdf_floating_link_is_a_free_body():
+    """A URDF link on a floating joint (a box beside an arm) is a tree of its own: paired with the arm without
+    self-collision; find_contacts at a configuration gives the box's face on the ground."""
+    urdf = """<robot name="r"><link name="world"/>
+    <link name="arm"><inertial><mass value="1"/><inertia ixx="1" iyy="1" izz="1" ixy="0" ixz="0" iyz="0"/></inertial>
+      <collision><geometry><capsule radius="0.05" length="0.5"/></geometry></collision></link>
+    <link name="box"><inertial><mass value="0.5"/><inertia ixx="1e-3" iyy="1e-3" izz="1e-3" ixy="0" ixz="0" iyz="0"/>
+      </inertial><collision><geometry><box size="0.1 0.1 0.1"/></geometry></collision></link>
+    <joint name="j" type="revolute"><parent link="world"/><child link="arm"/><origin xyz="0 0 1"/>
+      <axis xyz="0 1 0"/><limit lower="-1" upper="1" effort="1" velocity="1"/></joint>
+    <joint name="box_free" type="floating"><parent link="world"/><child link="box"/></joint></robot>"""
+    model = dynamics.load_urdf(urdf, collision=True)
+    s = build_scene(model)
+    assert pairs_of(s) == {frozenset(p) for p in (("arm/collision0", "box/collision0"),
+                                                  ("arm/collision0", "ground"), ("box/collision0", "ground"))}
+    q = model.neutral()
+    q[model.q_slice("box_free")] = [0.3, 0.0, 0.049, 0, 0, np.sin(0.2), np.cos(0.2)]  # turned 0.4 rad about z
+    c = find_contacts(model, s, q)
+    assert c.a == ("box/collision0",) * 4 and c.b == ("ground",) * 4
+    np.testing.assert_allclose(c.depth, 0.001, rtol=1e-9)
+    np.testing.assert_allclose(np.sort(np.linalg.norm(c.point[:, :2] - [0.3, 0], axis=1)), [np.sqrt(0.005)] * 4)
+    with pytest.raises(InputError, match="q"):
+        find_contacts(model, s, q[:3])
