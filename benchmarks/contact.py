@@ -155,6 +155,9 @@ def go1_urdf(kd: float) -> str:
     left out: Drake does not read it)."""
     text = Path(erd("go1_description/urdf/go1.urdf")).read_text()
     text = re.sub(r"<visual>.*?</visual>", "", text, flags=re.S)
+    # its root link 'base' (1e-6 kg, an inertia with negative eigenvalues, welded to the trunk) made massless: MuJoCo
+    # refuses the inertia, and the 1e-6 kg changes nothing
+    text = re.sub(r'(<link name="base">\s*)<inertial>.*?</inertial>', r"\1", text, flags=re.S)
     return re.sub(r"<dynamics[^>]*/>", f'<dynamics damping="{kd}" friction="0"/>', text)
 
 
@@ -163,12 +166,11 @@ def quadruped_scene() -> Scene:
     kd, kp = 2.0, 80.0
     urdf = go1_urdf(kd)
     joints = {f"{leg}_{part}_joint": value for leg in ("FR", "FL", "RR", "RL") for part, value in GO1_POSTURE.items()}
-    model = dynamics.load_urdf(urdf.encode(), floating_base=True)
+    model = dynamics.load_urdf(urdf.encode(), floating_base=True, strict_inertia=False)
     q = model.neutral()
     for name, value in joints.items():
         q[model.q_index[model.joint_names.index(name)]] = value
-    foot = min(dynamics.forward_kinematics(model, q, frames=[f"{leg}_foot" for leg in ("FR", "FL", "RR", "RL")])
-               [:, 2, 3])
+    foot = min(dynamics.frame_placement(model, q, f"{leg}_foot")[2, 3] for leg in ("FR", "FL", "RR", "RL"))
     height = -foot + 0.02  # the foot spheres (radius 0.02 m) touching z = 0
     return Scene("quadruped", urdf, 1.0, (0.0, 0.0, float(height)), (1.0, 0.0, 0.0, 0.0), joints, mu=0.8,
                  stiffness=2e4 * model.total_mass / 12, dissipation=2.0, kp=kp, kd=kd, mass=model.total_mass)
@@ -349,7 +351,7 @@ def ours_contact(scene: Scene, model=None):
 
 def ours_model(scene: Scene):
     import dynamics
-    return dynamics.load_urdf(scene.urdf.encode(), floating_base=True, collision=True)
+    return dynamics.load_urdf(scene.urdf.encode(), floating_base=True, collision=True, strict_inertia=False)
 
 
 def ours_initial(scene: Scene, model) -> tuple[np.ndarray, np.ndarray]:
@@ -507,6 +509,74 @@ SCALES = {"ball": lambda s: s.p0[2], "incline": lambda s: s.analytic(), "quadrup
 SCENES = {"ball": ball_scene, "incline": incline_scene, "quadruped": quadruped_scene}
 
 
+# -- contact on a robot touching nothing, and the cold start ---------------------------------------------------
+def overhead(repeat: int, log) -> list[str]:
+    """Go1 under its PD springs 100 m above the ground for 1 s: simulate with contact=Contact() (the broad phase
+    finds nothing to touch at every evaluation) against no contact, timed alternately, best of ``repeat``."""
+    import dynamics
+    scene = quadruped_scene()
+    model = ours_model(scene)
+    q0, v0 = ours_initial(scene, model)
+    q0[2] = 100.0
+    torque = ours_torque(scene, model, q0)
+    runs = {"without contact": None, "with contact (nothing touches)": dynamics.Contact()}
+    best = dict.fromkeys(runs, math.inf)
+    for r in range(repeat + 1):  # (round 0 compiles)
+        for name, contact in runs.items():
+            t = time.perf_counter()
+            dynamics.simulate(model, q0, v0, 1.0, torque=torque, contact=contact, error_estimate="none",
+                              progress=False)
+            if r:
+                best[name] = min(best[name], time.perf_counter() - t)
+    ratio = best["with contact (nothing touches)"] / best["without contact"]
+    log(f"  touching nothing: {best} -> {ratio:.3f}")
+    return ["### Contact on a robot touching nothing", "",
+            "Go1 under its PD springs 100 m above the ground, 1 s, `auto` at rtol 1e-6, timed alternately (best of "
+            f"{repeat}).", "", "| run | wall s |", "|---|---|"] + \
+        [f"| {name} | {t:.4f} |" for name, t in best.items()] + ["", f"Cost of contact: {100 * (ratio - 1):+.1f} %."]
+
+
+COLD = """
+import time, numpy as np
+t0 = time.perf_counter()
+import dynamics
+t1 = time.perf_counter()
+model = dynamics.load_urdf(URDF, floating_base=True, collision=True)
+q0 = model.neutral(); q0[2] = 0.5
+dynamics.simulate(model, q0, np.zeros(model.nv), 0.5, contact=dynamics.Contact(), progress=False)
+t2 = time.perf_counter()
+dynamics.simulate(model, q0, np.zeros(model.nv), 0.5, contact=dynamics.Contact(), progress=False)
+print(f"{t1 - t0:.2f} {t2 - t1:.2f} {time.perf_counter() - t2:.4f}")
+"""
+
+
+def cold_start(log) -> list[str]:
+    """The first contact simulation from an empty numba cache: the package copied without its __pycache__ into a
+    temporary folder, NUMBA_CACHE_DIR empty, in a fresh process (a ball dropped on the ground, 0.5 s)."""
+    import shutil
+    import subprocess
+    import tempfile
+    with tempfile.TemporaryDirectory() as tmp:
+        shutil.copytree(REPO / "dynamics", Path(tmp) / "dynamics", ignore=shutil.ignore_patterns("__pycache__"))
+        env = {**os.environ, "PYTHONPATH": tmp, "NUMBA_CACHE_DIR": str(Path(tmp) / "numba-cache")}
+        code = COLD.replace("URDF", repr(ball_scene().urdf.encode()))
+        t = time.perf_counter()
+        out = subprocess.run([sys.executable, "-c", code], env=env, cwd=tmp, capture_output=True, text=True)
+        total = time.perf_counter() - t
+    if out.returncode != 0:
+        raise RuntimeError(f"the cold start failed:\n{out.stderr[-2000:]}")
+    imp, first, second = (float(x) for x in out.stdout.split())
+    messages = [line for line in out.stderr.splitlines() if line.strip()]
+    log(f"  cold start: import {imp:.1f} s, first contact simulation {first:.1f} s, then {second:.4f} s; "
+        f"stderr: {messages[:3]}")
+    return ["### Cold start", "",
+            "The first contact simulation (a ball dropped on the ground, 0.5 s) in a fresh process from an empty "
+            "numba cache (the package copied without its `__pycache__`, `NUMBA_CACHE_DIR` empty).", "",
+            "| import dynamics | first contact simulation (compiles) | the same again | message while it compiles |",
+            "|---|---|---|---|",
+            f"| {imp:.1f} s | {first:.1f} s | {second * 1e3:.1f} ms | {messages[0][:80] if messages else '(none)'} |"]
+
+
 def header(repeat: int, load_start) -> list[str]:
     import mujoco
     import pydrake
@@ -522,6 +592,7 @@ def main(argv=None) -> int:
     ap.add_argument("--repeat", type=int, default=3, help="rounds of the round robin (best time of each run)")
     ap.add_argument("--quick", action="store_true", help="fewer settings, one round")
     ap.add_argument("--scenes", default=",".join(SCENES), help="comma-separated: " + ", ".join(SCENES))
+    ap.add_argument("--no-cold", action="store_true", help="skip the cold start (it compiles everything again)")
     args = ap.parse_args(argv)
     repeat = 1 if args.quick else args.repeat
     load_start = os.getloadavg()
@@ -541,6 +612,9 @@ def main(argv=None) -> int:
                 "(untimed)")
         results = evaluate(scene, round_robin(jobs, repeat, log))
         lines += scene_tables(scene, results, log) + [""]
+    lines += overhead(repeat, log) + [""]
+    if not args.no_cold:
+        lines += cold_start(log) + [""]
     text = "\n".join(["# Contact (`python -m benchmarks.contact`)", ""] + header(repeat, load_start) + [""] + lines)
     OUT.mkdir(parents=True, exist_ok=True)
     (OUT / "contact.md").write_text(text + "\n")
