@@ -30,6 +30,7 @@ BALL = (f'<robot name="contact-ball"><link name="ball"><inertial><mass value="{M
 Z0 = 0.5  # the centre's height at t = 0: a 0.4 m fall, touch-down at sqrt(0.8 / g) = 0.286 s
 DROP = {"duration": 1.0, "sample_dt": 0.01, "rtol": 1e-9, "atol": 1e-11}
 CONTACT = {"friction": 0.5, "outputs": ["contacts"]}
+GEOMETRY = "ball/collision0"  # the library's name of the link's first <collision>
 
 
 @pytest.fixture(scope="module")
@@ -74,7 +75,7 @@ def drop(server, ball):
 def test_robot_lists_its_collision_geometry(client, ball):
     info = client.request("GET", f"/v1/robots/{ball.id}").json()
     (g,) = info["collision_geometry"]
-    assert (g["body"], g["frame"], g["kind"]) == ("ball", "ball", "sphere")
+    assert (g["name"], g["body"], g["frame"], g["kind"]) == (GEOMETRY, "ball", "ball", "sphere")
     assert g["size"] == [RADIUS, 0.0, 0.0] and np.array_equal(g["pose"], np.eye(4))
     assert client.request("GET", "/v1/robots/planar-2r").json()["collision_geometry"] == []  # (no <collision>)
 
@@ -86,8 +87,8 @@ def test_the_ball_falls_freely_then_rests_on_the_ground(drop):
     # at rest: the normal forces carry m g, at the allowance's depth (1 mm: k = m g / delta)
     sample = np.array(drop["contacts.sample"])
     last = sample == len(t) - 1
-    assert last.sum() == 1 and np.array(drop["contacts.pairs"])[drop["contacts.pair"][-1]].tolist() == ["ball",
-                                                                                                        "ground"]
+    assert last.sum() == 1
+    assert drop["contacts.pairs"][drop["contacts.pair"][-1]] == [GEOMETRY, "ground"]
     assert np.sum(np.array(drop["contacts.normal_force"])[last]) == pytest.approx(MASS * G, rel=1e-6)
     assert np.array(drop["contacts.depth"])[last][0] == pytest.approx(1e-3, rel=1e-6)
     assert q[-1, 2] == pytest.approx(RADIUS - 1e-3, abs=1e-8)
@@ -102,7 +103,7 @@ def test_the_client_sends_a_library_contact(ball, drop):
     contact = dynamics.Contact(friction=0.5, outputs=("contacts",))
     traj = while_simulation_starts(lambda: ball.simulate(q0(), np.zeros(6), contact=contact, **DROP))
     assert np.array_equal(traj.q, drop["q"])  # the same request as the dict's: the same answer, bit for bit
-    assert traj.contacts["pairs"] == [("ball", "ground")]
+    assert [tuple(p) for p in traj.contacts["pairs"]] == [(GEOMETRY, "ground")]
     assert np.array_equal(traj.contacts["normal_force"], drop["contacts.normal_force"])
     plain = while_simulation_starts(lambda: ball.simulate(q0(), np.zeros(6), **DROP))
     assert plain.q[-1, 2] < -1.0 and plain.contacts is None and "contact" not in plain.report  # (no contact)
