@@ -321,6 +321,19 @@ def test_free_body_against_pinocchio(geometry, inertia):
     M = dynamics.mass_matrix(model, q)
     np.testing.assert_allclose(M[robot.nv:, robot.nv:], pin.crba(ref, data, qb), rtol=1e-12, atol=1e-14)
     assert not M[:robot.nv, robot.nv:].any()
+
+
+@pytest.mark.slow  # forward dynamics on a floating model compiles for ~40 s from an empty cache
+def test_free_body_forward_dynamics_inverts_inverse_dynamics():
+    """ABA(RNEA(a)) = a on a robot with two free bodies (two roots on free joints beside a fixed-base arm)."""
+    model = dynamics.add_free_body(dynamics.load_urdf("planar_2r"), "obj", Capsule("obj", 0.05, 0.3), 1.7)
+    model = dynamics.add_free_body(model, "ball", Sphere("ball", 0.1, offset=(0.01, 0.0, 0.02)), 0.3)
+    rng = np.random.default_rng(4)
+    q, v, a = model.neutral(), rng.normal(size=model.nv), rng.normal(size=model.nv)
+    for k in model.quaternion_starts:
+        quat = rng.normal(size=4)
+        q[k:k + 4] = quat / np.linalg.norm(quat)
+    tau = dynamics.inverse_dynamics(model, q, v, a)
     np.testing.assert_allclose(dynamics.forward_dynamics(model, q, v, tau), a, rtol=1e-10, atol=1e-10)
 
 
