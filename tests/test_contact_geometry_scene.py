@@ -198,7 +198,8 @@ def test_free_bodies_pair_with_the_robot_without_self_collision():
 
 
 @pytest.mark.parametrize("call, message", [
-    (lambda m: build_scene(m, [Sphere("l9", 0.1)]), "geometries\\[0\\].frame: no frame named 'l9'; closest: \\['l1', 'l0'"),
+    (lambda m: build_scene(m, [Sphere("l9", 0.1)]),
+     "geometries\\[0\\].frame: no frame named 'l9'; closest: \\['l1', 'l0'"),
     (lambda m: build_scene(m, exclude=[("l0", "l7x")]), "exclude\\[0\\]"),
     (lambda m: build_scene(m, pairs=[("l0",)]), "pairs\\[0\\]"),
     (lambda m: build_scene(m, pairs=(("l0", "l1") for _ in range(10 ** 6))), "100000"),
@@ -264,7 +265,8 @@ def test_broad_phase_on_a_standing_quadruped():
         m = _broad_phase(s.arrays, oR, op, keep)
         # with every primitive: the feet and the lower legs, whose bounding spheres reach the ground
         assert (s.npairs, m) == (npairs, examined)
-        assert {s.names[s.pair_a[k]].split("/")[0].split("_")[1] for k in keep[:m]} == ({"foot"} if geoms else {"foot", "calf"})
+        parts = {s.names[s.pair_a[k]].split("/")[0].split("_")[1] for k in keep[:m]}
+        assert parts == ({"foot"} if geoms else {"foot", "calf"})
         out = contact_buffer(s)
         n = _collide(s.arrays, oR, op, out)
         assert n == 4 and {s.names[s.pair_a[k]] for k in out.pair[:n]} == {g.name for g in feet}

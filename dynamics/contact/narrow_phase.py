@@ -35,8 +35,8 @@ box - box          separating axis test over 15 axes; a face axis: the incident 
 =================  ==========================================================================  ========
 
 Once a capsule's axis enters a box the depth is that of the axis's deepest point (plus r), not the least
-translation out.  A cylinder against a sphere, capsule or box is the capsule of the same radius and length (its flat ends
-rounded: contact starts up to r early beyond each end); against a plane it is exact.
+translation out.  A cylinder against a sphere, capsule or box is the capsule of the same radius and length
+(its flat ends rounded: contact starts up to r early beyond each end); against a plane it is exact.
 """
 
 from typing import NamedTuple
