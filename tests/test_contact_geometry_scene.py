@@ -10,7 +10,8 @@ import yourdfpy
 
 import dynamics
 from dynamics import Box, Capsule, ContactPoint, Cylinder, Ground, HalfSpace, InputError, Sphere, URDFError
-from dynamics.contact.narrow_phase import _body_world_poses, _broad_phase, _collide, contact_buffer, find_contacts
+from dynamics.contact.narrow_phase import (_body_world_poses, _broad_phase, _collide, contact_buffer, find_contacts,
+                                           scene_poses)
 from dynamics.contact.scene import MAX_PER_PAIR, build_scene
 from tests.robots import erd
 
@@ -66,6 +67,8 @@ def test_urdf_collisions_against_yourdfpy(rel, floating):
         np.testing.assert_allclose(g.size, size, rtol=1e-15)
         assert not g.pose.flags.writeable
         np.testing.assert_allclose(poses[g.body] @ g.pose, T, atol=1e-12)
+    drawn = scene_poses(model, build_scene(model, world=[]), q)  # what an inspector draws
+    np.testing.assert_allclose(drawn, [T for *_, T in want], atol=1e-12)
 
 
 URDF = """<robot name="toy">
