@@ -34,8 +34,9 @@ box - box          separating axis test over 15 axes; a face axis: the incident 
                    the reference face; an edge-edge axis: the closest points of the two edges
 =================  ==========================================================================  ========
 
-A cylinder against a sphere, capsule or box is the capsule of the same radius and length (its flat ends
-rounded: contact starts up to r early beyond each end); against a plane it is exact.
+Once a capsule's axis enters a box the depth is that of the axis's deepest point (plus r), not the least
+translation out.  A cylinder against a sphere, capsule or box is the capsule of the same radius and length
+(its flat ends rounded: contact starts up to r early beyond each end); against a plane it is exact.
 """
 
 from typing import NamedTuple
@@ -492,17 +493,35 @@ class Contacts(NamedTuple):
     depth: np.ndarray  # (n,) penetration (m), > 0
 
 
-def find_contacts(model, scene, q) -> Contacts:
-    """The contacts of ``scene`` (built for ``model`` by :func:`~dynamics.contact.scene.build_scene`) at the
-    configuration ``q``: one compiled broad and narrow phase, the same the simulation runs each step."""
+def _world_arrays(model, scene, q):
+    """q checked, and the bodies' world rotations and positions at it."""
     Q, batched = checks.configurations(model, q)
     if batched:
         raise InputError(f"q: expected one configuration of shape ({model.nq},), got {np.shape(q)}")
-    q = Q[0].copy()
     if scene.body.shape[0] and int(scene.body.max()) >= model.nbodies:
         raise InputError(f"scene: built for a model with more bodies than {model.name!r} has ({model.nbodies})")
     oR, op = np.empty((model.nbodies, 3, 3)), np.empty((model.nbodies, 3))
-    _body_world_poses(model.tree, q, oR, op)
+    _body_world_poses(model.tree, Q[0].copy(), oR, op)
+    return oR, op
+
+
+def scene_poses(model, scene, q) -> np.ndarray:
+    """(ng, 4, 4) world pose of every geometry of ``scene`` at ``q`` (to draw it; a plane's z axis is its
+    normal and its origin the point of the plane nearest the world origin)."""
+    oR, op = _world_arrays(model, scene, q)
+    T = np.tile(np.eye(4), (scene.body.shape[0], 1, 1))
+    T[:, :3, :3], T[:, :3, 3] = scene.R, scene.p
+    m = scene.body >= 0
+    b = scene.body[m]
+    T[m, :3, :3] = oR[b] @ scene.R[m]
+    T[m, :3, 3] = np.einsum("gij,gj->gi", oR[b], scene.p[m]) + op[b]
+    return T
+
+
+def find_contacts(model, scene, q) -> Contacts:
+    """The contacts of ``scene`` (built for ``model`` by :func:`~dynamics.contact.scene.build_scene`) at the
+    configuration ``q``: one compiled broad and narrow phase, the same the simulation runs each step."""
+    oR, op = _world_arrays(model, scene, q)
     out = contact_buffer(scene)
     n = _collide(scene.arrays, oR, op, out)
     k = out.pair[:n]
