@@ -106,12 +106,18 @@ def contact_model(r, model, T=0):
                         np.zeros(T, np.int64), np.zeros((0, 6)))
 
 
-@inline_kernel
+@kernel
 def evaluate(c, tree, q, v, tau, f_ext):
     """tau += the generalised contact force at (q, v); f_ext (nb, 6) = the body wrenches (a (0, 6) f_ext: not
     kept).  Returns (contact power, number of contacts)."""
-    world_kinematics(tree, q, v, c.ws)
+    world_kinematics(tree, q, v, c.ws, False)
     n = _collide(c.scene, c.ws.oR, c.ws.op, c.buf)
+    for i in range(f_ext.shape[0]):
+        for r in range(6):
+            f_ext[i, r] = 0.0
+    if n == 0:  # touching nothing: no velocities, no forces
+        return 0.0, 0
+    world_kinematics(tree, q, v, c.ws, True)
     b = c.buf
     power = apply_contacts(n, b.pair, b.point, b.normal, b.depth, c.pair_body, c.mat, c.ws, c.detail)
     for i in range(f_ext.shape[0]):
@@ -134,7 +140,7 @@ def _power(c, tree, q, v, tau):
 
 
 def _track(c, tree, t, q, v):
-    world_kinematics(tree, q, v, c.ws)
+    world_kinematics(tree, q, v, c.ws, False)
     n = _collide(c.scene, c.ws.oR, c.ws.op, c.buf)
     tr = c.track
     for k in range(n):
