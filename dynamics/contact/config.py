@@ -140,9 +140,12 @@ class Contact:
 
     def __post_init__(self):
         put = object.__setattr__
+        from .geometry import PRIMITIVES, Ground, HalfSpace
         if self.ground is _GROUND:
-            from .geometry import Ground
             put(self, "ground", Ground())
+        if self.ground is not None and not isinstance(self.ground, (Ground, HalfSpace)):
+            raise InputError(f"ground: expected dynamics.Ground(normal=..., height=...) or None, got "
+                             f"{type(self.ground).__name__}")
         put(self, "friction", _material("friction", self.friction))
         if not isinstance(self.materials, dict):
             raise InputError(f"materials: expected a dict {{geometry name: Material}}, got "
@@ -153,6 +156,14 @@ class Contact:
             if isinstance(x, (str, bytes)) or not hasattr(x, "__iter__"):
                 raise InputError(f"{name}: expected a list, got {type(x).__name__}")
             put(self, name, tuple(x))
+        for k, obj in enumerate(self.objects):
+            static = isinstance(obj, HalfSpace) or (isinstance(obj, PRIMITIVES) and obj.frame == "world")
+            if not static:
+                raise InputError(f"objects[{k}]: expected a static object (dynamics.HalfSpace, or a dynamics.Box "
+                                 f"on frame 'world'), got {type(obj).__name__}"
+                                 + (f" on frame {obj.frame!r}: a free body belongs to the model "
+                                    "(dynamics.add_free_body), its geometry to geometries" if hasattr(obj, "frame")
+                                    else ""))
         if not isinstance(self.self_collision, (bool, np.bool_)):
             raise InputError(f"self_collision: expected True or False, got {self.self_collision!r}")
         outputs = self.outputs

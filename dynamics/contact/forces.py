@@ -61,10 +61,12 @@ def contact_work(nb):
 
 
 @inline_kernel
-def world_kinematics(tree, q, v, ws):
-    """ws.d = the forward pass at (q, v) (body-frame velocities); ws.oR, ws.op = every body's world pose."""
+def world_kinematics(tree, q, v, ws, with_v):
+    """ws.d = the forward pass at (q, v) (with ``with_v`` the body-frame velocities too); ws.oR, ws.op = every
+    body's world pose.  The narrow phase needs the poses only; the force law the velocities, when something
+    touches (:func:`dynamics.contact.resolve.evaluate`): a robot touching nothing pays one pose pass."""
     for i in range(tree.parents.shape[0]):
-        R, p, w, vl, cw, cv = _forward_body(tree, i, q, v, ws.d, True)
+        R, p, w, vl, cw, cv = _forward_body(tree, i, q, v, ws.d, with_v)
         par = tree.parents[i]
         if par < 0:
             store33(ws.oR, i, R)
@@ -182,7 +184,7 @@ def generalized_forces(tree, ws, tau):
 def _contacts_kernel(tree, q, v, n, pair, point, normal, depth, pair_body, mat, ws, detail, f_ext, tau):
     """For given contacts at (q, v): f_ext (nb, 6) = the body wrenches, tau += their generalised force; returns
     the contact power.  (Tests and :func:`dynamics.contact_forces` on a hand-made contact list.)"""
-    world_kinematics(tree, q, v, ws)
+    world_kinematics(tree, q, v, ws, True)
     power = apply_contacts(n, pair, point, normal, depth, pair_body, mat, ws, detail)
     for i in range(f_ext.shape[0]):
         for r in range(6):

@@ -16,6 +16,7 @@ detail       (K, 8)            per contact of the last evaluation: f_n, f_t (3),
 tau          (nv,)             scratch: a generalised force nobody reads (tracking, outputs)
 track        (3,)              largest penetration over the accepted steps (m), time in contact (s), last step's t
 out          (T, K, 15) or 0   contacts kept per sample (:data:`OUT_COLUMNS`); out_n (T,) int64 how many
+no_f_ext     (0, 6)            an empty f_ext: the simulation keeps only the generalised force
 ===========  ================  ==================================================================================
 """
 
@@ -51,6 +52,7 @@ class ContactModel(NamedTuple):
     track: np.ndarray
     out: np.ndarray
     out_n: np.ndarray
+    no_f_ext: np.ndarray
 
 
 class Resolved(NamedTuple):
@@ -101,25 +103,21 @@ def contact_model(r, model, T=0):
     T = T if "contacts" in r.contact.outputs else 0
     return ContactModel(r.scene.arrays, r.pair_body, r.mat, contact_buffer(r.scene), contact_work(nb),
                         np.zeros((K, NDETAIL)), np.zeros(nv), np.array([0.0, 0.0, 0.0]), np.zeros((T, K, NOUT)),
-                        np.zeros(T, np.int64))
-
-
-@inline_kernel
-def evaluate(c, tree, q, v, tau):
-    """tau += the generalised contact force at (q, v); returns (contact power, number of contacts)."""
-    world_kinematics(tree, q, v, c.ws)
-    n = _collide(c.scene, c.ws.oR, c.ws.op, c.buf)
-    b = c.buf
-    power = apply_contacts(n, b.pair, b.point, b.normal, b.depth, c.pair_body, c.mat, c.ws, c.detail)
-    generalized_forces(tree, c.ws, tau)
-    return power, n
+                        np.zeros(T, np.int64), np.zeros((0, 6)))
 
 
 @kernel
-def evaluate_kernel(c, tree, q, v, f_ext, tau):
-    """From Python: f_ext = the body wrenches, tau += the generalised force; returns (power, n)."""
-    world_kinematics(tree, q, v, c.ws)
+def evaluate(c, tree, q, v, tau, f_ext):
+    """tau += the generalised contact force at (q, v); f_ext (nb, 6) = the body wrenches (a (0, 6) f_ext: not
+    kept).  Returns (contact power, number of contacts)."""
+    world_kinematics(tree, q, v, c.ws, False)
     n = _collide(c.scene, c.ws.oR, c.ws.op, c.buf)
+    for i in range(f_ext.shape[0]):
+        for r in range(6):
+            f_ext[i, r] = 0.0
+    if n == 0:  # touching nothing: no velocities, no forces
+        return 0.0, 0
+    world_kinematics(tree, q, v, c.ws, True)
     b = c.buf
     power = apply_contacts(n, b.pair, b.point, b.normal, b.depth, c.pair_body, c.mat, c.ws, c.detail)
     for i in range(f_ext.shape[0]):
@@ -129,14 +127,20 @@ def evaluate_kernel(c, tree, q, v, f_ext, tau):
     return power, n
 
 
+@kernel
+def evaluate_kernel(c, tree, q, v, f_ext, tau):
+    """:func:`evaluate` from Python."""
+    return evaluate(c, tree, q, v, tau, f_ext)
+
+
 # ---------------------------------------------------------------------------------------------------------
 # the implementations of the simulation's calls (:mod:`.calls`) for a ContactModel
 def _power(c, tree, q, v, tau):
-    return evaluate(c, tree, q, v, tau)[0]
+    return evaluate(c, tree, q, v, tau, c.no_f_ext)[0]
 
 
 def _track(c, tree, t, q, v):
-    world_kinematics(tree, q, v, c.ws)
+    world_kinematics(tree, q, v, c.ws, False)
     n = _collide(c.scene, c.ws.oR, c.ws.op, c.buf)
     tr = c.track
     for k in range(n):
@@ -149,7 +153,7 @@ def _track(c, tree, t, q, v):
 def _emit(c, tree, j, q, v):
     if c.out.shape[0] == 0:
         return
-    n = evaluate(c, tree, q, v, c.tau)[1]
+    n = evaluate(c, tree, q, v, c.tau, c.no_f_ext)[1]
     c.out_n[j] = n
     b, o = c.buf, c.out[j]
     for k in range(n):
