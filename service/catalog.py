@@ -17,6 +17,7 @@ from lxml import etree
 from .codec import finite_or_none, jsonable
 from .constraints import check_closed, constraints_info, declare
 from .errors import Conflict, Forbidden, InvalidInput, NotFound, TooLarge, echo
+from .inspection import inspection
 from .models import Models, load_model
 from .schemas import MAX_NAME
 from .settings import Settings
@@ -215,6 +216,12 @@ class Catalog:
         info.update(_inertial(model))
         info["summary"] = model_summary(model)
         info["constraints"] = constraints_info(model)
+        return info
+
+    def inspect(self, rid: str) -> dict[str, Any]:
+        """:meth:`describe` and what the inspector page draws (:func:`service.inspection.inspection`)."""
+        info = self.describe(rid)
+        info.update(inspection(self.models.loaded(rid).model))
         return info
 
     def delete(self, rid: str, owner: Optional[str]) -> None:
