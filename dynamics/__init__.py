@@ -31,6 +31,9 @@ from .constraints import (JointCoupling, PointConstraint, RevoluteConstraint, We
                           constraint_jacobian, constraint_residual, with_constraints)
 from .constrained_dynamics import constrained_forward_dynamics, constrained_inverse_dynamics, project_velocity
 from .assemble import assemble
+from .contact.geometry import (Box, Capsule, CollisionGeometry, ContactPoint, Cylinder, Ground, HalfSpace,
+                               Sphere)
+from .contact.free_bodies import add_free_body
 
 from . import plot, robots, torques
 from .configuration import integrate
@@ -51,4 +54,6 @@ __all__ = [
     "PointConstraint", "WeldConstraint", "RevoluteConstraint", "JointCoupling", "with_constraints",
     "constraint_residual", "constraint_jacobian", "constraint_bias", "constrained_forward_dynamics",
     "constrained_inverse_dynamics", "project_velocity", "assemble",
+    "CollisionGeometry", "Sphere", "Box", "Capsule", "Cylinder", "ContactPoint", "Ground", "HalfSpace",
+    "add_free_body",
 ]
