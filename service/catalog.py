@@ -18,7 +18,7 @@ from .codec import finite_or_none, jsonable
 from .constraints import check_closed, constraints_info, declare
 from .errors import Conflict, Forbidden, InvalidInput, NotFound, TooLarge, echo
 from .inspection import inspection
-from .models import Models, load_model
+from .models import Models, collision_geometry, load_model
 from .schemas import MAX_NAME
 from .settings import Settings
 from .store import IndexEntry, RobotStore, robot_id
@@ -221,7 +221,8 @@ class Catalog:
     def inspect(self, rid: str) -> dict[str, Any]:
         """:meth:`describe` and what the inspector page draws (:func:`service.inspection.inspection`)."""
         info = self.describe(rid)
-        info.update(inspection(self.models.loaded(rid).model))
+        loaded = self.models.loaded(rid)
+        info.update(inspection(loaded.model, geometry=collision_geometry(loaded)))
         return info
 
     def delete(self, rid: str, owner: Optional[str]) -> None:

@@ -3,7 +3,7 @@
 Per body: its joint (type, axis in the joint frame, placement in the parent body at q = 0) and the check of its
 mass properties (:func:`dynamics.check_inertias`: principal moments and axes, positive definiteness, the
 triangle inequality, the inertia box a viewer draws when the body has no collision geometry); the model's
-collision geometry when the library reads it (``model.collision_geometry``). Numbers come from the library;
+collision geometry (``model.collision_geometry``, :func:`service.models.collision_geometry`). Numbers come from the library;
 this module only lays them out as JSON. Called from a compute thread (the model may have to be built).
 """
 
@@ -30,17 +30,15 @@ def _body(model, i: int, check) -> dict[str, Any]:
     }
 
 
-def _geometry(record) -> dict[str, Any]:
-    """A collision geometry record (name, body, frame, kind, size, pose) as JSON."""
-    get = (lambda k, i: getattr(record, k)) if hasattr(record, "kind") else (lambda k, i: record[i])
-    return {"name": str(get("name", 0)), "body": int(get("body", 1)), "frame": str(get("frame", 2)),
-            "kind": str(get("kind", 3)), "size": [finite_or_none(x) for x in np.asarray(get("size", 4), float)],
-            "pose": np.asarray(get("pose", 5), float).tolist()}
+def _geometry(g) -> dict[str, Any]:
+    """A collision geometry record as JSON."""
+    return {"name": str(g.name), "body": int(g.body), "frame": str(g.frame), "kind": str(g.kind),
+            "size": [finite_or_none(x) for x in np.asarray(g.size, float)], "pose": np.asarray(g.pose, float).tolist()}
 
 
-def inspection(model) -> dict[str, Any]:
-    """The per-body layout of the page and the collision geometry (an empty list when the model has none)."""
+def inspection(model, geometry: tuple = ()) -> dict[str, Any]:
+    """The per-body layout of the page and ``geometry``, the model's collision primitives (records of
+    ``dynamics.CollisionGeometry``: name, body, frame, kind, size, pose)."""
     checks = lib().check_inertias(model)
-    geometry = getattr(model, "collision_geometry", None) or ()
     return {"bodies_inspected": [_body(model, i, c) for i, c in enumerate(checks)],
             "collision_geometry": [_geometry(g) for g in geometry]}

@@ -7,11 +7,17 @@ const Plots = (() => {
   const COLORS = ["#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e377c2", "#7f7f7f",
                   "#bcbd22", "#17becf"];
 
+  function exp1(x) {  // Python's f"{x:.1e}": at least two exponent digits
+    const [m, e] = x.toExponential(1).split("e");
+    const n = Math.abs(Number(e));
+    return `${m}e${Number(e) < 0 ? "-" : "+"}${n < 10 ? "0" : ""}${n}`;
+  }
+
   function reportTitle(report) {  // dynamics.plot.report_title
     const parts = [String(report.integrator || ""), `status ${report.status ?? "?"}`];
     for (const [key, label] of [["error_estimate", "error"], ["energy_drift", "energy drift"]]) {
       const x = report[key];
-      if (typeof x === "number" && isFinite(x)) parts.push(`${label} ${x.toExponential(1)}`);
+      if (typeof x === "number" && isFinite(x)) parts.push(`${label} ${exp1(x)}`);
     }
     if ("steps" in report) parts.push(`${report.steps} steps`);
     if ("wall_time_s" in report) parts.push(`${Math.round(report.wall_time_s * 1e3)} ms`);
