@@ -278,7 +278,7 @@
         (j.nq === 7 ? ["x", "y", "z"].map((c, k) => [j.q_index + k, `${j.name}.${c}`, [-2, 2]]) : []);
       coords.forEach(([k, label, [lo, hi]], n) => {
         const tr = el("tr"), input = el("input");
-        input.type = "range"; input.min = lo; input.max = hi; input.step = (hi - lo) / 1000; input.value = state.q[k];
+        input.type = "range"; input.min = lo; input.max = hi; input.step = "any"; input.value = state.q[k];
         input.dataset.joint = label;
         input.dataset.index = k;
         input.addEventListener("input", () => { state.q[k] = Number(input.value); update(); });
@@ -532,11 +532,11 @@
     state,
     get ready() { return !!state.ready && state.busy === 0; },
     jointNames: () => Array.from(document.querySelectorAll("#tree li[data-joint]")).map((li) => li.dataset.joint),
-    linkPose(name) {  // the rendered world matrix of a body (column-major, three.js order)
+    linkPose(name) {  // a body's world matrix as rendered, in the robot's z-up world (column-major, three.js order)
       const g = scene.bodies[name];
       if (!g) return null;
-      g.updateMatrixWorld(true);
-      return g.matrixWorld.toArray();
+      scene.viewer.scene.updateMatrixWorld(true);  // (meshcat's root turns three.js' y-up world into z-up)
+      return scene.root.matrixWorld.clone().invert().multiply(g.matrixWorld).toArray();
     },
     async setJoint(name, value) {
       const input = document.querySelector(`#sliders input[data-joint="${name}"]`);
