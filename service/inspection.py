@@ -30,9 +30,10 @@ def _body(model, i: int, check) -> dict[str, Any]:
     }
 
 
-def _geometry(g) -> dict[str, Any]:
-    """A collision geometry record as JSON."""
-    return {"name": str(g.name), "body": int(g.body), "frame": str(g.frame), "kind": str(g.kind),
+def _geometry(model, g) -> dict[str, Any]:
+    """A collision geometry record as JSON: its body by name (None for the world), as GET /v1/robots/{id} has it."""
+    return {"name": str(g.name), "body": model.body_names[g.body] if g.body >= 0 else None, "frame": str(g.frame),
+            "kind": str(g.kind),
             "size": [finite_or_none(x) for x in np.asarray(g.size, float)], "pose": np.asarray(g.pose, float).tolist()}
 
 
@@ -41,4 +42,4 @@ def inspection(model, geometry: tuple = ()) -> dict[str, Any]:
     ``dynamics.CollisionGeometry``: name, body, frame, kind, size, pose)."""
     checks = lib().check_inertias(model)
     return {"bodies_inspected": [_body(model, i, c) for i, c in enumerate(checks)],
-            "collision_geometry": [_geometry(g) for g in geometry]}
+            "collision_geometry": [_geometry(model, g) for g in geometry]}

@@ -456,9 +456,11 @@ class BodyInspection(BaseModel):
     box: list[float] = Field(description="(3,) edges of the uniform box of the same mass and inertia, m")
 
 
-class CollisionGeometry(BaseModel):
+class InspectedGeometry(BaseModel):
+    """One collision primitive of the robot (dynamics.CollisionGeometry)."""
     name: str
-    body: int = Field(description="body index, -1 for the world")
+    body: Optional[str] = Field(description="the body it is fixed to (its link may have been merged into it); "
+                                            "null for the world")
     frame: str
     kind: str = Field(description="sphere, box, capsule, cylinder or point")
     size: list[Optional[float]] = Field(description="sphere (r, 0, 0); box full edges; capsule and cylinder "
@@ -469,7 +471,8 @@ class CollisionGeometry(BaseModel):
 class RobotInspection(RobotInfo):
     """The description and what the inspector page draws (GET /v1/robots/{id}/inspect)."""
     bodies_inspected: list[BodyInspection] = Field(description="per body, in the order of bodies")
-    collision_geometry: list[CollisionGeometry] = Field(description="empty when the model has none")
+    collision_geometry: list[InspectedGeometry] = Field(description="the URDF's collision primitives (meshes are "
+                                                                    "left out); empty when it has none")
 
 
 class RobotList(BaseModel):

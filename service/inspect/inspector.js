@@ -54,6 +54,7 @@
     }
     scene.THREE = MeshCat.THREE;
     scene.viewer = new MeshCat.Viewer($("viewer"));
+    scene.viewer.set_property(["Background"], "visible", false);  // (the page's light grey behind the grid)
     const resize = () => scene.viewer.set_3d_pane_size($("viewer").offsetWidth, $("viewer").offsetHeight);
     window.addEventListener("resize", resize);
     requestAnimationFrame(resize);
@@ -112,11 +113,11 @@
     return mesh;
   }
 
-  function bodyGroup(b, index, geometry, frames) {
+  function bodyGroup(b, geometry, frames) {
     const T = scene.THREE, group = new T.Group();
     group.matrixAutoUpdate = false;
     group.name = b.name;
-    const own = geometry.filter((g) => g.body === index);
+    const own = geometry.filter((g) => g.body === b.name);
     if (own.length) for (const g of own) group.add(layer("contact", primitive(g)));
     else if (b.mass > 0) group.add(layer("shapes", inertiaBox(b)));
     if (b.mass > 0) {
@@ -155,18 +156,48 @@
     const framesOf = {};
     for (const f of info.frames) (framesOf[f.body === null ? "" : f.body] ||= []).push(f);
     info.bodies_inspected.forEach((b, i) => {
-      const g = bodyGroup(b, i, geometry, framesOf[b.name] || []);
+      const g = bodyGroup(b, geometry, framesOf[b.name] || []);
       scene.bodies[b.name] = g;
       scene.root.add(g);
     });
     bones(info);
-    for (const g of geometry.filter((g) => g.body < 0)) scene.root.add(layer("contact", primitive(g)));
+    for (const g of geometry.filter((g) => g.body === null)) scene.root.add(layer("contact", primitive(g)));
+    scene.world = new T.Group();  // the world objects of the last simulation with contact
+    scene.root.add(scene.world);
     for (const f of framesOf[""] || []) {
       const ax = new T.AxesHelper(0.05);
       ax.applyMatrix4(fromRows(f.placement));
       scene.root.add(layer("frames", ax));
     }
     scene.viewer.set_object(["robot"], scene.root);
+  }
+
+  function halfSpace(normal, offset) {  // the plane normal . x = offset, drawn as a 4 m square, normal up
+    const T = scene.THREE, n = new T.Vector3(...normal).normalize();
+    const mesh = new T.Mesh(new T.PlaneGeometry(4, 4), new T.MeshLambertMaterial({
+      color: 0x8d6e63, transparent: true, opacity: 0.45, side: T.DoubleSide}));
+    mesh.quaternion.setFromUnitVectors(new T.Vector3(0, 0, 1), n);
+    mesh.position.copy(n.multiplyScalar(offset));
+    return mesh;
+  }
+
+  function worldObject(o) {  // a simulate request's contact.objects item (service schema) -> a mesh
+    if (o.type === "half_space") return halfSpace(o.normal, o.offset || 0);
+    const pose = o.pose || [[1, 0, 0, (o.offset || [0, 0, 0])[0]], [0, 1, 0, (o.offset || [0, 0, 0])[1]],
+                            [0, 0, 1, (o.offset || [0, 0, 0])[2]], [0, 0, 0, 1]];
+    const size = o.type === "sphere" ? [o.radius, 0, 0] : (o.type === "box" ? o.size : [o.radius, o.length, 0]);
+    return primitive({kind: o.type, size, pose});
+  }
+
+  function drawWorld(contact) {  // the ground and world objects of a simulation's contact (none: nothing)
+    scene.world.clear();
+    if (contact) {
+      const ground = contact.ground === undefined ? true : contact.ground;
+      if (ground) scene.world.add(halfSpace(ground.normal || [0, 0, 1], ground.height || 0));
+      for (const o of contact.objects || []) scene.world.add(worldObject(o));
+    }
+    for (const o of scene.world.children) layer("contact", o);
+    scene.viewer.set_dirty();
   }
 
   function pose(placements) {  // world placements (nbodies, 4, 4) of the bodies, in the order of bodies
@@ -178,14 +209,15 @@
     scene.viewer.set_dirty();
   }
 
-  function fitCamera() {  // look at the robot from the front-left, far enough to see all of it
-    const T = scene.THREE, box = new T.Box3().setFromObject(scene.root);
+  function fitCamera() {  // look at the robot from the front-left and above, far enough to see all of it
+    const T = scene.THREE, box = new T.Box3().setFromObject(scene.root);  // (in three.js' y-up world)
     if (box.isEmpty()) return;
     const c = box.getCenter(new T.Vector3()), d = Math.max(box.getSize(new T.Vector3()).length(), 0.3);
-    // the camera hangs under meshcat's node rotated +90 deg about x: world (x, y, z) is (x, z, -y) there
+    // meshcat's camera hangs under a node that undoes the scene's turn to z up: it lives in the y-up world,
+    // where the robot's (x, y, z) is (x, z, -y); the view from (1, -1, 0.8) in the robot's world
     const v = scene.viewer;
-    v.camera.position.set(c.x + 0.9 * d, c.z + 0.45 * d, -(c.y - 0.9 * d));
-    v.controls.target.set(c.x, c.z, -c.y);
+    v.camera.position.set(c.x + 0.7 * d, c.y + 0.55 * d, c.z + 0.7 * d);
+    v.controls.target.copy(c);
     v.controls.update();
     v.set_dirty();
   }
@@ -330,6 +362,7 @@
     const info = state.info, q0 = state.q.slice(), v0 = new Array(info.nv).fill(0);
     const duration = Number($("sim-duration").value), kind = $("sim-torque").value;
     const body = {q0, v0, duration, integrator: $("sim-integrator").value, sample_dt: duration / 200};
+    if ($("sim-ground").checked) body.contact = {ground: true};
     if (kind === "pd") body.torque = {type: "pd", q_target: q0, kp: Number($("sim-kp").value), kd: Number($("sim-kd").value)};
     if (kind === "gravity") {
       const g = await api("POST", `/v1/robots/${encodeURIComponent(state.robot)}/gravity-torques`, {q: q0});
@@ -338,6 +371,7 @@
     say("simulating ...");
     try {
       const traj = await api("POST", `/v1/robots/${encodeURIComponent(state.robot)}/simulate`, body);
+      drawWorld(body.contact);
       await loadTrajectory(traj);
       say(`simulated ${duration} s: ${traj.t.length} samples`);
     } catch (e) {
@@ -545,6 +579,7 @@
       while (inflight || pending) await new Promise((r) => setTimeout(r, 20));
     },
     selectRobot,
+    fitCamera,
     upload: (name, text) => upload(new File([text], name, {type: "application/xml"})),
   };
 
