@@ -175,6 +175,8 @@ def test_an_invalid_urdf_shows_the_api_message(browser, server):
     answer = httpx.post(server.url + "/v1/robots", content=BAD_URDF, headers={"Content-Type": "application/xml"})
     assert answer.status_code == 422
     assert shown == answer.json()["detail"] and "missing" in shown
+    # the browser logs the refused request itself; nothing else
+    assert [e for e in errors(browser) if "/v1/robots" not in e or "422" not in e] == []
 
 
 def test_the_key_stays_in_the_page(browser, server):
@@ -185,3 +187,26 @@ def test_the_key_stays_in_the_page(browser, server):
     stored = browser.execute_script("return [localStorage.length, sessionStorage.length, document.cookie]")
     assert stored == [0, 0, ""]
     browser.execute_script("window.inspector.state.key = ''")
+
+
+def test_a_locked_joint_poses_a_reduced_model(browser, server):
+    """joint1 locked at 0.3 and joint2 moved: the page asks for the reduced model (the API's locked), whose
+    g(q) is the library's on dynamics.lock_joints, and the tree says the joint is locked."""
+    open_page(browser, server.url + "/inspect/planar_2r")
+    browser.execute_script("document.querySelector('[data-tab=pose]').click()")
+    browser.execute_script("return window.inspector.setJoint('joint1', 0.3)")
+    browser.execute_script("document.querySelector('[data-lock=joint1]').click()")
+    wait_for(browser, "window.inspector.ready && window.inspector.state.tau[0] === null")
+    browser.execute_script("return window.inspector.setJoint('joint2', 0.5)")
+    wait_for(browser, "window.inspector.ready")
+    model = dynamics.load_urdf(os.path.join(os.path.dirname(dynamics.robots.__file__), "planar_2r.urdf"))
+    reduced = dynamics.lock_joints(model, {"joint1": 0.3})
+    tau = browser.execute_script("return window.inspector.state.tau")
+    assert tau[0] is None
+    np.testing.assert_allclose(tau[1:], dynamics.gravity_torques(reduced, np.array([0.5])), rtol=1e-9, atol=1e-12)
+    T = dynamics.forward_kinematics(model, np.array([0.3, 0.5]))[model.frame_index("link2")]
+    np.testing.assert_allclose(rendered(browser, "link2"), T, atol=1e-6)
+    tag = browser.execute_script("return document.querySelector('#tree li[data-joint=joint1] .tag.locked')"
+                                 ".textContent")
+    assert tag == "locked at 0.300"
+    assert errors(browser) == []

@@ -6,7 +6,7 @@
 (() => {
   const $ = (id) => document.getElementById(id);
   const state = {key: "", robot: null, info: null, q: [], tau: null, traj: null, frame: 0, playing: false,
-                 ended: false, error: null, busy: 0};
+                 ended: false, error: null, busy: 0, locked: new Set()};
   const scene = {viewer: null, THREE: null, root: null, bodies: {}, layers: {}};
 
   // -- the API ------------------------------------------------------------------------------------------------
@@ -234,6 +234,7 @@
       li.appendChild(el("span", `${j.name}`, "joint-name"));
       const lim = j.lower.length === 1 ? ` [${fmt(j.lower[0], 3)}, ${fmt(j.upper[0], 3)}]` : "";
       li.appendChild(el("span", ` ${j.type}, axis (${b.axis.map((x) => fmt(x, 2)).join(", ")})${lim} → ${j.body}`));
+      if (state.locked.has(j.name)) jointTag(li, `locked at ${fmt(state.q[j.q_index], 3)}`, "locked");
       li.appendChild(el("ul"));
       nodes[j.body] = li;
       (j.parent === null ? tree : nodes[j.parent].lastChild).appendChild(li);
@@ -317,11 +318,42 @@
         tr.appendChild(el("td", label));
         const td = el("td"); td.appendChild(input); tr.appendChild(td);
         tr.appendChild(el("td", fmt(state.q[k], 3), "num value"));
-        tr.appendChild(el("td", n === 0 ? "" : "", "num tau"));
+        tr.appendChild(el("td", "", "num tau"));
+        if (j.nq === 1) {
+          const lock = el("input");
+          lock.type = "checkbox"; lock.title = "lock: hold this joint still (the API's locked)";
+          lock.dataset.lock = j.name;
+          lock.checked = state.locked.has(j.name);
+          lock.addEventListener("change", () => { setLocked(j.name, lock.checked); });
+          const td2 = el("td"); td2.appendChild(lock); tr.appendChild(td2);
+        }
         tr.dataset.v = n === 0 && j.nv === 1 ? j.v_index : (j.nq === 7 ? j.v_index + n : "");
         body.appendChild(tr);
       });
     }
+  }
+
+  // Locked joints: held at their slider's value, the requests then name a reduced model (the API's `locked`):
+  // its q, v and tau leave the locked joints' coordinates out, in the order of the joints kept.
+  const free = () => state.info.joints.filter((j) => !state.locked.has(j.name));
+  const reduce = (x, index, n) => free().flatMap((j) => x.slice(j[index], j[index] + j[n]));
+  function withLocked(body) {
+    if (!state.locked.size) return body;
+    const locked = {};
+    for (const j of state.info.joints) if (state.locked.has(j.name)) locked[j.name] = state.q[j.q_index];
+    return {...body, locked};
+  }
+  function expandTau(tau) {  // the reduced model's tau -> one entry per coordinate of the full model (null: locked)
+    const out = new Array(state.info.nv).fill(null);
+    let k = 0;
+    for (const j of free()) for (let n = 0; n < j.nv; n++) out[j.v_index + n] = tau[k++];
+    return out;
+  }
+
+  function setLocked(name, on) {
+    if (on) state.locked.add(name); else state.locked.delete(name);
+    renderTree(state.info);
+    update();
   }
 
   let pending = null, inflight = false;
@@ -344,14 +376,17 @@
 
   async function poseAt(q) {
     const id = encodeURIComponent(state.robot), names = state.info.bodies_inspected.map((b) => b.name);
-    const [fk, g] = await Promise.all([api("POST", `/v1/robots/${id}/kinematics`, {q, frames: names}),
-                                       api("POST", `/v1/robots/${id}/gravity-torques`, {q})]);
+    const qr = reduce(q, "q_index", "nq");
+    const [fk, g] = await Promise.all([api("POST", `/v1/robots/${id}/kinematics`, withLocked({q: qr, frames: names})),
+                                       api("POST", `/v1/robots/${id}/gravity-torques`, withLocked({q: qr}))]);
+    g.tau = expandTau(g.tau);
     state.tau = g.tau;
     pose(fk.placements);
     for (const tr of $("sliders").tBodies[0].rows) {
       const input = tr.querySelector("input");
       tr.querySelector(".value").textContent = fmt(q[Number(input.dataset.index)], 3);
-      tr.querySelector(".tau").textContent = tr.dataset.v === "" ? "" : `${fmt(g.tau[Number(tr.dataset.v)], 4)}`;
+      const tau = tr.dataset.v === "" ? null : g.tau[Number(tr.dataset.v)];
+      tr.querySelector(".tau").textContent = tau === null ? (tr.dataset.v === "" ? "" : "locked") : fmt(tau, 4);
     }
     state.posed = (state.posed || 0) + 1;
   }
@@ -359,19 +394,22 @@
   // -- the trajectory tab ------------------------------------------------------------------------------------
   async function simulate(ev) {
     ev.preventDefault();
-    const info = state.info, q0 = state.q.slice(), v0 = new Array(info.nv).fill(0);
+    const info = state.info, q0 = reduce(state.q, "q_index", "nq");
+    const v0 = new Array(free().reduce((n, j) => n + j.nv, 0)).fill(0);
     const duration = Number($("sim-duration").value), kind = $("sim-torque").value;
-    const body = {q0, v0, duration, integrator: $("sim-integrator").value, sample_dt: duration / 200};
+    const body = withLocked({q0, v0, duration, integrator: $("sim-integrator").value, sample_dt: duration / 200});
     if ($("sim-ground").checked) body.contact = {ground: true};
     if (kind === "pd") body.torque = {type: "pd", q_target: q0, kp: Number($("sim-kp").value), kd: Number($("sim-kd").value)};
     if (kind === "gravity") {
-      const g = await api("POST", `/v1/robots/${encodeURIComponent(state.robot)}/gravity-torques`, {q: q0});
+      const g = await api("POST", `/v1/robots/${encodeURIComponent(state.robot)}/gravity-torques`, withLocked({q: q0}));
       body.torque = {type: "constant", tau: g.tau};
     }
     say("simulating ...");
     try {
       const traj = await api("POST", `/v1/robots/${encodeURIComponent(state.robot)}/simulate`, body);
       drawWorld(body.contact);
+      traj.locked = body.locked;
+      traj.names = free().map((j) => j.name);
       await loadTrajectory(traj);
       say(`simulated ${duration} s: ${traj.t.length} samples`);
     } catch (e) {
@@ -399,7 +437,8 @@
 
   async function loadTrajectory(traj) {
     const names = state.info.bodies_inspected.map((b) => b.name);
-    const fk = await api("POST", `/v1/robots/${encodeURIComponent(state.robot)}/kinematics`, {q: traj.q, frames: names});
+    const fk = await api("POST", `/v1/robots/${encodeURIComponent(state.robot)}/kinematics`,
+                         traj.locked ? {q: traj.q, frames: names, locked: traj.locked} : {q: traj.q, frames: names});
     traj.placements = fk.placements;
     state.traj = traj;
     state.frame = 0;
@@ -420,7 +459,7 @@
     pose(traj.placements[i]);
     $("scrub").value = i;
     $("time").textContent = `t = ${traj.t[i].toFixed(3)} s`;
-    Plots.draw($("plots"), traj, state.info.joint_names, traj.t[i]);
+    Plots.draw($("plots"), traj, traj.names || state.info.joint_names, traj.t[i]);
   }
 
   function play(on) {
@@ -496,6 +535,7 @@
     state.traj = null;
     state.playing = false;
     state.q = neutral(info);
+    state.locked = new Set();
     $("robot-select").value = info.id;
     if (!$("robot-select").value) {
       const o = el("option", info.name);
