@@ -42,7 +42,9 @@ from typing import NamedTuple
 
 import numpy as np
 
+from .. import checks
 from .._numba import helper, inline_kernel, kernel
+from ..errors import InputError
 from ..kinematics import _world_pose
 from ..spatial import add, cross, dot, load3, load33, matmul, rot, rotT, scale
 from .scene import BOX, CAPSULE, CYLINDER, PLANE, POINT
@@ -475,3 +477,34 @@ def _collide(S, oR, op, out):
         if _overlap(S, a, b, oR, op):
             n = _pair(S, k, a, b, oR, op, out, n)
     return n
+
+
+# -- from Python -----------------------------------------------------------------------------------------
+
+class Contacts(NamedTuple):
+    """The penetrating contacts of a scene at one configuration (n of them), from :func:`find_contacts`."""
+
+    a: tuple  # (n,) name of geometry a of each contact (scene.names)
+    b: tuple  # (n,) name of geometry b (the normal points from b towards a)
+    pair: np.ndarray  # (n,) index of the pair in scene.pair_a / pair_b
+    point: np.ndarray  # (n, 3) world point midway between the surfaces
+    normal: np.ndarray  # (n, 3) world unit normal from b towards a
+    depth: np.ndarray  # (n,) penetration (m), > 0
+
+
+def find_contacts(model, scene, q) -> Contacts:
+    """The contacts of ``scene`` (built for ``model`` by :func:`~dynamics.contact.scene.build_scene`) at the
+    configuration ``q``: one compiled broad and narrow phase, the same the simulation runs each step."""
+    Q, batched = checks.configurations(model, q)
+    if batched:
+        raise InputError(f"q: expected one configuration of shape ({model.nq},), got {np.shape(q)}")
+    q = Q[0].copy()
+    if scene.body.shape[0] and int(scene.body.max()) >= model.nbodies:
+        raise InputError(f"scene: built for a model with more bodies than {model.name!r} has ({model.nbodies})")
+    oR, op = np.empty((model.nbodies, 3, 3)), np.empty((model.nbodies, 3))
+    _body_world_poses(model.tree, q, oR, op)
+    out = contact_buffer(scene)
+    n = _collide(scene.arrays, oR, op, out)
+    k = out.pair[:n]
+    return Contacts(tuple(scene.names[scene.pair_a[i]] for i in k), tuple(scene.names[scene.pair_b[i]] for i in k),
+                    k.copy(), out.point[:n].copy(), out.normal[:n].copy(), out.depth[:n].copy())

@@ -29,12 +29,13 @@ automatic list.  A name in ``exclude`` or ``pairs`` matches a geometry by its na
 body's link, or ``"world"`` for static geometry.
 """
 
+import difflib
 import itertools
 from typing import NamedTuple
 
 import numpy as np
 
-from ..errors import InputError, closest
+from ..errors import InputError
 from ..joints import JOINT_FREE
 from .geometry import PLANES, PRIMITIVES, CollisionGeometry, Ground
 
@@ -124,6 +125,13 @@ class _Item(NamedTuple):
     world: bool  # one of the world's objects (not the model's)
 
 
+def _unknown(name, names, what, noun):
+    """An InputError for an unknown name, with the closest known ones."""
+    near = difflib.get_close_matches(str(name), [str(n) for n in names], n=5, cutoff=0.4)
+    hint = f"closest: {near}" if near else f"there are {len(names)}: {sorted(map(str, names))[:12]}"
+    return InputError(f"{what}: no {noun} named {str(name)[:80]!r}; {hint}")
+
+
 def _resolve(model, g, k):
     """A declaration or a CollisionGeometry as an _Item."""
     if isinstance(g, CollisionGeometry):
@@ -131,8 +139,10 @@ def _resolve(model, g, k):
     if isinstance(g, PRIMITIVES):
         if g.frame == "world":
             body, Tf = -1, np.eye(4)
+        elif g.frame in model.frames:
+            body, Tf = model.frames[g.frame]
         else:
-            body, Tf = model.frames[model.frame_names[model.frame_index(g.frame)]]
+            raise _unknown(g.frame, list(model.frames) + ["world"], f"geometries[{k}].frame", "frame")
         name = g.name or f"{g.frame}/{g.kind}{k}"
         return _Item(name, int(body), g.frame, KIND_CODES[g.kind], tuple(g.size), np.asarray(Tf) @ g.pose,
                      body < 0)
@@ -255,7 +265,7 @@ def _name_pairs(spec, what, index):
         sets = []
         for name in entry:
             if not isinstance(name, str) or name not in index:
-                raise closest(name, sorted(index), f"{what}[{k}]")
+                raise _unknown(name, sorted(index), f"{what}[{k}]", "geometry, frame or link")
             sets.append(index[name])
         out.append(tuple(sets))
     return out
