@@ -210,3 +210,26 @@ def test_a_locked_joint_poses_a_reduced_model(browser, server):
                                  ".textContent")
     assert tag == "locked at 0.300"
     assert errors(browser) == []
+
+
+def test_a_finished_job_s_run_plays(browser, server):
+    """Run 1 of a simulate_many job opened by its id: played to its end, the last frame where the library puts it."""
+    job = {"robot": "planar_2r", "kind": "simulate_many", "inputs": {"q0": [[0.1, 0.2], [0.5, -0.3]], "v0": [0, 0]},
+           "options": {"duration": 0.3, "sample_dt": 0.01}}
+    jid = httpx.post(server.url + "/v1/jobs", json=job).json()["id"]
+    end = time.monotonic() + TIMEOUT
+    while httpx.get(f"{server.url}/v1/jobs/{jid}").json()["status"] != "done":
+        assert time.monotonic() < end, "the job did not finish"
+        time.sleep(0.5)
+    open_page(browser, server.url + "/inspect/planar_2r")
+    browser.execute_script("document.querySelector('[data-tab=trajectory]').click();"
+                           "document.getElementById('job-id').value = arguments[0];"
+                           "document.getElementById('job-run').value = '1';"
+                           "document.querySelector('#job-form button').click();", jid)
+    wait_for(browser, "window.inspector.state.ended")
+    q = httpx.get(f"{server.url}/v1/jobs/{jid}/result").json()["q"][1]
+    assert browser.execute_script("return window.inspector.state.traj.q") == q
+    model = dynamics.load_urdf(os.path.join(os.path.dirname(dynamics.robots.__file__), "planar_2r.urdf"))
+    T = dynamics.forward_kinematics(model, np.array(q[-1]))[model.frame_index("link2")]
+    np.testing.assert_allclose(rendered(browser, "link2"), T, atol=1e-6)
+    assert errors(browser) == []
