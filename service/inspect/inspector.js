@@ -435,7 +435,17 @@
     }
   }
 
+  const MAX_FRAMES = 1000;  // longer runs are played (and plotted) every k-th sample, the last one kept
+
+  function decimate(traj) {
+    const n = traj.t.length, k = Math.ceil(n / MAX_FRAMES);
+    if (k <= 1) return traj;
+    const keep = (x) => x && x.filter((_, i) => i % k === 0 || i === n - 1);
+    return {...traj, t: keep(traj.t), q: keep(traj.q), v: keep(traj.v), tau: keep(traj.tau)};
+  }
+
   async function loadTrajectory(traj) {
+    traj = decimate(traj);
     const names = state.info.bodies_inspected.map((b) => b.name);
     const fk = await api("POST", `/v1/robots/${encodeURIComponent(state.robot)}/kinematics`,
                          traj.locked ? {q: traj.q, frames: names, locked: traj.locked} : {q: traj.q, frames: names});
