@@ -75,7 +75,7 @@ def shoot(driver, base: str, name: str, rid: str, pose: dict[str, float], out: P
     driver.execute_script("window.inspector.fitCamera()")
     time.sleep(1.0)
     png = Image.open(io.BytesIO(driver.get_screenshot_as_png())).convert("RGB")
-    png.quantize(colors=128, method=Image.Quantize.MEDIANCUT).save(out, optimize=True)
+    png.quantize(colors=256, method=Image.Quantize.MEDIANCUT).save(out, optimize=True)
     print(f"{out} ({out.stat().st_size // 1024} KiB)")
 
 

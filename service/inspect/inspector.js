@@ -55,6 +55,9 @@
     scene.THREE = MeshCat.THREE;
     scene.viewer = new MeshCat.Viewer($("viewer"));
     scene.viewer.set_property(["Background"], "visible", false);  // (the page's light grey behind the grid)
+    scene.viewer.set_property(["Grid"], "visible", false);  // ours instead: the plane z = 0 of the robot's world
+    const grid = new MeshCat.THREE.GridHelper(10, 20, 0x607d8b, 0xb0bec5).rotateX(Math.PI / 2);
+    scene.viewer.set_object(["floor"], new MeshCat.THREE.Group().add(grid));
     const resize = () => scene.viewer.set_3d_pane_size($("viewer").offsetWidth, $("viewer").offsetHeight);
     window.addEventListener("resize", resize);
     requestAnimationFrame(resize);
@@ -210,6 +213,7 @@
   }
 
   function fitCamera() {  // look at the robot from the front-left and above, far enough to see all of it
+    scene.viewer.scene.updateMatrixWorld(true);  // (the bodies' world matrices, as the next render will have them)
     const T = scene.THREE, box = new T.Box3().setFromObject(scene.root);  // (in three.js' y-up world)
     if (box.isEmpty()) return;
     const c = box.getCenter(new T.Vector3()), d = Math.max(box.getSize(new T.Vector3()).length(), 0.3);
@@ -614,6 +618,7 @@
   // -- the hook the tests (and a curious user's console) read --------------------------------------------------
   window.inspector = {
     state,
+    scene,
     get ready() { return !!state.ready && state.busy === 0; },
     jointNames: () => Array.from(document.querySelectorAll("#tree li[data-joint]")).map((li) => li.dataset.joint),
     linkPose(name) {  // a body's world matrix as rendered, in the robot's z-up world (column-major, three.js order)
