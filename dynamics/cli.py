@@ -183,12 +183,20 @@ def _trajectory_json(path):
         raise DynamicsError(f"--trajectory: {path} has no {' or '.join(missing)} (expected the .npz of dynamics "
                             f"simulate --out)")
     report = data.get("report", "{}")
-    out = {"report": json.loads(str(report)) if not isinstance(report, dict) else report}
-    for k in ("t", "q", "v", "tau"):
-        if k in data:
-            x = np.asarray(data[k], dtype=float)
-            out[k] = np.where(np.isfinite(x), x, np.nan).tolist()
-    return json.dumps(out, default=str).replace("NaN", "null").encode()
+    out = {"report": report if isinstance(report, dict) else json.loads(str(report))}
+    out.update({k: np.asarray(data[k], dtype=float).tolist() for k in ("t", "q", "v", "tau") if k in data})
+    return json.dumps(_finite(out), default=str, allow_nan=False).encode()
+
+
+def _finite(x):
+    """x with every non-finite float replaced by None, through dicts and lists."""
+    if isinstance(x, float):
+        return x if np.isfinite(x) else None
+    if isinstance(x, dict):
+        return {k: _finite(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple)):
+        return [_finite(v) for v in x]
+    return x
 
 
 def view(args):

@@ -106,3 +106,14 @@ def test_dynamics_view_on_a_running_service_opens_its_address(monkeypatch, capsy
     assert seen == ["http://example.test:9000/inspect/pendulum"]
     assert cli.main(["view", "pendulum", "--url", "http://x", "--trajectory", "run.npz"]) == 1
     assert "--trajectory" in capsys.readouterr().err
+
+
+def test_a_trajectory_file_becomes_json_without_nan(tmp_path):
+    t = np.array([0.0, 0.1])
+    q = np.array([[0.1, np.nan], [np.inf, 0.2]])
+    np.savez(tmp_path / "run.npz", t=t, q=q, report=json.dumps({"status": "NaN in the state", "x": float("nan")}))
+    doc = json.loads(cli._trajectory_json(tmp_path / "run.npz"))
+    assert doc["q"] == [[0.1, None], [None, 0.2]] and doc["t"] == [0.0, 0.1]
+    assert doc["report"] == {"status": "NaN in the state", "x": None}
+    np.savez(tmp_path / "bad.npz", x=t)
+    assert cli.main(["view", "pendulum", "--trajectory", str(tmp_path / "bad.npz")]) == 1
