@@ -1,4 +1,5 @@
-"""The inspector's screenshots in the docs (docs/inspector-panda.png, -talos.png, -anymal.png), made by the page.
+"""The inspector's screenshots in the docs (docs/inspector-panda.png, -talos.png, -anymal.png, -trajectory.png),
+made by the page.
 
     python -m benchmarks.inspector_screenshots [--url http://127.0.0.1:8000]
 
@@ -79,6 +80,24 @@ def shoot(driver, base: str, name: str, rid: str, pose: dict[str, float], out: P
     print(f"{out} ({out.stat().st_size // 1024} KiB)")
 
 
+def shoot_trajectory(driver, base: str, out: Path) -> None:
+    """planar_3r released from a bent pose under gravity, played to its end beside its plots."""
+    from PIL import Image
+    driver.get(f"{base}/inspect/planar_3r")
+    wait(driver, "window.inspector && window.inspector.ready")
+    for joint, value in {"joint1": 0.8, "joint2": -0.6, "joint3": 0.9}.items():
+        driver.execute_script("return window.inspector.setJoint(arguments[0], arguments[1])", joint, value)
+    driver.execute_script("document.querySelector('[data-tab=trajectory]').click();"
+                          "document.getElementById('sim-duration').value = '2';"
+                          "document.getElementById('sim-run').click();")
+    wait(driver, "window.inspector.state.ended")
+    driver.execute_script("window.inspector.fitCamera()")
+    time.sleep(1.0)
+    png = Image.open(io.BytesIO(driver.get_screenshot_as_png())).convert("RGB")
+    png.quantize(colors=256, method=Image.Quantize.MEDIANCUT).save(out, optimize=True)
+    print(f"{out} ({out.stat().st_size // 1024} KiB)")
+
+
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--url", help="a running service (default: start one)")
@@ -96,6 +115,7 @@ def main(argv=None) -> int:
                            params={"floating_base": str(floating).lower()}, headers={"Content-Type": "application/xml"})
             r.raise_for_status()
             shoot(driver, base, name, r.json()["id"], pose, REPO / "docs" / f"inspector-{name}.png")
+        shoot_trajectory(driver, base, REPO / "docs" / "inspector-trajectory.png")
     finally:
         driver.quit()
         if server:
