@@ -309,3 +309,83 @@ def test_box_box_random(Ra, Rb, pa, pb, sa, sb):
     assert D.max() <= along + 1e-9
     for x, n, dx in zip(P, N, D):  # midway between the surfaces: x -+ d/2 n is on A's, on B's
         assert abs(box_sd(x - dx / 2 * n, Ta, sa)) <= 1e-9 and abs(box_sd(x + dx / 2 * n, Tb, sb)) <= 1e-9
+
+
+def lowest(kind, T, size, n):
+    """min over the solid of n . x (the support function in -n), numpy."""
+    R, c = T[:3, :3], T[:3, 3]
+    if kind == "box":
+        return n @ c - np.abs(R.T @ n) @ (np.asarray(size) / 2)
+    r, l = size[0], size[1]
+    u = R[:, 2]
+    ends = n @ c - abs(n @ u) * l / 2
+    if kind == "capsule":
+        return ends - r
+    return ends - r * np.sqrt(max(0.0, 1 - (n @ u) ** 2))  # a cylinder: the rim, across the axis
+
+
+@SETTINGS
+@given(R=rotations, c=points, n=st.tuples(*[st.floats(-1, 1)] * 3).filter(lambda n: np.linalg.norm(n) > 0.1),
+       h=st.floats(-0.3, 0.3), kind=st.sampled_from(["box", "capsule", "cylinder"]), size=sizes)
+def test_solids_against_a_half_space_random(R, c, n, h, kind, size):
+    """The deepest contact of each solid with a half-space is its support point: depth = h - min n . x."""
+    T = pose(R, c)
+    u = np.array(n) / np.linalg.norm(n)
+    geometry = {"box": Box("A", size), "capsule": Capsule("A", size[0], size[1]),
+                "cylinder": Cylinder("A", size[0], size[1])}[kind]
+    P, N, D = collide(geometry, T, HalfSpace(n, h))
+    depth = h - lowest(kind, T, size if kind == "box" else (size[0], size[1]), u)
+    if depth <= 1e-12:
+        assert len(D) == 0
+        return
+    np.testing.assert_allclose(D.max(), depth, rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(N, np.tile(u, (len(D), 1)), atol=1e-15)
+    np.testing.assert_allclose(P @ u, h - D / 2, atol=1e-12)  # midway: half the depth below the plane
+
+
+@SETTINGS
+@given(Rb=rotations, Ra=rotations, c=points, size=sizes, r=st.floats(0.01, 0.2), l=st.floats(0.0, 0.6))
+def test_capsule_box_random(Rb, Ra, c, size, r, l):
+    """A capsule against a box: never deeper than the axis's deepest point (dense sampling of the box's
+    signed distance along the axis); that depth exactly unless both ends touch (then their two spheres)."""
+    Tb, Ta = pose(Rb), pose(Ra, c)
+    u = Ra.as_matrix()[:, 2]
+    sd = lambda t: box_sd(c + t * u, Tb, size)
+    ts = np.linspace(-l / 2, l / 2, 2001)
+    y = (c + ts[:, None] * u - Tb[:3, 3]) @ Tb[:3, :3]  # the sampled axis in the box's frame
+    q = np.abs(y) - np.asarray(size) / 2
+    sds = np.linalg.norm(np.maximum(q, 0), axis=1) + np.minimum(q.max(axis=1), 0.0)
+    k = int(np.argmin(sds))
+    best = minimize(lambda t: sd(t[0]), [ts[k]], bounds=[(-l / 2, l / 2)], method="L-BFGS-B").fun \
+        if l > 0 else sd(0.0)
+    best = min(best, sds.min())
+    P, N, D = collide(Capsule("A", r, l), Ta, Box("B", size), Tb)
+    ends = [sd(-l / 2) < r, sd(l / 2) < r]
+    if best > r + 1e-9:
+        assert len(D) == 0
+    elif best < r - 1e-9:
+        assert 1 <= len(D) <= 2
+        assert D.max() <= r - best + 1e-8
+        if not all(ends):
+            np.testing.assert_allclose(D, [r - best], atol=1e-8)
+        if best < 0:  # the axis itself enters the box: the depth is that of its deepest point, no more
+            return
+        for x, nn, d in zip(P, N, D):  # the box's surface point, the capsule's surface point
+            assert abs(box_sd(x + d / 2 * nn, Tb, size)) < 1e-9
+            y = x - d / 2 * nn
+            t = np.clip((y - c) @ u, -l / 2, l / 2)
+            assert abs(np.linalg.norm(y - c - t * u) - r) < 1e-9
+
+
+@SETTINGS
+@given(R=rotations, c=points, p=points, r=st.floats(0.01, 0.2), rb=st.floats(0.01, 0.2), l=st.floats(0.0, 0.6))
+def test_sphere_capsule_random(R, c, p, r, rb, l):
+    u = R.as_matrix()[:, 2]
+    dist = segment_distance(p, np.array([1.0, 0, 0]), 0.0, c, u, l / 2)
+    P, N, D = collide(Sphere("A", r), pose(p=p), Capsule("B", rb, l), pose(R, c))
+    if dist > r + rb + 1e-9:
+        assert len(D) == 0
+    elif dist < r + rb - 1e-9:
+        np.testing.assert_allclose(D, [r + rb - dist], atol=1e-7)
+        if dist > 1e-6:
+            assert abs(np.linalg.norm(P[0] - D[0] / 2 * N[0] - p) - r) < 1e-9

@@ -10,7 +10,8 @@ import yourdfpy
 
 import dynamics
 from dynamics import Box, Capsule, ContactPoint, Cylinder, Ground, HalfSpace, InputError, Sphere, URDFError
-from dynamics.contact.narrow_phase import _body_world_poses, _broad_phase, _collide, contact_buffer, find_contacts
+from dynamics.contact.narrow_phase import (_body_world_poses, _broad_phase, _collide, contact_buffer, find_contacts,
+                                           scene_poses)
 from dynamics.contact.scene import MAX_PER_PAIR, build_scene
 from tests.robots import erd
 
@@ -66,6 +67,8 @@ def test_urdf_collisions_against_yourdfpy(rel, floating):
         np.testing.assert_allclose(g.size, size, rtol=1e-15)
         assert not g.pose.flags.writeable
         np.testing.assert_allclose(poses[g.body] @ g.pose, T, atol=1e-12)
+    drawn = scene_poses(model, build_scene(model, world=[]), q)  # what an inspector draws
+    np.testing.assert_allclose(drawn, [T for *_, T in want], atol=1e-12)
 
 
 URDF = """<robot name="toy">
@@ -198,12 +201,18 @@ def test_free_bodies_pair_with_the_robot_without_self_collision():
 
 
 @pytest.mark.parametrize("call, message", [
-    (lambda m: build_scene(m, [Sphere("l9", 0.1)]), "geometries\\[0\\].frame: no frame named 'l9'; closest: \\['l1', 'l0'"),
+    (lambda m: build_scene(m, [Sphere("l9", 0.1)]),
+     "geometries\\[0\\].frame: no frame named 'l9'; closest: \\['l1', 'l0'"),
     (lambda m: build_scene(m, exclude=[("l0", "l7x")]), "exclude\\[0\\]"),
     (lambda m: build_scene(m, pairs=[("l0",)]), "pairs\\[0\\]"),
     (lambda m: build_scene(m, pairs=(("l0", "l1") for _ in range(10 ** 6))), "100000"),
     (lambda m: build_scene(m, pairs=[("l0", "l1")] * 10 ** 6), "1000000 entries"),
     (lambda m: build_scene(m, world=[Sphere("l0", 0.1)]), "world\\[0\\]"),
+    (lambda m: build_scene(m, [Sphere("l0", 0.1)] * 10_001), "at most 10000"),
+    (lambda m: build_scene(m, [Sphere("l0", 0.1)] * 2000, pairs=[("l0", "l0")]), "match more than"),
+    (lambda m: build_scene(m, [Sphere("l0", 0.1)] * 5000, self_collision=True), "self_collision"),
+    (lambda m: build_scene(m, [Sphere("l0", 0.1)] * 5000, world=[Ground(height=-k) for k in range(30)]),
+     "150000 candidate pairs"),
     (lambda m: build_scene(m, ["l0"]), "geometries\\[0\\]"),
     (lambda m: build_scene(m, self_collision="yes"), "self_collision"),
     (lambda m: Sphere("l0", -0.1), "Sphere.radius"),
@@ -259,7 +268,8 @@ def test_broad_phase_on_a_standing_quadruped():
         m = _broad_phase(s.arrays, oR, op, keep)
         # with every primitive: the feet and the lower legs, whose bounding spheres reach the ground
         assert (s.npairs, m) == (npairs, examined)
-        assert {s.names[s.pair_a[k]].split("/")[0].split("_")[1] for k in keep[:m]} == ({"foot"} if geoms else {"foot", "calf"})
+        parts = {s.names[s.pair_a[k]].split("/")[0].split("_")[1] for k in keep[:m]}
+        assert parts == ({"foot"} if geoms else {"foot", "calf"})
         out = contact_buffer(s)
         n = _collide(s.arrays, oR, op, out)
         assert n == 4 and {s.names[s.pair_a[k]] for k in out.pair[:n]} == {g.name for g in feet}
@@ -321,6 +331,19 @@ def test_free_body_against_pinocchio(geometry, inertia):
     M = dynamics.mass_matrix(model, q)
     np.testing.assert_allclose(M[robot.nv:, robot.nv:], pin.crba(ref, data, qb), rtol=1e-12, atol=1e-14)
     assert not M[:robot.nv, robot.nv:].any()
+
+
+@pytest.mark.slow  # forward dynamics on a floating model compiles for ~40 s from an empty cache
+def test_free_body_forward_dynamics_inverts_inverse_dynamics():
+    """ABA(RNEA(a)) = a on a robot with two free bodies (two roots on free joints beside a fixed-base arm)."""
+    model = dynamics.add_free_body(dynamics.load_urdf("planar_2r"), "obj", Capsule("obj", 0.05, 0.3), 1.7)
+    model = dynamics.add_free_body(model, "ball", Sphere("ball", 0.1, offset=(0.01, 0.0, 0.02)), 0.3)
+    rng = np.random.default_rng(4)
+    q, v, a = model.neutral(), rng.normal(size=model.nv), rng.normal(size=model.nv)
+    for k in model.quaternion_starts:
+        quat = rng.normal(size=4)
+        q[k:k + 4] = quat / np.linalg.norm(quat)
+    tau = dynamics.inverse_dynamics(model, q, v, a)
     np.testing.assert_allclose(dynamics.forward_dynamics(model, q, v, tau), a, rtol=1e-10, atol=1e-10)
 
 

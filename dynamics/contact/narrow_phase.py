@@ -34,8 +34,9 @@ box - box          separating axis test over 15 axes; a face axis: the incident 
                    the reference face; an edge-edge axis: the closest points of the two edges
 =================  ==========================================================================  ========
 
-A cylinder against a sphere, capsule or box is the capsule of the same radius and length (its flat ends
-rounded: contact starts up to r early beyond each end); against a plane it is exact.
+Once a capsule's axis enters a box the depth is that of the axis's deepest point (plus r), not the least
+translation out.  A cylinder against a sphere, capsule or box is the capsule of the same radius and length
+(its flat ends rounded: contact starts up to r early beyond each end); against a plane it is exact.
 """
 
 from typing import NamedTuple
@@ -43,7 +44,7 @@ from typing import NamedTuple
 import numpy as np
 
 from .. import checks
-from .._numba import helper, inline_kernel, kernel
+from .._numba import borrowed, helper, inline_kernel, kernel
 from ..errors import InputError
 from ..kinematics import _world_pose
 from ..spatial import add, cross, dot, load3, load33, matmul, rot, rotT, scale
@@ -155,6 +156,7 @@ def _overlap(S, a, b, oR, op):
 @kernel
 def _broad_phase(S, oR, op, keep):
     """keep[:m] = the pairs that pass the broad phase; returns m (what the narrow phase then examines)."""
+    S, oR, op, keep = borrowed(S), borrowed(oR), borrowed(op), borrowed(keep)
     m = 0
     for k in range(S.pair_a.shape[0]):
         if _overlap(S, S.pair_a[k], S.pair_b[k], oR, op):
@@ -471,6 +473,9 @@ def _pair(S, k, a, b, oR, op, out, n):
 def _collide(S, oR, op, out):
     """Write the penetrating contacts of every candidate pair of S (``scene.arrays``) at the bodies' world
     poses (oR (nb, 3, 3), op (nb, 3)) into out (a :class:`ContactBuffer`); returns their number."""
+    # views with no owner (dynamics._numba.borrowed): passing the 13 arrays down to each pair's function would
+    # otherwise cost two atomic reference counts per array per call, most of the time of a contact
+    S, oR, op, out = borrowed(S), borrowed(oR), borrowed(op), borrowed(out)
     n = 0
     for k in range(S.pair_a.shape[0]):
         a, b = S.pair_a[k], S.pair_b[k]
@@ -492,17 +497,35 @@ class Contacts(NamedTuple):
     depth: np.ndarray  # (n,) penetration (m), > 0
 
 
-def find_contacts(model, scene, q) -> Contacts:
-    """The contacts of ``scene`` (built for ``model`` by :func:`~dynamics.contact.scene.build_scene`) at the
-    configuration ``q``: one compiled broad and narrow phase, the same the simulation runs each step."""
+def _world_arrays(model, scene, q):
+    """q checked, and the bodies' world rotations and positions at it."""
     Q, batched = checks.configurations(model, q)
     if batched:
         raise InputError(f"q: expected one configuration of shape ({model.nq},), got {np.shape(q)}")
-    q = Q[0].copy()
     if scene.body.shape[0] and int(scene.body.max()) >= model.nbodies:
         raise InputError(f"scene: built for a model with more bodies than {model.name!r} has ({model.nbodies})")
     oR, op = np.empty((model.nbodies, 3, 3)), np.empty((model.nbodies, 3))
-    _body_world_poses(model.tree, q, oR, op)
+    _body_world_poses(model.tree, Q[0].copy(), oR, op)
+    return oR, op
+
+
+def scene_poses(model, scene, q) -> np.ndarray:
+    """(ng, 4, 4) world pose of every geometry of ``scene`` at ``q`` (to draw it; a plane's z axis is its
+    normal and its origin the point of the plane nearest the world origin)."""
+    oR, op = _world_arrays(model, scene, q)
+    T = np.tile(np.eye(4), (scene.body.shape[0], 1, 1))
+    T[:, :3, :3], T[:, :3, 3] = scene.R, scene.p
+    m = scene.body >= 0
+    b = scene.body[m]
+    T[m, :3, :3] = oR[b] @ scene.R[m]
+    T[m, :3, 3] = np.einsum("gij,gj->gi", oR[b], scene.p[m]) + op[b]
+    return T
+
+
+def find_contacts(model, scene, q) -> Contacts:
+    """The contacts of ``scene`` (built for ``model`` by :func:`~dynamics.contact.scene.build_scene`) at the
+    configuration ``q``: one compiled broad and narrow phase, the same the simulation runs each step."""
+    oR, op = _world_arrays(model, scene, q)
     out = contact_buffer(scene)
     n = _collide(scene.arrays, oR, op, out)
     k = out.pair[:n]

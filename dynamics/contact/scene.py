@@ -227,22 +227,42 @@ def _tree_of(model, body):
 
 
 def _automatic(model, items, self_collision):
-    """The candidate pairs of the module docstring's rules."""
-    parents = model.tree.parents
-    tree = [_tree_of(model, it.body) for it in items]
-    out = []
-    for a, b in itertools.combinations(range(len(items)), 2):
-        A, B = items[a], items[b]
-        if A.body < 0 and B.body < 0:
-            continue
-        if not (A.world or B.world) and tree[a] == tree[b]:  # one kinematic tree: self-collision
-            if not self_collision or A.body == B.body or (A.body >= 0 and parents[A.body] == B.body) or \
-                    (B.body >= 0 and parents[B.body] == A.body):
-                continue
-        out.append((a, b))
-        if len(out) > MAX_PAIRS:
-            raise InputError(f"pairs: the geometry makes more than {MAX_PAIRS} candidate pairs; list the pairs "
-                             f"to check (pairs=...) or exclude some (exclude=...)")
+    """The candidate pairs of the module docstring's rules, by groups (the world's objects, each kinematic tree)
+    so that the work is bounded by the pairs kept, not by all pairs of geometries."""
+    world, trees = [], {}
+    for k, it in enumerate(items):
+        if it.world:
+            world.append(k)
+        else:
+            trees.setdefault(_tree_of(model, it.body), []).append(k)
+    groups = list(trees.values())
+    count = sum(len(g) for g in groups) * len(world) + sum(len(g) * len(h) for g, h in
+                                                           itertools.combinations(groups, 2))
+    if count > MAX_PAIRS:
+        raise InputError(f"pairs: the geometry makes {count} candidate pairs, more than {MAX_PAIRS}; list the "
+                         f"pairs to check (pairs=...)")
+    out = [(a, b) for g, h in itertools.combinations(groups, 2) for a in g for b in h]
+    out += [(a, w) for g in groups for a in g if items[a].body >= 0 for w in world]
+    if self_collision:
+        out += _self_pairs(model, items, groups, MAX_PAIRS - len(out))
+    return sorted((min(a, b), max(a, b)) for a, b in out)
+
+
+def _self_pairs(model, items, groups, room):
+    """Pairs within one kinematic tree: never two static geometries, one body, or a body and its parent."""
+    parents, out = model.tree.parents, []
+    if sum(len(g) * (len(g) - 1) // 2 for g in groups) > 10 * MAX_PAIRS:
+        raise InputError(f"self_collision: the robot has too many geometries to pair each with each (more than "
+                         f"{10 * MAX_PAIRS} pairs); list the pairs to check (pairs=...)")
+    for g in groups:
+        for a, b in itertools.combinations(g, 2):
+            A, B = items[a].body, items[b].body
+            if A == B or (A >= 0 and parents[A] == B) or (B >= 0 and parents[B] == A):
+                continue  # (two static geometries are one body, -1)
+            out.append((a, b))
+            if len(out) > room:
+                raise InputError(f"pairs: the geometry makes more than {MAX_PAIRS} candidate pairs; list the "
+                                 f"pairs to check (pairs=...) or leave self_collision off")
     return out
 
 
@@ -274,8 +294,11 @@ def _name_pairs(spec, what, index):
 def _filtered(model, items, self_collision, exclude, pairs):
     index = _matcher(model, items)
     if pairs is not None:
-        chosen = set()
-        for sa, sb in _name_pairs(pairs, "pairs", index):
+        chosen, work = set(), 0
+        for k, (sa, sb) in enumerate(_name_pairs(pairs, "pairs", index)):
+            work += len(sa) * len(sb)
+            if work > 10 * MAX_PAIRS:
+                raise InputError(f"pairs: the names up to pairs[{k}] match more than {10 * MAX_PAIRS} geometry pairs")
             for a in sa:
                 for b in sb:
                     if a != b and not (items[a].body < 0 and items[b].body < 0) and items[a].body != items[b].body:
