@@ -18,6 +18,7 @@ from .aba import forward_dynamics
 from .energy import kinetic_energy, potential_energy
 from .coriolis import coriolis_matrix
 from .reduce import lock_joints
+from .inertia_check import InertiaCheck, check_inertias
 from .reorder import reorder
 from .kinematics import (forward_kinematics, frame_acceleration, frame_bias_acceleration, frame_placement,
                          frame_velocity)
@@ -44,6 +45,7 @@ __all__ = [
     "DeadlineExceeded", "DynamicsError", "InputError", "SimulationWarning", "URDFError", "Model", "load_urdf",
     "inverse_dynamics", "gravity_torques", "bias_forces", "mass_matrix", "forward_dynamics",
     "kinetic_energy", "potential_energy", "coriolis_matrix", "lock_joints", "reorder",
+    "check_inertias", "InertiaCheck",
     "simulate", "Trajectory", "integrate", "torques", "robots", "plot",
     "simulate_many", "Trajectories", "map_batches", "work_precision", "WorkPrecision",
     "forward_kinematics", "frame_placement", "frame_velocity", "frame_acceleration", "frame_bias_acceleration",

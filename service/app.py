@@ -23,7 +23,7 @@ from .deps import Deps
 from .jobs.manager import Jobs
 from .kinematics import OPERATIONS as KINEMATICS
 from .protocol import Options
-from .routes import constraints, dynamics, health, jobs, kinematics, robots, simulate
+from .routes import constraints, dynamics, health, inspect, jobs, kinematics, robots, simulate
 from .settings import Settings, configure_logging
 
 DESCRIPTION = ("Rigid-body dynamics of URDF robots: inverse and forward dynamics, mass matrix, Coriolis matrix, "
@@ -74,7 +74,9 @@ def create_app(settings: Optional[Settings] = None) -> FastAPI:
     for module in (health, robots, dynamics, kinematics, constraints, simulate, jobs):
         app.include_router(module.router)
     from .routes import guide; guide.mount(app)  # the documentation site at /guide, when it has been built
-    app.add_middleware(ApiKeys, keys=settings.api_keys, open_paths=health.OPEN_PATHS)
+    app.include_router(inspect.router)  # last: no API request is matched against the page's paths
+    app.add_middleware(ApiKeys, keys=settings.api_keys, open_paths=health.OPEN_PATHS, open_prefix=inspect.PREFIX,
+                       closed_paths=(inspect.TRAJECTORY,))
     app.add_middleware(Options, routes=app.router.routes)  # (before the key check: Allow tells no secret)
     app.add_middleware(errors.RequestIds)  # added last: outermost, so that it sees every exception
     app.openapi = _openapi(app)

@@ -436,6 +436,45 @@ class RobotInfo(RobotSummary):
     constraints: Optional["ConstraintsInfo"] = Field(None, description="loops and couplings; absent when none")
 
 
+class BodyInspection(BaseModel):
+    """One body as the inspector draws it: its joint and the check of its mass properties (body frame)."""
+    name: str
+    parent: int = Field(description="index of the parent body, -1 for the world")
+    joint: str
+    joint_type: str
+    axis: list[float] = Field(description="(3,) joint axis in the joint (= body) frame")
+    placement: list[list[float]] = Field(description="(4, 4) joint frame in the parent body frame at q = 0")
+    mass: float
+    com: list[float]
+    inertia: list[list[float]] = Field(description="(3, 3) about the centre of mass, kg m^2")
+    principal_moments: list[float] = Field(description="(3,) ascending, kg m^2")
+    principal_axes: list[list[float]] = Field(description="(3, 3) columns: the principal axes (a rotation)")
+    positive_definite: bool
+    triangle: bool = Field(description="principal moments obey I3 <= I1 + I2")
+    relative_violation: float
+    verdict: Literal["ok", "warning", "refused"] = Field(description="what load_urdf's thresholds make of it")
+    box: list[float] = Field(description="(3,) edges of the uniform box of the same mass and inertia, m")
+
+
+class InspectedGeometry(BaseModel):
+    """One collision primitive of the robot (dynamics.CollisionGeometry)."""
+    name: str
+    body: Optional[str] = Field(description="the body it is fixed to (its link may have been merged into it); "
+                                            "null for the world")
+    frame: str
+    kind: str = Field(description="sphere, box, capsule, cylinder or point")
+    size: list[Optional[float]] = Field(description="sphere (r, 0, 0); box full edges; capsule and cylinder "
+                                                    "(radius, length along local z, 0)")
+    pose: list[list[float]] = Field(description="(4, 4) in the body frame")
+
+
+class RobotInspection(RobotInfo):
+    """The description and what the inspector page draws (GET /v1/robots/{id}/inspect)."""
+    bodies_inspected: list[BodyInspection] = Field(description="per body, in the order of bodies")
+    collision_geometry: list[InspectedGeometry] = Field(description="the URDF's collision primitives (meshes are "
+                                                                    "left out); empty when it has none")
+
+
 class RobotList(BaseModel):
     robots: list[RobotSummary]
 
