@@ -352,6 +352,20 @@ class MassMatrixAnswer(BaseModel):
     scene: Scene
 
 
+class InverseDynamicsDerivativesAnswer(BaseModel):
+    dtau_dq: Answer(2, "(nv, nv) dtau/dq, q in the tangent space (a free joint's along q (+) dq, body frame)")
+    dtau_dv: Answer(2, "(nv, nv) dtau/dv")
+    mass_matrix: Answer(2, "(nv, nv) M(q) = dtau/da")
+    scene: Scene
+
+
+class ForwardDynamicsDerivativesAnswer(BaseModel):
+    da_dq: Answer(2, "(nv, nv) da/dq, q in the tangent space")
+    da_dv: Answer(2, "(nv, nv) da/dv")
+    inverse_mass_matrix: Answer(2, "(nv, nv) M(q)^-1 = da/dtau")
+    scene: Scene
+
+
 class TrajectoryAnswer(BaseModel):
     t: list[float] = Field(description="(K,) sample times, s")
     q: list[list[float]] = Field(description="(K, nq) configurations at the samples")
