@@ -32,7 +32,7 @@ from .constrained_dynamics import constrained_forward_dynamics, constrained_inve
 from .assemble import assemble
 
 from . import plot, robots, torques
-from .configuration import integrate
+from .configuration import difference, integrate
 from .simulation import Trajectory, simulate
 from .simulation.work_precision import WorkPrecision, work_precision
 from .sweeps import Trajectories, map_batches, simulate_many
@@ -41,7 +41,7 @@ __all__ = [
     "DeadlineExceeded", "DynamicsError", "InputError", "SimulationWarning", "URDFError", "Model", "load_urdf",
     "inverse_dynamics", "gravity_torques", "bias_forces", "mass_matrix", "forward_dynamics",
     "kinetic_energy", "potential_energy", "coriolis_matrix", "lock_joints", "reorder",
-    "simulate", "Trajectory", "integrate", "torques", "robots", "plot",
+    "simulate", "Trajectory", "integrate", "difference", "torques", "robots", "plot",
     "simulate_many", "Trajectories", "map_batches", "work_precision", "WorkPrecision",
     "forward_kinematics", "frame_placement", "frame_velocity", "frame_acceleration", "frame_bias_acceleration",
     "frame_jacobian", "center_of_mass", "center_of_mass_velocity", "com_jacobian",

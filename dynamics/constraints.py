@@ -201,8 +201,8 @@ def _anchor(model, frame, R, p):
 
 def _joint(model, name, what):
     i = model.joint_index(name)
-    if model.joint_types[i] == "floating":
-        raise InputError(f"{what}: joint {name!r} is a floating joint; a coupling needs 1-dof joints")
+    if model.nv_joint[i] != 1:
+        raise InputError(f"{what}: joint {name!r} is a {model.joint_types[i]} joint; a coupling needs 1-dof joints")
     return int(model.q_index[i]), int(model.v_index[i])
 
 
@@ -395,11 +395,11 @@ def _joint_origin(model, b):
 
 def _joint_reach(model, i):
     """(shortest, longest) distance from the origin of body i's parent to body i's origin (its joint's), over the
-    joint's range; None when it has no bound (a free joint, a prismatic joint without both limits)."""
+    joint's range; None when it has no bound (a free or planar joint, a prismatic joint without both limits)."""
     x, kind = np.array(model.tree.Xpos[i]), model.joint_types[i]
-    if kind == "floating":
+    if kind in ("floating", "planar"):
         return None
-    if kind != "prismatic":  # a hinge turns about an axis through its origin: the origin stays put
+    if kind != "prismatic":  # a hinge (or a ball) turns about its origin: the origin stays put
         return float(np.linalg.norm(x)), float(np.linalg.norm(x))
     lo, hi = float(model.lower[model.v_index[i]]), float(model.upper[model.v_index[i]])
     if not (np.isfinite(lo) and np.isfinite(hi)):
