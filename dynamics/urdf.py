@@ -634,9 +634,9 @@ def _movable_body(j, parent_body, placement, warnings):
     else:  # a free or spherical joint has no axis
         axis = np.zeros(3)
     if j.type == "planar" and not np.array_equal(axis, [0.0, 0.0, 1.0]):
-        warnings.append(f"{what}: a planar joint moves in the plane normal to its axis {tuple(axis.round(6))}"
-                        + (" (no <axis>: the URDF default (1, 0, 0))" if j.axis is None else "")
-                        + "; Pinocchio's URDF parser always takes z")
+        shown = ", ".join(f"{x:.6g}" for x in axis)
+        warnings.append(f"{what}: a planar joint moves in the plane normal to its axis ({shown}) (the URDF default "
+                        f"is (1, 0, 0)); Pinocchio's URDF parser always takes z")
     spec = BodySpec(name=j.child, joint_name=j.name, joint_type=j.type, parent=parent_body,
                     placement=placement, axis=axis)
     if j.type in ("revolute", "prismatic") and j.limit is not None:

@@ -145,3 +145,120 @@ def test_planar_joint_moves_as_two_sliders_and_a_hinge():
     for qa, va, qb, vb_ in zip(a.q[::100], a.v[::100], b.q[::100], b.v[::100]):
         Ta, Tb = dynamics.frame_placement(body, qa, "body"), dynamics.frame_placement(chain, qb, "body")
         assert np.abs(Ta - Tb).max() < 1e-8 and np.abs(qa[2:] - (np.cos(qb[2]), np.sin(qb[2]))).max() < 1e-8
+
+
+def test_lock_joints_of_spherical_and_planar_joints_keeps_the_other_rows(tree):
+    model, _ = tree
+    rng = np.random.default_rng(14)
+    q, v, a = random_state(model, rng)
+    names = [n for n, t in zip(model.joint_names, model.joint_types) if t in ("spherical", "planar")]
+    locked = {n: q[model.q_slice(n)] for n in names}
+    reduced = dynamics.lock_joints(model, locked)
+    assert reduced.nv == model.nv - 3 * len(names) and reduced.summary()["locked_joints"].keys() == set(names)
+    keep_q = np.concatenate([np.arange(model.nq)[model.q_slice(n)] for n in reduced.joint_names])
+    keep_v = np.concatenate([np.arange(model.nv)[model.v_slice(n)] for n in reduced.joint_names])
+    v[[k for k in range(model.nv) if k not in keep_v]] = 0.0  # held still
+    a[[k for k in range(model.nv) if k not in keep_v]] = 0.0
+    qr, vr, ar = q[keep_q], v[keep_v], a[keep_v]
+    full_tau = dynamics.inverse_dynamics(model, q, v, a)
+    assert np.abs(dynamics.inverse_dynamics(reduced, qr, vr, ar) - full_tau[keep_v]).max() < 1e-10 * np.abs(full_tau).max()
+    M = dynamics.mass_matrix(model, q)
+    assert np.abs(dynamics.mass_matrix(reduced, qr) - M[np.ix_(keep_v, keep_v)]).max() < 1e-10 * np.abs(M).max()
+    assert np.abs(dynamics.forward_kinematics(reduced, qr) - dynamics.forward_kinematics(model, q)).max() < 1e-12
+    # and the free joint locked too: no quaternion left, a fixed base
+    base = dynamics.lock_joints(model, {**locked, "float": q[model.q_slice("float")]})
+    assert base.nq == base.nv and not base.floating_base
+
+
+@pytest.mark.parametrize("value, words", [
+    ([0.1, 0.2, 0.3], "expected 4 finite numbers [qx, qy, qz, qw] (a spherical joint)"),
+    ([0.0, 0.0, 0.0, 0.0], "the quaternion is zero"),
+])
+def test_bad_locked_spherical_value_is_named(value, words):
+    with pytest.raises(dynamics.InputError, match=r"locked\['ball'\]") as e:
+        dynamics.lock_joints(dynamics.load_urdf(BALL), {"ball": value})
+    assert words in str(e.value)
+
+
+def test_bad_locked_planar_value_is_named():
+    body = dynamics.load_urdf(SLIDER)
+    with pytest.raises(dynamics.InputError, match=r"\(cos theta, sin theta\) is zero"):
+        dynamics.lock_joints(body, {"plane": [1.0, 2.0, 0.0, 0.0]})
+    with pytest.raises(dynamics.InputError, match=r"expected 4 finite numbers \[x, y, cos theta, sin theta\]"):
+        dynamics.lock_joints(body, {"plane": 0.3})
+
+
+def test_zero_quaternion_or_cos_sin_in_q_is_named_by_every_path():
+    ball, body = dynamics.load_urdf(BALL), dynamics.load_urdf(SLIDER)
+    for model, q, words in ((ball, np.zeros(4), r"q: the quaternion q\[0:4\] of a spherical joint is zero"),
+                            (body, np.array([0.1, 0.2, 0.0, 0.0]), r"q: \(cos theta, sin theta\) q\[2:4\] of the "
+                                                                  r"planar joint 'plane' is zero")):
+        zero = np.zeros(model.nv)
+        for call in (lambda q: dynamics.inverse_dynamics(model, q, zero, zero),  # one state: the compiled checks
+                     lambda q: dynamics.mass_matrix(model, np.array([q, q])),  # a batch
+                     lambda q: dynamics.frame_placement(model, list(q), 0),  # a list: the general path
+                     lambda q: dynamics.integrate(model, q, zero)):
+            with pytest.raises(dynamics.InputError, match=words):
+                call(q)
+        with pytest.raises(dynamics.InputError, match=words.replace("q", "q1", 1).replace(r"q\[", r"q1\[")):
+            dynamics.difference(model, model.neutral(), q)
+        with pytest.raises(dynamics.InputError, match="q0: the"):
+            dynamics.simulate(model, q, zero, 0.1)
+    # not unit: normalised (the kernels), with a warning in simulate
+    with pytest.warns(dynamics.SimulationWarning, match=r"\(cos theta, sin theta\) of joint 'plane' had norm 2"):
+        tr = run(body, [0.1, 0.2, 2.0, 0.0], np.zeros(3), 0.01)
+    assert np.array_equal(tr.q[0], [0.1, 0.2, 1.0, 0.0])
+
+
+def test_a_planar_joint_with_a_zero_axis_is_refused():
+    with pytest.raises(dynamics.URDFError, match="joint 'plane': joint axis is zero .a planar joint's axis is the "
+                                                 "normal of its plane"):
+        dynamics.load_urdf(SLIDER.replace('"0 2 0"', '"0 0 0"'))
+    # a spherical joint has no axis: any <axis> is not read
+    assert np.array_equal(dynamics.load_urdf(BALL.replace("</joint>", '<axis xyz="0 0 0"/></joint>')).axes, [[0, 0, 0]])
+    # the planar warning says when Pinocchio's parser reads the joint otherwise (it always takes z)
+    assert dynamics.load_urdf(SLIDER.replace('"0 2 0"', '"0 0 3"')).warnings == ()
+    no_axis = dynamics.load_urdf(SLIDER.replace('<axis xyz="0 2 0"/>', ""))
+    assert no_axis.warnings == ("joint 'plane': a planar joint moves in the plane normal to its axis (1, 0, 0) (the "
+                                "URDF default is (1, 0, 0)); Pinocchio's URDF parser always takes z",)
+
+
+def test_cli_info_and_check_show_the_joint_types(tmp_path, capsys):
+    from dynamics.cli import main
+
+    path = tmp_path / "mixed.urdf"
+    path.write_text(robot(link("base"), link("body", **SLIDER_BODY), link("bob", **BOB),
+                          joint("plane", "planar", "base", "body", axis="0 0 1"),
+                          joint("ball", "spherical", "body", "bob", "0 0 -0.2")))
+    assert main(["info", str(path), "--json"]) == 0
+    joints = {j["name"]: j for j in json.loads(capsys.readouterr().out)["joints"]}
+    assert joints["plane"]["type"] == "planar" and joints["plane"]["q"] == [0, 4] and joints["plane"]["v"] == [0, 3]
+    assert joints["ball"]["type"] == "spherical" and joints["ball"]["q"] == [4, 8] and joints["ball"]["v"] == [3, 6]
+    assert main(["check", str(path)]) == 0
+    assert "ok: r loads (nq=8, nv=6, 0 warnings)" in capsys.readouterr().out
+
+
+def test_service_serves_a_robot_with_planar_and_spherical_joints(tmp_path):
+    from service_fixtures import in_process_app
+    from test_service_scene import every_endpoint
+
+    text = robot(link("base"), link("body", **SLIDER_BODY), link("bob", **BOB), link("tip", **BOB),
+                 joint("plane", "planar", "base", "body", axis="0 0 1"),
+                 joint("ball", "spherical", "body", "bob", "0 0 -0.2"),
+                 joint("hinge", "revolute", "bob", "tip", "0 0 -0.5", axis="0 1 0"))
+    model = dynamics.load_urdf(text)
+    with in_process_app(tmp_path / "store") as c:
+        r = c.post("/v1/robots", json={"urdf": text})
+        assert r.status_code == 201, r.text
+        rid = r.json()["id"]
+        info = c.get(f"/v1/robots/{rid}").json()
+        assert [(j["type"], j["nq"], j["nv"]) for j in info["joints"]] == [("planar", 4, 3), ("spherical", 4, 3),
+                                                                           ("revolute", 1, 1)]
+        rng = np.random.default_rng(15)
+        every_endpoint(c, rid, model, rng, None, None)
+        locked = {"ball": [0.1, 0.2, 0.3, 0.9], "plane": [0.5, -0.5, 0.0, 1.0]}
+        every_endpoint(c, rid, dynamics.lock_joints(model, locked), rng, 3, locked)
+        r = c.post(f"/v1/robots/{rid}/gravity-torques", json={"q": [0.0] * 9})
+        assert r.status_code == 422 and "planar joint 'plane' is zero" in r.json()["detail"]
+        r = c.post(f"/v1/robots/{rid}/gravity-torques", json={"q": [0.0], "locked": {**locked, "ball": [1, 2, 3]}})
+        assert r.status_code == 422 and "expected 4 finite numbers [qx, qy, qz, qw]" in r.json()["detail"]
