@@ -47,7 +47,11 @@ JOINT_PLANAR = 4
 class JointKind(NamedTuple):
     """Everything the library knows of one joint type outside its kernels, in one record (as Pinocchio keeps
     one header per joint type): a new joint type is a new record here plus its branches in this module's
-    kernels, and nowhere else."""
+    kernels (:func:`_joint_transform`, :func:`motion_subspace`, :func:`joint_matrix` and the configuration
+    manifold's), and nowhere else: the algorithms see a joint only through S and its transform, the checks,
+    lock_joints, the simulation's chart and tolerances through these records and kernels.  (The URDF reader
+    adds only what the URDF says of a type: a continuous joint has no position limits, a planar joint's axis
+    is its plane's normal.)"""
 
     code: int  # the kernels' joint code (Tree.jtype)
     urdf: tuple  # the URDF joint types read as this kind

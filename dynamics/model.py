@@ -339,6 +339,8 @@ class Model:
             "nv": self.nv,
             "bodies": self.nbodies,
             "floating_base": self.floating_base,
+            # movable joints per URDF type (revolute, continuous, prismatic, floating, planar, spherical)
+            "joint_types": {t: self.joint_types.count(t) for t in dict.fromkeys(self.joint_types)},
         }
         out.update(self.info)
         out["warnings"] = list(self.warnings)

@@ -375,6 +375,8 @@ class ModelSummary(BaseModel):
     nv: int
     bodies: int = Field(description="bodies kept (one per movable joint)")
     floating_base: bool
+    joint_types: dict[str, int] = Field({}, description="movable joints per type: revolute, continuous, prismatic, "
+                                                        "floating, planar, spherical")
     urdf_links: int
     urdf_joints: int
     fixed_joints_merged: list[str]
@@ -404,7 +406,8 @@ class UploadAnswer(RobotSummary):
 
 class JointInfo(BaseModel):
     name: str
-    type: str
+    type: str = Field(description="revolute, continuous, prismatic, floating (q: x, y, z, qx, qy, qz, qw), "
+                                  "planar (q: x, y, cos theta, sin theta) or spherical (q: qx, qy, qz, qw)")
     body: str
     parent: Optional[str] = Field(description="parent body, null for the world")
     q_index: int

@@ -254,6 +254,7 @@ def test_service_serves_a_robot_with_planar_and_spherical_joints(tmp_path):
         info = c.get(f"/v1/robots/{rid}").json()
         assert [(j["type"], j["nq"], j["nv"]) for j in info["joints"]] == [("planar", 4, 3), ("spherical", 4, 3),
                                                                            ("revolute", 1, 1)]
+        assert info["summary"]["joint_types"] == {"planar": 1, "spherical": 1, "revolute": 1}
         rng = np.random.default_rng(15)
         every_endpoint(c, rid, model, rng, None, None)
         locked = {"ball": [0.1, 0.2, 0.3, 0.9], "plane": [0.5, -0.5, 0.0, 1.0]}
