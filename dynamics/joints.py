@@ -64,9 +64,6 @@ class JointKind(NamedTuple):
     axis: bool = True
     #: (offset in its q, size) of the block of q that is a unit vector (a quaternion, or (cos, sin)), or ()
     unit: tuple = ()
-    #: per velocity coordinate: the offset in its q of the coordinate that moves alone with it in the
-    #: simulation's chart (an angle, a position), -1 for a rotation's coordinates (no such coordinate)
-    q_of_v: tuple = (0,)
     #: its coordinates as messages spell them (a locked value), "" for one number
     q_layout: str = ""
 
@@ -76,15 +73,13 @@ KINDS = {
     JOINT_PRISMATIC: JointKind(JOINT_PRISMATIC, ("prismatic",), 1, 1, (0.0,), True, -1),
     # q = [x, y, z, qx, qy, qz, qw], v = [linear, angular] in the body frame (Pinocchio's layout)
     JOINT_FREE: JointKind(JOINT_FREE, ("floating",), 7, 6, (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0), False, 3,
-                          axis=False, unit=(3, 4), q_of_v=(0, 1, 2, -1, -1, -1),
-                          q_layout="[x, y, z, qx, qy, qz, qw]"),
+                          axis=False, unit=(3, 4), q_layout="[x, y, z, qx, qy, qz, qw]"),
     # q = [qx, qy, qz, qw], v = angular velocity in the body frame (Pinocchio's JointModelSpherical)
     JOINT_SPHERICAL: JointKind(JOINT_SPHERICAL, ("spherical",), 4, 3, (0.0, 0.0, 0.0, 1.0), False, 0,
-                               axis=False, unit=(0, 4), q_of_v=(-1, -1, -1),
-                               q_layout="[qx, qy, qz, qw]"),
+                               axis=False, unit=(0, 4), q_layout="[qx, qy, qz, qw]"),
     # q = [x, y, cos theta, sin theta], v = [vx, vy, wz] in the body frame (Pinocchio's JointModelPlanar)
     JOINT_PLANAR: JointKind(JOINT_PLANAR, ("planar",), 4, 3, (0.0, 0.0, 1.0, 0.0), False, -1,
-                            unit=(2, 2), q_of_v=(0, 1, -1), q_layout="[x, y, cos theta, sin theta]"),
+                            unit=(2, 2), q_layout="[x, y, cos theta, sin theta]"),
 }
 
 #: nq and nv of each joint code
@@ -267,8 +262,9 @@ def _joint_limited(tree, i):
 
 @inline_kernel
 def _joint_magnitudes(tree, i, q, mag):
-    """mag[dofs of i] = |the coordinate of q that moves alone with each velocity coordinate| (an angle, a
-    position; JointKind.q_of_v), 0 for a rotation's: the scale of the simulation's relative tolerance."""
+    """mag[dofs of i] = |the coordinate of q that moves alone with each velocity coordinate in the chart| (an
+    angle, a position), 0 for a quaternion's or a planar joint's angle: the scale of the simulation's relative
+    tolerance."""
     k, kq, code = tree.v_idx[i], tree.q_idx[i], tree.jtype[i]
     if code == JOINT_FREE or code == JOINT_PLANAR:
         n = 3 if code == JOINT_FREE else 2
