@@ -183,7 +183,9 @@ def difference(model, q0, q1):
     """The velocity that moves ``q0`` to ``q1`` in unit time: ``integrate(model, q0, difference(model, q0, q1))``
     is ``q1`` (Pinocchio's ``difference``; the logarithm of each joint's motion ``M0^-1 M1``, module docstring).
 
-    q0, q1: (nq,).  Returns a new (nv,) array.  Rotations take the shorter way round (|angle| <= pi).
+    q0, q1: (nq,).  Returns a new (nv,) array.  Quaternions and a planar joint's angle take the shorter way round
+    (|angle| <= pi); a revolute or continuous joint's angle is a real number here, so its part is q1 - q0 (Pinocchio
+    keeps a continuous joint's angle on the circle and takes the shorter way round there too).
     """
     check_model(model)
     q0 = _configuration(model, "q0", q0)
