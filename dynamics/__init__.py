@@ -37,7 +37,7 @@ from .kinematics_derivatives import (center_of_mass_derivatives, frame_accelerat
 from .configuration_jacobians import difference, difference_jacobians, integrate_jacobians
 
 from . import plot, robots, torques
-from .configuration import integrate
+from .configuration import difference, integrate
 from .simulation import Trajectory, simulate
 from .simulation.work_precision import WorkPrecision, work_precision
 from .sweeps import Trajectories, map_batches, simulate_many
@@ -46,7 +46,7 @@ __all__ = [
     "DeadlineExceeded", "DynamicsError", "InputError", "SimulationWarning", "URDFError", "Model", "load_urdf",
     "inverse_dynamics", "gravity_torques", "bias_forces", "mass_matrix", "forward_dynamics",
     "kinetic_energy", "potential_energy", "coriolis_matrix", "lock_joints", "reorder",
-    "simulate", "Trajectory", "integrate", "torques", "robots", "plot",
+    "simulate", "Trajectory", "integrate", "difference", "torques", "robots", "plot",
     "simulate_many", "Trajectories", "map_batches", "work_precision", "WorkPrecision",
     "forward_kinematics", "frame_placement", "frame_velocity", "frame_acceleration", "frame_bias_acceleration",
     "frame_jacobian", "center_of_mass", "center_of_mass_velocity", "com_jacobian",
