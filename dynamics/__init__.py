@@ -34,7 +34,7 @@ from .rnea_derivatives import inverse_dynamics_derivatives
 from .aba_derivatives import forward_dynamics_derivatives
 from .kinematics_derivatives import (center_of_mass_derivatives, frame_acceleration_derivatives,
                                      frame_jacobian_time_variation, frame_velocity_derivatives)
-from .configuration_jacobians import difference, difference_jacobians, integrate_jacobians
+from .configuration_jacobians import difference_jacobians, integrate_jacobians
 
 from . import plot, robots, torques
 from .configuration import difference, integrate
@@ -56,5 +56,5 @@ __all__ = [
     "constrained_inverse_dynamics", "project_velocity", "assemble",
     "inverse_dynamics_derivatives", "forward_dynamics_derivatives", "frame_velocity_derivatives",
     "frame_acceleration_derivatives", "frame_jacobian_time_variation", "center_of_mass_derivatives",
-    "difference", "integrate_jacobians", "difference_jacobians",
+    "integrate_jacobians", "difference_jacobians",
 ]

@@ -1,8 +1,8 @@
 """The Jacobians of the configuration update, joint by joint (Pinocchio's ``dIntegrate`` and ``dDifference``).
 
 ``integrate(model, q, v)`` is q (+) v: per joint q + v for 1-dof joints, and M Exp(xi) for the free joint
-(M its pose, xi = (v_lin, omega) its body twist, the SE(3) exponential).  :func:`difference` is its inverse,
-q1 (-) q0: q1 - q0, and Log(M0^-1 M1) for the free joint.  Derivatives with respect to q are in the tangent
+(M its pose, xi = (v_lin, omega) its body twist, the SE(3) exponential), the spherical (SO(3)) and the planar
+joint (SE(2)).  :func:`dynamics.difference` is its inverse, q1 (-) q0: q1 - q0, and Log(M0^-1 M1).  Derivatives with respect to q are in the tangent
 space (along q (+) dq, as everywhere in the library), so every Jacobian is (nv, nv) and block diagonal, one
 block per joint:
 
@@ -14,14 +14,17 @@ Jacobian of SE(3) (Barfoot, "State estimation for robotics", 2017, eqs. 7.83-7.8
 
     Jl(xi) = [[Jl(phi), Q(rho, phi)], [0, Jl(phi)]],   Jl(phi) = 1 + (1 - cos t)/t^2 [phi] + (t - sin t)/t^3 [phi]^2
 
-For 1-dof joints the blocks are 1 (and -1 for dq0).
+For 1-dof joints the blocks are 1 (and -1 for dq0).  The spherical and planar joints' groups are subgroups of
+SE(3) (rotations; motions in the plane of the joint's in-plane directions u, w, about its axis): their blocks
+are the rows and columns of the SE(3) blocks at their twist (angular; (v_u, v_w, w_axis)), since the exponential
+of a subgroup is the restriction of SE(3)'s.
 """
 
 import numpy as np
 
 from . import checks
-from .errors import InputError
-from .joints import JOINT_FREE, URDF_JOINT_CODES
+from .configuration import difference
+from .joints import JOINT_FREE, JOINT_PLANAR, JOINT_SPHERICAL, URDF_JOINT_CODES
 
 
 def _skew(x):
@@ -84,48 +87,24 @@ def _se3_adjoint_inverse(xi):
     return A
 
 
-def _inverse_block_triangular(J):
-    """[[A, B], [0, A]]^-1 = [[A^-1, -A^-1 B A^-1], [0, A^-1]]."""
-    Ai = np.linalg.inv(J[:3, :3])
-    out = np.zeros((6, 6))
-    out[:3, :3] = out[3:, 3:] = Ai
-    out[:3, 3:] = -Ai @ J[:3, 3:] @ Ai
-    return out
-
-
-def _free_log(q0, q1):
-    """The body twist d = Log(M0^-1 M1) of two free-joint coordinates [x, y, z, qx, qy, qz, qw]."""
-    from .spatial import _quat_rotation, _rotation_log
-    R0 = np.reshape(_quat_rotation(*q0[3:7]), (3, 3))
-    R1 = np.reshape(_quat_rotation(*q1[3:7]), (3, 3))
-    R = R0.T @ R1
-    phi = np.array(_rotation_log(tuple(R.ravel())))
-    p = R0.T @ (q1[:3] - q0[:3])
-    return np.concatenate([np.linalg.solve(_so3_left_jacobian(phi), p), phi])
+#: each multi-dof joint's tangent as a block of the free joint's (linear, angular) twist, in the joint's own
+#: basis (for the planar joint: its in-plane directions u, w and its axis; module docstring)
+EMBEDDING = {JOINT_FREE: np.arange(6), JOINT_SPHERICAL: np.array([3, 4, 5]), JOINT_PLANAR: np.array([0, 1, 5])}
 
 
 def _joints(model):
-    """(code, q index, v index) of every joint; refuses the joint kinds this module does not know."""
+    """(indices of the twist or None for a 1-dof joint, v index, nv) of every joint."""
     out = []
-    for name, jtype, kq, kv in zip(model.joint_names, model.joint_types, model.q_index, model.v_index):
-        code = URDF_JOINT_CODES[jtype]
-        if code != JOINT_FREE and model.nv_joint[model.joint_index(name)] != 1:
-            raise InputError(f"model: joint {name!r} of type {jtype!r} has no configuration Jacobian here yet")
-        out.append((code, int(kq), int(kv)))
+    for jtype, kv, n in zip(model.joint_types, model.v_index, model.nv_joint):
+        out.append((EMBEDDING.get(URDF_JOINT_CODES[jtype]), int(kv), int(n)))
     return out
 
 
-def difference(model, q0, q1):
-    """The tangent vector d (nv,) with integrate(model, q0, d) == q1: q1 - q0 for 1-dof joints, the body twist
-    Log(M0^-1 M1) for a free joint (Pinocchio's ``difference``)."""
-    q0, q1 = checks.vector("q0", q0, model.nq), checks.vector("q1", q1, model.nq)
-    d = np.empty(model.nv)
-    for code, kq, kv in _joints(model):
-        if code == JOINT_FREE:
-            d[kv:kv + 6] = _free_log(q0[kq:kq + 7], q1[kq:kq + 7])
-        else:
-            d[kv] = q1[kq] - q0[kq]
-    return d
+def _twist(idx, x):
+    """A joint's tangent x as the 6-vector twist of its subgroup (zero elsewhere)."""
+    xi = np.zeros(6)
+    xi[idx] = x
+    return xi
 
 
 def integrate_jacobians(model, q, v):
@@ -135,27 +114,27 @@ def integrate_jacobians(model, q, v):
     checks.vector("q", q, model.nq)
     v = checks.vector("v", v, model.nv)
     Jq, Jv = np.zeros((model.nv, model.nv)), np.zeros((model.nv, model.nv))
-    for code, kq, kv in _joints(model):
-        if code == JOINT_FREE:
-            xi = v[kv:kv + 6]
-            Jq[kv:kv + 6, kv:kv + 6] = _se3_adjoint_inverse(xi)
-            Jv[kv:kv + 6, kv:kv + 6] = _se3_right_jacobian(xi)
-        else:
+    for idx, kv, n in _joints(model):
+        if idx is None:
             Jq[kv, kv] = Jv[kv, kv] = 1.0
+            continue
+        xi, block = _twist(idx, v[kv:kv + n]), np.ix_(idx, idx)
+        Jq[kv:kv + n, kv:kv + n] = _se3_adjoint_inverse(xi)[block]
+        Jv[kv:kv + n, kv:kv + n] = _se3_right_jacobian(xi)[block]
     return Jq, Jv
 
 
 def difference_jacobians(model, q0, q1):
-    """(d/dq0, d/dq1) of difference(model, q0, q1), each (nv, nv), both in the tangent space (Pinocchio's
-    dDifference with ARG0 and ARG1; module docstring).  One state."""
-    checks.check_model(model)
+    """(d/dq0, d/dq1) of dynamics.difference(model, q0, q1), each (nv, nv), both in the tangent space
+    (Pinocchio's dDifference with ARG0 and ARG1; module docstring).  One state."""
     d = difference(model, q0, q1)
     J0, J1 = np.zeros((model.nv, model.nv)), np.zeros((model.nv, model.nv))
-    for code, kq, kv in _joints(model):
-        if code == JOINT_FREE:
-            Jlog = _inverse_block_triangular(_se3_right_jacobian(d[kv:kv + 6]))
-            J1[kv:kv + 6, kv:kv + 6] = Jlog
-            J0[kv:kv + 6, kv:kv + 6] = -Jlog @ _se3_adjoint_inverse(d[kv:kv + 6])
-        else:
+    for idx, kv, n in _joints(model):
+        if idx is None:
             J0[kv, kv], J1[kv, kv] = -1.0, 1.0
+            continue
+        xi, block = _twist(idx, d[kv:kv + n]), np.ix_(idx, idx)
+        Jlog = np.linalg.inv(_se3_right_jacobian(xi)[block])
+        J1[kv:kv + n, kv:kv + n] = Jlog
+        J0[kv:kv + n, kv:kv + n] = -Jlog @ _se3_adjoint_inverse(xi)[block]
     return J0, J1

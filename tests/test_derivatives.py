@@ -11,8 +11,8 @@ import pinocchio as pin
 import pytest
 
 import dynamics
-from robots import erd, erd_urdfs, random_state, random_urdf
-from test_pinocchio import PinMap, _pin_loads
+from robots import ALL_TYPES, erd, erd_urdfs, random_state, random_urdf
+from test_pinocchio import PinMap, _pin_loads, pin_force, pin_model
 
 PIN_RTOL = 1e-9
 FD_RTOL = 1e-6
@@ -45,7 +45,8 @@ def vector_fd(f, x, step=STEP):
 def pin_forces(model, pm, F):
     out = [pin.Force.Zero() for _ in range(pm.njoints)]
     for i, name in enumerate(model.joint_names):
-        out[pm.getJointId(name)] = pin.Force(F[i, :3], F[i, 3:])
+        jid = pm.getJointId(name)
+        out[jid] = pin_force(pm, jid, F[i])
     return out
 
 
@@ -78,11 +79,13 @@ def panda():
 
 @pytest.mark.parametrize("seed", range(6))
 def test_random_trees_match_pinocchio(seed):
+    """Trees mixing every joint type (revolute, continuous, prismatic, fixed, planar, spherical), with a URDF
+    floating root, the floating_base option or a fixed base."""
     rng = np.random.default_rng(2000 + seed)
-    text = random_urdf(rng, n_links=int(rng.integers(2, 12)), floating_joint=seed % 3 == 0)
+    text = random_urdf(rng, n_links=int(rng.integers(4, 12)), types=ALL_TYPES, floating_joint=seed % 3 == 0)
     floating = seed % 3 == 1
     model = dynamics.load_urdf(text, floating_base=floating)
-    pm = pin.buildModelFromXML(text, pin.JointModelFreeFlyer()) if floating else pin.buildModelFromXML(text)
+    pm = pin_model(text, model, floating)
     assert_within(compare_with_pinocchio(model, pm, rng, with_fext=seed % 2 == 0), PIN_RTOL)
 
 
@@ -118,7 +121,7 @@ def test_every_example_robot_matches_pinocchio(rel_path, floating):
 @pytest.mark.parametrize("floating", [False, True])
 def test_finite_differences_on_the_manifold(floating):
     rng = np.random.default_rng(31 if floating else 32)
-    model = dynamics.load_urdf(random_urdf(rng, n_links=7), floating_base=floating)
+    model = dynamics.load_urdf(random_urdf(rng, n_links=7, types=ALL_TYPES), floating_base=floating)
     q, v, a = random_state(model, rng)
     tau = rng.normal(size=model.nv)
     F = rng.normal(size=(model.nbodies, 6))
