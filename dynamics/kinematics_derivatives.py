@@ -145,7 +145,8 @@ def frame_acceleration_derivatives(model, q, v, a, frame, *, reference="local_wo
 
 def frame_jacobian_time_variation(model, q, v, frame, *, reference="local_world_aligned"):
     """dJ/dt (6, nv) of frame_jacobian(model, q, frame, reference=...) moving with velocity v (Pinocchio's
-    getFrameJacobianTimeVariation), so that frame_acceleration(..., classical=False) = J a + dJ/dt v.  One
+    getFrameJacobianTimeVariation): J a + dJ/dt v = d/dt (J v), which is frame_acceleration(...) in
+    "local_world_aligned" (classical) and frame_acceleration(..., classical=False) in "local" and "world".  One
     state."""
     f, body, support, d, T = _state(model, q, v, None, frame, reference)
     J, ov = d["J"] * support[:, None], d["ov"][body]
