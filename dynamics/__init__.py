@@ -35,6 +35,9 @@ from .aba_derivatives import forward_dynamics_derivatives
 from .kinematics_derivatives import (center_of_mass_derivatives, frame_acceleration_derivatives,
                                      frame_jacobian_time_variation, frame_velocity_derivatives)
 from .configuration_jacobians import difference_jacobians, integrate_jacobians
+from .contact.geometry import (Box, Capsule, CollisionGeometry, ContactPoint, Cylinder, Ground, HalfSpace,
+                               Sphere)
+from .contact.free_bodies import add_free_body
 
 from . import plot, robots, torques
 from .configuration import difference, integrate
@@ -57,4 +60,6 @@ __all__ = [
     "inverse_dynamics_derivatives", "forward_dynamics_derivatives", "frame_velocity_derivatives",
     "frame_acceleration_derivatives", "frame_jacobian_time_variation", "center_of_mass_derivatives",
     "integrate_jacobians", "difference_jacobians",
+    "CollisionGeometry", "Sphere", "Box", "Capsule", "Cylinder", "ContactPoint", "Ground", "HalfSpace",
+    "add_free_body",
 ]

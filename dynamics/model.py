@@ -188,6 +188,10 @@ class Model:
     #: (:mod:`dynamics.constraints`), None for a plain tree
     constraint_arrays: tuple = None
     constraint_packed: np.ndarray = None
+    #: the contact primitives fixed to the bodies (:class:`dynamics.contact.geometry.CollisionGeometry`: name,
+    #: body, frame, kind, size, read-only 4x4 pose in the body), read by ``load_urdf(..., collision=True)`` or
+    #: added by :func:`dynamics.add_free_body`; empty otherwise
+    collision_geometry: tuple = ()
 
     def __post_init__(self):
         """What is derived from the fields, computed once here: the model is never written to afterwards."""
@@ -359,6 +363,8 @@ class Model:
                 value = (type(C)(*(_frozen(a, a.dtype.type) for a in C)), m)
             elif isinstance(value, np.ndarray):
                 value = _frozen(value, value.dtype.type)
+            elif key == "collision_geometry":
+                value = tuple(g._replace(pose=_frozen(g.pose)) for g in value)
             object.__setattr__(self, key, value)
 
     def __repr__(self):

@@ -3,8 +3,8 @@
 The XML comes from untrusted callers, so it is parsed by a locked-down lxml parser (no DTD, no entity
 expansion, no network, no huge trees, no recovery of broken XML); a document that declares a DOCTYPE is
 refused outright.  Links' inertials and joints are then read from the parsed elements by the small readers
-below (:class:`Link`, :class:`Joint`); visuals and collisions are never read, so no mesh, scene graph or any
-file named inside the URDF is ever opened.
+below (:class:`Link`, :class:`Joint`); visuals are never read and collisions only on request (their
+primitives, not meshes), so no mesh, scene graph or any file named inside the URDF is ever opened.
 
 Joint types: revolute, continuous, prismatic, fixed, floating, planar and spherical (:mod:`dynamics.joints`
 lists what each means).
@@ -29,16 +29,29 @@ stays a valid URDF, so ROS tools, urdfdom and Pinocchio still load the file (the
 elements) as its spanning tree, while a second parent makes each of them refuse it.  Plain ``<loop>`` (no
 namespace prefix like Drake's ``<drake:ball_constraint>``) because the untrusted-XML parser needs no
 namespace declaration for it, and one element with a ``type`` covers all three closures.
+
+Contact geometry (``load_urdf(..., collision=True)``, :mod:`dynamics.contact.urdf_geometry`): the
+``<collision>`` primitives (sphere, box, cylinder, capsule) are kept with their origins, on the body their link
+was merged into; meshes are counted, never opened.  Robots whose collisions are meshes declare primitives with
+the extension element, a child of ``<robot>`` as ``<loop>`` is (ROS tools skip it)::
+
+    <contact_geometry link="LF_FOOT" type="sphere" radius="0.03" xyz="0 0 -0.02" name="lf_foot"/>
+    <contact_geometry link="sole" type="box" size="0.2 0.1 0.02" xyz="0 0 -0.01" rpy="0 0 0"/>
+
+with ``type`` sphere (radius), box (size, full edges), capsule or cylinder (radius, length; axis along the
+local z after rpy) or point.
 """
 
 import difflib
 import os
 import re
+from dataclasses import replace
 from typing import NamedTuple
 
 import numpy as np
 from lxml import etree
 
+from .contact.urdf_geometry import read_collisions
 from .constraints import JointCoupling, PointConstraint, RevoluteConstraint, WeldConstraint, with_constraints
 from .errors import DynamicsError, URDFError
 from .joints import URDF_JOINT_CODES, kind_of
@@ -367,7 +380,8 @@ def _origin(T, what):
     return T
 
 
-def load_urdf(source, *, floating_base: bool = False, strict_inertia: bool = True, mimic: str = "coupling") -> Model:
+def load_urdf(source, *, floating_base: bool = False, strict_inertia: bool = True, mimic: str = "coupling",
+              collision: bool = False) -> Model:
     """Build a :class:`~dynamics.model.Model` from a URDF path or URDF text (str or bytes).
 
     ``floating_base=True`` gives the root link a free joint ("root_joint"): q = [x, y, z, qx, qy, qz, qw, ...],
@@ -382,7 +396,12 @@ def load_urdf(source, *, floating_base: bool = False, strict_inertia: bool = Tru
     ``mimic="coupling"`` (default) turns each ``<mimic>`` into a :class:`~dynamics.JointCoupling` constraint
     (the follower keeps its coordinate, ``model.constraints`` ties it to the leader); ``mimic="independent"``
     leaves mimic joints free, with a warning.  ``<loop>`` elements (module docstring) become constraints too.
+    ``collision=True`` keeps the ``<collision>`` primitives (sphere, box, cylinder, capsule) and the
+    ``<contact_geometry>`` elements (module docstring) in ``model.collision_geometry``, each on the body its link
+    was merged into; meshes are skipped unopened and counted in ``model.info``.
     """
+    if not isinstance(collision, (bool, np.bool_)):
+        raise URDFError(f"collision: expected True or False, got {collision!r:.40}")
     if mimic not in ("coupling", "independent"):
         raise URDFError(f"mimic: expected 'coupling' or 'independent', got {mimic!r}")
     root = parse_xml(_read_source(source))
@@ -404,8 +423,14 @@ def load_urdf(source, *, floating_base: bool = False, strict_inertia: bool = Tru
         "locked_joints": {},
         "meshes_loaded": 0,
     }
+    geometry = ()
+    if collision:
+        geometry, skipped = read_collisions(root, frames, warnings)
+        info.update(collision_primitives=len(geometry), collision_meshes_skipped=skipped)
     model = build_model(name, bodies, floating_base=floating_base or any(
         b.joint_type == "floating" for b in bodies), warnings=warnings, frames=frames, info=info)
+    if geometry:
+        model = replace(model, collision_geometry=geometry)
     constraints = _couplings(couplings, model) + _loops(root, links)
     if not constraints:
         return model
