@@ -66,17 +66,33 @@ def _derivatives_workspace(nb, nv):
     return buf, _work_at(address(buf), 0, nb, nv)[0]
 
 
+#: above this nv the products go to BLAS (np.dot): its dgemm is ~6x faster than the compiled loops at nv = 50
+#: (they are not vectorised over the workspace's views), but each call takes a lock in OpenBLAS's buffer pool,
+#: which threads of a batch contend for: at small nv that lock cost more than the products themselves
+BLAS_NV = 24
+
+
 @inline_kernel
 def _neg_products(Minv, dq, dv, out_q, out_v):
-    """out_q = -Minv dq and out_v = -Minv dv (nv, nv): BLAS's dgemm through np.dot (the loops compiled here
-    were not vectorised over the workspace's views, ~6x slower at nv = 50), then the sign."""
-    np.dot(Minv, dq, out_q)
-    np.dot(Minv, dv, out_v)
+    """out_q = -Minv dq and out_v = -Minv dv (nv, nv)."""
     n = Minv.shape[0]
+    if n > BLAS_NV:
+        np.dot(Minv, dq, out_q)
+        np.dot(Minv, dv, out_v)
+        for i in range(n):
+            for j in range(n):
+                out_q[i, j] = -out_q[i, j]
+                out_v[i, j] = -out_v[i, j]
+        return
     for i in range(n):
         for j in range(n):
-            out_q[i, j] = -out_q[i, j]
-            out_v[i, j] = -out_v[i, j]
+            x = y = 0.0
+            for k in range(n):
+                m = Minv[i, k]
+                x -= m * dq[k, j]
+                y -= m * dv[k, j]
+            out_q[i, j] = x
+            out_v[i, j] = y
 
 
 @inline_kernel
