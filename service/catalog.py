@@ -18,7 +18,8 @@ from .codec import finite_or_none, jsonable
 from .constraints import check_closed, constraints_info, declare
 from .contact import robot_geometry
 from .errors import Conflict, Forbidden, InvalidInput, NotFound, TooLarge, echo
-from .models import Models, load_model
+from .inspection import inspection
+from .models import Models, collision_geometry, load_model
 from .schemas import MAX_NAME
 from .settings import Settings
 from .store import IndexEntry, RobotStore, robot_id
@@ -217,6 +218,13 @@ class Catalog:
         info["summary"] = model_summary(model)
         info["constraints"] = constraints_info(model)
         info["collision_geometry"] = robot_geometry(model)
+        return info
+
+    def inspect(self, rid: str) -> dict[str, Any]:
+        """:meth:`describe` and what the inspector page draws (:func:`service.inspection.inspection`)."""
+        info = self.describe(rid)
+        loaded = self.models.loaded(rid)
+        info.update(inspection(loaded.model, geometry=collision_geometry(loaded)))
         return info
 
     def delete(self, rid: str, owner: Optional[str]) -> None:
