@@ -91,7 +91,7 @@ def test_bounce_heights_and_energy(ball):
     model, contact = ball
     h0 = 0.1
     q0, v0 = state(R + h0, 0.0)
-    traj = dynamics.simulate(model, q0, v0, 0.75, contact=contact, rtol=1e-12, atol=1e-14, sample_dt=5e-4,
+    traj = dynamics.simulate(model, q0, v0, 0.9, contact=contact, rtol=1e-12, atol=1e-14, sample_dt=5e-4,
                              error_estimate="none")
     got = _flight_apexes(traj)
     assert len(got) >= 3
@@ -103,7 +103,7 @@ def test_bounce_heights_and_energy(ball):
     # the energy (kinetic + potential + elastic 1/2 k x^2) never rises
     E = 0.5 * M * np.sum(traj.v[:, :3] ** 2, axis=1) + M * G * traj.q[:, 2] + 0.5 * K * traj.contacts.depth[:, 0] ** 2
     assert np.all(np.diff(E) <= 1e-9 * E[0])
-    assert E[-1] < 0.5 * E[0]
+    assert E[0] - E[-1] > 0.5 * M * G * h0  # more than half the drop height lost in three bounces
     rep = traj.report
     assert rep["energy_drift"] < 1e-8
     assert rep["contact"]["energy_dissipated"] == pytest.approx(E[0] - E[-1], rel=1e-7)
