@@ -50,6 +50,8 @@ def simulate(model, job: Job) -> Outcome:
     out = {name: np.asarray(getattr(traj, name)) for name in ("t", "q", "v", "tau")}
     if traj.lam is not None:
         out["lambda"] = np.asarray(traj.lam)
+    if traj.sensitivities is not None:
+        out["sensitivities"] = np.asarray(traj.sensitivities)
     out["report"] = finite_report(dict(traj.report or {}))
     return Outcome(trajectory=out, seconds=seconds)
 
