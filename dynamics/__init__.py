@@ -30,6 +30,11 @@ from .constraints import (JointCoupling, PointConstraint, RevoluteConstraint, We
                           constraint_jacobian, constraint_residual, with_constraints)
 from .constrained_dynamics import constrained_forward_dynamics, constrained_inverse_dynamics, project_velocity
 from .assemble import assemble
+from .rnea_derivatives import inverse_dynamics_derivatives
+from .aba_derivatives import forward_dynamics_derivatives
+from .kinematics_derivatives import (center_of_mass_derivatives, frame_acceleration_derivatives,
+                                     frame_jacobian_time_variation, frame_velocity_derivatives)
+from .configuration_jacobians import difference, difference_jacobians, integrate_jacobians
 
 from . import plot, robots, torques
 from .configuration import integrate
@@ -49,4 +54,7 @@ __all__ = [
     "PointConstraint", "WeldConstraint", "RevoluteConstraint", "JointCoupling", "with_constraints",
     "constraint_residual", "constraint_jacobian", "constraint_bias", "constrained_forward_dynamics",
     "constrained_inverse_dynamics", "project_velocity", "assemble",
+    "inverse_dynamics_derivatives", "forward_dynamics_derivatives", "frame_velocity_derivatives",
+    "frame_acceleration_derivatives", "frame_jacobian_time_variation", "center_of_mass_derivatives",
+    "difference", "integrate_jacobians", "difference_jacobians",
 ]
