@@ -15,7 +15,7 @@ from dynamics.simulation.jacobian import robot_jacobian
 from dynamics.simulation.problem import rhs, robot_problem
 from dynamics.simulation.solvers import new_stats
 from dynamics.torques import PD
-from robots import OUR_ROBOTS
+from robots import OUR_ROBOTS, erd
 
 simulate_module = importlib.import_module("dynamics.simulation.simulate")
 
@@ -34,17 +34,22 @@ def _problem(model, q0, v0, torque):
     s = simulate_module._settings(model, q0, v0, 1.0, "radau", 1e-6, 1e-8, None, None, None, 10, "none", ("q",),
                                   [], None, False)
     ps = simulate_module._passive(model, s, "spring", 1e4, 100.0, 1e-2)
+    ps = ps._replace(damping=np.full(model.nv, 0.3), friction=np.full(model.nv, 0.2))
     return robot_problem(model, ps, make_source(model, torque), s.q0, np.zeros(1), ())
 
 
 @pytest.mark.parametrize("floating", [False, True])
 def test_jacobian_against_central_differences(floating):
-    with open(os.path.join(OUR_ROBOTS, "planar_3r.urdf")) as f:
-        urdf = f.read().replace('damping="0" friction="0"', 'damping="0.3" friction="0.2"')
-    model = dynamics.load_urdf(urdf, floating_base=floating)
+    """planar 3R fixed; Panda on a free joint (the chart's rate depends on delta there)."""
+    if floating:
+        model = dynamics.load_urdf(erd("panda_description/urdf/panda.urdf"), mimic="independent", floating_base=True)
+    else:
+        model = dynamics.load_urdf(os.path.join(OUR_ROBOTS, "planar_3r.urdf"))
     rng = np.random.default_rng(1)
+    n1 = model.nv - (6 if floating else 0)  # the 1-dof joints, after the free joint's 7 coordinates
     q0 = model.neutral()
-    q0[-3:] = [0.4, -0.5, 3.3]  # the last joint beyond its limit (pi): the spring pushes
+    q0[-n1:] += 0.3 * rng.uniform(-1, 1, n1)
+    q0[-1] = model.upper[-1] + 0.02  # the last joint beyond its limit: the spring pushes
     v0 = rng.uniform(-1, 1, model.nv)
     p = _problem(model, q0, v0, PD(model.neutral(), 5.0, 0.5))
     nv, n = model.nv, 2 * model.nv + 2

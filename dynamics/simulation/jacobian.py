@@ -12,8 +12,7 @@ v at q = q(delta), :mod:`dynamics.configuration`; a: the ABA's accelerations und
     d(v . tau)/dz = v^T dtau/dz (+ tau in the v columns)
 
 da/dq (in the tangent space of q, nv columns, Pinocchio's convention), da/dv and M^-1 come from
-:func:`aba_derivatives` (Carpentier & Mansard 2018 when the analytical kernel is present, else central
-differences of the ABA); dtau_p (damping, regularised friction, limit springs) is written out
+:func:`aba_derivatives` (Carpentier & Mansard 2018, :mod:`dynamics.aba_derivatives`); dtau_p (damping, regularised friction, limit springs) is written out
 (:func:`passive_derivatives`); the source's dtau_s by central differences of the source alone
 (:func:`source_derivatives`).  The W columns are zero (f does not depend on the quadratures).
 
@@ -23,8 +22,8 @@ it, and falls back to differencing the whole right-hand side for a problem witho
 
 import numpy as np
 
-from .._numba import generic_kernel, kernel
-from ..aba import _aba_into
+from .._numba import generic_kernel, keep_alive, kernel
+from ..aba_derivatives import _aba_derivatives_into, _derivatives_workspace
 from ..configuration import _difference, _integrate_q, chart_rate_in, retract_in
 from ..control.dispatch import torque_eval
 from ..control.passive import passive_torques
@@ -35,41 +34,12 @@ FD_STEP = 6e-6
 
 
 @kernel
-def _aba_derivatives_fd(tree, q, v, tau, gravity, f_ext, ws, da_dq, da_dv, Minv):
-    """da/dq (tangent space of q), da/dv and M^-1 by central differences of the ABA (exact for M^-1: a is
-    affine in tau).  Stands in for the analytical kernel of the same signature."""
-    nv = v.shape[0]
-    ap, am, a0 = np.empty(nv), np.empty(nv), np.empty(nv)
-    e = np.zeros(nv)
-    vt, tt = v.copy(), tau.copy()
-    _aba_into(tree, q, v, tau, gravity, f_ext, ws, a0)
-    for k in range(nv):
-        e[k] = 1.0
-        h = FD_STEP
-        _aba_into(tree, _integrate_q(tree, q, e, h), v, tau, gravity, f_ext, ws, ap)
-        _aba_into(tree, _integrate_q(tree, q, e, -h), v, tau, gravity, f_ext, ws, am)
-        e[k] = 0.0
-        for r in range(nv):
-            da_dq[r, k] = (ap[r] - am[r]) / (2 * h)
-        h = FD_STEP * max(1.0, abs(v[k]))
-        vt[k] = v[k] + h
-        _aba_into(tree, q, vt, tau, gravity, f_ext, ws, ap)
-        vt[k] = v[k] - h
-        _aba_into(tree, q, vt, tau, gravity, f_ext, ws, am)
-        vt[k] = v[k]
-        for r in range(nv):
-            da_dv[r, k] = (ap[r] - am[r]) / (2 * h)
-        tt[k] = tau[k] + 1.0
-        _aba_into(tree, q, v, tt, gravity, f_ext, ws, ap)
-        tt[k] = tau[k]
-        for r in range(nv):
-            Minv[r, k] = ap[r] - a0[r]
-
-
-@kernel
-def aba_derivatives(tree, q, v, tau, gravity, f_ext, ws, da_dq, da_dv, Minv):
-    """da/dq (tangent space), da/dv, M^-1 at (q, v, tau): the one place that picks the kernel."""
-    _aba_derivatives_fd(tree, q, v, tau, gravity, f_ext, ws, da_dq, da_dv, Minv)
+def aba_derivatives(tree, q, v, tau, gravity, f_ext, da_dq, da_dv, Minv):
+    """da/dq (tangent space), da/dv, M^-1 at (q, v, tau): the one place that picks the kernel (the analytical
+    one of :mod:`dynamics.aba_derivatives`)."""
+    buf, ws = _derivatives_workspace(tree.parents.shape[0], v.shape[0])
+    _aba_derivatives_into(tree, q, v, tau, gravity, f_ext, ws, da_dq, da_dv, Minv)
+    keep_alive(buf)
 
 
 @generic_kernel
@@ -207,7 +177,7 @@ def robot_jacobian(p, t, z, f0, mag, ne, J, st):
     for k in range(nv):
         tau[k] += tau_s[k]
     da_dq, da_dv, Minv = np.empty((nv, nv)), np.empty((nv, nv)), np.empty((nv, nv))
-    aba_derivatives(p.tree, q, v, tau, p.passive.gravity, p.passive.f_ext, p.ws_aba, da_dq, da_dv, Minv)
+    aba_derivatives(p.tree, q, v, tau, p.passive.gravity, p.passive.f_ext, da_dq, da_dv, Minv)
     dts_dd, dts_dv = np.empty((nv, nv)), np.empty((nv, nv))
     source_derivatives(p, t, delta, v, dts_dd, dts_dv)
     dtp_dq, dtp_dv = np.empty(nv), np.empty(nv)

@@ -166,26 +166,26 @@ def rhs(p, t, z, dz):
 
 
 @generic_kernel
-def jacobian(p, t, z, f0, mag, ne, Ja, st):
-    """Radau's Newton matrix of the augmented system: diag(J, J, ..., J) and the quadratures' rows (the
-    simultaneous-corrector approximation, module docstring)."""
+def jacobian(p, t, z, f0, mag, ne, J, st):
+    """Radau's Newton matrix of the augmented system: diag(Jx, Jx, ..., Jx) and the quadratures' rows, Jx the
+    inner Jacobian (the simultaneous-corrector approximation, module docstring)."""
     _split(p, z)
     n2 = p.zi.shape[0] - 2
     problem_jacobian(p.inner, t, p.zi, p.fi, p.magi, n2, p.J, st)
-    J = p.J
+    Jx = p.J
     N = z.shape[0]
     for r in range(N):
         for k in range(N):
-            Ja[r, k] = 0.0
+            J[r, k] = 0.0
     ncol = p.out_S.shape[2]
     for b in range(ncol + 1):
         o = b * n2
         for r in range(n2):
             for k in range(n2):
-                Ja[o + r, o + k] = J[r, k]
+                J[o + r, o + k] = Jx[r, k]
     for r in range(2):
         for k in range(n2):
-            Ja[N - 2 + r, k] = J[n2 + r, k]
+            J[N - 2 + r, k] = Jx[n2 + r, k]
 
 
 @generic_kernel
