@@ -19,9 +19,14 @@ import sys
 import time
 
 import numpy as np
+from numba import njit
 
 import dynamics
-from dynamics.simulation.problem import RobotProblem
+from dynamics.control.validation import make_source
+from dynamics.simulation.jacobian import robot_jacobian
+from dynamics.simulation.problem import RobotProblem, rhs, robot_problem
+from dynamics.simulation.solvers import new_stats
+from dynamics.simulation.solvers.linalg import fd_jacobian
 from dynamics.torques import PD
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "tests"))
@@ -69,9 +74,39 @@ def _wall(model, q0, v0, T, torque, fd, reps, **kw):
     return best, tr
 
 
+@njit
+def _jacobians(p, z, f0, J, st, fd, reps):
+    n = z.shape[0]
+    for _ in range(reps):
+        if fd:
+            fd_jacobian(p, 0.0, z, f0, np.zeros(n), n - 2, J, st[0])
+        else:
+            robot_jacobian(p, 0.0, z, f0, z, n - 2, J, st[0])
+
+
+def one_jacobian_us(model, q0, v0, torque):
+    """Microseconds of one right-hand-side Jacobian: (analytical, finite differences), alternately timed."""
+    s = SIM._settings(model, q0, v0, 1.0, "radau", 1e-6, 1e-8, None, None, None, 10, "none", ("q",), [], None,
+                      False)
+    p = robot_problem(model, SIM._passive(model, s, None, 1e4, 100.0, 1e-3), make_source(model, torque), s.q0,
+                      np.zeros(1), ())
+    n = 2 * model.nv + 2
+    z, f0, J, st = np.zeros(n), np.zeros(n), np.zeros((n, n)), new_stats()
+    z[model.nv:2 * model.nv] = v0
+    rhs(p, 0.0, z, f0)
+    out = [np.inf, np.inf]
+    for _ in range(5):
+        for fd in (0, 1):
+            t = time.perf_counter()
+            _jacobians(p, z, f0, J, st, fd, 200)
+            out[fd] = min(out[fd], (time.perf_counter() - t) / 200 * 1e6)
+    return out
+
+
 def radau_section(quick):
-    rows = ["| case | nv | steps | Jacobians | analytical (s) | finite differences (s) | ratio FD/analytical | |dx| |",
-            "|---|---:|---:|---:|---:|---:|---:|---:|"]
+    rows = ["| case | nv | steps | Jacobians | one Jacobian: analytical / FD (us) | run, analytical (s) | "
+            "run, finite differences (s) | ratio FD/analytical | |dx| |",
+            "|---|---:|---:|---:|---:|---:|---:|---:|---:|"]
     reps = 1 if quick else 3
     for name, m, q0, v0, T, torque in stiff_cases(quick):
         for fd in (False, True):  # warm-up: compile both
@@ -83,7 +118,9 @@ def radau_section(quick):
             wa.append(a)
             wf.append(f)
         dx = max(np.abs(ta.q[-1] - tf.q[-1]).max(), np.abs(ta.v[-1] - tf.v[-1]).max())
-        rows.append(f"| {name} | {m.nv} | {ta.report['steps']} | {ta.report['jacobian_evals']} | {min(wa):.3f} | "
+        ja, jf = one_jacobian_us(m, q0, v0, torque)
+        rows.append(f"| {name} | {m.nv} | {ta.report['steps']} | {ta.report['jacobian_evals']} | "
+                    f"{ja:.0f} / {jf:.0f} ({jf / ja:.1f}x) | {min(wa):.3f} | "
                     f"{min(wf):.3f} | {min(wf) / min(wa):.2f} | {dx:.1e} |")
         print(rows[-1], flush=True)
     return rows

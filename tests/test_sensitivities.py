@@ -15,7 +15,7 @@ import pytest
 
 import dynamics
 from dynamics.errors import InputError
-from dynamics.torques import PD
+from dynamics.torques import PD, Table
 from robots import OUR_ROBOTS, erd
 
 TWO_R = os.path.join(OUR_ROBOTS, "planar_2r.urdf")
@@ -147,6 +147,9 @@ def test_refusals(two_r):
         sim(model, q0, v0, 0.1, sensitivities="x0")
     with pytest.raises(InputError, match="integrator='euler'"):
         sim(model, q0, v0, 0.1, integrator="euler", dt=1e-3, sensitivities=True)
+    table = Table(np.linspace(0, 1, 300), np.zeros((300, 2)))  # 600 parameters
+    with pytest.raises(InputError, match="dense"):
+        sim(model, q0, v0, 0.1, torque=table, integrator="radau", sensitivities=("tau",))
     floating = dynamics.load_urdf(TWO_R, floating_base=True)
     with pytest.raises(InputError, match="1-dof joints only"):
         sim(floating, floating.neutral(), np.zeros(floating.nv), 0.1, sensitivities=True)

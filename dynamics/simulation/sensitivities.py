@@ -37,6 +37,8 @@ from .solvers.linalg import problem_jacobian
 
 GAINS, QREF, TABLE = 0, 1, 2  # where a parameter lives in the Source
 FD_STEP = 6e-6
+#: radau and auto: the largest augmented state (their dense Newton matrices: ~64 n^2 bytes, 256 MB here)
+MAX_IMPLICIT_STATE = 2000
 
 
 class SensitivityProblem(NamedTuple):
@@ -285,6 +287,11 @@ def sensitivity_spec(model, src, sensitivities, integrator, project):
         else:
             params += [(code, row, i) for i in range(nv)]
             cols += [f"{name}[{i}]" for i in range(nv)]
+    n = 2 * nv * (1 + len(cols))
+    if integrator in ("radau", "auto") and n > MAX_IMPLICIT_STATE:
+        raise InputError(f"sensitivities: {len(cols)} columns make a state of {n} components, over the "
+                         f"{MAX_IMPLICIT_STATE} that {integrator!r} takes (its Newton matrix is dense, n x n); use "
+                         "integrator='rk45' or 'dop853', or ask for fewer parameters")
     return Spec("x0" in names, np.array(params, np.int64).reshape(-1, 3), tuple(cols))
 
 
