@@ -127,7 +127,8 @@ def radau_section(quick):
 
 
 def sensitivity_section(quick):
-    rows = ["| case | integrator | nv | one run (s) | with sensitivities (s) | 2 nv + 1 runs (s) | ratio | error estimate of S |",
+    rows = ["| case | integrator | nv | one run (s) | with sensitivities (s) | 2 nv + 1 runs (s) | ratio | "
+            "error estimate of S |",
             "|---|---|---:|---:|---:|---:|---:|---:|"]
     two_r = dynamics.load_urdf(dynamics.robots.path("planar_2r"))
     panda = dynamics.load_urdf(erd("panda_description/urdf/panda.urdf"), mimic="independent")

@@ -12,7 +12,8 @@ v at q = q(delta), :mod:`dynamics.configuration`; a: the ABA's accelerations und
     d(v . tau)/dz = v^T dtau/dz (+ tau in the v columns)
 
 da/dq (in the tangent space of q, nv columns, Pinocchio's convention), da/dv and M^-1 come from
-:func:`aba_derivatives` (Carpentier & Mansard 2018, :mod:`dynamics.aba_derivatives`); dtau_p (damping, regularised friction, limit springs) is written out
+:func:`aba_derivatives` (Carpentier & Mansard 2018, :mod:`dynamics.aba_derivatives`); dtau_p (damping,
+regularised friction, limit springs) is written out
 (:func:`passive_derivatives`); the source's dtau_s by central differences of the source alone
 (:func:`source_derivatives`).  The W columns are zero (f does not depend on the quadratures).
 

@@ -241,7 +241,7 @@ def _one_run(model, s, ps, src, dt, out_t, rtol, atol, max_steps, outputs, h0=0.
     ne, inner = 2 * nv, p
     if s.sens is not None:
         ncol = len(s.sens.columns)
-        p = sensitivity_problem(inner, s.sens.x0, s.sens.params, out_t, bool(outputs))
+        p = sensitivity_problem(inner, s.sens.x0, s.sens.params, out_t, out_t is s.out_t)  # not in the rerun
         z = sensitivity_state(nv, s.v0, p.nx, ncol)
         ne = 2 * nv * (1 + ncol)
     nsteps = max(1, math.ceil(s.duration / dt * (1 - 1e-12))) if s.fixed and s.duration > 0 else 0
@@ -256,7 +256,8 @@ def _one_run(model, s, ps, src, dt, out_t, rtol, atol, max_steps, outputs, h0=0.
         _retract(model.tree, inner.base, z[:nv], qf)
     if p is inner:
         return RunResult(p, st, sw, wall, qf, z[nv:2 * nv].copy())
-    return RunResult(inner, st, sw, wall, qf, z[nv:2 * nv].copy(), p.out_S, final_sensitivities(z, nv, p.out_S.shape[2]))
+    return RunResult(inner, st, sw, wall, qf, z[nv:2 * nv].copy(), p.out_S,
+                     final_sensitivities(z, nv, p.out_S.shape[2]))
 
 
 def _blowup(v0):

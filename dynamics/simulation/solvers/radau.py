@@ -1,8 +1,8 @@
 """Radau IIA of order 5 (3 stages, L-stable, stiffly accurate) with a simplified Newton iteration on the
 problem's Jacobian (analytical for the robot, :mod:`dynamics.simulation.jacobian`; finite differences for a
 problem without one, :func:`.linalg.problem_jacobian`), the real/complex splitting of the stage system, the
-embedded third-order error estimate filtered through (1 - h gamma J)^-1 and Gustafsson's predictive controller ([HW] sec. IV.8; the
-structure follows ``scipy.integrate.Radau``).  Dense output: the collocation polynomial of the step.
+embedded third-order error estimate filtered through (1 - h gamma J)^-1 and Gustafsson's predictive controller
+([HW] sec. IV.8; the structure follows ``scipy.integrate.Radau``).  Dense output: the collocation polynomial of the step.
 
 [HW] = Hairer & Wanner, "Solving ODEs II", 2nd ed. 1996.
 """
