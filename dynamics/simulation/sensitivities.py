@@ -300,4 +300,5 @@ def error_estimate(main_S, rerun_S, factor):
     the state's, :mod:`.report`)."""
     if main_S is None or rerun_S is None:
         return None
-    return float(np.max(np.abs(main_S - rerun_S), initial=0.0)) * factor
+    est = float(np.max(np.abs(main_S - rerun_S), initial=0.0)) * factor
+    return est if np.isfinite(est) else None  # (a failed rerun: no estimate, and strict JSON)
