@@ -26,7 +26,8 @@ class Trajectories(NamedTuple):
     """Runs sampled on a shared time grid: ``t`` (T,), ``q`` (B, T, nq), ``v`` (B, T, nv), ``tau`` (B, T, nv),
     ``reports`` (B dicts as from simulate, plus "run").  A run that stopped early is NaN after its last good
     sample; ``counts`` (B,) says how many samples each run has.  ``lam`` (B, T, m): the constraint multipliers
-    of a constrained model when ``outputs`` asked for "lambda", else None."""
+    of a constrained model when ``outputs`` asked for "lambda", else None.  ``sensitivities`` (B, T, 2 nv, ncol)
+    when ``sensitivities`` asked for them (:func:`dynamics.simulate`), else None."""
 
     t: np.ndarray
     q: np.ndarray
@@ -35,6 +36,7 @@ class Trajectories(NamedTuple):
     reports: list
     counts: np.ndarray
     lam: object = None
+    sensitivities: object = None
 
     @property
     def ok(self):
@@ -91,6 +93,9 @@ def _stack(model, results, B):
     q, v, tau = (np.full((B, T, n), np.nan) for n in (model.nq, model.nv, model.nv))
     m = next((r.lam.shape[1] for r in results if not isinstance(r, _Failed) and r.lam is not None), None)
     lam = None if m is None else np.full((B, T, m), np.nan)
+    shape = next((r.sensitivities.shape[1:] for r in results if not isinstance(r, _Failed)
+                  and r.sensitivities is not None), None)
+    sens = None if shape is None else np.full((B, T, *shape), np.nan)
     counts, reports = np.zeros(B, np.int64), []
     for k, r in enumerate(results):
         if isinstance(r, _Failed):
@@ -98,11 +103,11 @@ def _stack(model, results, B):
             continue
         n = len(r.t)
         counts[k] = n
-        for dst, src in ((q, r.q), (v, r.v), (tau, r.tau), (lam, r.lam)):
+        for dst, src in ((q, r.q), (v, r.v), (tau, r.tau), (lam, r.lam), (sens, r.sensitivities)):
             if src is not None and src.shape[0] == n:
                 dst[k, :n] = src
         reports.append(r.report)
-    return Trajectories(t, q, v, tau, reports, counts, lam)
+    return Trajectories(t, q, v, tau, reports, counts, lam, sens)
 
 
 def simulate_many(model, q0, v0, duration, *, torque=None, engine="threads", progress=None, ray_address=None,

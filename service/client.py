@@ -52,7 +52,8 @@ class ServiceError(Exception):
 @dataclass
 class Trajectory:
     """What ``Robot.simulate`` returns: sample times t (K,), q (K, nq), v (K, nv), tau (K, nv), the report, and
-    lam (K, m), the constraint multipliers, when ``outputs`` has "lambda" (as ``dynamics.Trajectory``)."""
+    lam (K, m), the constraint multipliers, when ``outputs`` has "lambda", and the sensitivities (K, 2 nv, ncol)
+    when asked for (as ``dynamics.Trajectory``)."""
     t: np.ndarray
     q: np.ndarray
     v: np.ndarray
@@ -63,6 +64,7 @@ class Trajectory:
     #: "pairs" [(a, b)], "point" (N, 3), "normal" (N, 3), "normal_force" (N,), "friction" (N, 3), "depth" (N,),
     #: "slip" (N, 3)} (world frame; the service's form of ``dynamics.Trajectory.contacts``)
     contacts: Optional[dict] = None
+    sensitivities: Optional[np.ndarray] = None  # (K, 2 nv, ncol) when simulate asked for sensitivities
 
 
 def _as_array(x: Any) -> np.ndarray:
@@ -400,16 +402,18 @@ class Robot:
                  integrator: Optional[str] = None, rtol: Optional[float] = None, atol: Optional[float] = None,
                  dt: Optional[float] = None, sample_dt: Optional[float] = None, gravity=None,
                  locked=None, outputs=None, baumgarte=None, project: Optional[bool] = None,
-                 contact: Any = None) -> Trajectory:
+                 contact: Any = None, sensitivities=None) -> Trajectory:
         """``torque``: what ``dynamics.simulate`` takes (``dynamics.torques.PD``, ``Table``, ``ComputedTorque``,
         ``OperationalSpace``, a constant tau, None) or the HTTP form {"type": "zero" | "constant" | "table" | "pd" |
         "computed_torque" | "operational_space", ...} (see the API docs). ``contact``: a ``dynamics.Contact`` or
-        its HTTP form {"ground": ..., "friction": ..., "objects": [...], ...}."""
+        its HTTP form {"ground": ..., "friction": ..., "objects": [...], ...}.  ``sensitivities``: True or names,
+        as ``dynamics.simulate`` takes them."""
         payload = {"q0": _as_array(q0), "v0": _as_array(v0), "duration": float(duration),
                    "torque": torque_spec(torque), "integrator": integrator,
                    "rtol": rtol, "atol": atol, "dt": dt, "sample_dt": sample_dt, "gravity": self._opt(gravity),
                    "locked": self._locked(locked), "outputs": None if outputs is None else list(outputs),
-                   "baumgarte": self._opt(baumgarte), "project": project, "contact": contact_spec(contact)}
+                   "baumgarte": self._opt(baumgarte), "project": project, "contact": contact_spec(contact),
+                   "sensitivities": sensitivities if sensitivities in (None, True, False) else list(sensitivities)}
         ans = self._call("simulate", payload, npz_answer=True)
         report = ans.get("report", {})
         if isinstance(report, str):
@@ -418,7 +422,7 @@ class Robot:
         if contacts is not None and isinstance(contacts.get("pairs"), str):
             contacts["pairs"] = [tuple(p) for p in json.loads(contacts["pairs"])]
         return Trajectory(t=ans["t"], q=ans["q"], v=ans["v"], tau=ans["tau"], report=report, lam=ans.get("lambda"),
-                          contacts=contacts)
+                          contacts=contacts, sensitivities=ans.get("sensitivities"))
 
 
 #: the library's torque classes (dynamics.torques) the service knows: class name -> (HTTP type, attributes sent)

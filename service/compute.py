@@ -216,6 +216,16 @@ def _columns(model, outputs: Optional[list[str]]) -> int:
     return 1 + sum(size[o] for o in set(outputs))
 
 
+def _sensitivity_columns(model, req: SimulateRequest) -> int:
+    """Numbers per sample of the sensitivities asked for: 2 nv rows times a column per x0 coordinate and per
+    parameter (a table's "tau": one per entry). Unknown names count nothing here: the library refuses them."""
+    names = ("x0",) if req.sensitivities is True else (req.sensitivities or ())
+    nv = model.nv
+    table_rows = int(np.size(req.torque.t)) if getattr(req.torque, "type", "") == "table" else 1
+    cols = {"x0": 2 * nv, "tau": nv * table_rows}
+    return 2 * nv * sum(cols.get(name, nv) for name in set(names))
+
+
 class Compute:
     """The thread pools, the simulation workers and the deadline logic, shared by all requests of one process."""
 
@@ -335,7 +345,8 @@ class Compute:
         job = build_job(record, locked, req, self.settings)  # (its step and sample limits first)
         check_frames(entry.model, job.contact)
         samples = sim_samples(req.duration, req.sample_dt, req.dt, req.integrator)
-        check_answer_size(samples * _columns(entry.model, req.outputs), wants_npz(accept), self.settings,
+        check_answer_size(samples * (_columns(entry.model, req.outputs) + _sensitivity_columns(entry.model, req)),
+                          wants_npz(accept), self.settings,
                           f"a trajectory of {samples} samples")
         return job, simulation_scene(entry.scene, entry.model.gravity, req.gravity)
 

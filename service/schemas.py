@@ -438,11 +438,18 @@ class SimulateRequest(_Request):
     contact: Optional[ContactSpec] = Field(None, description="contact with the ground and the world's objects "
                                                              "(dynamics.Contact); default none: the robot touches "
                                                              "nothing")
+    sensitivities: Optional[Union[bool, list[str]]] = Field(
+        None, description="forward sensitivities dx(t)/d(x0, parameters), x = (q, v), integrated with the state under "
+                          "the same error control: true (x0), or names among 'x0' and the torque's parameters (pd: "
+                          "kp, kd, q_target, v_target, tau_ff; computed_torque: kp, kd; constant and table: tau); "
+                          "answered as 'sensitivities' (K, 2 nv, ncol), the columns named in "
+                          "report.sensitivities.columns. Robots of 1-dof joints; not with euler or project")
 
 
 #: the SimulateRequest fields passed on to dynamics.simulate as keyword arguments (None = library default)
 SIMULATE_OPTIONS = ("integrator", "rtol", "atol", "dt", "sample_dt", "gravity", "limits", "limit_stiffness",
-                    "limit_damping", "friction_eps", "error_estimate", "outputs", "baumgarte", "project")
+                    "limit_damping", "friction_eps", "error_estimate", "outputs", "baumgarte", "project",
+                    "sensitivities")
 
 
 class UploadRequest(_Request):
@@ -532,6 +539,8 @@ class TrajectoryAnswer(BaseModel):
     contacts_depth: Optional[list[float]] = Field(None, alias="contacts.depth", description="(N,) penetration, m")
     contacts_slip: Optional[list[list[float]]] = Field(None, alias="contacts.slip", description=(
         "(N, 3) tangential velocity of a relative to b at the point, m/s"))
+    sensitivities: Optional[list[list[list[float]]]] = Field(
+        None, description="(K, 2 nv, ncol) dx/d(x0, parameters) at the samples, when the request asked for them")
     report: dict[str, Any] = Field(description="dynamics.Trajectory.report: status, integrator, steps, "
                                                "error_estimate, energy_drift, warnings, wall time, ...")
     scene: Scene

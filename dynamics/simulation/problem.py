@@ -28,6 +28,7 @@ from ..aba import _aba_into
 from ..aba import _workspace as aba_workspace
 from .._numba import copy_into, generic_kernel, inline_kernel, keep_alive, kernel
 from .._numba.boundary import borrow
+from .jacobian import robot_jacobian
 from ..configuration import chart_rate_in, chart_tag, _integrate_delta, retract_in
 from ..joints import _joint_magnitudes
 from ..control.dispatch import kind_tag, source_workspace, torque_eval
@@ -178,3 +179,4 @@ RobotProblem.rhs = rhs
 RobotProblem.rebase = rebase
 RobotProblem.euler_config = euler_config
 RobotProblem.emit = emit
+RobotProblem.jacobian = robot_jacobian  # Radau's Newton matrix (.jacobian: assembled from the parts' derivatives)

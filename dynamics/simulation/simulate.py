@@ -35,6 +35,9 @@ from .problem import NQUAD, robot_problem, singular_body
 from .progress import check as check_progress
 from .progress import watcher
 from .run import run
+from .sensitivities import error_estimate as sensitivity_error
+from .sensitivities import final_sensitivities, sensitivity_problem, sensitivity_spec
+from .sensitivities import initial_state as sensitivity_state
 from .solvers import ADAPTIVE, FIXED, NONFINITE, ORDER, STABILITY_LIMIT, Options
 
 __all__ = ["simulate", "Trajectory", "INTEGRATORS", "OUTPUTS", "DEFAULT_OUTPUTS"]
@@ -58,6 +61,7 @@ class Trajectory(NamedTuple):
     report: dict
     lam: object = None
     contacts: object = None
+    sensitivities: object = None
 
     def plot(self, path=None, *, joint_names=None, show=False):
         """q, v and tau against t with the report's verdict in the title (:func:`dynamics.plot.trajectory`;
@@ -85,6 +89,7 @@ class Settings(NamedTuple):
     baumgarte: tuple  # (alpha, beta) in 1/s
     project: bool
     contact: object  # None, or the contact resolved for the model (dynamics.contact.resolve.Resolved)
+    sens: object = None  # sensitivities.Spec or None
 
 
 class RunResult(NamedTuple):
@@ -94,12 +99,15 @@ class RunResult(NamedTuple):
     wall: float
     qf: np.ndarray  # final state
     vf: np.ndarray
+    S: object = None  # sensitivities: per sample (T, 2 nv, ncol) and at the end (2 nv, ncol), or None
+    Sf: object = None
 
 
 def simulate(model, q0, v0, duration, *, torque=None, integrator="auto", rtol=1e-6, atol=1e-8, dt=None,
              sample_dt=None, gravity=None, max_steps=1_000_000, limits=None, limit_stiffness=1e4,
              limit_damping=100.0, friction_eps=1e-3, error_estimate="rerun", outputs=DEFAULT_OUTPUTS,
-             progress=None, baumgarte=None, project=False, contact=None):
+             progress=None, baumgarte=None, project=False, contact=None,
+             sensitivities=None):
     """Simulate the robot from (q0, v0) for ``duration`` seconds; returns a :class:`Trajectory`.
 
     torque: None, an (nv,) constant, :class:`dynamics.torques.Table`, :class:`~dynamics.torques.PD`,
@@ -129,6 +137,11 @@ def simulate(model, q0, v0, duration, *, torque=None, integrator="auto", rtol=1e
         torques.  The report adds ``contact`` (largest penetration, time in contact, the work of the contact
         forces and the energy they dissipated; :mod:`dynamics.simulation.report`), and ``Trajectory.contacts``
         holds the active contacts per sample when the Contact's ``outputs`` ask for "contacts".
+    sensitivities: None, True (dx(t)/dx0) or a sequence of "x0" and the torque source's parameter names (PD:
+        "kp", "kd", "q_target", "v_target", "tau_ff"; ComputedTorque: "kp", "kd"; a constant or a Table:
+        "tau"): forward sensitivities integrated with the state under the same error control, returned as
+        ``Trajectory.sensitivities`` (T, 2 nv, ncol) with the column names and their error estimate in
+        ``report["sensitivities"]`` (:mod:`dynamics.simulation.sensitivities`; models of 1-dof joints).
 
     Raises InputError for bad arguments and when the step budget is exceeded; a run that goes unstable
     stops, returns the samples up to the failure and says so in ``report["status"]`` and ``warnings``.
@@ -139,6 +152,10 @@ def simulate(model, q0, v0, duration, *, torque=None, integrator="auto", rtol=1e
                   error_estimate, outputs, warnings, baumgarte, project, contact)
     ps = _passive(model, s, limits, limit_stiffness, limit_damping, friction_eps)
     src = make_source(model, torque)
+    s = s._replace(sens=sensitivity_spec(model, src, sensitivities, s.integrator, s.project))
+    if s.sens is not None and s.contact is not None:
+        raise InputError("sensitivities: not available with contact (the contact forces' derivatives are not in the "
+                         "variational equations yet); pass sensitivities=None or contact=None")
     try:
         main = _one_run(model, s, ps, src, s.dt, s.out_t, s.rtol, s.atol, max_steps, s.outputs,
                         h0=s.dt if not s.fixed else 0.0, watch=watcher(progress, s.duration), probe=True)
@@ -168,10 +185,15 @@ def _trajectory(model, s, ps, src, main, stability, warnings):
     if stability is not None:
         report["stability"] = stability
 
+    reruns = []
+
     def rerun(dt, rtol, atol, max_steps):
-        return _one_run(model, s, ps, src, dt, np.array([0.0]), rtol, atol, max_steps, ())
+        reruns.append(_one_run(model, s, ps, src, dt, np.array([0.0]), rtol, atol, max_steps, ()))
+        return reruns[-1]
 
     errors = R.error_estimate(model, s, main, rerun, ORDER.get(s.integrator, 0), warnings)
+    if s.sens is not None:
+        report["sensitivities"] = _sensitivity_report(s, main, reruns, errors)
     R.accuracy_warnings(s, errors, main.qf, main.vf, warnings)
     report.update(errors)
     t, q, v, tau, w = p.out_t[:cnt], p.out_q[:cnt], p.out_v[:cnt], p.out_tau[:cnt], p.out_w[:cnt]
@@ -193,7 +215,20 @@ def _trajectory(model, s, ps, src, main, stability, warnings):
         from ..contact.outputs import contact_samples
         contacts = contact_samples(s.contact, p.contact, cnt)
     report["warnings"] = warnings
-    return Trajectory(t.copy(), q.copy(), v.copy(), tau.copy(), R.json_safe(report), lam, contacts)
+    S = main.S[:cnt].copy() if s.sens is not None else None
+    return Trajectory(t.copy(), q.copy(), v.copy(), tau.copy(), R.json_safe(report), lam, contacts, S)
+
+
+def _sensitivity_report(s, main, reruns, errors):
+    """report["sensitivities"]: the column names and max |S(T) - S_tighter(T)| (the rerun of the estimate)."""
+    est = None
+    if errors["error_estimate_method"] == "rerun" and reruns and reruns[-1].Sf is not None:
+        order = ORDER.get(s.integrator, 0)
+        factor = 2 ** order / (2 ** order - 1) if s.fixed else 1.0
+        est = sensitivity_error(main.Sf, reruns[-1].Sf, factor)
+    elif s.duration == 0:
+        est = 0.0
+    return {"columns": list(s.sens.columns), "error_estimate": est}
 
 
 def _why_nonfinite(model, s, src, main):
@@ -226,17 +261,26 @@ def _one_run(model, s, ps, src, dt, out_t, rtol, atol, max_steps, outputs, h0=0.
         p = robot_problem(model, ps, src, s.q0, out_t, outputs, cm)
     z = np.zeros(2 * nv + NQUAD + (cm is not None))
     z[nv:2 * nv] = s.v0
+    ne, inner = 2 * nv, p
+    if s.sens is not None:
+        ncol = len(s.sens.columns)
+        p = sensitivity_problem(inner, s.sens.x0, s.sens.params, out_t, out_t is s.out_t)  # not in the rerun
+        z = sensitivity_state(nv, s.v0, p.nx, ncol)
+        ne = 2 * nv * (1 + ncol)
     nsteps = max(1, math.ceil(s.duration / dt * (1 - 1e-12))) if s.fixed and s.duration > 0 else 0
-    opt = Options(nc=nv, nvel=nv, ne=2 * nv, max_steps=int(max_steps), nsteps=nsteps, dt=float(dt or 0.0),
+    opt = Options(nc=nv, nvel=nv, ne=ne, max_steps=int(max_steps), nsteps=nsteps, dt=float(dt or 0.0),
                   rtol=float(rtol), atol=float(atol), h0=float(h0 or 0.0), hmax=np.inf, blowup=_blowup(s.v0),
                   probe=int(probe and s.fixed and s.duration > 0))
     st, sw, wall = run(s.integrator, p, z, s.duration, opt, watch=watch)
     if model.nq == nv:  # 1-dof joints only: the chart is q0 + delta (configuration._retract not compiled)
-        qf = p.base + z[:nv]
+        qf = inner.base + z[:nv]
     else:
         qf = np.empty(model.nq)
-        _retract(model.tree, p.base, z[:nv], qf)
-    return RunResult(p, st, sw, wall, qf, z[nv:2 * nv].copy())
+        _retract(model.tree, inner.base, z[:nv], qf)
+    if p is inner:
+        return RunResult(p, st, sw, wall, qf, z[nv:2 * nv].copy())
+    return RunResult(inner, st, sw, wall, qf, z[nv:2 * nv].copy(), p.out_S,
+                     final_sensitivities(z, nv, p.out_S.shape[2]))
 
 
 def _blowup(v0):

@@ -93,7 +93,7 @@ class SimulateMany:
     def result_bytes(self, model, total: int, spec: dict[str, Any]) -> int:
         o = spec["options"]
         count = samples(o["duration"], o.get("sample_dt"), o.get("dt"), o.get("integrator"))
-        return 8 * total * count * (model.nq + 2 * model.nv)
+        return 8 * total * count * (model.nq + 2 * model.nv + _sensitivity_numbers(model, o, spec))
 
 
     def run(self, model, inputs, spec, lo, hi, engine, progress) -> dict[str, Any]:
@@ -106,8 +106,9 @@ class SimulateMany:
         out = lib().simulate_many(model, q0, v0, duration, torque=torques.for_runs(self.torque_spec(inputs, spec), lo, hi),
                                   progress=progress, **engine, **options)
         reports = [dict(finite_report(r), run=lo + k) for k, r in enumerate(out.reports)]
+        extra = {} if out.sensitivities is None else {"sensitivities": out.sensitivities}
         return {"t": out.t, "q": out.q, "v": out.v, "tau": out.tau, "counts": out.counts,
-                "reports": np.array(json.dumps(reports))}
+                "reports": np.array(json.dumps(reports)), **extra}
 
     def assemble(self, parts: list[Path], total: int) -> dict[str, Any]:
         grids = [read_member(p, "t") for p in parts]
@@ -115,15 +116,32 @@ class SimulateMany:
         T = len(t)
 
         def padded(name):  # a part whose runs all stopped early has fewer samples: NaN after them
-            n = read_member(parts[0], name).shape[2]
-            chunks = (np.pad(x, ((0, 0), (0, T - x.shape[1]), (0, 0)), constant_values=np.nan)
+            rest = read_member(parts[0], name).shape[2:]
+            chunks = (np.pad(x, ((0, 0), (0, T - x.shape[1])) + ((0, 0),) * len(rest), constant_values=np.nan)
                       for x in (read_member(p, name) for p in parts))
-            return Stacked((total, T, n), np.float64, chunks)
+            return Stacked((total, T, *rest), np.float64, chunks)
 
         reports = [r for p in parts for r in json.loads(str(read_member(p, "reports")))]
+        extra = {"sensitivities": padded("sensitivities")} if _has_member(parts[0], "sensitivities") else {}
         return {"t": t, "q": padded("q"), "v": padded("v"), "tau": padded("tau"),
                 "counts": np.concatenate([read_member(p, "counts") for p in parts]),
-                "reports": np.array(json.dumps(reports))}
+                "reports": np.array(json.dumps(reports)), **extra}
+
+
+def _has_member(path: Path, name: str) -> bool:
+    with np.load(path, allow_pickle=False) as npz:
+        return name in npz.files
+
+
+def _sensitivity_numbers(model, options: dict[str, Any], spec: dict[str, Any]) -> int:
+    """Numbers per sample of the sensitivities a run asks for (2 nv rows, a column per x0 coordinate and per
+    parameter; a table's "tau": one per entry)."""
+    names = options.get("sensitivities")
+    names = ("x0",) if names is True else (names or ())
+    torque = spec.get("torque") or {}
+    rows = int(np.size(torque.get("t", [0]))) if torque.get("type") == "table" else 1
+    cols = {"x0": 2 * model.nv, "tau": model.nv * rows}
+    return 2 * model.nv * sum(cols.get(name, model.nv) for name in set(names))
 
 
 KINDS: dict[str, Any] = {

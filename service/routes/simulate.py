@@ -56,7 +56,8 @@ def _job(d: Deps, robot_id: str, body: bytes, content_type: Optional[str],
 def _request(d: Deps, body: bytes, content_type: Optional[str]) -> schemas.SimulateRequest:
     """The body -> the validated request."""
     payload = decode(body, content_type, max_unpacked=8 * d.settings.max_body_bytes)
-    for name, kind in (("torque", "object"), ("outputs", "list"), ("contact", "object")):  # in .npz these travel as JSON strings
+    for name, kind in (("torque", "object"), ("outputs", "list"), ("contact", "object"),
+                       ("sensitivities", "list")):  # in .npz these travel as JSON strings
         if isinstance(payload.get(name), str) and payload[name].lstrip()[:1] in ("{", "["):
             try:
                 payload[name] = json.loads(payload[name])

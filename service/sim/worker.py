@@ -56,6 +56,8 @@ def simulate(model, job: Job) -> Outcome:
     if traj.lam is not None:
         out["lambda"] = np.asarray(traj.lam)
     out.update(contacts.samples(getattr(traj, "contacts", None)))
+    if traj.sensitivities is not None:
+        out["sensitivities"] = np.asarray(traj.sensitivities)
     out["report"] = finite_report(dict(traj.report or {}))
     return Outcome(trajectory=out, seconds=seconds)
 

@@ -5,8 +5,9 @@ the state check, Hairer's starting step, the finite-difference Jacobian and a sp
 """
 
 import numpy as np
+from numba.extending import overload
 
-from ..._numba import generic_inline, kernel
+from ..._numba import GENERIC_OPTIONS, generic_inline, kernel
 from .interface import BLOWUP, NONFINITE, OK, STATS, problem_rhs
 
 
@@ -153,6 +154,19 @@ def fd_jacobian(p, t, z, f0, mag, ne, J, st):
             J[r, c] = (ft[r] - f0[r]) / d
     st.rhs_evals += ne
     st.jacobian_evals += 1
+
+
+def problem_jacobian(p, t, z, f0, mag, ne, J, st):
+    """J = df/dz at (t, z) (f0 = f(t, z)): the problem class's own ``jacobian`` function (same arguments; the
+    robot's is assembled from the derivatives of its parts, :mod:`dynamics.simulation.jacobian`) when it has
+    one, else :func:`fd_jacobian`.  Compiled code only (chosen at compile time from ``type(p)``)."""
+    raise NotImplementedError("problem_jacobian: compiled code only")
+
+
+@overload(problem_jacobian, jit_options=GENERIC_OPTIONS)
+def _ov_problem_jacobian(p, t, z, f0, mag, ne, J, st):
+    fn = getattr(getattr(p, "instance_class", None), "jacobian", None)
+    return getattr(fn, "py_func", fn) if fn is not None else fd_jacobian.py_func
 
 
 @kernel

@@ -1,7 +1,8 @@
-"""Radau IIA of order 5 (3 stages, L-stable, stiffly accurate) with a simplified Newton iteration on a
-finite-difference Jacobian, the real/complex splitting of the stage system, the embedded third-order error
-estimate filtered through (1 - h gamma J)^-1 and Gustafsson's predictive controller ([HW] sec. IV.8; the
-structure follows ``scipy.integrate.Radau``).  Dense output: the collocation polynomial of the step.
+"""Radau IIA of order 5 (3 stages, L-stable, stiffly accurate) with a simplified Newton iteration on the
+problem's Jacobian (analytical for the robot, :mod:`dynamics.simulation.jacobian`; finite differences for a
+problem without one, :func:`.linalg.problem_jacobian`), the real/complex splitting of the stage system, the
+embedded third-order error estimate filtered through (1 - h gamma J)^-1 and Gustafsson's predictive controller
+([HW] sec. IV.8; the structure follows ``scipy.integrate.Radau``).  Dense output: the collocation polynomial of the step.
 
 [HW] = Hairer & Wanner, "Solving ODEs II", 2nd ed. 1996.
 """
@@ -12,7 +13,7 @@ import numpy as np
 
 from ..._numba import generic_inline, kernel
 from .interface import OK, problem_rhs
-from .linalg import fd_jacobian, lu_factor, lu_solve, scaled_rms, spectral_radius, state_status
+from .linalg import lu_factor, lu_solve, problem_jacobian, scaled_rms, spectral_radius, state_status
 
 ORDER = 3  # for the starting step (the embedded estimate's order)
 EPS = 2.220446049250313e-16
@@ -96,7 +97,7 @@ def attempt(m, p, t, h, z, f0, znew, fnew, errv, mag, opt, st, sw, rejected_last
     n = z.shape[0]
     while True:
         if c.need_jac:
-            fd_jacobian(p, t, z, f0, mag, opt.ne, m.J, st)
+            problem_jacobian(p, t, z, f0, mag, opt.ne, m.J, st)
             c.rho = spectral_radius(m.J, opt.ne)
             c.need_jac = 0
             c.current_jac = 1

@@ -1,0 +1,212 @@
+"""The Jacobian df/dz of the robot's right-hand side (:mod:`.problem`), assembled from the derivatives of its
+parts rather than by differencing the whole: Radau's Newton matrix and the variational equations of
+:mod:`.sensitivities` use it.
+
+With z = [delta, v, W_source, W_passive] and f = [c(delta, v), a, v . tau_s, v . tau_p] (c: the chart rate of
+v at q = q(delta), :mod:`dynamics.configuration`; a: the ABA's accelerations under tau = tau_s + tau_p):
+
+    dc/d delta  central differences of the chart rate alone (no dynamics; zero for 1-dof joints)
+    dc/dv       = c(delta, e_k) column by column (c is linear in v)
+    da/d delta  = (da/dq + M^-1 dtau/dq) T,   T = d(tangent at q)/d delta (identity for 1-dof joints)
+    da/dv       = da/dv + M^-1 dtau/dv
+    d(v . tau)/dz = v^T dtau/dz (+ tau in the v columns)
+
+da/dq (in the tangent space of q, nv columns, Pinocchio's convention), da/dv and M^-1 come from
+:func:`aba_derivatives` (Carpentier & Mansard 2018, :mod:`dynamics.aba_derivatives`); dtau_p (damping,
+regularised friction, limit springs) is written out
+(:func:`passive_derivatives`); the source's dtau_s by central differences of the source alone
+(:func:`source_derivatives`).  The W columns are zero (f does not depend on the quadratures).
+
+A problem class carries this as its ``jacobian`` attribute (:func:`.solvers.linalg.problem_jacobian` reaches
+it, and falls back to differencing the whole right-hand side for a problem without one).
+"""
+
+import numpy as np
+
+from .._numba import generic_kernel, keep_alive, kernel
+from ..aba_derivatives import _aba_derivatives_into, _derivatives_workspace
+from ..configuration import _difference, _integrate_q, chart_rate_in, retract_in
+from ..control.dispatch import torque_eval
+from ..control.passive import passive_torques
+from .solvers.linalg import lu_factor, lu_solve
+
+#: central-difference step (relative): ~ eps^(1/3), the error of the differences of a smooth function
+FD_STEP = 6e-6
+
+
+@kernel
+def aba_derivatives(tree, q, v, tau, gravity, f_ext, da_dq, da_dv, Minv):
+    """da/dq (tangent space), da/dv, M^-1 at (q, v, tau): the one place that picks the kernel (the analytical
+    one of :mod:`dynamics.aba_derivatives`)."""
+    buf, ws = _derivatives_workspace(tree.parents.shape[0], v.shape[0])
+    _aba_derivatives_into(tree, q, v, tau, gravity, f_ext, ws, da_dq, da_dv, Minv)
+    keep_alive(buf)
+
+
+@generic_kernel
+def source_derivatives(p, t, delta, v, dts_dd, dts_dv):
+    """d tau_source / d delta (chart coordinates) and / dv by central differences of the source alone."""
+    nv = v.shape[0]
+    dt, vt = delta.copy(), v.copy()
+    q, tp, tm = np.empty(p.base.shape[0]), np.empty(nv), np.empty(nv)
+    for k in range(nv):
+        h = FD_STEP * max(1.0, abs(delta[k]))
+        dt[k] = delta[k] + h
+        _retract_at(p, dt, q)
+        torque_eval(p.tag, p.source, p.tree, p.passive, t, q, v, p.ws_source, tp)
+        dt[k] = delta[k] - h
+        _retract_at(p, dt, q)
+        torque_eval(p.tag, p.source, p.tree, p.passive, t, q, v, p.ws_source, tm)
+        dt[k] = delta[k]
+        for r in range(nv):
+            dts_dd[r, k] = (tp[r] - tm[r]) / (2 * h)
+    _retract_at(p, delta, q)
+    for k in range(nv):
+        h = FD_STEP * max(1.0, abs(v[k]))
+        vt[k] = v[k] + h
+        torque_eval(p.tag, p.source, p.tree, p.passive, t, q, vt, p.ws_source, tp)
+        vt[k] = v[k] - h
+        torque_eval(p.tag, p.source, p.tree, p.passive, t, q, vt, p.ws_source, tm)
+        vt[k] = v[k]
+        for r in range(nv):
+            dts_dv[r, k] = (tp[r] - tm[r]) / (2 * h)
+
+
+@kernel
+def passive_derivatives(ps, q, v, dq, dv):
+    """Diagonals of d tau_passive/dq (1-dof coordinates) and d tau_passive/dv (:func:`passive_torques`' laws:
+    -b v, -mu tanh(v/eps), the Hunt-Crossley springs while they push)."""
+    for k in range(v.shape[0]):
+        dq[k] = 0.0
+        dv[k] = -ps.damping[k]
+        if ps.friction[k] != 0.0:
+            th = np.tanh(v[k] / ps.friction_eps)
+            dv[k] -= ps.friction[k] * (1.0 - th * th) / ps.friction_eps
+        if ps.limits == 1 and ps.qpos[k] >= 0:
+            x = q[ps.qpos[k]]
+            if x < ps.lower[k]:
+                pen = ps.lower[k] - x
+                if ps.k_limit * pen - ps.b_limit * pen * v[k] > 0.0:
+                    dq[k] = -(ps.k_limit - ps.b_limit * v[k])
+                    dv[k] -= ps.b_limit * pen
+            elif x > ps.upper[k]:
+                pen = x - ps.upper[k]
+                if ps.k_limit * pen + ps.b_limit * pen * v[k] > 0.0:
+                    dq[k] = -(ps.k_limit + ps.b_limit * v[k])
+                    dv[k] -= ps.b_limit * pen
+
+
+@generic_kernel
+def _retract_at(p, delta, q):
+    """retract_in from the problem's base, not inlined (see :func:`_chart_rate_at`)."""
+    retract_in(p.chart, p.tree, p.base, delta, q)
+
+
+@generic_kernel
+def _chart_rate_at(p, q, delta, v, out):
+    """chart_rate_in, not inlined: called several times in one function (numba's inliner would complain)."""
+    chart_rate_in(p.chart, p.tree, q, delta, v, out)
+
+
+@generic_kernel
+def chart_derivatives(p, q, delta, v, J):
+    """Rows 0..nv of J: dc/d delta (central differences) and dc/dv (c linear in v)."""
+    nv = v.shape[0]
+    cp, cm, e = np.empty(nv), np.empty(nv), np.zeros(nv)
+    for k in range(nv):
+        e[k] = 1.0
+        _chart_rate_at(p, q, delta, e, cp)
+        e[k] = 0.0
+        for r in range(nv):
+            J[r, nv + k] = cp[r]
+    if q.shape[0] == nv:  # 1-dof joints only: c = v
+        for r in range(nv):
+            for k in range(nv):
+                J[r, k] = 0.0
+        return
+    dt, qt = delta.copy(), np.empty(q.shape[0])
+    for k in range(nv):
+        h = FD_STEP
+        dt[k] = delta[k] + h
+        _retract_at(p, dt, qt)
+        _chart_rate_at(p, qt, dt, v, cp)
+        dt[k] = delta[k] - h
+        _retract_at(p, dt, qt)
+        _chart_rate_at(p, qt, dt, v, cm)
+        dt[k] = delta[k]
+        for r in range(nv):
+            J[r, k] = (cp[r] - cm[r]) / (2 * h)
+
+
+@kernel
+def tangent_to_chart(tree, base, q, da_dq):
+    """da_dq (nv x nv, tangent space at q) <- da_dq T with T = d(tangent)/d delta, from T^-1 = d delta/d e by
+    central differences of the chart's inverse (:func:`dynamics.configuration._difference` from base) along
+    :func:`dynamics.configuration._integrate_q`.  For models with multi-dof joints only (T = 1 otherwise)."""
+    nv = da_dq.shape[0]
+    Ti = np.empty((nv, nv))  # stored transposed: Ti[k, r] = (T^-1)[r, k]
+    e, dp, dm = np.zeros(nv), np.empty(nv), np.empty(nv)
+    for k in range(nv):
+        e[k] = 1.0
+        _difference(tree, base, _integrate_q(tree, q, e, FD_STEP), dp)
+        _difference(tree, base, _integrate_q(tree, q, e, -FD_STEP), dm)
+        e[k] = 0.0
+        for r in range(nv):
+            Ti[k, r] = (dp[r] - dm[r]) / (2 * FD_STEP)
+    piv = np.empty(nv, np.int64)
+    lu_factor(Ti, piv)  # X T^-1 = da_dq  <=>  T^-T X^T = da_dq^T, one row of da_dq at a time
+    row = np.empty(nv)
+    for r in range(nv):
+        for k in range(nv):
+            row[k] = da_dq[r, k]
+        lu_solve(Ti, piv, row)
+        for k in range(nv):
+            da_dq[r, k] = row[k]
+
+
+@generic_kernel
+def robot_jacobian(p, t, z, f0, mag, ne, J, st):
+    """J = df/dz at (t, z) for a :class:`.problem.RobotProblem` (module docstring); f0 = f(t, z) is not needed."""
+    nv = p.tau_s.shape[0]
+    delta, v = z[:nv], z[nv:2 * nv]
+    q = np.empty(p.base.shape[0])
+    _retract_at(p, delta, q)
+    tau_s, tau = np.empty(nv), np.empty(nv)
+    torque_eval(p.tag, p.source, p.tree, p.passive, t, q, v, p.ws_source, tau_s)
+    passive_torques(p.passive, q, v, tau)
+    tau_p = tau.copy()
+    for k in range(nv):
+        tau[k] += tau_s[k]
+    da_dq, da_dv, Minv = np.empty((nv, nv)), np.empty((nv, nv)), np.empty((nv, nv))
+    aba_derivatives(p.tree, q, v, tau, p.passive.gravity, p.passive.f_ext, da_dq, da_dv, Minv)
+    dts_dd, dts_dv = np.empty((nv, nv)), np.empty((nv, nv))
+    source_derivatives(p, t, delta, v, dts_dd, dts_dv)
+    dtp_dq, dtp_dv = np.empty(nv), np.empty(nv)
+    passive_derivatives(p.passive, q, v, dtp_dq, dtp_dv)
+    if q.shape[0] != nv:
+        tangent_to_chart(p.tree, p.base, q, da_dq)
+    chart_derivatives(p, q, delta, v, J)
+    n = J.shape[0]
+    for r in range(nv):
+        for k in range(nv):
+            sd = 0.0
+            sv = 0.0
+            for m in range(nv):
+                sd += Minv[r, m] * dts_dd[m, k]
+                sv += Minv[r, m] * dts_dv[m, k]
+            J[nv + r, k] = da_dq[r, k] + sd + Minv[r, k] * dtp_dq[k]
+            J[nv + r, nv + k] = da_dv[r, k] + sv + Minv[r, k] * dtp_dv[k]
+    for k in range(nv):  # the powers v . tau_s and v . tau_p
+        ps_d = 0.0
+        ps_v = tau_s[k]
+        for m in range(nv):
+            ps_d += v[m] * dts_dd[m, k]
+            ps_v += v[m] * dts_dv[m, k]
+        J[2 * nv, k] = ps_d
+        J[2 * nv, nv + k] = ps_v
+        J[2 * nv + 1, k] = v[k] * dtp_dq[k]
+        J[2 * nv + 1, nv + k] = tau_p[k] + v[k] * dtp_dv[k]
+    for r in range(n):
+        for k in range(2 * nv, n):
+            J[r, k] = 0.0
+    st.jacobian_evals += 1
