@@ -18,6 +18,7 @@ from .aba import forward_dynamics
 from .energy import kinetic_energy, potential_energy
 from .coriolis import coriolis_matrix
 from .reduce import lock_joints
+from .inertia_check import InertiaCheck, check_inertias
 from .reorder import reorder
 from .kinematics import (forward_kinematics, frame_acceleration, frame_bias_acceleration, frame_placement,
                          frame_velocity)
@@ -30,6 +31,11 @@ from .constraints import (JointCoupling, PointConstraint, RevoluteConstraint, We
                           constraint_jacobian, constraint_residual, with_constraints)
 from .constrained_dynamics import constrained_forward_dynamics, constrained_inverse_dynamics, project_velocity
 from .assemble import assemble
+from .rnea_derivatives import inverse_dynamics_derivatives
+from .aba_derivatives import forward_dynamics_derivatives
+from .kinematics_derivatives import (center_of_mass_derivatives, frame_acceleration_derivatives,
+                                     frame_jacobian_time_variation, frame_velocity_derivatives)
+from .configuration_jacobians import difference_jacobians, integrate_jacobians
 from .contact.geometry import (Box, Capsule, CollisionGeometry, ContactPoint, Cylinder, Ground, HalfSpace,
                                Sphere)
 from .contact.free_bodies import add_free_body
@@ -37,7 +43,7 @@ from .contact.config import Contact, Material
 from .contact.evaluation import contact_forces
 
 from . import plot, robots, torques
-from .configuration import integrate
+from .configuration import difference, integrate
 from .simulation import Trajectory, simulate
 from .simulation.work_precision import WorkPrecision, work_precision
 from .sweeps import Trajectories, map_batches, simulate_many
@@ -46,7 +52,8 @@ __all__ = [
     "DeadlineExceeded", "DynamicsError", "InputError", "SimulationWarning", "URDFError", "Model", "load_urdf",
     "inverse_dynamics", "gravity_torques", "bias_forces", "mass_matrix", "forward_dynamics",
     "kinetic_energy", "potential_energy", "coriolis_matrix", "lock_joints", "reorder",
-    "simulate", "Trajectory", "integrate", "torques", "robots", "plot",
+    "check_inertias", "InertiaCheck",
+    "simulate", "Trajectory", "integrate", "difference", "torques", "robots", "plot",
     "simulate_many", "Trajectories", "map_batches", "work_precision", "WorkPrecision",
     "forward_kinematics", "frame_placement", "frame_velocity", "frame_acceleration", "frame_bias_acceleration",
     "frame_jacobian", "center_of_mass", "center_of_mass_velocity", "com_jacobian",
@@ -54,6 +61,9 @@ __all__ = [
     "PointConstraint", "WeldConstraint", "RevoluteConstraint", "JointCoupling", "with_constraints",
     "constraint_residual", "constraint_jacobian", "constraint_bias", "constrained_forward_dynamics",
     "constrained_inverse_dynamics", "project_velocity", "assemble",
+    "inverse_dynamics_derivatives", "forward_dynamics_derivatives", "frame_velocity_derivatives",
+    "frame_acceleration_derivatives", "frame_jacobian_time_variation", "center_of_mass_derivatives",
+    "integrate_jacobians", "difference_jacobians",
     "CollisionGeometry", "Sphere", "Box", "Capsule", "Cylinder", "ContactPoint", "Ground", "HalfSpace",
     "add_free_body", "Contact", "Material", "contact_forces",
 ]

@@ -1,7 +1,7 @@
 """Every input check of the public entry points, in one place.
 
 Public functions accept one state (q of shape (nq,)) or a batch (B, nq).  Arguments are checked here once
-(type, shape, finiteness, a free joint's quaternion) and turned into C-contiguous writable float64 2-D arrays
+(type, shape, finiteness, a quaternion or a planar joint's (cos, sin)) and turned into C-contiguous writable float64 2-D arrays
 (one compiled signature per kernel); the kernels never check.  Every error is an :class:`InputError` whose
 message starts with the argument's name and says what was expected.
 
@@ -19,7 +19,6 @@ from numba.core.errors import NumbaError
 from ._numba import DONE, GENERAL, address, float_at, inline_kernel, kernel  # noqa: F401 (the status codes' home for the algorithms)
 from .errors import InputError
 from .joints import JOINT_FREE, KINDS, ZERO_QUATERNION_SQ, _joint_config_ok
-from .spatial import quaternion_sq
 from .model import Model
 
 
@@ -35,17 +34,22 @@ def _first_nonfinite(X):
 
 
 @kernel
-def _first_zero_quaternion(Q, starts):
-    """The q index of the first zero quaternion among ``starts`` in any row of Q, or -1."""
+def _first_zero_unit(Q, blocks):
+    """The row of ``blocks`` (start, size) of the first zero unit block (a quaternion, a planar joint's (cos,
+    sin)) in any row of Q, or -1."""
     for b in range(Q.shape[0]):
-        for k in starts:
-            if quaternion_sq(Q[b], k) < ZERO_QUATERNION_SQ:
-                return k
+        for r in range(blocks.shape[0]):
+            k, n = blocks[r, 0], blocks[r, 1]
+            x = 0.0
+            for j in range(k, k + n):
+                x += Q[b, j] * Q[b, j]
+            if x < ZERO_QUATERNION_SQ:
+                return r
     return -1
 
 
 _first_nonfinite_k = _first_nonfinite
-_first_zero_quaternion_k = _first_zero_quaternion
+_first_zero_unit_k = _first_zero_unit
 
 
 #: float64, the dtype the general path's fast checks compare with; NOT_ARRAYS: what a non-array raises there
@@ -71,7 +75,8 @@ def _vector_ok(x, n):
 
 @inline_kernel
 def _config_shape_ok(tree, nq, q):
-    """q has length nq and, on a model with a free joint (the only joint with nq != nv), non-zero quaternions.
+    """q has length nq and, on a model with a free, spherical or planar joint (the joints with nq != nv),
+    non-zero quaternions and (cos, sin) pairs.
     Its values' finiteness is checked on the result (:func:`_finite`)."""
     if q.shape[0] != nq:
         return False
@@ -116,7 +121,8 @@ def _finite(x):
 
 @inline_kernel
 def _config_ok(tree, nq, q):
-    """q is a valid configuration: as :func:`_vector_ok`, and every free joint's quaternion is non-zero."""
+    """q is a valid configuration: as :func:`_vector_ok`, and every unit block (a quaternion, a planar joint's
+    (cos, sin)) is non-zero."""
     if not _vector_ok(q, nq):
         return False
     for i in range(tree.jtype.shape[0]):
@@ -173,7 +179,8 @@ def _length_hint(model, name, length, kind):
     locked = model.info.get("locked_joints") or {}
     if locked:
         n_locked = sum(np.size(value) for value in locked.values())
-        if length == n + (n_locked if kind == "q" else n_locked - sum(np.size(x) == KINDS[JOINT_FREE].nq for x in locked.values())):
+        nv_of_nq = {k.nq: k.nv for k in KINDS.values()}  # one kind per nq (1, 4 or 7 numbers)
+        if length == n + (n_locked if kind == "q" else sum(nv_of_nq.get(np.size(x), 0) for x in locked.values())):
             return (f"; this model has the joints {sorted(locked)[:8]} locked (dynamics.lock_joints): pass only "
                     f"the {n} coordinates of the others, in model.joint_names order")
     return ""
@@ -212,15 +219,26 @@ def vector(name, x, n):
 
 
 def configurations(model, q, name="q"):
-    """Check q; a free joint's quaternion must be non-zero (it is normalised inside the kernels)."""
+    """Check q; a free or spherical joint's quaternion, a planar joint's (cos, sin), must be non-zero (they are
+    normalised inside the kernels)."""
     Q, batched = states(name, q, model.nq, model, "q")
-    if model.floating_base:
-        k = _first_zero_quaternion_k(Q, model.quaternion_starts)
-        if k >= 0:
-            raise InputError(f"{name}: the quaternion {name}[{k}:{k + 4}] of a floating joint is zero; "
-                             f"expected a unit quaternion in the order (x, y, z, w), scalar last: the identity "
-                             f"is [0, 0, 0, 1]")
+    if model.unit_blocks.shape[0]:
+        r = _first_zero_unit_k(Q, model.unit_blocks)
+        if r >= 0:
+            raise InputError(zero_unit_message(model, name, r))
     return Q, batched
+
+
+def zero_unit_message(model, name, r):
+    """What is wrong with row r of ``model.unit_blocks`` being zero in the configuration ``name``."""
+    k, n = (int(x) for x in model.unit_blocks[r])
+    i = int(np.searchsorted(model.tree.q_idx, k, side="right")) - 1
+    jtype = model.joint_types[i]
+    if n == 2:
+        return (f"{name}: (cos theta, sin theta) {name}[{k}:{k + 2}] of the planar joint {model.joint_names[i]!r} "
+                f"is zero; expected a unit vector: theta = 0 is [1, 0]")
+    return (f"{name}: the quaternion {name}[{k}:{k + 4}] of a {jtype} joint is zero; expected a unit quaternion "
+            f"in the order (x, y, z, w), scalar last: the identity is [0, 0, 0, 1]")
 
 
 def broadcast(named):

@@ -5,6 +5,8 @@
                                                          takes it at the neutral configuration), 1 if not
     dynamics simulate ROBOT --duration 2 [--q0 ...] [--torque pd:kp=50,kd=5] [--plot out.png] [--json] [--strict]
     dynamics serve [--host ...] [--port ...]             the HTTP service (same as python -m service)
+    dynamics view ROBOT [--trajectory FILE.npz] [--url URL]   the inspector page in a browser (GET /inspect), on a
+                                                         service started here, or the one at URL
 
 ROBOT is a URDF path or the name of a bundled robot (``dynamics.robots.names()``).
 
@@ -17,6 +19,8 @@ import importlib
 import json
 import os
 import sys
+import time
+import webbrowser
 
 import numpy as np
 
@@ -165,6 +169,84 @@ def serve(argv):
     return service_main(list(argv), prog="dynamics serve")
 
 
+def _trajectory_json(path):
+    """A trajectory file (``dynamics simulate --out``'s .npz, or JSON with t, q, v, tau, report) -> the JSON the
+    inspector page plays (non-finite numbers as null: JSON has none)."""
+    if str(path).endswith(".json"):
+        with open(path, "rb") as f:
+            data = json.load(f)
+    else:
+        with np.load(path, allow_pickle=False) as z:
+            data = {k: z[k] for k in z.files}
+    missing = [k for k in ("t", "q") if k not in data]
+    if missing:
+        raise DynamicsError(f"--trajectory: {path} has no {' or '.join(missing)} (expected the .npz of dynamics "
+                            f"simulate --out)")
+    report = data.get("report", "{}")
+    out = {"report": report if isinstance(report, dict) else json.loads(str(report))}
+    out.update({k: np.asarray(data[k], dtype=float).tolist() for k in ("t", "q", "v", "tau") if k in data})
+    return json.dumps(_finite(out), default=str, allow_nan=False).encode()
+
+
+def _finite(x):
+    """x with every non-finite float replaced by None, through dicts and lists."""
+    if isinstance(x, float):
+        return x if np.isfinite(x) else None
+    if isinstance(x, dict):
+        return {k: _finite(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple)):
+        return [_finite(v) for v in x]
+    return x
+
+
+def view(args):
+    """Open the inspector on ROBOT: on the service at --url, or on one started here (until Ctrl-C)."""
+    if args.url:
+        if args.trajectory:
+            raise DynamicsError("--trajectory: only the service that dynamics view starts can hand it to the page "
+                                "(drop --url)")
+        base = args.url.rstrip("/")
+        page = f"{base}/inspect/{_robot_ref(args, base)}"
+        _open(page)
+        return 0
+    viewer = importlib.import_module("service.viewer")  # the optional web layer
+    trajectory = _trajectory_json(args.trajectory) if args.trajectory else None
+    with viewer.local_service(port=args.port, store=args.store, trajectory=trajectory) as base:
+        page = f"{base}/inspect/{_robot_ref(args, base)}" + ("?trajectory=1" if trajectory else "")
+        _open(page)
+        print("press Ctrl-C to stop the service", flush=True)
+        _wait()
+    return 0
+
+
+def _robot_ref(args, base):
+    """The robot's name for a bundled robot or an id, or the id of the URDF file ROBOT uploaded to ``base``."""
+    if not os.path.isfile(args.robot):
+        return args.robot
+    import httpx  # (a dependency of the service)
+    with open(args.robot, "rb") as f:
+        r = httpx.post(f"{base}/v1/robots", content=f.read(), timeout=600,
+                       params={"floating_base": str(bool(args.floating_base)).lower()},
+                       headers={"Content-Type": "application/xml"})
+    if r.status_code >= 400:
+        raise DynamicsError(f"{args.robot}: the service refused it: {r.json().get('detail', r.text)}")
+    return r.json()["id"]
+
+
+def _open(page):
+    print(f"inspector: {page}", flush=True)
+    webbrowser.open(page)
+
+
+def _wait():
+    """Until Ctrl-C."""
+    try:
+        while True:
+            time.sleep(3600)
+    except KeyboardInterrupt:
+        pass
+
+
 def parser():
     p = argparse.ArgumentParser(prog="dynamics", description=__doc__.split("\n\n")[0],
                                 epilog="Run 'dynamics COMMAND --help' for a command's options.")
@@ -199,6 +281,12 @@ def parser():
     c.add_argument("--strict", action="store_true", help="exit 2 when the report has warnings")
     c.add_argument("--lenient", action="store_true", help="accept inertias that break the triangle inequality")
     sub.add_parser("serve", help="run the HTTP service (options: dynamics serve --help)")
+    c = robot_command("view", view, "open the inspector page on a robot (a bundled name, an id, or a URDF file, "
+                                    "uploaded): its tree, bodies, poses, trajectories")
+    c.add_argument("--trajectory", metavar="FILE.npz", help="a trajectory to play (dynamics simulate --out)")
+    c.add_argument("--url", help="use the service at this address (default: start one here until Ctrl-C)")
+    c.add_argument("--port", type=int, default=0, help="port of the service started here (default: a free one)")
+    c.add_argument("--store", help="robot store of the service started here (default: a temporary one)")
     return p
 
 

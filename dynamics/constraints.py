@@ -201,8 +201,8 @@ def _anchor(model, frame, R, p):
 
 def _joint(model, name, what):
     i = model.joint_index(name)
-    if model.joint_types[i] == "floating":
-        raise InputError(f"{what}: joint {name!r} is a floating joint; a coupling needs 1-dof joints")
+    if model.nv_joint[i] != 1:
+        raise InputError(f"{what}: joint {name!r} is a {model.joint_types[i]} joint; a coupling needs 1-dof joints")
     return int(model.q_index[i]), int(model.v_index[i])
 
 
@@ -395,12 +395,13 @@ def _joint_origin(model, b):
 
 def _joint_reach(model, i):
     """(shortest, longest) distance from the origin of body i's parent to body i's origin (its joint's), over the
-    joint's range; None when it has no bound (a free joint, a prismatic joint without both limits)."""
-    x, kind = np.array(model.tree.Xpos[i]), model.joint_types[i]
-    if kind == "floating":
-        return None
-    if kind != "prismatic":  # a hinge turns about an axis through its origin: the origin stays put
+    joint's range; None when it has no bound (a free or planar joint, a prismatic joint without both limits)."""
+    x = np.array(model.tree.Xpos[i])
+    S = model.tree.S[model.v_index[i]:model.v_index[i] + model.nv_joint[i]]
+    if not np.any(S[:, 3:]):  # a hinge or a ball turns about its origin (S has no linear part): it stays put
         return float(np.linalg.norm(x)), float(np.linalg.norm(x))
+    if S.shape[0] != 1:  # a free or planar joint's translations have no limits
+        return None
     lo, hi = float(model.lower[model.v_index[i]]), float(model.upper[model.v_index[i]])
     if not (np.isfinite(lo) and np.isfinite(hi)):
         return None

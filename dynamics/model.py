@@ -21,8 +21,8 @@ S                  (nv,6)           motion subspace row per velocity coordinate,
 mass               (nb,)            body mass (kg)
 h                  (nb,3)           first moment of mass m*c in the body frame (kg m)
 Io                 (nb,3,3)         rotational inertia about the body frame origin, body frame (kg m^2)
-XK, XKK            (nb,3,3)         Xrot [axis]x and Xrot [axis]x^2 for revolute joints (zero otherwise), so
-                                    that R(q) = Xrot + sin q XK + (1 - cos q) XKK (:mod:`dynamics.joints`)
+XK, XKK            (nb,3,3)         Xrot [axis]x and Xrot [axis]x^2 for revolute and planar joints (zero
+                                    otherwise), so that R(q) = Xrot + sin q XK + (1 - cos q) XKK (:mod:`dynamics.joints`)
 =================  ===============  =====================================================================
 
 The same arrays also exist packed into one flat array, ``Model.packed`` (:func:`pack`, built once with the
@@ -44,7 +44,8 @@ import numpy as np
 
 from .errors import closest
 from ._numba import address, float_at, inline_kernel, int_at
-from .joints import JOINT_NQ, JOINT_NV, JOINT_REVOLUTE, KINDS, URDF_JOINT_CODES, motion_subspace, revolute_terms
+from .joints import (JOINT_NQ, JOINT_NV, KINDS, ROTATES_ABOUT_AXIS, URDF_JOINT_CODES, motion_subspace,
+                     revolute_terms)
 
 
 class Tree(NamedTuple):
@@ -146,10 +147,13 @@ class Model:
     Per-body arrays follow :class:`Tree` (see the module docstring for shapes and frames).  Per velocity
     coordinate arrays (shape (nv,)): ``damping`` (N m s/rad or N s/m), ``friction`` (Coulomb, N m or N),
     ``effort_limit``, ``velocity_limit`` (inf when absent), ``lower``/``upper`` position limits of 1-dof
-    joints (-inf/inf when absent, for continuous joints and for the free joint's coordinates).
+    joints (-inf/inf when absent, for continuous joints and for the coordinates of free, spherical and planar
+    joints).
 
     Derived once, when the model is built (it is never written to afterwards): ``frame_arrays`` (the frames
-    as flat arrays, :class:`Frames`), ``quaternion_starts`` (index in q of each free joint's quaternion), and for
+    as flat arrays, :class:`Frames`), ``quaternion_starts`` (index in q of each free or spherical joint's
+    quaternion), ``unit_blocks`` ((n, 2) int64: start in q and size of each block that is a unit vector, a
+    quaternion or a planar joint's (cos, sin); :attr:`JointKind.unit`), and for
     the single-state entry points ``packed`` (the arrays as one, module docstring), ``frame_lookup`` (a frame's
     name -> its index: one dict lookup per call) and the shapes of their results, ``placements_shape``
     (nframes, 4, 4) and ``jacobian_shape`` (6, nv).
@@ -199,6 +203,9 @@ class Model:
         object.__setattr__(self, "quaternion_starts", _frozen(
             [k + KINDS[c].quaternion for c, k in zip(self.tree.jtype, self.tree.q_idx) if KINDS[c].quaternion >= 0],
             np.int64))
+        object.__setattr__(self, "unit_blocks", _frozen(np.array(
+            [(k + KINDS[c].unit[0], KINDS[c].unit[1]) for c, k in zip(self.tree.jtype, self.tree.q_idx)
+             if KINDS[c].unit], np.int64).reshape(-1, 2), np.int64))
         object.__setattr__(self, "packed", pack(self.tree, self.gravity, self.frame_arrays))
         # frame name -> index, one dict lookup for the single-call entry points (names only: True and 1.0 must not
         # find frame 1); and the shapes of their results
@@ -315,7 +322,8 @@ class Model:
         """The neutral configuration: zero for each 1-dof joint whose limits allow it, else the middle of its
         range (the bound, when only one is finite), as MuJoCo clamps ``qpos0`` into the limits; the identity
         quaternion for a free joint.  Panda's joint 4 (limits [-3.07, -0.07] rad) thus starts at -1.571, the
-        elbow bent, not at 0, outside its range and singular.  Pinocchio's ``neutral`` is zero there."""
+        elbow bent, not at 0, outside its range and singular.  Pinocchio's ``neutral`` is zero there.  A
+        spherical joint's neutral is the identity quaternion, a planar joint's (0, 0, cos 0, sin 0)."""
         q = np.zeros(self.nq)
         for code, k, kv in zip(self.tree.jtype, self.tree.q_idx, self.tree.v_idx):
             kind = KINDS[code]
@@ -335,6 +343,8 @@ class Model:
             "nv": self.nv,
             "bodies": self.nbodies,
             "floating_base": self.floating_base,
+            # movable joints per URDF type (revolute, continuous, prismatic, floating, planar, spherical)
+            "joint_types": {t: self.joint_types.count(t) for t in dict.fromkeys(self.joint_types)},
         }
         out.update(self.info)
         out["warnings"] = list(self.warnings)
@@ -372,7 +382,7 @@ class BodySpec:
 
     name: str
     joint_name: str
-    joint_type: str  # "revolute" | "continuous" | "prismatic" | "floating"
+    joint_type: str  # "revolute" | "continuous" | "prismatic" | "floating" | "spherical" | "planar"
     parent: int
     placement: np.ndarray
     axis: np.ndarray
@@ -406,13 +416,13 @@ def build_model(name, bodies, *, floating_base, gravity=(0.0, 0.0, -9.81), warni
     for c, b, n in zip(codes, bodies, nv_j):
         for k in per_dof:
             value = getattr(b, k)
-            if not KINDS[c].limited:  # the free joint has no URDF limits or damping
+            if not KINDS[c].limited:  # free, spherical and planar joints: no URDF limits or damping
                 value = {"lower": -np.inf, "upper": np.inf, "effort": np.inf, "velocity": np.inf}.get(k, 0.0)
             per_dof[k].extend([value] * n)
     P = np.array([b.placement for b in bodies]).reshape(nb, 4, 4)
     XK, XKK = np.zeros((nb, 3, 3)), np.zeros((nb, 3, 3))
     for i, (c, b) in enumerate(zip(codes, bodies)):
-        if c == JOINT_REVOLUTE:
+        if c in ROTATES_ABOUT_AXIS:
             XK[i], XKK[i] = revolute_terms(P[i, :3, :3], b.axis)
     tree = Tree(
         parents=_frozen([b.parent for b in bodies], np.int64),

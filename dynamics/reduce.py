@@ -46,7 +46,9 @@ def _merge_inertia(spec, T, m, h, Io):
 def lock_joints(model: Model, values: dict) -> Model:
     """A reduced model with the joints named in ``values`` frozen there and their bodies merged.
 
-    ``values`` maps joint names to a position (a number for 1-dof joints, 7 numbers for a floating joint).
+    ``values`` maps joint names to a position (a number for 1-dof joints, 7 numbers [x, y, z, qx, qy, qz, qw] for
+    a floating joint, 4 numbers [qx, qy, qz, qw] for a spherical joint, 4 numbers [x, y, cos theta, sin theta]
+    for a planar joint).
     The reduced model lists what was locked in ``model.summary()["locked_joints"]``.
     """
     if not isinstance(model, Model):
@@ -58,13 +60,20 @@ def lock_joints(model: Model, values: dict) -> Model:
         if name not in model.joint_names:
             raise InputError(f"locked: no movable joint named {name!r}; joints are {list(model.joint_names)}")
         i = model.joint_names.index(name)
-        nq = int(model.nq_joint[i])
-        qi = np.atleast_1d(np.asarray(value, dtype=float)) if not isinstance(value, str) else None
-        if qi is None or qi.shape != (nq,) or not np.all(np.isfinite(qi)):
-            raise InputError(f"locked[{name!r}]: expected {nq} finite number{'s' if nq > 1 else ''}, got {value!r}")
-        k = KINDS[int(model.tree.jtype[i])].quaternion
-        if k >= 0 and np.linalg.norm(qi[k:k + 4]) < 1e-8:
-            raise InputError(f"locked[{name!r}]: the quaternion is zero; expected a unit quaternion in the order (x, y, z, w), scalar last")
+        kind = KINDS[int(model.tree.jtype[i])]
+        try:
+            qi = np.atleast_1d(np.asarray(value, dtype=float)) if not isinstance(value, str) else None
+        except (TypeError, ValueError):
+            qi = None
+        if qi is None or qi.shape != (kind.nq,) or not np.all(np.isfinite(qi)):
+            layout = kind.q_layout + " " if kind.q_layout else ""
+            raise InputError(f"locked[{name!r}]: expected {kind.nq} finite number{'s' if kind.nq > 1 else ''} "
+                             f"{layout}(a {model.joint_types[i]} joint), got {value!r}")
+        if kind.unit and np.linalg.norm(qi[kind.unit[0]:sum(kind.unit)]) < 1e-8:
+            raise InputError(f"locked[{name!r}]: " + (
+                "the quaternion is zero; expected a unit quaternion in the order (x, y, z, w), scalar last"
+                if kind.unit[1] == 4 else "(cos theta, sin theta) is zero; expected [x, y, cos theta, sin theta] "
+                "with cos^2 + sin^2 = 1"))
         locked[i] = qi
 
     # new_of[i] = (body it now belongs to or -1, pose of body i's frame in that body)

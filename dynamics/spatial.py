@@ -147,6 +147,31 @@ def cross_force(w, v, n, f):
 
 
 @helper
+def motion_to_parent(R, p, w, v):
+    """X^-1 (w, v): the child's motion vector in the parent frame, (R w, R v + p x R w) (Pinocchio's act)."""
+    wP = rot(R, w)
+    return wP, add(rot(R, v), cross(p, wP))
+
+
+@helper
+def get6(A, k):
+    """Row k of an (n, 6) array as a pair of 3-tuples (angular/moment first)."""
+    return (A[k, 0], A[k, 1], A[k, 2]), (A[k, 3], A[k, 4], A[k, 5])
+
+
+@helper
+def set6(A, k, x, y):
+    A[k, 0], A[k, 1], A[k, 2] = x
+    A[k, 3], A[k, 4], A[k, 5] = y
+
+
+@helper
+def dot6(aw, av, bw, bv):
+    """The pairing of a motion and a force (or two 6-vectors), a . b."""
+    return aw[0] * bw[0] + aw[1] * bw[1] + aw[2] * bw[2] + av[0] * bv[0] + av[1] * bv[1] + av[2] * bv[2]
+
+
+@helper
 def inertia_to_parent(R, p, m, h, Io):
     """The rigid-body inertia (m, h, Io) of a child frame, expressed about the parent's origin: (h', Io').
 

@@ -6,6 +6,9 @@ refused outright.  Links' inertials and joints are then read from the parsed ele
 below (:class:`Link`, :class:`Joint`); visuals are never read and collisions only on request (their
 primitives, not meshes), so no mesh, scene graph or any file named inside the URDF is ever opened.
 
+Joint types: revolute, continuous, prismatic, fixed, floating, planar and spherical (:mod:`dynamics.joints`
+lists what each means).
+
 Fixed joints are merged: a link welded to its parent adds its mass, centre of mass and inertia to the
 parent body exactly (parallel-axis theorem, :func:`dynamics.spatial.inertia_to_parent`).
 
@@ -51,6 +54,7 @@ from lxml import etree
 from .contact.urdf_geometry import read_collisions
 from .constraints import JointCoupling, PointConstraint, RevoluteConstraint, WeldConstraint, with_constraints
 from .errors import DynamicsError, URDFError
+from .joints import URDF_JOINT_CODES, kind_of
 from .model import BodySpec, Model, build_model
 from .spatial import rpy_to_matrix
 
@@ -96,8 +100,7 @@ _KNOWN_ATTRIBUTES = {
     "mimic": {"joint", "multiplier", "offset"}, "parent": {"link"}, "child": {"link"},
 }
 
-_MOVABLE = ("revolute", "continuous", "prismatic", "floating")
-_KNOWN = _MOVABLE + ("fixed", "planar")
+_KNOWN = tuple(URDF_JOINT_CODES) + ("fixed",)
 
 
 class Inertial(NamedTuple):
@@ -383,6 +386,10 @@ def load_urdf(source, *, floating_base: bool = False, strict_inertia: bool = Tru
 
     ``floating_base=True`` gives the root link a free joint ("root_joint"): q = [x, y, z, qx, qy, qz, qw, ...],
     v = [linear, angular velocity in the base frame, ...].  A URDF ``floating`` joint means the same.
+    ``planar`` joints (q = [x, y, cos theta, sin theta], v = [vx, vy, wz] in the child frame, the plane normal to
+    the joint's axis) and ``spherical`` joints (an extension pybullet reads: q = [qx, qy, qz, qw], v = the
+    angular velocity in the child frame) follow Pinocchio's JointModelPlanar and JointModelSpherical
+    (:mod:`dynamics.joints`); they have no position limits or damping.
     Raises :class:`~dynamics.URDFError` naming the link or joint when the URDF cannot describe a tree of
     rigid bodies.  ``strict_inertia=False`` accepts inertias that violate positive-definiteness or the
     triangle inequality by more than 1 % (with a warning in ``model.warnings``) instead of refusing them.
@@ -498,9 +505,6 @@ def _tree(links, joints):
         if j.child in parent_joint:
             raise URDFError(f"link {j.child!r} has two parents (joints {parent_joint[j.child].name!r} "
                             f"and {j.name!r})")
-        if j.type == "planar":
-            raise URDFError(f"joint {j.name!r}: planar joints are not supported; model it as two prismatic "
-                            f"joints and a revolute joint")
         parent_joint[j.child] = j
         children[j.parent].append(j)
     roots = [n for n in links if n not in parent_joint]
@@ -644,12 +648,20 @@ def _movable_body(j, parent_body, placement, warnings):
     if axis.shape != (3,):
         raise URDFError(f"{what}: axis must have 3 numbers, got {axis.size}")
     _finite(what + " axis", axis)
-    if j.type != "floating":
+    kind = kind_of(j.type)
+    if kind.axis:
         big = np.max(np.abs(axis))
         if big < 1e-12:
-            raise URDFError(f"{what}: joint axis is zero")
+            raise URDFError(f"{what}: joint axis is zero" + (" (a planar joint's axis is the normal of its plane)"
+                                                             if j.type == "planar" else ""))
         axis = axis / big  # scaled first: (1e300, 1e300, 1e300) would overflow the norm to inf
         axis = axis / np.linalg.norm(axis)
+    else:  # a free or spherical joint has no axis
+        axis = np.zeros(3)
+    if j.type == "planar" and not np.array_equal(axis, [0.0, 0.0, 1.0]):
+        shown = ", ".join(f"{x:.6g}" for x in axis)
+        warnings.append(f"{what}: a planar joint moves in the plane normal to its axis ({shown}) (the URDF default "
+                        f"is (1, 0, 0)); Pinocchio's URDF parser always takes z")
     spec = BodySpec(name=j.child, joint_name=j.name, joint_type=j.type, parent=parent_body,
                     placement=placement, axis=axis)
     if j.type in ("revolute", "prismatic") and j.limit is not None:
@@ -662,7 +674,7 @@ def _movable_body(j, parent_body, placement, warnings):
                             f"unlimited")
             lo, hi = -np.inf, np.inf
         spec.lower, spec.upper = lo, hi
-    if j.type != "floating" and j.limit is not None:
+    if kind.limited and j.limit is not None:
         for attr in ("effort", "velocity"):
             val = getattr(j.limit, attr)
             if val is not None:

@@ -20,15 +20,16 @@ from .auth import ApiKeys
 from .compute import OPERATIONS
 from .constraints import OPERATIONS as CONSTRAINTS
 from .deps import Deps
+from .derivatives import OPERATIONS as DERIVATIVES
 from .jobs.manager import Jobs
 from .kinematics import OPERATIONS as KINEMATICS
 from .protocol import Options
-from .routes import constraints, dynamics, health, jobs, kinematics, robots, simulate
+from .routes import constraints, derivatives, dynamics, health, inspect, jobs, kinematics, robots, simulate
 from .settings import Settings, configure_logging
 
 DESCRIPTION = ("Rigid-body dynamics of URDF robots: inverse and forward dynamics, mass matrix, Coriolis matrix, "
                "energies, kinematics and task space (frames, Jacobians, centre of mass, M^-1, operational-space "
-               "inertia, inverse kinematics), simulation. Every array argument takes one state or a batch; bodies "
+               "inertia, inverse kinematics), analytical derivatives of inverse and forward dynamics, simulation. Every array argument takes one state or a batch; bodies "
                "and answers are JSON or .npz (application/x-npz). Errors are JSON {detail, code, field}.")
 
 
@@ -40,7 +41,7 @@ def _openapi(app: FastAPI):
             return app.openapi_schema
         doc = get_openapi(title=app.title, version=app.version, description=app.description, routes=app.routes)
         components = doc.setdefault("components", {}).setdefault("schemas", {})
-        requests = [op.endpoint.request for table in (OPERATIONS, KINEMATICS, CONSTRAINTS) for op in table.values()]
+        requests = [op.endpoint.request for table in (OPERATIONS, KINEMATICS, CONSTRAINTS, DERIVATIVES) for op in table.values()]
         requests += [schemas.SimulateRequest, schemas.UploadRequest, schemas.JobRequest]
         for model in requests:
             js = model.model_json_schema(ref_template="#/components/schemas/{model}")
@@ -71,10 +72,12 @@ def create_app(settings: Optional[Settings] = None) -> FastAPI:
     # /static-offline-docs: they work without internet access (FastAPI's own pages load them from a CDN)
     app = FastAPIOffline(title="dynamics", version=__version__, lifespan=lifespan, description=DESCRIPTION)
     errors.install(app)
-    for module in (health, robots, dynamics, kinematics, constraints, simulate, jobs):
+    for module in (health, robots, dynamics, kinematics, constraints, derivatives, simulate, jobs):
         app.include_router(module.router)
     from .routes import guide; guide.mount(app)  # the documentation site at /guide, when it has been built
-    app.add_middleware(ApiKeys, keys=settings.api_keys, open_paths=health.OPEN_PATHS)
+    app.include_router(inspect.router)  # last: no API request is matched against the page's paths
+    app.add_middleware(ApiKeys, keys=settings.api_keys, open_paths=health.OPEN_PATHS, open_prefix=inspect.PREFIX,
+                       closed_paths=(inspect.TRAJECTORY,))
     app.add_middleware(Options, routes=app.router.routes)  # (before the key check: Allow tells no secret)
     app.add_middleware(errors.RequestIds)  # added last: outermost, so that it sees every exception
     app.openapi = _openapi(app)

@@ -17,7 +17,8 @@ from lxml import etree
 from .codec import finite_or_none, jsonable
 from .constraints import check_closed, constraints_info, declare
 from .errors import Conflict, Forbidden, InvalidInput, NotFound, TooLarge, echo
-from .models import Models, load_model
+from .inspection import inspection
+from .models import Models, collision_geometry, load_model
 from .schemas import MAX_NAME
 from .settings import Settings
 from .store import IndexEntry, RobotStore, robot_id
@@ -215,6 +216,13 @@ class Catalog:
         info.update(_inertial(model))
         info["summary"] = model_summary(model)
         info["constraints"] = constraints_info(model)
+        return info
+
+    def inspect(self, rid: str) -> dict[str, Any]:
+        """:meth:`describe` and what the inspector page draws (:func:`service.inspection.inspection`)."""
+        info = self.describe(rid)
+        loaded = self.models.loaded(rid)
+        info.update(inspection(loaded.model, geometry=collision_geometry(loaded)))
         return info
 
     def delete(self, rid: str, owner: Optional[str]) -> None:

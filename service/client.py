@@ -291,6 +291,21 @@ class Robot:
         return self._call("potential-energy", {"q": _as_array(q), "gravity": self._opt(gravity),
                                                "locked": self._locked(locked)})["potential_energy"]
 
+    # -- derivatives -------------------------------------------------------------------------------------------
+    def inverse_dynamics_derivatives(self, q, v, a, *, gravity=None, f_ext=None, locked=None) -> tuple:
+        """(dtau_dq, dtau_dv, M), each (nv, nv) or (B, nv, nv): ``dynamics.inverse_dynamics_derivatives``."""
+        ans = self._call("derivatives/inverse_dynamics", {"q": _as_array(q), "v": _as_array(v), "a": _as_array(a),
+                                                          "gravity": self._opt(gravity), "f_ext": self._opt(f_ext),
+                                                          "locked": self._locked(locked)})
+        return ans["dtau_dq"], ans["dtau_dv"], ans["mass_matrix"]
+
+    def forward_dynamics_derivatives(self, q, v, tau, *, gravity=None, f_ext=None, locked=None) -> tuple:
+        """(da_dq, da_dv, M^-1), each (nv, nv) or (B, nv, nv): ``dynamics.forward_dynamics_derivatives``."""
+        ans = self._call("derivatives/forward_dynamics", {"q": _as_array(q), "v": _as_array(v),
+                                                          "tau": _as_array(tau), "gravity": self._opt(gravity),
+                                                          "f_ext": self._opt(f_ext), "locked": self._locked(locked)})
+        return ans["da_dq"], ans["da_dv"], ans["inverse_mass_matrix"]
+
     # -- kinematics and task space ---------------------------------------------------------------------------
     @property
     def frame_names(self) -> tuple[str, ...]:

@@ -18,6 +18,7 @@ from .catalog import Catalog
 from .compute import OPERATIONS, Budget, Compute
 from .errors import InvalidInput
 from .constraints import OPERATIONS as CONSTRAINTS
+from .derivatives import OPERATIONS as DERIVATIVES
 from .kinematics import OPERATIONS as KINEMATICS
 from .library import lib
 from .models import Models
@@ -47,7 +48,7 @@ class Deps:
         models = Models(store, settings.cache_size)
         pool = SimPool(settings.sim_workers) if settings.sim_workers > 0 else None  # workers compile at once
         warmup = Warmup(settings.store_dir / WARMUP_RECORD)
-        compute = Compute(settings, models, pool, warmup, (OPERATIONS, KINEMATICS, CONSTRAINTS))
+        compute = Compute(settings, models, pool, warmup, (OPERATIONS, KINEMATICS, CONSTRAINTS, DERIVATIVES))
         stages = [Stage("importing the library", lib), Stage("compiling dynamics kernels", compute.warm_kernels)]
         if pool is not None:
             plural = "es" if pool.size > 1 else ""

@@ -91,6 +91,21 @@ def load_model(urdf: str | bytes, floating_base: bool):
         raise InvalidInput(message if message.lower().startswith("urdf") else f"urdf: {message}", "urdf") from None
 
 
+def collision_geometry(loaded: "Loaded") -> tuple:
+    """The model's collision primitives (``model.collision_geometry``); for a model built without them, those of
+    its URDF read again with ``collision=True`` (same document and options: the same bodies in the same order),
+    for the inspector only, so that no other request pays for them."""
+    own = getattr(loaded.model, "collision_geometry", ())
+    if own or loaded.record is None:
+        return tuple(own)
+    data = loaded.record.urdf.encode("utf-8") if isinstance(loaded.record.urdf, str) else loaded.record.urdf
+    try:
+        return tuple(lib().load_urdf(data, floating_base=loaded.record.floating_base,
+                                     collision=True).collision_geometry)
+    except (TypeError, ValueError):  # a library without contact geometry, or a primitive it refuses: none drawn
+        return ()
+
+
 def reduce_model(model, locked: tuple):
     """``dynamics.lock_joints`` for a :func:`locked_key`; its InputError names the joint ("locked: no movable
     joint named 'x'; joints are [...]", "locked['j']: expected 1 finite number, got [1.0, 2.0]")."""

@@ -63,7 +63,8 @@ def _locked(value: Any) -> Optional[dict[str, Any]]:
             out[name] = [_float(x, where) for x in v]
         else:
             raise InvalidInput(f"{where}: expected a number (1-dof joint) or a list of numbers (7 for a floating "
-                               f"joint: x, y, z, qx, qy, qz, qw), got {v!r:.60}", where)
+                               f"joint: x, y, z, qx, qy, qz, qw; 4 for a spherical joint: qx, qy, qz, qw; 4 for a "
+                               f"planar joint: x, y, cos theta, sin theta), got {v!r:.60}", where)
     return out
 
 
@@ -129,7 +130,8 @@ Vec3 = Annotated[Any, BeforeValidator(_array), WithJsonSchema(
 Locked = Annotated[Optional[dict[str, Any]], BeforeValidator(_locked), WithJsonSchema({
     "type": "object", "additionalProperties": {"anyOf": [{"type": "number"}, _NUMBERS]},
     "description": "joints held still at these positions (a number for a 1-dof joint, [x, y, z, qx, qy, qz, qw] "
-                   "for a floating one); the other arrays are then those of the reduced model (its nq, nv and "
+                   "for a floating one, [qx, qy, qz, qw] for a spherical one, [x, y, cos theta, sin theta] for a "
+                   "planar one); the other arrays are then those of the reduced model (its nq, nv and "
                    "joint order: GET the robot and drop the locked joints)"})]
 Gains = Annotated[Any, BeforeValidator(_array), WithJsonSchema(
     {"anyOf": [{"type": "number"}, _NUMBERS], "description": "a number, or one per velocity coordinate"})]
@@ -325,8 +327,9 @@ class UploadRequest(_Request):
 # -- answers (documented in OpenAPI; the routes write them directly, arrays never go through pydantic) ---------
 class Scene(BaseModel):
     """What the answer's model left out (in .npz answers: a member holding this object as a JSON string)."""
-    locked: dict[str, Any] = Field(description="joints held still: {name: position} (a number, or 7 for a floating "
-                                               "joint), as the reduced model records them")
+    locked: dict[str, Any] = Field(description="joints held still: {name: position} (a number, 7 for a floating "
+                                               "joint, 4 for a spherical or planar one), as the reduced model "
+                                               "records them")
     links_pruned: list[str] = Field(description="URDF links dropped when the model was built (no mass, nothing "
                                                 "moving below them), as in the model summary")
     fixed_joints_merged: list[str] = Field(description="URDF fixed joints whose links were merged into their parent, "
@@ -352,6 +355,20 @@ class MassMatrixAnswer(BaseModel):
     scene: Scene
 
 
+class InverseDynamicsDerivativesAnswer(BaseModel):
+    dtau_dq: Answer(2, "(nv, nv) dtau/dq, q in the tangent space (a free joint's along q (+) dq, body frame)")
+    dtau_dv: Answer(2, "(nv, nv) dtau/dv")
+    mass_matrix: Answer(2, "(nv, nv) M(q) = dtau/da")
+    scene: Scene
+
+
+class ForwardDynamicsDerivativesAnswer(BaseModel):
+    da_dq: Answer(2, "(nv, nv) da/dq, q in the tangent space")
+    da_dv: Answer(2, "(nv, nv) da/dv")
+    inverse_mass_matrix: Answer(2, "(nv, nv) M(q)^-1 = da/dtau")
+    scene: Scene
+
+
 class TrajectoryAnswer(BaseModel):
     t: list[float] = Field(description="(K,) sample times, s")
     q: list[list[float]] = Field(description="(K, nq) configurations at the samples")
@@ -372,6 +389,8 @@ class ModelSummary(BaseModel):
     nv: int
     bodies: int = Field(description="bodies kept (one per movable joint)")
     floating_base: bool
+    joint_types: dict[str, int] = Field({}, description="movable joints per type: revolute, continuous, prismatic, "
+                                                        "floating, planar, spherical")
     urdf_links: int
     urdf_joints: int
     fixed_joints_merged: list[str]
@@ -401,7 +420,8 @@ class UploadAnswer(RobotSummary):
 
 class JointInfo(BaseModel):
     name: str
-    type: str
+    type: str = Field(description="revolute, continuous, prismatic, floating (q: x, y, z, qx, qy, qz, qw), "
+                                  "planar (q: x, y, cos theta, sin theta) or spherical (q: qx, qy, qz, qw)")
     body: str
     parent: Optional[str] = Field(description="parent body, null for the world")
     q_index: int
@@ -434,6 +454,45 @@ class RobotInfo(RobotSummary):
                                                 "kinematics answers")
     summary: ModelSummary
     constraints: Optional["ConstraintsInfo"] = Field(None, description="loops and couplings; absent when none")
+
+
+class BodyInspection(BaseModel):
+    """One body as the inspector draws it: its joint and the check of its mass properties (body frame)."""
+    name: str
+    parent: int = Field(description="index of the parent body, -1 for the world")
+    joint: str
+    joint_type: str
+    axis: list[float] = Field(description="(3,) joint axis in the joint (= body) frame")
+    placement: list[list[float]] = Field(description="(4, 4) joint frame in the parent body frame at q = 0")
+    mass: float
+    com: list[float]
+    inertia: list[list[float]] = Field(description="(3, 3) about the centre of mass, kg m^2")
+    principal_moments: list[float] = Field(description="(3,) ascending, kg m^2")
+    principal_axes: list[list[float]] = Field(description="(3, 3) columns: the principal axes (a rotation)")
+    positive_definite: bool
+    triangle: bool = Field(description="principal moments obey I3 <= I1 + I2")
+    relative_violation: float
+    verdict: Literal["ok", "warning", "refused"] = Field(description="what load_urdf's thresholds make of it")
+    box: list[float] = Field(description="(3,) edges of the uniform box of the same mass and inertia, m")
+
+
+class InspectedGeometry(BaseModel):
+    """One collision primitive of the robot (dynamics.CollisionGeometry)."""
+    name: str
+    body: Optional[str] = Field(description="the body it is fixed to (its link may have been merged into it); "
+                                            "null for the world")
+    frame: str
+    kind: str = Field(description="sphere, box, capsule, cylinder or point")
+    size: list[Optional[float]] = Field(description="sphere (r, 0, 0); box full edges; capsule and cylinder "
+                                                    "(radius, length along local z, 0)")
+    pose: list[list[float]] = Field(description="(4, 4) in the body frame")
+
+
+class RobotInspection(RobotInfo):
+    """The description and what the inspector page draws (GET /v1/robots/{id}/inspect)."""
+    bodies_inspected: list[BodyInspection] = Field(description="per body, in the order of bodies")
+    collision_geometry: list[InspectedGeometry] = Field(description="the URDF's collision primitives (meshes are "
+                                                                    "left out); empty when it has none")
 
 
 class RobotList(BaseModel):

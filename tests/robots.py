@@ -37,12 +37,19 @@ def erd_urdfs():
 
 
 def random_state(model, rng, scale=1.0):
+    """(q, v, a): unit quaternions, a planar joint's (cos, sin) of a random angle, angles in [-pi, pi]."""
     q = rng.uniform(-np.pi, np.pi, model.nq)
     for jtype, k in zip(model.joint_types, model.q_index):
         if jtype == "floating":
             q[k:k + 3] = rng.normal(size=3)
             quat = rng.normal(size=4)
             q[k + 3:k + 7] = quat / np.linalg.norm(quat)
+        elif jtype == "spherical":
+            quat = rng.normal(size=4)
+            q[k:k + 4] = quat / np.linalg.norm(quat)
+        elif jtype == "planar":
+            t = rng.uniform(-np.pi, np.pi)
+            q[k:k + 4] = [*rng.normal(size=2), np.cos(t), np.sin(t)]
         elif jtype == "prismatic":
             q[k] = rng.uniform(-0.5, 0.5)
     return q, scale * rng.normal(size=model.nv), scale * rng.normal(size=model.nv)
@@ -64,7 +71,9 @@ def random_inertia(rng, scale=1.0):
 def random_urdf(rng, n_links=8, *, types=("revolute", "continuous", "prismatic", "fixed"), branching=0.4,
                 floating_joint=False, mass_range=(0.5, 5.0), name="random"):
     """URDF text of a random tree: random joint and inertial origins (xyz and rpy), non-unit axes,
-    branching, every joint type in ``types``.  ``floating_joint`` puts a URDF floating joint at the root."""
+    branching, every joint type in ``types`` (:data:`ALL_TYPES`: the planar and spherical joints too, a planar
+    joint's axis z half the time, Pinocchio's only one).  ``floating_joint`` puts a URDF floating joint at the
+    root."""
     links = []
     joints = []
     parent_of = []
@@ -88,6 +97,8 @@ def random_urdf(rng, n_links=8, *, types=("revolute", "continuous", "prismatic",
         t = types[int(rng.integers(len(types)))]
         axis = rng.normal(size=3)
         axis *= rng.uniform(0.3, 3.0) / np.linalg.norm(axis)  # not unit length
+        if t == "planar" and rng.uniform() < 0.5:
+            axis = np.array([0.0, 0.0, rng.uniform(0.3, 3.0)])
         limit = ('<limit lower="-2" upper="2" effort="50" velocity="3"/>' if t in ("revolute", "prismatic")
                  else "")
         joints.append(f'<joint name="j{i}" type="{t}"><parent link="l{parent}"/><child link="l{i}"/>'
@@ -95,6 +106,10 @@ def random_urdf(rng, n_links=8, *, types=("revolute", "continuous", "prismatic",
                       f'<axis xyz="{_fmt(axis)}"/>{limit}</joint>')
         links.append(link_xml(i))
     return f'<robot name="{name}">' + "".join(links) + "".join(joints) + "</robot>"
+
+
+#: every joint type the URDF reader knows, spherical included (random_urdf's ``types``)
+ALL_TYPES = ("revolute", "continuous", "prismatic", "fixed", "planar", "spherical")
 
 
 def chain_urdf(n, *, length=0.2, mass=1.0, inertia=1e-3, damping=0.0, name=None, axis="0 1 0"):

@@ -13,8 +13,8 @@ import pinocchio as pin
 import pytest
 
 import dynamics
-from robots import erd, erd_urdfs, random_state, random_urdf
-from test_pinocchio import RTOL, PinMap, _pin_loads, a_tol, rel_err
+from robots import ALL_TYPES, erd, erd_urdfs, random_state, random_urdf
+from test_pinocchio import RTOL, PinMap, _pin_loads, a_tol, pin_model, rel_err
 
 REFS = {"world": pin.WORLD, "local": pin.LOCAL, "local_world_aligned": pin.LOCAL_WORLD_ALIGNED}
 
@@ -114,19 +114,15 @@ def test_example_robot_data_kinematics_match_pinocchio(rel, floating):
     pm = _pin_loads(erd(rel), floating)
     model = None if pm is None else load_ours(erd(rel), floating)
     if model is None:
-        pytest.skip("Pinocchio refuses this URDF, or it has a planar joint (tests/test_pinocchio.py says why)")
+        pytest.skip("Pinocchio refuses this URDF")
     if model.nv:
         assert_all_within(compare_kinematics(model, pm, np.random.default_rng(abs(hash(rel)) % 2**32)))
 
 
 def load_ours(path, floating):
     """Our model of the URDF (non-physical inertias accepted and mimic joints free, as Pinocchio's default
-    loads it), None for a planar joint."""
-    try:
-        return dynamics.load_urdf(path, floating_base=floating, strict_inertia=False, mimic="independent")
-    except dynamics.URDFError as e:
-        assert "planar" in str(e), str(e)
-        return None
+    loads it)."""
+    return dynamics.load_urdf(path, floating_base=floating, strict_inertia=False, mimic="independent")
 
 
 @pytest.mark.parametrize("seed", range(10))
@@ -137,6 +133,17 @@ def test_random_trees_kinematics_match_pinocchio(seed):
     model = dynamics.load_urdf(text, floating_base=floating)
     pm = pin.buildModelFromXML(text, pin.JointModelFreeFlyer()) if floating else pin.buildModelFromXML(text)
     assert_all_within(compare_kinematics(model, pm, rng, n_frames=6))
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_random_trees_with_every_joint_type_kinematics_match_pinocchio(seed):
+    """Planar (axis z or not) and spherical joints among the others, fixed and floating bases."""
+    rng = np.random.default_rng(2000 + seed)
+    text = random_urdf(rng, n_links=int(rng.integers(5, 12)), types=ALL_TYPES, floating_joint=seed == 2)
+    floating = seed == 1
+    model = dynamics.load_urdf(text, floating_base=floating)
+    assert {"planar", "spherical"} & set(model.joint_types)
+    assert_all_within(compare_kinematics(model, pin_model(text, model, floating), rng, n_frames=6))
 
 
 def test_every_link_and_joint_is_a_frame_in_a_documented_order():

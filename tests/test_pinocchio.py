@@ -9,7 +9,8 @@ import pinocchio as pin
 import pytest
 
 import dynamics
-from robots import erd, erd_urdfs, random_state, random_urdf
+from dynamics.joints import kind_of
+from robots import ALL_TYPES, erd, erd_urdfs, random_state, random_urdf
 
 RTOL = 1e-10
 
@@ -31,14 +32,19 @@ class PinMap:
         assert pm.nv == model.nv
 
     def q(self, q):
+        """Pinocchio's q: the same coordinates (a quaternion, a planar joint's (cos, sin) normalised: Pinocchio
+        takes them as given), a continuous joint's angle as (cos, sin)."""
         out = pin.neutral(self.pm)
         for jtype, k, kp, nqp in self.q_parts:
-            if jtype == "floating":
-                out[kp:kp + 7] = q[k:k + 7] / np.r_[np.ones(3), [np.linalg.norm(q[k + 3:k + 7])] * 4]
-            elif nqp == 2:
+            kind = kind_of(jtype)
+            if nqp == 2 and kind.nq == 1:
                 out[kp:kp + 2] = np.cos(q[k]), np.sin(q[k])
-            else:
-                out[kp] = q[k]
+                continue
+            x = np.array(q[k:k + kind.nq], float)
+            if kind.unit:
+                o, n = kind.unit
+                x[o:o + n] /= np.linalg.norm(x[o:o + n])
+            out[kp:kp + kind.nq] = x
         return out
 
     def v(self, v):
@@ -52,6 +58,61 @@ class PinMap:
     def M_back(self, Mp):
         Mp = np.triu(Mp) + np.triu(Mp, 1).T
         return Mp[np.ix_(self.v_perm, self.v_perm)]
+
+
+def pin_model(text, model, floating=False):
+    """Pinocchio's model of the URDF ``text`` that ``model`` was loaded from.  Its URDF parser knows no
+    spherical joint and puts every planar joint's plane normal to z: the model is read with each spherical
+    joint as a continuous one, then rebuilt with JointModelSpherical there and, for a planar joint of axis a,
+    Pinocchio's joint frame turned by Ra (z onto a, read from our S; checked to be such a rotation), so that
+    its motion Ra Planar_z(q) Ra^T is ours: the joint's placement P becomes P Ra, and what hangs from the
+    joint (inertia, child joints, frames) is expressed in the turned frame (Ra^T X)."""
+    args = [pin.JointModelFreeFlyer()] if floating else []
+    pm = pin.buildModelFromXML(text.replace('type="spherical"', 'type="continuous"'), *args)
+    kinds = {name: t for name, t in zip(model.joint_names, model.joint_types)}
+    if not any(t in ("spherical", "planar") for t in kinds.values()):
+        return pm
+    turn = {}  # pinocchio joint id -> SE3(Ra, 0) of a planar joint
+    for i, name in enumerate(model.joint_names):
+        if kinds[name] == "planar":
+            k = model.v_index[i]
+            S = model.tree.S
+            Ra = np.column_stack([S[k, 3:], S[k + 1, 3:], S[k + 2, :3]])
+            assert np.allclose(Ra.T @ Ra, np.eye(3), atol=1e-14) and np.linalg.det(Ra) > 0
+            assert np.allclose(Ra[:, 2], model.tree.axis[i], atol=1e-15)
+            turn[pm.getJointId(name)] = pin.SE3(Ra, np.zeros(3))
+    out = pin.Model()
+    out.gravity = pm.gravity
+    for j in range(1, pm.njoints):
+        name, parent = pm.names[j], pm.parents[j]
+        jm = pin.JointModelSpherical() if kinds.get(name) == "spherical" else pm.joints[j]
+        P = pm.jointPlacements[j]
+        if parent in turn:
+            P = turn[parent].actInv(P)
+        if j in turn:
+            P = P * turn[j]
+        out.addJoint(parent, jm, P, name)
+    for fr in list(pm.frames)[1:]:
+        placement = turn[fr.parentJoint].actInv(fr.placement) if fr.parentJoint in turn else fr.placement
+        out.addFrame(pin.Frame(fr.name, fr.parentJoint, fr.parentFrame, placement, fr.type), False)
+    for j in range(1, pm.njoints):
+        out.inertias[j] = turn[j].actInv(pm.inertias[j]) if j in turn else pm.inertias[j]
+    PIN_TURNS[id(out)] = (out, turn)
+    return out
+
+
+#: id(Pinocchio model) -> (that model, its turned planar joints {joint id: SE3(Ra, 0)}) (pin_model)
+PIN_TURNS = {}
+
+
+def pin_force(pm, jid, F):
+    """Our body wrench F = [force, torque] (body frame) as Pinocchio's Force in joint jid's frame (turned:
+    pin_model)."""
+    force = pin.Force(F[:3], F[3:])
+    model_turn = PIN_TURNS.get(id(pm))
+    if model_turn is not None and model_turn[0] is pm and jid in model_turn[1]:
+        force = model_turn[1][jid].actInv(force)
+    return force
 
 
 def a_tol(M):
@@ -95,7 +156,7 @@ def compare(model, pm, rng, n_states=3, with_fext=True):
             F = rng.normal(size=(model.nbodies, 6))
             fext = [pin.Force.Zero() for _ in range(pm.njoints)]
             for i, name in enumerate(model.joint_names):
-                fext[pm.getJointId(name)] = pin.Force(F[i, :3], F[i, 3:])
+                fext[pm.getJointId(name)] = pin_force(pm, pm.getJointId(name), F[i])
             tau_f = dynamics.inverse_dynamics(model, q, v, a, f_ext=F)
             assert rel_err(tau_f, mp.v_back(pin.rnea(pm, pd, qp, vp, ap, fext))) < RTOL
             if not singular:
@@ -127,10 +188,8 @@ def test_example_robot_data_matches_pinocchio(rel, floating):
     try:
         model = dynamics.load_urdf(path, floating_base=floating, mimic="independent")
     except dynamics.URDFError as e:
-        # a planar joint, or an inertia no rigid body can have (several published URDFs): the error says
-        # which, and a non-physical inertia can still be loaded on request, as Pinocchio does
-        if "planar" in str(e):
-            return
+        # an inertia no rigid body can have (several published URDFs): the error says so, and a non-physical
+        # inertia can still be loaded on request, as Pinocchio does
         assert "inertia" in str(e) and "strict_inertia=False" in str(e), str(e)
         model = dynamics.load_urdf(path, floating_base=floating, strict_inertia=False, mimic="independent")
         assert any("inertia" in w for w in model.warnings)
@@ -148,6 +207,18 @@ def test_random_trees_match_pinocchio(seed):
     model = dynamics.load_urdf(text)
     pm = pin.buildModelFromXML(text)
     compare(model, pm, rng)
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_random_trees_with_every_joint_type_match_pinocchio(seed):
+    """Trees mixing revolute, continuous, prismatic, fixed, planar (its axis z or not) and spherical joints,
+    with a URDF floating root, the floating_base option, or a fixed base."""
+    rng = np.random.default_rng(300 + seed)
+    text = random_urdf(rng, n_links=int(rng.integers(5, 12)), types=ALL_TYPES, floating_joint=seed % 3 == 0)
+    floating = seed % 3 == 1
+    model = dynamics.load_urdf(text, floating_base=floating)
+    assert {"planar", "spherical"} & set(model.joint_types)
+    compare(model, pin_model(text, model, floating), rng)
 
 
 @pytest.mark.parametrize("seed", range(4))

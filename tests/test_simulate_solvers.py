@@ -84,8 +84,17 @@ def _radau(p, z, t1, out_t, opt, stats, sw):
 
 
 @njit(cache=True)
-def _auto(p, z, t1, out_t, opt, stats, sw):
-    return S.solve_auto(p, z, 0.0, t1, out_t, opt, stats, sw)
+def _auto_rk45(p, z, t0, t1, out_t, opt, stats, sw):
+    return S.solve_auto_rk45(p, z, t0, t1, out_t, opt, stats, sw)
+
+
+@njit(cache=True)
+def _auto_radau(p, z, t0, t1, out_t, opt, stats, sw):
+    return S.solve_auto_radau(p, z, t0, t1, out_t, opt, stats, sw)
+
+
+def _auto(p, z, t1, out_t, opt, stats, sw):  # auto's two phases, alternated from Python as the library does
+    return S.drive_auto((_auto_rk45, _auto_radau), p, z, 0.0, t1, out_t, opt, stats, sw)
 
 
 SOLVE = {"euler": _euler, "rk4": _rk4, "rk45": _rk45, "dop853": _dop853, "radau": _radau, "auto": _auto}

@@ -29,7 +29,7 @@ from ..aba import _workspace as aba_workspace
 from .._numba import copy_into, generic_kernel, inline_kernel, keep_alive, kernel
 from .._numba.boundary import borrow
 from ..configuration import chart_rate_in, chart_tag, _integrate_delta, retract_in
-from ..joints import JOINT_FREE
+from ..joints import _joint_magnitudes
 from ..control.dispatch import kind_tag, source_workspace, torque_eval
 from ..control.passive import passive_torques
 from ..contact.calls import contact_emit, contact_torques, contact_track
@@ -138,7 +138,8 @@ def quadratures(dz, nv, power_s, power_p, power_c):
 @generic_kernel
 def rebase(p, t, z, dz, mag):
     """Fold the chart coordinates into ``base``, rewrite dz's chart part for the new chart, and the
-    magnitudes of the state for the relative tolerance (|q| per 1-dof coordinate and free-flyer position)."""
+    magnitudes of the state for the relative tolerance (|q| per 1-dof coordinate and free-flyer or planar
+    position, :func:`dynamics.joints._joint_magnitudes`)."""
     tree, base = p.tree, p.base
     nv = p.tau_s.shape[0]
     retract_in(p.chart, tree, base, z[:nv], p.qbuf)
@@ -147,13 +148,7 @@ def rebase(p, t, z, dz, mag):
     z[:nv] = 0.0
     chart_rate_in(p.chart, tree, base, z[:nv], z[nv:2 * nv], dz[:nv])
     for i in range(tree.jtype.shape[0]):
-        k = tree.v_idx[i]
-        if tree.jtype[i] == JOINT_FREE:
-            for r in range(3):
-                mag[k + r] = abs(base[tree.q_idx[i] + r])
-                mag[k + 3 + r] = 0.0
-        else:
-            mag[k] = abs(base[tree.q_idx[i]])
+        _joint_magnitudes(tree, i, base, mag)
 
 
 @generic_kernel

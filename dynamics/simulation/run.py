@@ -1,5 +1,5 @@
 """The compiled entry points: one cached kernel per method, so a call compiles (or loads) only the method it
-runs (``auto``: rk45 and radau), and the stability probe of the fixed-step methods.
+runs (``auto``: its rk45 phase, and its radau phase only once a run turns stiff).
 
 Each entry point takes the problem itself (:mod:`.problem`, :mod:`.constrained_problem`): numba compiles the
 method's solver together with the problem's functions (the ABA or the KKT solve, the torque source; reached
@@ -48,16 +48,23 @@ def _radau(p, z, t0, t_end, out_t, opt, stats, sw):
 
 
 @kernel
-def _auto(p, z, t0, t_end, out_t, opt, stats, sw):
-    return solvers.solve_auto(borrow(p), z, t0, t_end, out_t, opt, stats, sw)
+def _auto_rk45(p, z, t0, t_end, out_t, opt, stats, sw):
+    return solvers.solve_auto_rk45(borrow(p), z, t0, t_end, out_t, opt, stats, sw)
 
 
-ENTRY = {"euler": _euler, "rk4": _rk4, "rk45": _rk45, "dop853": _dop853, "radau": _radau, "auto": _auto}
+@kernel
+def _auto_radau(p, z, t0, t_end, out_t, opt, stats, sw):
+    return solvers.solve_auto_radau(borrow(p), z, t0, t_end, out_t, opt, stats, sw)
+
+
+ENTRY = {"euler": _euler, "rk4": _rk4, "rk45": _rk45, "dop853": _dop853, "radau": _radau,
+         "auto (rk45)": _auto_rk45, "auto (radau)": _auto_radau}
 
 
 #: seconds to compile a method's entry point with a problem's functions from an empty cache (2R arm, process CPU
 #: less the library's, on a loaded 2-core machine: rk4 ~13, auto ~24)
-COMPILE_SECONDS = {"euler": 15, "rk4": 15, "rk45": 20, "dop853": 25, "radau": 25, "auto": 25}
+COMPILE_SECONDS = {"euler": 15, "rk4": 15, "rk45": 20, "dop853": 25, "radau": 25, "auto (rk45)": 20,
+                   "auto (radau)": 25}
 #: a first call that has not returned after this many seconds is compiling (numba's cache loads in less)
 ANNOUNCE_AFTER = 1.5
 _SEEN = set()  # the (method, problem kind) pairs run in this process: their entry points are compiled
@@ -104,16 +111,32 @@ def run(method, p, z, t_end, opt, t0=0.0, watch=None):
     """Run ``method`` on problem p from (t0, z) to t_end (z is advanced in place).  ``watch(p)`` if given is a
     context manager held while the compiled loop runs (the progress bar).  Returns (stats record, the switch
     log's used rows, wall time of the run)."""
-    entry = ENTRY[method]
     stats, sw = solvers.new_stats(), solvers.new_switch_log()
     args = (p, z, float(t0), float(t_end), p.out_t, opt, stats, sw)
-    with _announcing(entry, _kind(method, p), method):
-        tic = time.perf_counter()
-        if watch is None:
-            entry(*args)
-        else:
-            with watch(p):
-                entry(*args)
-        wall = time.perf_counter() - tic
+    tic = time.perf_counter()
+    if watch is None:
+        _call(method, args)
+    else:
+        with watch(p):
+            _call(method, args)
+    wall = time.perf_counter() - tic
     st = stats[0]
     return st, sw[:st["switches"]], wall
+
+
+def _call(method, args):
+    """Run ``method``'s entry point (auto: its phases, :func:`.solvers.drive_auto`), announcing a compilation."""
+    if method == "auto":
+        solvers.drive_auto((_announced("auto (rk45)"), _announced("auto (radau)")), *args)
+    else:
+        _announced(method)(*args)
+
+
+def _announced(name):
+    """The entry point ``name`` as a function that announces its first compilation for a kind of problem."""
+    entry = ENTRY[name]
+
+    def call(p, *args):
+        with _announcing(entry, _kind(name, p), name):
+            return entry(p, *args)
+    return call

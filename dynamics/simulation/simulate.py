@@ -18,7 +18,7 @@ from ..aba import _workspace as aba_workspace
 from ..checks import check_model, real_number, singular_joint_error, vector
 from ..configuration import _retract
 from ..errors import InputError, SimulationWarning
-from ..joints import JOINT_FREE
+from ..joints import KINDS
 from ..task_space import operational_space_inertia
 from .. import plot
 from ..control.passive import Passive
@@ -353,27 +353,30 @@ def _not_a_batch(model, q0, v0):
 
 
 def _check_q(model, q0, warnings):
+    """q0 checked, its unit blocks (quaternions, a planar joint's (cos, sin)) normalised with a warning."""
     q = vector("q0", q0, model.nq)
     tree = model.tree
     for i, code in enumerate(tree.jtype):
-        if code == JOINT_FREE:
-            k = int(tree.q_idx[i]) + 3
-            nrm = float(np.linalg.norm(q[k:k + 4]))
-            if nrm < 1e-6:
-                raise InputError(f"q0: the quaternion q0[{k}:{k + 4}] (x, y, z, w) of joint "
-                                 f"{model.joint_names[i]!r} is zero")
-            if abs(nrm - 1.0) > 1e-6:
-                warnings.append(f"q0: quaternion (x, y, z, w) of joint {model.joint_names[i]!r} had norm "
-                                f"{nrm:.6g}; normalised")
-            q[k:k + 4] /= nrm
+        kind = KINDS[int(code)]
+        if not kind.unit:
+            continue
+        k, n = int(tree.q_idx[i]) + kind.unit[0], kind.unit[1]
+        what = "quaternion (x, y, z, w)" if n == 4 else "(cos theta, sin theta)"
+        nrm = float(np.linalg.norm(q[k:k + n]))
+        if nrm < 1e-6:
+            raise InputError(f"q0: the {what} q0[{k}:{k + n}] of joint {model.joint_names[i]!r} is zero")
+        if abs(nrm - 1.0) > 1e-6:
+            warnings.append(f"q0: {what} of joint {model.joint_names[i]!r} had norm {nrm:.6g}; normalised")
+        q[k:k + n] /= nrm
     return q
 
 
 def _qpos_map(model):
+    """Per velocity coordinate: the q index of a joint with position limits (1-dof), -1 for the others."""
     qpos = np.full(model.nv, -1, np.int64)
     tree = model.tree
     for i, code in enumerate(tree.jtype):
-        if code != JOINT_FREE:
+        if KINDS[int(code)].limited:
             qpos[tree.v_idx[i]] = tree.q_idx[i]
     return qpos
 

@@ -75,6 +75,14 @@ async def robot(robot_id: str, d: Deps = Depends(deps), owner: Optional[str] = D
     return Response(json.dumps(await d.compute.run(d.catalog.describe, rid)).encode(), media_type=JSON)
 
 
+@router.get("/robots/{robot_id}/inspect", response_model=schemas.RobotInspection, responses=ERRORS,
+            summary="the description and what the inspector (/inspect) draws: per-body inertia checks and boxes, "
+                    "collision geometry")
+async def inspect(robot_id: str, d: Deps = Depends(deps), owner: Optional[str] = Depends(caller)) -> Response:
+    rid = d.catalog.resolve(robot_id, owner)
+    return Response(json.dumps(await d.compute.run(d.catalog.inspect, rid)).encode(), media_type=JSON)
+
+
 @router.delete("/robots/{robot_id}", status_code=204, responses={**ERRORS, 403: {"model": schemas.ErrorAnswer}},
                summary="delete an uploaded robot (with the key that uploaded it); bundled robots stay")
 async def delete(robot_id: str, d: Deps = Depends(deps), owner: Optional[str] = Depends(caller)) -> Response:

@@ -10,7 +10,7 @@ import numpy as np
 
 from ..._numba import copy_into, generic_inline, keep_alive
 from ..._numba.boundary import borrow
-from .interface import (MAX_STEPS, OK, STEP_TOO_SMALL, problem_emit, problem_rebase, problem_rhs, stepper_attempt,
+from .interface import (MAX_STEPS, OK, STEP_TOO_SMALL, SWITCHED, problem_emit, problem_rebase, problem_rhs, stepper_attempt,
                         stepper_dense, stepper_order)
 from .linalg import initial_step, max_abs, state_status
 
@@ -20,6 +20,7 @@ def solve_adaptive(p, m, z, t0, t_end, out_t, opt, stats, switches):
     """Integrate z from t0 to t_end with error control by the method m; returns the status (also in stats).
     Its vectors and the stepper's are borrowed (no reference counts in the step loop; :func:`.fixed.solve_fixed`)."""
     st = stats[0]
+    st.switch_request = 0
     n = z.shape[0]
     owner, m_owner = np.zeros(7 * n), m  # the vectors below and the stepper's are borrowed from these
     m, z, out_t, buf = borrow(m), borrow(z), borrow(out_t), borrow(owner)
@@ -35,13 +36,15 @@ def solve_adaptive(p, m, z, t0, t_end, out_t, opt, stats, switches):
     st.rhs_evals += 1
     status = state_status(f0, 0, 0, opt.blowup)
     t = t0
-    j = _emit(p, m, 0, out_t, t, 0.0, zold, z, zi, st)  # the initial state, also when f(t0, z0) is not finite
+    # the initial state, also when f(t0, z0) is not finite (a resumed run: its samples so far are written, and
+    # the next one is later than t0)
+    j = _emit(p, m, st.samples, out_t, t, 0.0, zold, z, zi, st)
     h = opt.h0
     if h <= 0:
         h = initial_step(p, t, z, f0, stepper_order(m), opt.rtol, opt.atol, mag, opt.ne, t_end, st)
     h = min(h, opt.hmax)
-    local_err = 0.0
-    total = 0
+    local_err = st.local_error  # a resumed run adds to the first part's sums
+    total = st.steps + st.rejected
     rejected_last = False
     while status == OK and t < t_end:
         if total >= opt.max_steps:
@@ -76,7 +79,11 @@ def solve_adaptive(p, m, z, t0, t_end, out_t, opt, stats, switches):
         j = _emit(p, m, j, out_t, t, h, zold, z, zi, st)
         problem_rebase(p, t, z, f0, mag)  # re-centre the chart; f0 = f(t, z) in the new chart
         h = hnew
+        if st.switch_request:  # auto changes method here: the caller resumes from (t, z) with h
+            status = SWITCHED
+            break
     st.status = status
+    st.samples = j
     st.t = t
     st.local_error = local_err
     st.h = h

@@ -4,9 +4,12 @@ switches to radau; while on radau it estimates the spectral radius rho of each J
 switches back when h*rho < 2 (the explicit method would be stable at the same step) on 20 accepted steps in a
 row.  Every switch is logged (time, method switched to, reason, the measured value).
 
-Both methods are compiled into auto's entry point (radau's step is about half of its compile time, paid once
-per problem type and cached): deferring radau to the first switch needed a call through an address, which
-numba's public API does not offer for these argument types.
+The two phases are two steppers, each its method wrapped with its switch test, compiled into two entry points
+(:mod:`dynamics.simulation.run`): a switch ends the compiled run with the status ``SWITCHED`` after the accepted
+step (samples written, chart re-centred, the proposed next step in ``stats.h``), and the caller resumes from
+there with the other entry (:func:`dynamics.simulation.solvers.drive_auto`).  So a run that never turns stiff
+compiles and runs rk45 alone: radau's step, about half of a first ``auto`` run's compile time, is compiled only
+for a problem that needs it.
 """
 
 from typing import NamedTuple
@@ -20,16 +23,27 @@ from .interface import MAX_SWITCHES, RADAU, RK45, SWITCH_NONSTIFF, SWITCH_STIFF
 NONSTIFF_HRHO, NONSTIFF_STEPS = 2.0, 20
 
 
-class Auto(NamedTuple):
+class AutoRK45(NamedTuple):
+    """rk45, asking to switch to radau when its stiffness test fires."""
+
     rk45: rk45.RK45
+
+
+class AutoRadau(NamedTuple):
+    """radau, asking to switch back to rk45 after NONSTIFF_STEPS accepted steps in a row with h*rho < 2."""
+
     radau: radau.Radau
-    mode: np.ndarray  # (3,) int64: method of the next attempt, method of the last accepted step, the count
-    #                   of accepted radau steps in a row with h*rho < 2
+    calm: np.ndarray  # (1,) int64: accepted steps in a row with h*rho < NONSTIFF_HRHO
 
 
 @kernel
-def make(n):
-    return Auto(rk45.make(n), radau.make(n), np.array([RK45, RK45, 0]))
+def make_rk45(n):
+    return AutoRK45(rk45.make(n))
+
+
+@kernel
+def make_radau(n):
+    return AutoRadau(radau.make(n), np.zeros(1, np.int64))
 
 
 @kernel
@@ -46,45 +60,45 @@ def _log(sw, st, t, to, reason, value):
 
 
 @generic_inline
-def attempt(m, p, t, h, z, f0, znew, fnew, errv, mag, opt, st, sw, rejected_last):
-    mode = m.mode
-    if mode[0] == RK45:
-        accepted, hnew = rk45.attempt(m.rk45, p, t, h, z, f0, znew, fnew, errv, mag, opt, st, sw, rejected_last)
-        if accepted:
-            mode[1] = RK45
-            c = m.rk45.ctl[0]
-            if c.stiff_event and _log(sw, st, t + h, RADAU, SWITCH_STIFF, c.hlamb):
-                mode[0] = RADAU
-                mode[2] = 0
-                radau.reset(m.radau)
-        return accepted, hnew
-    accepted, hnew = radau.attempt(m.radau, p, t, h, z, f0, znew, fnew, errv, mag, opt, st, sw, rejected_last)
-    rho = m.radau.ctl[0].rho
-    if accepted:
-        mode[1] = RADAU
-        if rho >= 0:
-            mode[2] = mode[2] + 1 if h * rho < NONSTIFF_HRHO else 0
-            if mode[2] >= NONSTIFF_STEPS and _log(sw, st, t + h, RK45, SWITCH_NONSTIFF, h * rho):
-                mode[0] = RK45
-                rk45.reset(m.rk45)
-                m.radau.ctl[0].need_jac = 1
-                hnew = h
+def attempt_rk45(m, p, t, h, z, f0, znew, fnew, errv, mag, opt, st, sw, rejected_last):
+    accepted, hnew = rk45.attempt(m.rk45, p, t, h, z, f0, znew, fnew, errv, mag, opt, st, sw, rejected_last)
+    c = m.rk45.ctl[0]
+    if accepted and c.stiff_event and _log(sw, st, t + h, RADAU, SWITCH_STIFF, c.hlamb):
+        st.switch_request = 1
     return accepted, hnew
 
 
 @generic_inline
-def dense(m, p, t0, h, x, z0, z1, out, st):
-    if m.mode[1] == RK45:
-        rk45.dense(m.rk45, p, t0, h, x, z0, z1, out, st)
-    else:
-        radau.dense(m.radau, p, t0, h, x, z0, z1, out, st)
+def attempt_radau(m, p, t, h, z, f0, znew, fnew, errv, mag, opt, st, sw, rejected_last):
+    accepted, hnew = radau.attempt(m.radau, p, t, h, z, f0, znew, fnew, errv, mag, opt, st, sw, rejected_last)
+    rho = m.radau.ctl[0].rho
+    if accepted and rho >= 0:
+        m.calm[0] = m.calm[0] + 1 if h * rho < NONSTIFF_HRHO else 0
+        if m.calm[0] >= NONSTIFF_STEPS and _log(sw, st, t + h, RK45, SWITCH_NONSTIFF, h * rho):
+            st.switch_request = 1
+            hnew = h
+    return accepted, hnew
+
+
+@generic_inline
+def dense_rk45(m, p, t0, h, x, z0, z1, out, st):
+    rk45.dense(m.rk45, p, t0, h, x, z0, z1, out, st)
+
+
+@generic_inline
+def dense_radau(m, p, t0, h, x, z0, z1, out, st):
+    radau.dense(m.radau, p, t0, h, x, z0, z1, out, st)
 
 
 @kernel
-def order(m):
-    return rk45.ORDER if m.mode[0] == RK45 else radau.ORDER
+def order_rk45(m):
+    return rk45.ORDER
 
 
-Auto.attempt = attempt
-Auto.dense = dense
-Auto.order = order
+@kernel
+def order_radau(m):
+    return radau.ORDER
+
+
+AutoRK45.attempt, AutoRK45.dense, AutoRK45.order = attempt_rk45, dense_rk45, order_rk45
+AutoRadau.attempt, AutoRadau.dense, AutoRadau.order = attempt_radau, dense_radau, order_radau

@@ -41,8 +41,9 @@ import numpy as np
 
 from ..._numba.boundary import interface_call
 
-OK, NONFINITE, BLOWUP, MAX_STEPS, STEP_TOO_SMALL = 0, 1, 2, 3, 4
-STATUS_NAMES = ("ok", "nonfinite", "blowup", "max_steps", "step_too_small")
+OK, NONFINITE, BLOWUP, MAX_STEPS, STEP_TOO_SMALL, SWITCHED = 0, 1, 2, 3, 4, 5
+#: SWITCHED is never a run's final status: ``auto`` resumes with its other method (:mod:`.auto`)
+STATUS_NAMES = ("ok", "nonfinite", "blowup", "max_steps", "step_too_small", "switched")
 
 RK45, RADAU = 0, 1  # what the auto switch logs in ``Switch.to``
 SWITCH_STIFF, SWITCH_NONSTIFF = 0, 1  # switch reasons
@@ -71,6 +72,8 @@ STATS = np.dtype([
     ("status", np.int64), ("steps", np.int64), ("rejected", np.int64), ("rhs_evals", np.int64),
     ("jacobian_evals", np.int64), ("lu_decompositions", np.int64), ("switches", np.int64),
     ("stiff_hits", np.int64),
+    ("samples", np.int64),  # output samples written: a resumed run (``auto``'s other method) goes on from here
+    ("switch_request", np.int64),  # set by an ``auto`` stepper: end the run after this step (status SWITCHED)
     ("t", np.float64),  # time reached
     ("h", np.float64),  # last step size
     ("local_error", np.float64),  # sum over accepted steps of the max-norm of the local error estimates
