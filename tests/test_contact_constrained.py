@@ -13,6 +13,7 @@ from robots import OUR_ROBOTS
 TAU = np.array([0.3, 0.0, 0.0])
 
 
+@pytest.mark.slow  # its own solver compilation (constrained problem with contact) and 2000 KKT solves: ~100 CPU s cold
 def test_four_bar_striking_the_ground():
     model = dynamics.load_urdf(os.path.join(OUR_ROBOTS, "four_bar.urdf"))
     q0 = dynamics.assemble(model, np.array([0.2, 0.5, 1.5]), fixed=["theta1"])
