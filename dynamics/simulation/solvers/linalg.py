@@ -5,6 +5,7 @@ the state check, Hairer's starting step, the finite-difference Jacobian and a sp
 """
 
 import numpy as np
+from numba import types
 from numba.extending import overload
 
 from ..._numba import GENERIC_OPTIONS, generic_inline, kernel
@@ -166,7 +167,15 @@ def problem_jacobian(p, t, z, f0, mag, ne, J, st):
 @overload(problem_jacobian, jit_options=GENERIC_OPTIONS)
 def _ov_problem_jacobian(p, t, z, f0, mag, ne, J, st):
     fn = getattr(getattr(p, "instance_class", None), "jacobian", None)
-    return getattr(fn, "py_func", fn) if fn is not None else fd_jacobian.py_func
+    if fn is None or _has_contact(p):  # the assembled Jacobian has no contact-force terms: difference it all
+        return fd_jacobian.py_func
+    return getattr(fn, "py_func", fn)
+
+
+def _has_contact(p):
+    """Whether the problem type's ``contact`` field (if any) holds a contact model rather than None."""
+    fields = dict(zip(getattr(p, "fields", ()), getattr(p, "types", ())))
+    return "contact" in fields and not isinstance(fields["contact"], types.NoneType)
 
 
 @kernel
