@@ -135,3 +135,12 @@ def _wait_healthy(server: Server, timeout: float = 120.0) -> None:
             pass
         time.sleep(0.2)
     raise AssertionError("no health answer")
+
+
+def test_the_wheel_lists_every_subpackage():
+    """A subpackage missing from pyproject's list imports from the source tree and fails only in the image."""
+    import tomllib
+    listed = set(tomllib.loads((REPO / "pyproject.toml").read_text())["tool"]["setuptools"]["packages"])
+    found = {".".join(p.parent.relative_to(REPO).parts) for top in ("dynamics", "service")
+             for p in (REPO / top).rglob("__init__.py")}
+    assert found - listed == set(), "add these to [tool.setuptools] packages"
