@@ -61,6 +61,7 @@ class SensitivityProblem(NamedTuple):
     tag = property(lambda self: self.inner.tag)
     chart = property(lambda self: self.inner.chart)
     ws_source = property(lambda self: self.inner.ws_source)
+    contact = property(lambda self: self.inner.contact)
     out_t = property(lambda self: self.inner.out_t)
     count = property(lambda self: self.inner.count)
 
