@@ -211,12 +211,31 @@ def _cylinder_plane(out, n, k, c, u, half, r, nn, h):
 
 @helper
 def _sphere_sphere(out, n, k, ca, ra, cb, rb):
+    return _balls(out, n, k, ca, ra, cb, rb, (0.0, 0.0, 1.0))
+
+
+@helper
+def _balls(out, n, k, ca, ra, cb, rb, fallback):
+    """Two balls; ``fallback``: the unit normal when their centres coincide (any direction is as good for two
+    spheres, not for two capsules whose axes meet: there it must be across the axes)."""
     d = sub(ca, cb)
     dist = np.sqrt(dot(d, d))
     if dist >= ra + rb:
         return n
-    nn = scale(1.0 / dist, d) if dist > 1e-300 else (0.0, 0.0, 1.0)  # coincident centres: any direction
+    nn = scale(1.0 / dist, d) if dist > 1e-12 * (ra + rb) else fallback
     return _emit(out, n, k, sub(ca, scale(ra, nn)), add(cb, scale(rb, nn)), nn, ra + rb - dist)
+
+
+@helper
+def _across(u1, u2):
+    """A unit vector perpendicular to both unit axes (their common normal), or to u1 alone when they are
+    parallel: the direction that separates two capsules whose axes meet."""
+    w = cross(u1, u2)
+    if dot(w, w) > 1e-12:
+        return scale(1.0 / np.sqrt(dot(w, w)), w)
+    a = (1.0, 0.0, 0.0) if abs(u1[0]) < 0.6 else (0.0, 1.0, 0.0)
+    w = sub(a, scale(dot(a, u1), u1))
+    return scale(1.0 / np.sqrt(dot(w, w)), w)
 
 
 @helper
@@ -252,10 +271,10 @@ def _capsule_capsule(out, n, k, c1, u1, h1, r1, c2, u2, h2, r2):
         if lo < hi:
             for s in (lo, hi):
                 x = add(c1, scale(s, u1))
-                n = _sphere_sphere(out, n, k, x, r1, _segment_point(c2, u2, h2, x), r2)
+                n = _balls(out, n, k, x, r1, _segment_point(c2, u2, h2, x), r2, _across(u1, u2))
             return n
     s, t = _segments(c1, u1, h1, c2, u2, h2)
-    return _sphere_sphere(out, n, k, add(c1, scale(s, u1)), r1, add(c2, scale(t, u2)), r2)
+    return _balls(out, n, k, add(c1, scale(s, u1)), r1, add(c2, scale(t, u2)), r2, _across(u1, u2))
 
 
 # -- boxes ---------------------------------------------------------------------------------------------
