@@ -104,10 +104,22 @@ def lock_joints(model: Model, values: dict) -> Model:
     info["massless_bodies"] = [s.name for s in specs if s.mass == 0.0]
     reduced = build_model(model.name, specs, floating_base=any(s.joint_type == "floating" for s in specs),
                           gravity=model.gravity, warnings=model.warnings, frames=frames, info=info)
+    if model.collision_geometry:
+        reduced = replace(reduced, collision_geometry=tuple(_moved(g, new_of) for g in model.collision_geometry))
     if not model.constraints:
         return reduced
     return _keep_constraints(model, reduced, {model.joint_names[i]: float(v[0]) for i, v in locked.items()
                                               if v.size == 1})
+
+
+def _moved(g, new_of):
+    """Collision primitive g on the body its body now belongs to (-1, the world pose, when welded to it)."""
+    if g.body < 0:
+        return g
+    body, T = new_of[g.body]
+    pose = T @ g.pose
+    pose.flags.writeable = False
+    return g._replace(body=body, pose=pose)
 
 
 def _keep_constraints(model, reduced, locked):

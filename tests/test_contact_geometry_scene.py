@@ -372,3 +372,25 @@ def test_urdf_floating_link_is_a_free_body():
     np.testing.assert_allclose(np.sort(np.linalg.norm(c.point[:, :2] - [0.3, 0], axis=1)), [np.sqrt(0.005)] * 4)
     with pytest.raises(InputError, match="q"):
         find_contacts(model, s, q[:3])
+
+
+def test_locked_joints_keep_the_collision_geometry():
+    """lock_joints moves each primitive onto the body its body was merged into (the world for a body welded to a
+    fixed base): every primitive keeps its world pose at the locked values."""
+    model = dynamics.load_urdf(erd("go1_description/urdf/go1.urdf"), collision=True, floating_base=False,
+                               strict_inertia=False)
+    held = {"FR_hip_joint": 0.2, "FR_thigh_joint": 0.7, "FR_calf_joint": -1.4, "RL_calf_joint": -1.1}
+    reduced = dynamics.lock_joints(model, held)
+    rng = np.random.default_rng(3)
+    q = model.neutral()
+    for name in model.joint_names:
+        q[model.q_slice(name)] = held.get(name, rng.uniform(-1, 1))
+    qr = np.array([q[model.q_slice(n)][0] for n in reduced.joint_names])
+    full, red = body_poses(model, q), body_poses(reduced, qr)
+    assert len(reduced.collision_geometry) == len(model.collision_geometry)
+    welded = 0
+    for g, h in zip(model.collision_geometry, reduced.collision_geometry):
+        assert (g.name, g.kind, g.size) == (h.name, h.kind, h.size) and not h.pose.flags.writeable
+        np.testing.assert_allclose(red[h.body] @ h.pose, full[g.body] @ g.pose, atol=1e-12)
+        welded += h.body < 0
+    assert welded >= 4  # the front-right leg's hip, thigh, calf and foot now belong to the world
