@@ -165,24 +165,25 @@ class Box:
 
 
 @dataclass(frozen=True, eq=False)
-class Capsule:
-    """A capsule: the points within ``radius`` of the segment of ``length`` along the local z axis of ``pose``
-    (4x4 in ``frame``, None = identity), centred at its origin (overall length ``length + 2 radius``)."""
+class _Axial:
+    """A solid of ``radius`` around the segment of ``length`` along the local z axis of ``pose`` (4x4 in
+    ``frame``, None = identity), centred at its origin: the fields and checks a capsule and a cylinder share."""
 
     frame: str
     radius: float
     length: float
     pose: np.ndarray = None
     name: str = None
+    kind = None
+    _flat_allowed = False  # may the length be 0 (a capsule of length 0 is a sphere; a cylinder must have one)
 
     def __post_init__(self):
-        object.__setattr__(self, "frame", _frame(self.frame, "Capsule"))
-        object.__setattr__(self, "radius", length(self.radius, "Capsule.radius"))
-        object.__setattr__(self, "length", length(self.length, "Capsule.length", positive=False))
-        object.__setattr__(self, "pose", frozen_pose(self.pose, "Capsule.pose"))
-        object.__setattr__(self, "name", _name(self.name, "Capsule"))
-
-    kind = "capsule"
+        what = type(self).__name__
+        object.__setattr__(self, "frame", _frame(self.frame, what))
+        object.__setattr__(self, "radius", length(self.radius, f"{what}.radius"))
+        object.__setattr__(self, "length", length(self.length, f"{what}.length", positive=not self._flat_allowed))
+        object.__setattr__(self, "pose", frozen_pose(self.pose, f"{what}.pose"))
+        object.__setattr__(self, "name", _name(self.name, what))
 
     @property
     def size(self):
@@ -190,28 +191,20 @@ class Capsule:
 
 
 @dataclass(frozen=True, eq=False)
-class Cylinder:
+class Capsule(_Axial):
+    """A capsule: the points within ``radius`` of the segment of ``length`` along the local z axis of ``pose``
+    (4x4 in ``frame``, None = identity), centred at its origin (overall length ``length + 2 radius``)."""
+
+    kind = "capsule"
+    _flat_allowed = True
+
+
+@dataclass(frozen=True, eq=False)
+class Cylinder(_Axial):
     """A solid cylinder of ``radius`` and ``length`` along the local z axis of ``pose`` (as URDF's), centred at
     its origin."""
 
-    frame: str
-    radius: float
-    length: float
-    pose: np.ndarray = None
-    name: str = None
-
-    def __post_init__(self):
-        object.__setattr__(self, "frame", _frame(self.frame, "Cylinder"))
-        object.__setattr__(self, "radius", length(self.radius, "Cylinder.radius"))
-        object.__setattr__(self, "length", length(self.length, "Cylinder.length"))
-        object.__setattr__(self, "pose", frozen_pose(self.pose, "Cylinder.pose"))
-        object.__setattr__(self, "name", _name(self.name, "Cylinder"))
-
     kind = "cylinder"
-
-    @property
-    def size(self):
-        return (self.radius, self.length, 0.0)
 
 
 @dataclass(frozen=True)
