@@ -36,7 +36,24 @@ def _no_emit(c, tree, j, q, v):
     return None
 
 
-@overload(contact_torques, jit_options=JIT_OPTIONS)
+def contact_touched(c):
+    """Whether any evaluation found a contact since the last call (which forgets them); False without contact."""
+    raise NotImplementedError("contact_touched: compiled code only")
+
+
+def _no_touch(c):
+    return False
+
+
+@overload(contact_touched, jit_options=JIT_OPTIONS)
+def _ov_contact_touched(c):
+    if isinstance(c, types.NoneType):
+        return _no_touch
+    from .resolve import _touched
+    return _touched
+
+
+@overload(contact_torques, jit_options=JIT_OPTIONS, inline="always")
 def _ov_contact_torques(c, tree, q, v, tau):
     if isinstance(c, types.NoneType):
         return _no_power
@@ -44,7 +61,7 @@ def _ov_contact_torques(c, tree, q, v, tau):
     return _power
 
 
-@overload(contact_track, jit_options=JIT_OPTIONS)
+@overload(contact_track, jit_options=JIT_OPTIONS, inline="always")
 def _ov_contact_track(c, tree, t, q, v):
     if isinstance(c, types.NoneType):
         return _no_track

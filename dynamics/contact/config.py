@@ -151,8 +151,10 @@ class Contact:
             raise InputError(f"materials: expected a dict {{geometry name: Material}}, got "
                              f"{type(self.materials).__name__}")
         put(self, "materials", {str(k): _material(f"materials[{k!r}]", m) for k, m in self.materials.items()})
-        for name in ("objects", "exclude"):
+        for name in ("objects", "exclude", "geometries", "pairs"):  # tuples: a Contact never changes once made
             x = getattr(self, name)
+            if x is None and name in ("geometries", "pairs"):
+                continue
             if isinstance(x, (str, bytes)) or not hasattr(x, "__iter__"):
                 raise InputError(f"{name}: expected a list, got {type(x).__name__}")
             put(self, name, tuple(x))

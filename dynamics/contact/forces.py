@@ -64,17 +64,21 @@ def contact_work(nb):
 def world_kinematics(tree, q, v, ws, with_v):
     """ws.d = the forward pass at (q, v) (with ``with_v`` the body-frame velocities too); ws.oR, ws.op = every
     body's world pose.  The narrow phase needs the poses only; the force law the velocities, when something
-    touches (:func:`dynamics.contact.resolve.evaluate`): a robot touching nothing pays one pose pass."""
+    touches (:func:`dynamics.contact.resolve.evaluate`): a robot touching nothing pays one pose pass.
+
+    The arrays are taken out of ``ws`` once, before the loop: taking a field of a tuple of arrays inside it
+    costs compiled code a reference count per array and body (measured: 4.8 us against 0.2 us on Go1)."""
+    d, oR, op = ws.d, ws.oR, ws.op
     for i in range(tree.parents.shape[0]):
-        R, p, w, vl, cw, cv = _forward_body(tree, i, q, v, ws.d, with_v)
+        R, p, w, vl, cw, cv = _forward_body(tree, i, q, v, d, with_v)
         par = tree.parents[i]
         if par < 0:
-            store33(ws.oR, i, R)
-            store3(ws.op, i, p)
+            store33(oR, i, R)
+            store3(op, i, p)
         else:
-            oRp = load33(ws.oR, par)
-            store33(ws.oR, i, matmul(oRp, R))
-            store3(ws.op, i, add(load3(ws.op, par), rot(oRp, p)))
+            oRp = load33(oR, par)
+            store33(oR, i, matmul(oRp, R))
+            store3(op, i, add(load3(op, par), rot(oRp, p)))
 
 
 @inline_kernel

@@ -16,10 +16,12 @@ detail       (K, 8)            per contact of the last evaluation: f_n, f_t (3),
 tau          (nv,)             scratch: a generalised force nobody reads (tracking, outputs)
 track        (3,)              largest penetration over the accepted steps (m), time in contact (s), last step's t
 out          (T, K, 15) or 0   contacts kept per sample (:data:`OUT_COLUMNS`); out_n (T,) int64 how many
+touched      (1,) int64        1 when an evaluation found a contact since :func:`_touched` last looked
 no_f_ext     (0, 6)            an empty f_ext: the simulation keeps only the generalised force
 ===========  ================  ==================================================================================
 """
 
+import weakref
 from typing import NamedTuple
 
 import numpy as np
@@ -52,6 +54,7 @@ class ContactModel(NamedTuple):
     track: np.ndarray
     out: np.ndarray
     out_n: np.ndarray
+    touched: np.ndarray
     no_f_ext: np.ndarray
 
 
@@ -69,10 +72,29 @@ def model_mass(model):
     return float(np.sum(model.tree.mass))
 
 
+#: the last few resolutions, by the identity of the contact and the model (both immutable) and the gravity: a
+#: loop of short simulate calls with one Contact resolves it once (the scene's checks cost a millisecond)
+_RECENT = {}
+_RECENT_SIZE = 8
+
+
 def resolve(contact, model, gravity=None):
     """A :class:`Resolved` for ``contact`` (a :class:`Contact`) on ``model``; materials combined per pair."""
     if not isinstance(contact, Contact):
         raise InputError(f"contact: expected dynamics.Contact(...) or None, got {type(contact).__name__}")
+    key = (id(contact), id(model), None if gravity is None else tuple(np.asarray(gravity, float).ravel()),
+           tuple(contact.materials.items()))
+    hit = _RECENT.get(key)
+    if hit is not None and hit[0]() is contact and hit[1]() is model:
+        return hit[2]
+    r = _resolve(contact, model, gravity)
+    if len(_RECENT) >= _RECENT_SIZE:
+        del _RECENT[next(iter(_RECENT))]
+    _RECENT[key] = (weakref.ref(contact), weakref.ref(model), r)
+    return r
+
+
+def _resolve(contact, model, gravity):
     scene = build_scene(model, contact.geometries, contact.world, self_collision=contact.self_collision,
                         exclude=contact.exclude, pairs=contact.pairs)
     names = list(scene.names)
@@ -92,6 +114,7 @@ def resolve(contact, model, gravity=None):
     for j, (a, b) in enumerate(zip(scene.pair_a, scene.pair_b)):
         pair_body[j] = scene.body[a], scene.body[b]
         mat[j] = combine(kd[a], kd[b], per_geom[a], per_geom[b])
+    pair_body.flags.writeable = mat.flags.writeable = False  # shared by every run that resolves this contact
     return Resolved(scene, pair_body, mat, contact)
 
 
@@ -103,20 +126,33 @@ def contact_model(r, model, T=0):
     T = T if "contacts" in r.contact.outputs else 0
     return ContactModel(r.scene.arrays, r.pair_body, r.mat, contact_buffer(r.scene), contact_work(nb),
                         np.zeros((K, NDETAIL)), np.zeros(nv), np.array([0.0, 0.0, 0.0]), np.zeros((T, K, NOUT)),
-                        np.zeros(T, np.int64), np.zeros((0, 6)))
+                        np.zeros(T, np.int64), np.zeros(1, np.int64), np.zeros((0, 6)))
+
+
+@inline_kernel
+def _found(c, tree, q, v):
+    """The number of contacts at q (the narrow phase's, into c.buf); the bodies' world poses into c.ws."""
+    world_kinematics(tree, q, v, c.ws, False)
+    return _collide(c.scene, c.ws.oR, c.ws.op, c.buf)
 
 
 @kernel
 def evaluate(c, tree, q, v, tau, f_ext):
     """tau += the generalised contact force at (q, v); f_ext (nb, 6) = the body wrenches (a (0, 6) f_ext: not
     kept).  Returns (contact power, number of contacts)."""
-    world_kinematics(tree, q, v, c.ws, False)
-    n = _collide(c.scene, c.ws.oR, c.ws.op, c.buf)
+    n = _found(c, tree, q, v)
     for i in range(f_ext.shape[0]):
         for r in range(6):
             f_ext[i, r] = 0.0
     if n == 0:  # touching nothing: no velocities, no forces
         return 0.0, 0
+    return _forces(c, tree, q, v, tau, f_ext, n), n
+
+
+@kernel
+def _forces(c, tree, q, v, tau, f_ext, n):
+    """:func:`evaluate` once the narrow phase found n > 0 contacts; returns the contact power."""
+    c.touched[0] = 1
     world_kinematics(tree, q, v, c.ws, True)
     b = c.buf
     power = apply_contacts(n, b.pair, b.point, b.normal, b.depth, c.pair_body, c.mat, c.ws, c.detail)
@@ -124,7 +160,7 @@ def evaluate(c, tree, q, v, tau, f_ext):
         for r in range(6):
             f_ext[i, r] = c.ws.fb[i, r]
     generalized_forces(tree, c.ws, tau)
-    return power, n
+    return power
 
 
 @kernel
@@ -135,19 +171,28 @@ def evaluate_kernel(c, tree, q, v, f_ext, tau):
 
 # ---------------------------------------------------------------------------------------------------------
 # the implementations of the simulation's calls (:mod:`.calls`) for a ContactModel
+# (inlined into the right-hand side: a call passing the whole ContactModel costs about a microsecond, as much as
+# the pose pass and the broad phase of a robot touching nothing)
 def _power(c, tree, q, v, tau):
-    return evaluate(c, tree, q, v, tau, c.no_f_ext)[0]
+    n = _found(c, tree, q, v)
+    return _forces(c, tree, q, v, tau, c.no_f_ext, n) if n > 0 else 0.0
 
 
 def _track(c, tree, t, q, v):
-    world_kinematics(tree, q, v, c.ws, False)
-    n = _collide(c.scene, c.ws.oR, c.ws.op, c.buf)
+    n = _found(c, tree, q, v)
     tr = c.track
     for k in range(n):
         tr[0] = max(tr[0], c.buf.depth[k])
     if n > 0:
         tr[1] += t - tr[2]
+        c.touched[0] = 1
     tr[2] = t
+
+
+def _touched(c):
+    touched = c.touched[0] > 0
+    c.touched[0] = 0
+    return touched
 
 
 def _emit(c, tree, j, q, v):

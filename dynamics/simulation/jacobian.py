@@ -17,6 +17,9 @@ regularised friction, limit springs) is written out
 (:func:`passive_derivatives`); the source's dtau_s by central differences of the source alone
 (:func:`source_derivatives`).  The W columns are zero (f does not depend on the quadratures).
 
+Contact forces have no assembled derivatives: after an evaluation that found a contact (since the last
+Jacobian), the whole right-hand side is differenced instead; a robot touching nothing keeps this Jacobian.
+
 A problem class carries this as its ``jacobian`` attribute (:func:`.solvers.linalg.problem_jacobian` reaches
 it, and falls back to differencing the whole right-hand side for a problem without one).
 """
@@ -28,7 +31,8 @@ from ..aba_derivatives import _aba_derivatives_into, _derivatives_workspace
 from ..configuration import _difference, _integrate_q, chart_rate_in, retract_in
 from ..control.dispatch import torque_eval
 from ..control.passive import passive_torques
-from .solvers.linalg import lu_factor, lu_solve
+from ..contact.calls import contact_touched
+from .solvers.linalg import fd_jacobian, lu_factor, lu_solve
 
 #: central-difference step (relative): ~ eps^(1/3), the error of the differences of a smooth function
 FD_STEP = 6e-6
@@ -166,7 +170,13 @@ def tangent_to_chart(tree, base, q, da_dq):
 
 @generic_kernel
 def robot_jacobian(p, t, z, f0, mag, ne, J, st):
-    """J = df/dz at (t, z) for a :class:`.problem.RobotProblem` (module docstring); f0 = f(t, z) is not needed."""
+    """J = df/dz at (t, z) for a :class:`.problem.RobotProblem` (module docstring); f0 = f(t, z) is needed only
+    when something touched since the last Jacobian (the derivatives of the contact forces are not assembled:
+    then the whole right-hand side is differenced)."""
+    if contact_touched(p.contact):
+        fd_jacobian(p, t, z, f0, mag, ne, J, st)
+        contact_touched(p.contact)  # forget the differences' own contacts
+        return
     nv = p.tau_s.shape[0]
     delta, v = z[:nv], z[nv:2 * nv]
     q = np.empty(p.base.shape[0])
@@ -208,5 +218,8 @@ def robot_jacobian(p, t, z, f0, mag, ne, J, st):
         J[2 * nv + 1, nv + k] = tau_p[k] + v[k] * dtp_dv[k]
     for r in range(n):
         for k in range(2 * nv, n):
+            J[r, k] = 0.0
+    for r in range(2 * nv + 2, n):  # the contact work's rate: zero while nothing touches
+        for k in range(2 * nv):
             J[r, k] = 0.0
     st.jacobian_evals += 1

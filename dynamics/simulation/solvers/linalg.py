@@ -5,7 +5,6 @@ the state check, Hairer's starting step, the finite-difference Jacobian and a sp
 """
 
 import numpy as np
-from numba import types
 from numba.extending import overload
 
 from ..._numba import GENERIC_OPTIONS, generic_inline, kernel
@@ -167,15 +166,9 @@ def problem_jacobian(p, t, z, f0, mag, ne, J, st):
 @overload(problem_jacobian, jit_options=GENERIC_OPTIONS)
 def _ov_problem_jacobian(p, t, z, f0, mag, ne, J, st):
     fn = getattr(getattr(p, "instance_class", None), "jacobian", None)
-    if fn is None or _has_contact(p):  # the assembled Jacobian has no contact-force terms: difference it all
+    if fn is None:
         return fd_jacobian.py_func
     return getattr(fn, "py_func", fn)
-
-
-def _has_contact(p):
-    """Whether the problem type's ``contact`` field (if any) holds a contact model rather than None."""
-    fields = dict(zip(getattr(p, "fields", ()), getattr(p, "types", ())))
-    return "contact" in fields and not isinstance(fields["contact"], types.NoneType)
 
 
 @kernel
