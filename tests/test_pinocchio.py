@@ -93,8 +93,12 @@ def pin_model(text, model, floating=False):
             P = P * turn[j]
         out.addJoint(parent, jm, P, name)
     for fr in list(pm.frames)[1:]:
-        placement = turn[fr.parentJoint].actInv(fr.placement) if fr.parentJoint in turn else fr.placement
-        out.addFrame(pin.Frame(fr.name, fr.parentJoint, fr.parentFrame, placement, fr.type), False)
+        # Pinocchio 3 names a frame's joint and frame parentJoint and parentFrame; 2.x (with numpy < 1.27, the
+        # oldest numba's CI stage) parent and previousFrame
+        joint = fr.parentJoint if hasattr(fr, "parentJoint") else fr.parent
+        previous = fr.parentFrame if hasattr(fr, "parentFrame") else fr.previousFrame
+        placement = turn[joint].actInv(fr.placement) if joint in turn else fr.placement
+        out.addFrame(pin.Frame(fr.name, joint, previous, placement, fr.type), False)
     for j in range(1, pm.njoints):
         out.inertias[j] = turn[j].actInv(pm.inertias[j]) if j in turn else pm.inertias[j]
     PIN_TURNS[id(out)] = (out, turn)
