@@ -18,6 +18,7 @@ import numpy as np
 
 from . import engines
 from .checks import check_model, real_number
+from .contact.outputs import stack as stack_contacts
 from .errors import InputError
 from .simulation import simulate
 
@@ -27,7 +28,9 @@ class Trajectories(NamedTuple):
     ``reports`` (B dicts as from simulate, plus "run").  A run that stopped early is NaN after its last good
     sample; ``counts`` (B,) says how many samples each run has.  ``lam`` (B, T, m): the constraint multipliers
     of a constrained model when ``outputs`` asked for "lambda", else None.  ``sensitivities`` (B, T, 2 nv, ncol)
-    when ``sensitivities`` asked for them (:func:`dynamics.simulate`), else None."""
+    when ``sensitivities`` asked for them (:func:`dynamics.simulate`), else None.  ``contacts``: the runs'
+    active contacts per sample, stacked (:mod:`dynamics.contact.outputs`), when the Contact's outputs ask for
+    "contacts", else None."""
 
     t: np.ndarray
     q: np.ndarray
@@ -37,6 +40,7 @@ class Trajectories(NamedTuple):
     counts: np.ndarray
     lam: object = None
     sensitivities: object = None
+    contacts: object = None
 
     @property
     def ok(self):
@@ -107,7 +111,8 @@ def _stack(model, results, B):
             if src is not None and src.shape[0] == n:
                 dst[k, :n] = src
         reports.append(r.report)
-    return Trajectories(t, q, v, tau, reports, counts, lam, sens)
+    contacts = stack_contacts([None if isinstance(r, _Failed) else r.contacts for r in results], T)
+    return Trajectories(t, q, v, tau, reports, counts, lam, sens, contacts)
 
 
 def simulate_many(model, q0, v0, duration, *, torque=None, engine="threads", progress=None, ray_address=None,

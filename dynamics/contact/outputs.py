@@ -17,6 +17,9 @@ depth         (T, K)        penetration (m) > 0
 slip          (T, K, 3)     tangential velocity of a relative to b at the point (m/s)
 pairs         list          (name of geometry a, name of geometry b) per candidate pair
 ============  ============  ==========================================================================
+
+``simulate_many`` stacks the runs' samples (:func:`stack`): every field but ``pairs`` gains a leading run axis
+(B, T, ...); a run's samples after its last (it stopped early, or raised) have count 0, pair -1 and NaN values.
 """
 
 from typing import NamedTuple
@@ -51,3 +54,21 @@ def contact_samples(resolved, cm, cnt):
     names = [(scene.names[a], scene.names[b]) for a, b in zip(scene.pair_a, scene.pair_b)]
     return ContactSamples(n, pair, out[:, :, 1:4].copy(), out[:, :, 4:7].copy(), out[:, :, 7].copy(),
                           out[:, :, 8:11].copy(), out[:, :, 11].copy(), out[:, :, 12:15].copy(), names)
+
+
+def stack(samples, T):
+    """One :class:`ContactSamples` for B runs' (``samples``: a ContactSamples or None per run, each of at most T
+    samples), or None when no run kept contacts."""
+    first = next((s for s in samples if s is not None), None)
+    if first is None:
+        return None
+    B, K = len(samples), first.pair.shape[1]
+    out = ContactSamples(np.zeros((B, T), np.int64), np.full((B, T, K), -1, np.int64),
+                         *(np.full((B, T, K) + f.shape[2:], np.nan) for f in first[2:8]), first.pairs)
+    for k, s in enumerate(samples):
+        if s is None:
+            continue
+        n = s.count.shape[0]
+        for dst, src in zip(out[:8], s[:8]):
+            dst[k, :n] = src
+    return out
