@@ -70,6 +70,13 @@ def test_first_compilation_is_announced_once(caplog):
                 time.sleep(0.5)  # stands for numba compiling (no signature appears meanwhile)
     messages = [r.getMessage() for r in caplog.records]
     assert len(messages) == 1 and "first run" in messages[0] and "cached afterwards" in messages[0]
+    caplog.clear()
+    with caplog.at_level(logging.WARNING, logger="dynamics.simulation"):  # a kind with contact says it takes longer
+        with runmod._announcing(twice, ("test", False), "rk4", after=0.01):
+            time.sleep(0.5)
+    assert caplog.records[0].getMessage().endswith(f"'rk4' with contact (first run, about "
+                                                   f"{runmod.COMPILE_SECONDS['rk4'] + runmod.CONTACT_COMPILE_SECONDS}"
+                                                   " s; cached afterwards)")
 
 
 def test_progress_callback_and_switches(arm, capsys):

@@ -65,6 +65,9 @@ ENTRY = {"euler": _euler, "rk4": _rk4, "rk45": _rk45, "dop853": _dop853, "radau"
 #: less the library's, on a loaded 2-core machine: rk4 ~13, auto ~24)
 COMPILE_SECONDS = {"euler": 15, "rk4": 15, "rk45": 20, "dop853": 25, "radau": 25, "auto (rk45)": 20,
                    "auto (radau)": 25}
+#: what contact adds to a first compilation (the narrow phase and the force law in the right-hand side; the ball's
+#: first auto run: 84 CPU s against ~20 without contact)
+CONTACT_COMPILE_SECONDS = 60
 #: a first call that has not returned after this many seconds is compiling (numba's cache loads in less)
 ANNOUNCE_AFTER = 1.5
 _SEEN = set()  # the (method, problem kind) pairs run in this process: their entry points are compiled
@@ -99,8 +102,10 @@ class _announcing:
 
     def _still_compiling(self):
         if len(self.dispatcher.signatures) == self.compiled:
-            log.warning("compiling the simulation kernels for %r (first run, about %d s; cached afterwards)",
-                        self.name, COMPILE_SECONDS.get(self.name, 20))
+            contact = not self.key[-1]  # (the kind's last item: the problem has no contact)
+            seconds = COMPILE_SECONDS.get(self.name, 20) + (CONTACT_COMPILE_SECONDS if contact else 0)
+            log.warning("compiling the simulation kernels for %r%s (first run, about %d s; cached afterwards)",
+                        self.name, " with contact" if contact else "", seconds)
 
     def __exit__(self, *exc):
         if self.timer is not None:
