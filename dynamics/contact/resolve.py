@@ -21,6 +21,7 @@ no_f_ext     (0, 6)            an empty f_ext: the simulation keeps only the gen
 ===========  ================  ==================================================================================
 """
 
+import threading
 import weakref
 from typing import NamedTuple
 
@@ -76,6 +77,7 @@ def model_mass(model):
 #: loop of short simulate calls with one Contact resolves it once (the scene's checks cost a millisecond)
 _RECENT = {}
 _RECENT_SIZE = 8
+_RECENT_LOCK = threading.Lock()  # (simulate_many's threads resolve at once)
 
 
 def resolve(contact, model, gravity=None):
@@ -84,13 +86,15 @@ def resolve(contact, model, gravity=None):
         raise InputError(f"contact: expected dynamics.Contact(...) or None, got {type(contact).__name__}")
     key = (id(contact), id(model), None if gravity is None else tuple(np.asarray(gravity, float).ravel()),
            tuple(contact.materials.items()))
-    hit = _RECENT.get(key)
+    with _RECENT_LOCK:
+        hit = _RECENT.get(key)
     if hit is not None and hit[0]() is contact and hit[1]() is model:
         return hit[2]
     r = _resolve(contact, model, gravity)
-    if len(_RECENT) >= _RECENT_SIZE:
-        del _RECENT[next(iter(_RECENT))]
-    _RECENT[key] = (weakref.ref(contact), weakref.ref(model), r)
+    with _RECENT_LOCK:
+        while len(_RECENT) >= _RECENT_SIZE:
+            del _RECENT[next(iter(_RECENT))]
+        _RECENT[key] = (weakref.ref(contact), weakref.ref(model), r)
     return r
 
 
