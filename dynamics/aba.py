@@ -106,7 +106,7 @@ def _aba_terms(tree, q, v, tau, gravity, f_ext, ws, qdd, with_v):
     return -1
 
 
-@inline_kernel
+@kernel
 def _rigid_body_terms(tree, q, v, f_ext, ws, with_v):
     """Pass 1: the forward pass (X_i, v_i, c_i), and I^A_i = I_i, p^A_i = v_i x* I_i v_i - f_ext_i."""
     mass, hs, Ios, d = tree.mass, tree.h, tree.Io, ws.d
@@ -126,7 +126,7 @@ def _rigid_body_terms(tree, q, v, f_ext, ws, with_v):
         _set6(ws.pA, i, bn, bf)
 
 
-@inline_kernel
+@kernel
 def _articulated_inertias(tree, tau, ws):
     """Pass 2, from the leaves in: U, D^-1, u per joint, and I^A_p += X^T I^a X, p^A_p += X^T p^a with
     I^a = I^A - U D^-1 U^T and p^a = p^A + I^a c + U D^-1 u.  Returns -1, or a body whose D is singular."""
@@ -177,7 +177,7 @@ def _articulated_inertias(tree, tau, ws):
     return -1
 
 
-@inline_kernel
+@kernel
 def _accelerations(tree, gravity, ws, qdd):
     """Pass 3, from the root out: a'_i = X_i a_p + c_i (a_0 = (0, -g)), qdd_i = D_i^-1 (u_i - U_i^T a'_i),
     a_i = a'_i + S_i qdd_i."""
