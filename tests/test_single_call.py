@@ -283,3 +283,25 @@ def test_constrained_entry_refuses_what_it_does_not_take():
                  (P, C, q, v, tau.astype(np.float32), a, lam), (P, C, q[None], v, tau, a, lam),
                  (P, C, q, v, tau, np.empty(2 * nv)[::2], lam), (P, C, "q", v, tau, a, lam)]:
         assert refuses(call, *args)
+
+
+def test_a_first_call_with_wrong_arguments_compiles_nothing():
+    """The first call of a single-state kernel with arguments its signature refuses (a string, a list, float32,
+    int) answers the general path's error before any compilation: the kernel stays uncompiled, and a later call
+    with good arrays compiles it and gives the batch's result."""
+    from dynamics._numba import SingleCall
+    from dynamics.aba import _aba_one
+
+    call = SingleCall(_aba_one, *([dynamics._numba.VECTOR] * 4))
+    arm = dynamics.load_urdf(chain_urdf(2))
+    good = [np.zeros(2), np.zeros(2), np.array([0.3, -0.2]), np.empty(2)]
+    for bad in ("x", [0.0, 0.0], np.zeros(2, np.float32), np.zeros(2, np.int64), np.zeros((1, 2))):
+        with pytest.raises(TypeError):
+            call.call(arm.packed, bad, *good[1:])
+        assert call.dispatcher is None
+    with pytest.raises(TypeError):
+        call.call(arm.packed, *good[:3])  # one argument short
+    assert call.dispatcher is None
+    assert call.call(arm.packed, *good) == dynamics._numba.DONE
+    assert call.dispatcher is not None
+    assert np.array_equal(good[3], dynamics.forward_dynamics(arm, good[0][None], good[1][None], good[2][None])[0])

@@ -208,7 +208,19 @@ class SingleCall:
         self.dispatcher = None
 
     def call(self, *args):
+        self._refuse_before_compiling(args)
         self.dispatcher = njit(self.signature, **JIT_OPTIONS)(self.function)
         self.call = self.dispatcher
         return self.dispatcher(*args)
+
+    def _refuse_before_compiling(self, args):
+        """The first call: arguments the compiled dispatcher would refuse (not an exact ndarray of the
+        signature's dtype and rank where it takes an array) raise its ``TypeError`` now, before the compilation:
+        a first call with a list or a string takes the general path at once, not after seconds of compiling."""
+        if len(args) != len(self.signature.args):
+            raise TypeError(f"expected {len(self.signature.args)} arguments, got {len(args)}")
+        for x, ty in zip(args, self.signature.args):
+            if isinstance(ty, types.Array) and not (type(x) is np.ndarray and x.ndim == ty.ndim
+                                                    and x.dtype == np.dtype(str(ty.dtype))):
+                raise TypeError(f"not an exact {ty} array: {type(x).__name__}")
 
