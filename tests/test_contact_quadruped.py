@@ -76,3 +76,20 @@ def test_simulate_many_with_contact(go1, standing):
     det = dynamics.contact_forces(model, contact, runs.q[1, -1], runs.v[1, -1], details=True)[1]
     assert det.normal_force.sum() == pytest.approx(mass * G, rel=1e-3)
     assert runs.reports[1]["contact"]["max_penetration"] > runs.reports[0]["contact"]["max_penetration"]
+
+
+@pytest.mark.parametrize("rtol", [1e-2, 1e-3])
+def test_auto_switches_at_touchdown_at_loose_tolerances(go1, standing, rtol):
+    """At loose tolerances DOPRI5's stiffness estimate stays under its threshold on a standing robot (the stiff
+    direction, the regularised friction, is a small part of the state's norm), and rk45 used to crawl at its
+    stability limit: over 40,000 steps for 0.3 s at rtol 1e-3, and no switch at all at 1e-2.  ``auto`` now
+    switches to radau at the first accepted state that touches, says why, and stands like the tight run."""
+    model, q0, mass, contact, pd = go1
+    traj = dynamics.simulate(model, q0, np.zeros(model.nv), 1.0, torque=pd, contact=contact, rtol=rtol,
+                             error_estimate="none")
+    r = traj.report
+    assert r["status"] == "ok"
+    assert r["switches"][0]["to"] == "radau" and "contact" in r["switches"][0]["reason"]
+    assert r["switches"][0]["t"] == 0.0  # it starts standing
+    assert r["steps"] < 500
+    assert np.abs(traj.q[-1] - standing.q[-1]).max() < 1e-3

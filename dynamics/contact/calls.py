@@ -41,6 +41,12 @@ def contact_touched(c):
     raise NotImplementedError("contact_touched: compiled code only")
 
 
+def contact_touchdown(c):
+    """True once per episode of contact: at the first call that finds the last accepted state touching since
+    it last touched nothing (``auto``'s switch to radau); False without contact."""
+    raise NotImplementedError("contact_touchdown: compiled code only")
+
+
 def _no_touch(c):
     return False
 
@@ -75,3 +81,11 @@ def _ov_contact_emit(c, tree, j, q, v):
         return _no_emit
     from .resolve import _emit
     return _emit
+
+
+@overload(contact_touchdown, jit_options=JIT_OPTIONS)
+def _ov_contact_touchdown(c):
+    if isinstance(c, types.NoneType):
+        return _no_touch
+    from .resolve import _touchdown
+    return _touchdown

@@ -16,7 +16,9 @@ detail       (K, 8)            per contact of the last evaluation: f_n, f_t (3),
 tau          (nv,)             scratch: a generalised force nobody reads (tracking, outputs)
 track        (3,)              largest penetration over the accepted steps (m), time in contact (s), last step's t
 out          (T, K, 15) or 0   contacts kept per sample (:data:`OUT_COLUMNS`); out_n (T,) int64 how many
-touched      (1,) int64        1 when an evaluation found a contact since :func:`_touched` last looked
+touched      (3,) int64        [0] 1 when an evaluation found a contact since :func:`_touched` last looked (the
+                               Jacobian's); [1] 1 while the last accepted state touches; [2] 1 once
+                               :func:`_touchdown` reported the present episode of contact (``auto``'s)
 no_f_ext     (0, 6)            an empty f_ext: the simulation keeps only the generalised force
 ===========  ================  ==================================================================================
 """
@@ -130,7 +132,7 @@ def contact_model(r, model, T=0):
     T = T if "contacts" in r.contact.outputs else 0
     return ContactModel(r.scene.arrays, r.pair_body, r.mat, contact_buffer(r.scene), contact_work(nb),
                         np.zeros((K, NDETAIL)), np.zeros(nv), np.array([0.0, 0.0, 0.0]), np.zeros((T, K, NOUT)),
-                        np.zeros(T, np.int64), np.zeros(1, np.int64), np.zeros((0, 6)))
+                        np.zeros(T, np.int64), np.zeros(3, np.int64), np.zeros((0, 6)))
 
 
 @inline_kernel
@@ -190,6 +192,7 @@ def _track(c, tree, t, q, v):
     if n > 0:
         tr[1] += t - tr[2]
         c.touched[0] = 1
+    c.touched[1] = 1 if n > 0 else 0
     tr[2] = t
 
 
@@ -197,6 +200,16 @@ def _touched(c):
     touched = c.touched[0] > 0
     c.touched[0] = 0
     return touched
+
+
+def _touchdown(c):
+    if c.touched[1] == 0:  # the accepted state touches nothing: the next contact is a new episode
+        c.touched[2] = 0
+        return False
+    if c.touched[2] == 1:
+        return False
+    c.touched[2] = 1
+    return True
 
 
 def _emit(c, tree, j, q, v):

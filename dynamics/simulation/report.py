@@ -56,7 +56,7 @@ import numpy as np
 from ..configuration import _difference
 from ..energy import _energy_batch
 from ..errors import InputError
-from .solvers import OK, RADAU, STATUS_NAMES, SWITCH_STIFF
+from .solvers import OK, RADAU, STATUS_NAMES, SWITCH_CONTACT, SWITCH_STIFF
 
 WHY = {"nonfinite": "a NaN/inf appeared in the state or its derivative",
        "blowup": "a joint velocity exceeded {blowup:.3g}",
@@ -90,6 +90,8 @@ def switches(log):
         to = "radau" if rec["to"] == RADAU else "rk45"
         if rec["reason"] == SWITCH_STIFF:
             reason = f"stiffness detected: h*|lambda| = {rec['value']:.3g} > 3.25 on 15 accepted rk45 steps"
+        elif rec["reason"] == SWITCH_CONTACT:
+            reason = "contact: the state touches something (compliant contact and regularised friction are stiff)"
         else:
             reason = f"no longer stiff: h*rho(J) = {rec['value']:.3g} < 2 on 20 accepted radau steps"
         out.append({"t": float(rec["t"]), "from": "radau" if to == "rk45" else "rk45", "to": to, "reason": reason})

@@ -23,8 +23,8 @@ from ..._numba import generic_inline
 from . import auto, dop853, euler, radau, rk4, rk45
 from .adaptive import solve_adaptive
 from .fixed import solve_fixed
-from .interface import (MAX_SWITCHES, NONFINITE, OK, RADAU, RK45, STATS, STATUS_NAMES, SWITCH, SWITCH_NONSTIFF,
-                        SWITCH_STIFF, SWITCHED, Options, new_stats, new_switch_log)
+from .interface import (MAX_SWITCHES, NONFINITE, OK, RADAU, RK45, STATS, STATUS_NAMES, SWITCH, SWITCH_CONTACT,
+                        SWITCH_NONSTIFF, SWITCH_STIFF, SWITCHED, Options, new_stats, new_switch_log)
 
 FIXED = ("euler", "rk4")
 ADAPTIVE = ("rk45", "dop853", "radau", "auto")

@@ -1,6 +1,8 @@
 """``auto``: rk45 while the problem is not stiff, radau while it is, the way LSODA alternates between Adams
-and BDF.  It starts with rk45; when DOPRI5's stiffness test fires (h*|lambda| > 3.25 on 15 accepted steps) it
-switches to radau; while on radau it estimates the spectral radius rho of each Jacobian (power iteration) and
+and BDF.  It starts with rk45; when DOPRI5's stiffness test fires (h*|lambda| > 3.25 on 15 accepted steps), or
+when an accepted state touches something after touching nothing (compliant contact is stiff: its regularised
+friction has |lambda| ~ mu f_n / (v_s m), 1e6 1/s on a standing quadruped, where DOPRI5's estimate, made in the
+norm of the whole state, stays under its threshold and rk45 crawls at its stability limit), it switches to radau; while on radau it estimates the spectral radius rho of each Jacobian (power iteration) and
 switches back when h*rho < 2 (the explicit method would be stable at the same step) on 20 accepted steps in a
 row.  Every switch is logged (time, method switched to, reason, the measured value).
 
@@ -18,7 +20,8 @@ import numpy as np
 
 from ..._numba import generic_inline, kernel
 from . import radau, rk45
-from .interface import MAX_SWITCHES, RADAU, RK45, SWITCH_NONSTIFF, SWITCH_STIFF
+from ...contact.calls import contact_touchdown
+from .interface import MAX_SWITCHES, RADAU, RK45, SWITCH_CONTACT, SWITCH_NONSTIFF, SWITCH_STIFF
 
 NONSTIFF_HRHO, NONSTIFF_STEPS = 2.0, 20
 
@@ -63,8 +66,12 @@ def _log(sw, st, t, to, reason, value):
 def attempt_rk45(m, p, t, h, z, f0, znew, fnew, errv, mag, opt, st, sw, rejected_last):
     accepted, hnew = rk45.attempt(m.rk45, p, t, h, z, f0, znew, fnew, errv, mag, opt, st, sw, rejected_last)
     c = m.rk45.ctl[0]
-    if accepted and c.stiff_event and _log(sw, st, t + h, RADAU, SWITCH_STIFF, c.hlamb):
-        st.switch_request = 1
+    if accepted:
+        if c.stiff_event:
+            if _log(sw, st, t + h, RADAU, SWITCH_STIFF, c.hlamb):
+                st.switch_request = 1
+        elif contact_touchdown(p.contact) and _log(sw, st, t, RADAU, SWITCH_CONTACT, t):
+            st.switch_request = 1
     return accepted, hnew
 
 

@@ -46,7 +46,7 @@ OK, NONFINITE, BLOWUP, MAX_STEPS, STEP_TOO_SMALL, SWITCHED = 0, 1, 2, 3, 4, 5
 STATUS_NAMES = ("ok", "nonfinite", "blowup", "max_steps", "step_too_small", "switched")
 
 RK45, RADAU = 0, 1  # what the auto switch logs in ``Switch.to``
-SWITCH_STIFF, SWITCH_NONSTIFF = 0, 1  # switch reasons
+SWITCH_STIFF, SWITCH_NONSTIFF, SWITCH_CONTACT = 0, 1, 2  # switch reasons
 MAX_SWITCHES = 64
 
 
