@@ -30,6 +30,7 @@ from typing import NamedTuple
 import numpy as np
 
 from .._numba import inline_kernel, kernel
+from .._numba.boundary import borrow
 from ..errors import InputError
 from .config import Contact, combine
 from .forces import (D_FN, D_FT, D_SLIP, NDETAIL, NMAT, apply_contacts, contact_work, generalized_forces,
@@ -171,8 +172,9 @@ def _forces(c, tree, q, v, tau, f_ext, n):
 
 @kernel
 def evaluate_kernel(c, tree, q, v, f_ext, tau):
-    """:func:`evaluate` from Python."""
-    return evaluate(c, tree, q, v, tau, f_ext)
+    """:func:`evaluate` from Python, its arguments borrowed as a simulation's are (the model's read-only arrays
+    would otherwise type, and compile, the narrow phase and the forces a second time)."""
+    return evaluate(borrow(c), borrow(tree), borrow(q), borrow(v), borrow(tau), borrow(f_ext))
 
 
 # ---------------------------------------------------------------------------------------------------------
