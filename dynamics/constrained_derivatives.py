@@ -1,0 +1,360 @@
+"""Analytical derivatives of constrained forward dynamics (Pinocchio's ``computeConstraintDynamicsDerivatives``,
+extended to every constraint of :mod:`dynamics.constraints`: point, weld, hinge and joint coupling).
+
+At the solution (a, lambda) of :func:`dynamics.constrained_forward_dynamics` the KKT conditions hold:
+
+    r1 = ID(q, v, a) - J(q)^T lambda - tau = 0,
+    r2 = J a + gamma + 2 alpha J v + beta^2 phi = 0      (Baumgarte's gains alpha, beta; 0, 0 for none).
+
+Differentiating along x = q (tangent space), v, tau with (a, lambda) held in the partials:
+
+    [M  -J^T] [da  ]     [dr1/dx]          dr1/dq = dID/dq - d(J^T lambda)/dq,  dr1/dv = dID/dv,  dr1/dtau = -1
+    [J    0 ] [dlam] = - [dr2/dx],         dr2/dq, dr2/dv: the rows' derivatives at fixed a
+
+solved like the dynamics (K = J M^-1 J^T): dlam = K^+ (Z - J M^-1 X), da = M^-1 (X + J^T dlam) with X = -dr1/dx,
+Z = -dr2/dx, so that da/dtau = M^-1 - M^-1 J^T K^-1 J M^-1 and dlam/dtau = -K^-1 J M^-1.  dID/dq and dID/dv are
+the RNEA derivatives (:mod:`dynamics.rnea_derivatives`) at the constrained a.
+
+The constraint partials are taken in the world frame, on the RNEA derivatives' forward pass (per coordinate j:
+J_j, dV_j, dAq_j, dAv_j, :mod:`dynamics.kinematics_derivatives`): a body b's spatial velocity and acceleration
+change by dV_j + J_j x ov_b and dAq_j + dV_j x ov_b + J_j x oa_b along q_j, by J_j and dAv_j + J_j x ov_b along
+v_j (j on b's support), and a point x on b moves by dx = J_j^v + J_j^w x x.  Hence, with vel = ov^v + ov^w x x
+and the classical acceleration acc = oa^v + oa^w x x + ov^w x vel of an anchor:
+
+    d vel = dov^v + dov^w x x + ov^w x dx,    d acc = doa^v + doa^w x x + oa^w x dx + dov^w x vel + ov^w x d vel
+
+* point rows (J a + gamma = acc_A - acc_B, J v = vel_A - vel_B, phi = x_A - x_B): the differences of these;
+* weld rows: alpha_A - alpha_B and w_A - w_B, and phi = log(R_A R_B^T), whose derivative is Jl^-1(phi)
+  (dth_A - R_A R_B^T dth_B) (Jl the left Jacobian of SO(3)), exact off the manifold too;
+* hinge rows t . (alpha_A - alpha_B) + (w_A x t) . (w_A - w_B), t . (w_A - w_B), t . (u_B x u_A), with t and
+  u_A turning with body a (dt = J_j^w x t) and u_B with body b;
+* coupling rows: linear in q and v (beta^2 and 2 alpha times the row).
+
+The generalised force J^T lambda is the sum over anchors of J_b^T F with F the world spatial force at the origin
+(n = x x f + torque, f): f = +-lambda_lin (body a, body b), the weld torque +-lambda_ang, the hinge torque
++-(lambda_4 t_1 + lambda_5 t_2).  Its q derivative at fixed lambda: for k on the support of b,
+
+    d(J_k . F)/dq_j = J_k . dF/dq_j + [j on the support of k's body] F . (J_j x J_k),
+
+dF/dq_j = (dx_j x f, 0) for j on b's support, plus (J_j^w x n_hinge, 0) for j on body a's support (t turns with
+body a), J_j x J_k being how moving q_j turns the axis J_k (the tangent-space convention of the RNEA derivatives).
+
+**Redundant rows** (K singular, lambda the minimum-norm multiplier): dlam is the minimum-norm solution of the
+differentiated KKT system (K^+ on the right-hand side, as the dynamics).  That is the derivative of the
+minimum-norm lambda wherever the rows stay dependent along fixed combinations (a closure declared twice, a
+planar loop's out-of-plane rows, which stay zero); where the dependency itself turns with q, the derivative of
+K^+ adds a term along the null space of J^T, N (dJ/dq) J^+ lambda, which is left out.  da is unique in every
+case.
+
+Cost per state: the constrained dynamics, the RNEA derivatives, O(m nv^2) for the constraint partials and
+3 nv solves with the factors of M and K.  A batch runs one compiled kernel per chunk of states.
+"""
+
+import numpy as np
+
+from . import checks, rnea_derivatives
+from ._numba import keep_alive, inline_kernel, kernel
+from .constrained_dynamics import (CHOLESKY_RTOL, RANK_RTOL, _cholesky, _constrained_accel_kernel, _lower_solve,
+                                   _ltl_solve, _ltl_solve_t, _pinv_solve, _upper_solve, baumgarte_gains)
+from .constrained_dynamics import _workspace as kkt_workspace
+from .constraints import _anchor_pose, _col, arrays
+from .errors import InputError
+from .minverse import Checked, run_checked
+from .spatial import add, cross, cross_motion, dot, get6, matmul, rot, scale, transpose, _rotation_log
+
+ZERO3 = (0.0, 0.0, 0.0)
+
+
+@kernel
+def _ancestry(tree):
+    """anc (nb, nb): anc[i, j] is True where body j is i or an ancestor of i; owner (nv,): each coordinate's body."""
+    parents, v_idx, nv_j = tree.parents, tree.v_idx, tree.nv_j
+    nb, nv = parents.shape[0], tree.S.shape[0]
+    anc = np.zeros((nb, nb), np.bool_)
+    owner = np.empty(nv, np.int64)
+    for i in range(nb):
+        if parents[i] >= 0:
+            for j in range(nb):
+                anc[i, j] = anc[parents[i], j]
+        anc[i, i] = True
+        for k in range(v_idx[i], v_idx[i] + nv_j[i]):
+            owner[k] = i
+    return anc, owner
+
+
+@inline_kernel
+def _sub(a, b):
+    return (a[0] - b[0], a[1] - b[1], a[2] - b[2])
+
+
+@inline_kernel
+def _point_partials(rws, b, x, j, inside):
+    """Along coordinate j (on body b's support when ``inside``, else all zero) for the point x fixed on b:
+    (dx/dq, dvel/dq, dacc/dq, dacc/dv, dw/dq, dalpha/dq, dalpha/dv, dw/dv) (module docstring), world axes."""
+    if not inside:
+        return ZERO3, ZERO3, ZERO3, ZERO3, ZERO3, ZERO3, ZERO3, ZERO3
+    Jw, Jv = get6(rws.J, j)
+    Vw, Vv = get6(rws.dV, j)
+    ow, ol = get6(rws.ov, b)
+    aw, al = get6(rws.oa, b)  # oa carries gravity (0, -g): a uniform field, which leaves every derivative alike
+    cw, cv = cross_motion(Jw, Jv, ow, ol)
+    dvw, dvl = add(Vw, cw), add(Vv, cv)  # d ov_b / dq_j
+    Qw, Qv = get6(rws.dAq, j)
+    c1w, c1v = cross_motion(Vw, Vv, ow, ol)
+    c2w, c2v = cross_motion(Jw, Jv, aw, al)
+    daw, dal = add(Qw, add(c1w, c2w)), add(Qv, add(c1v, c2v))  # d oa_b / dq_j
+    Aw, Av = get6(rws.dAv, j)
+    ew, ev = add(Aw, cw), add(Av, cv)  # d oa_b / dv_j
+    vel = add(ol, cross(ow, x))
+    dx = add(Jv, cross(Jw, x))
+    dvel = add(add(dvl, cross(dvw, x)), cross(ow, dx))
+    dacc = add(add(add(dal, cross(daw, x)), cross(aw, dx)), add(cross(dvw, vel), cross(ow, dvel)))
+    dacc_v = add(add(ev, cross(ew, x)), add(cross(Jw, vel), cross(ow, dx)))
+    return dx, dvel, dacc, dacc_v, dvw, daw, ew, Jw
+
+
+@inline_kernel
+def _jl_inverse(e, y):
+    """Jl(e)^-1 y, Jl the left Jacobian of SO(3): y - e x y / 2 + c e x (e x y), c = 1/th^2 - (1 + cos th) /
+    (2 th sin th) (-> 1/12 as th -> 0)."""
+    th = np.sqrt(dot(e, e))
+    c = 1.0 / 12.0 + th * th / 720.0 if th < 1e-4 else 1.0 / (th * th) - (1.0 + np.cos(th)) / (2.0 * th * np.sin(th))
+    ey = cross(e, y)
+    return add(add(y, scale(-0.5, ey)), scale(c, cross(e, ey)))
+
+
+@inline_kernel
+def _angular_rows(kind, r, j, Ra, Rb, wA, wB, alA, alB, pa, pb, alpha, beta, G, H):
+    """Column j of the weld's or hinge's angular rows (r + 3 on) of dr2/dq into G and dr2/dv into H."""
+    dwq, dalq, dalv = _sub(pa[4], pb[4]), _sub(pa[5], pb[5]), _sub(pa[6], pb[6])
+    dA, dB = pa[7], pb[7]  # J_j^w on each side's support, else zero
+    ddw_v = _sub(dA, dB)
+    if kind == 1:
+        R = matmul(Ra, transpose(Rb))
+        dphi = _jl_inverse(_rotation_log(R), _sub(dA, rot(R, dB)))
+        for t in range(3):
+            G[r + 3 + t, j] += dalq[t] + 2.0 * alpha * dwq[t] + beta * beta * dphi[t]
+            H[r + 3 + t, j] += dalv[t] + 2.0 * alpha * ddw_v[t]
+        return
+    uA, uB = _col(Ra, 2), _col(Rb, 2)
+    n, dn = cross(uB, uA), add(cross(cross(dB, uB), uA), cross(uB, cross(dA, uA)))
+    dw, dal = _sub(wA, wB), _sub(alA, alB)
+    for s in range(2):
+        tk = _col(Ra, s)
+        dt = cross(dA, tk)
+        wt = cross(wA, tk)
+        G[r + 3 + s, j] += (dot(dt, dal) + dot(tk, dalq) + dot(add(cross(pa[4], tk), cross(wA, dt)), dw)
+                            + dot(wt, dwq) + 2.0 * alpha * (dot(dt, dw) + dot(tk, dwq))
+                            + beta * beta * (dot(dt, n) + dot(tk, dn)))
+        H[r + 3 + s, j] += dot(tk, dalv) + dot(cross(dA, tk), dw) + dot(wt, ddw_v) + 2.0 * alpha * dot(tk, ddw_v)
+
+
+@inline_kernel
+def _body_w(X, b):
+    """The angular part of row b of X (nb, 6), zero for the world (b = -1)."""
+    if b < 0:
+        return ZERO3
+    return get6(X, b)[0]
+
+
+@kernel
+def _row_partials(tree, C, rws, anc, owner, alpha, beta, G, H):
+    """G = dr2/dq and H = dr2/dv (m, nv) at fixed a, from the RNEA derivatives' forward pass ``rws`` at (q, v, a)
+    (module docstring)."""
+    nv = G.shape[1]
+    G[:, :] = 0.0
+    H[:, :] = 0.0
+    for c in range(C.kind.shape[0]):
+        kind, r = C.kind[c], C.row[c]
+        if kind == 3:  # coupling: q_f - k q_l - offset, linear
+            vf, vl, k = C.idx[c, 1], C.idx[c, 3], C.coef[c, 0]
+            G[r, vf] += beta * beta
+            G[r, vl] -= beta * beta * k
+            H[r, vf] += 2.0 * alpha
+            H[r, vl] -= 2.0 * alpha * k
+            continue
+        ba, bb = C.body[c, 0], C.body[c, 1]
+        Ra, xa = _anchor_pose(C, c, 0, rws.oR, rws.op)
+        Rb, xb = _anchor_pose(C, c, 1, rws.oR, rws.op)
+        wA, wB, alA, alB = _body_w(rws.ov, ba), _body_w(rws.ov, bb), _body_w(rws.oa, ba), _body_w(rws.oa, bb)
+        for j in range(nv):
+            ina, inb = ba >= 0 and anc[ba, owner[j]], bb >= 0 and anc[bb, owner[j]]
+            if not (ina or inb):
+                continue
+            pa, pb = _point_partials(rws, ba, xa, j, ina), _point_partials(rws, bb, xb, j, inb)
+            dx, dvel, dacc, dacc_v = _sub(pa[0], pb[0]), _sub(pa[1], pb[1]), _sub(pa[2], pb[2]), _sub(pa[3], pb[3])
+            for t in range(3):
+                G[r + t, j] += dacc[t] + 2.0 * alpha * dvel[t] + beta * beta * dx[t]
+                H[r + t, j] += dacc_v[t] + 2.0 * alpha * dx[t]
+            if kind != 0:
+                _angular_rows(kind, r, j, Ra, Rb, wA, wB, alA, alB, pa, pb, alpha, beta, G, H)
+
+
+@kernel
+def _force_partials(tree, C, rws, anc, owner, lam, P):
+    """P = d(J^T lambda)/dq (nv, nv) at fixed lambda (module docstring)."""
+    nv = P.shape[0]
+    P[:, :] = 0.0
+    for c in range(C.kind.shape[0]):
+        kind, r = C.kind[c], C.row[c]
+        if kind == 3:  # a coupling's J is constant
+            continue
+        ba = C.body[c, 0]
+        Ra, _ = _anchor_pose(C, c, 0, rws.oR, rws.op)
+        f = (lam[r], lam[r + 1], lam[r + 2])
+        tq = ZERO3
+        if kind == 1:
+            tq = (lam[r + 3], lam[r + 4], lam[r + 5])
+        elif kind == 2:
+            tq = add(scale(lam[r + 3], _col(Ra, 0)), scale(lam[r + 4], _col(Ra, 1)))
+        for s in range(2):
+            b = C.body[c, s]
+            if b < 0:
+                continue
+            _, x = _anchor_pose(C, c, s, rws.oR, rws.op)
+            sign = 1.0 if s == 0 else -1.0
+            Fn, Ff = scale(sign, add(cross(x, f), tq)), scale(sign, f)
+            for j in range(nv):
+                Jw, Jv = get6(rws.J, j)
+                dn = ZERO3
+                if anc[b, owner[j]]:
+                    dn = cross(add(Jv, cross(Jw, x)), f)
+                if kind == 2 and ba >= 0 and anc[ba, owner[j]]:
+                    dn = add(dn, cross(Jw, tq))
+                dn = scale(sign, dn)
+                for k in range(nv):
+                    if not anc[b, owner[k]]:
+                        continue
+                    Kw, Kv = get6(rws.J, k)
+                    y = dot(Kw, dn)
+                    if anc[owner[k], owner[j]]:  # q_j turns the axis J_k: J_j x J_k
+                        cw, cv = cross_motion(Jw, Jv, Kw, Kv)
+                        y += dot(cw, Fn) + dot(cv, Ff)
+                    P[k, j] += y
+
+
+@kernel
+def _kkt_columns(kws, K, XT, RT, x):
+    """Each row c of XT (nv,) and RT (m,) holds a column of X and Z (module docstring); replaced by the
+    column of da and of dlam: dlam = K^+ (Z - J M^-1 X), da = M^-1 (X + J^T dlam), M^-1 = L^-1 L^-T and
+    J M^-1 = Y^T L^-T from the dynamics' factors in ``kws``."""
+    LM, Y, LK, dof_parents, piv, t = kws[3], kws[8], kws[12], kws[13], kws[14], kws[15]
+    m, nv = Y.shape[0], Y.shape[1]
+    dmax = 0.0
+    for r in range(m):  # K = Y Y^T afresh (the dynamics' minimum-norm solve may have overwritten its copy)
+        for s in range(m):
+            y = 0.0
+            for k in range(nv):
+                y += Y[r, k] * Y[s, k]
+            K[r, s] = y
+            LK[r, s] = y
+        dmax = max(dmax, K[r, r])
+    full = dmax > 0.0 and _cholesky(LK, m, CHOLESKY_RTOL * dmax)
+    for c in range(XT.shape[0]):
+        w, z = XT[c], RT[c]
+        _ltl_solve_t(LM, dof_parents, w)
+        for r in range(m):
+            y = z[r]
+            for k in range(nv):
+                y -= Y[r, k] * w[k]
+            x[r] = y
+        if full:
+            _lower_solve(LK, m, x)
+            _upper_solve(LK, m, x)
+            for r in range(m):
+                z[r] = x[r]
+        else:  # the dynamics' minimum-norm solve (it overwrites K and LK: K is rebuilt from Y each time)
+            for r in range(m):
+                for s in range(m):
+                    y = 0.0
+                    for k in range(nv):
+                        y += Y[r, k] * Y[s, k]
+                    K[r, s] = y
+            _pinv_solve(K, x, RANK_RTOL, z, LK, piv, t)
+        for r in range(m):
+            for k in range(nv):
+                w[k] += Y[r, k] * z[r]
+        _ltl_solve(LM, dof_parents, w)
+
+
+@kernel
+def _state_derivatives(tree, C, gravity, q, v, tau, alpha, beta, work, out):
+    """One state into out (3, nv + m, nv): [da; dlam] along q, v, tau.  Returns -1, or the body whose joint
+    makes M singular."""
+    kws, rws, dq, dv, M, G, H, P, XT, RT, K, x, a, lam, anc, owner = work
+    nv, m = a.shape[0], lam.shape[0]
+    status = _constrained_accel_kernel(tree, C, gravity, q, v, tau, alpha, beta, kws, a, lam)
+    if status >= 0:
+        return status
+    rnea_derivatives._rnea_derivatives_terms(tree, q, v, a, gravity, kws[11], rws, dq, dv, M)
+    _row_partials(tree, C, rws, anc, owner, alpha, beta, G, H)
+    _force_partials(tree, C, rws, anc, owner, lam, P)
+    for c in range(nv):  # X = -dr1/dx, Z = -dr2/dx, column by column (rows of XT, RT)
+        for k in range(nv):
+            XT[c, k] = P[k, c] - dq[k, c]
+            XT[nv + c, k] = -dv[k, c]
+            XT[2 * nv + c, k] = 1.0 if k == c else 0.0
+        for r in range(m):
+            RT[c, r] = -G[r, c]
+            RT[nv + c, r] = -H[r, c]
+            RT[2 * nv + c, r] = 0.0
+    _kkt_columns(kws, K, XT, RT, x)
+    for c in range(3 * nv):
+        i, j = c // nv, c % nv
+        for k in range(nv):
+            out[i, k, j] = XT[c, k]
+        for r in range(m):
+            out[i, nv + r, j] = RT[c, r]
+    return -1
+
+
+@kernel
+def _derivatives_batch(tree, Q, V, T, C, gravity, alpha, beta, out, status):
+    """out[b] = [da; dlam] along q, v, tau at the rows of Q, V, T (V, T may have one row)."""
+    nb, nv = tree.parents.shape[0], tree.S.shape[0]
+    m = out.shape[2] - nv
+    buf, rws = rnea_derivatives._derivatives_workspace(nb, nv)
+    anc, owner = _ancestry(tree)
+    work = (kkt_workspace(nb, nv, m), rws, np.empty((nv, nv)), np.empty((nv, nv)), np.empty((nv, nv)),
+            np.empty((m, nv)), np.empty((m, nv)), np.empty((nv, nv)), np.empty((3 * nv, nv)), np.empty((3 * nv, m)),
+            np.empty((m, m)), np.empty(m), np.empty(nv), np.empty(m), anc, owner)
+    lv, lt = V.shape[0] - 1, T.shape[0] - 1
+    for b in range(Q.shape[0]):
+        status[b] = _state_derivatives(tree, C, gravity, Q[b], V[min(b, lv)], T[min(b, lt)], alpha, beta, work,
+                                       out[b])
+    keep_alive(buf)
+
+
+_checked = Checked(_derivatives_batch)
+
+
+def constrained_forward_dynamics_derivatives(model, q, v, tau, *, baumgarte=None, gravity=None):
+    """(da_dq, da_dv, da_dtau, dlam_dq, dlam_dv, dlam_dtau): the partial derivatives of
+    ``a, lam = constrained_forward_dynamics(model, q, v, tau, baumgarte=..., gravity=...)`` (analytical, module
+    docstring), as Pinocchio's computeConstraintDynamicsDerivatives (ddq_dq, ddq_dv, ddq_dtau, dlambda_dq,
+    dlambda_dv, dlambda_dtau).
+
+    q derivatives are in the tangent space (nv columns, as :func:`inverse_dynamics_derivatives`).  The a blocks
+    are (nv, nv), the lam blocks (m, nv), with a leading B for a batch; lam's rows are those of
+    :mod:`dynamics.constraints` (world axes).  Redundant rows: dlam is the minimum-norm solution of the
+    differentiated KKT system (module docstring says when that is the derivative of the minimum-norm lam).
+    Raises InputError on a model without constraints, for bad inputs (naming the argument) and when M is
+    singular (naming the joint).
+    """
+    checks.check_model(model)
+    C, m = arrays(model)
+    if m == 0:
+        raise InputError("model: has no constraints; constrained_forward_dynamics_derivatives differentiates the "
+                         "dynamics of a model with constraints (dynamics.with_constraints); for an open tree use "
+                         "forward_dynamics_derivatives")
+    alpha, beta = baumgarte_gains(baumgarte)
+    Q, (V, T), B, batched = checks.state_batch(model, q, (("v", v, model.nv), ("tau", tau, model.nv)))
+    g = checks.gravity_vector(model, gravity)
+    nv = model.nv
+    out = np.empty((B, 3, nv + m, nv))
+    run_checked(model, _checked, (Q, V, T), (C, g, alpha, beta), out, "constrained forward dynamics derivatives")
+    if not batched:
+        out = out[0]
+    a, lam = out[..., :nv, :], out[..., nv:, :]
+    i = (slice(None),) if batched else ()
+    return (a[i + (0,)], a[i + (1,)], a[i + (2,)], lam[i + (0,)], lam[i + (1,)], lam[i + (2,)])
