@@ -53,14 +53,14 @@ Cost per state: the constrained dynamics, the RNEA derivatives, O(m nv^2) for th
 import numpy as np
 
 from . import checks, rnea_derivatives
-from ._numba import keep_alive, inline_kernel, kernel
+from ._numba import copy_into, inline_kernel, keep_alive, kernel
 from .constrained_dynamics import (CHOLESKY_RTOL, RANK_RTOL, _cholesky, _constrained_accel_kernel, _lower_solve,
                                    _ltl_solve, _ltl_solve_t, _pinv_solve, _upper_solve, baumgarte_gains)
 from .constrained_dynamics import _workspace as kkt_workspace
 from .constraints import _anchor_pose, _col, arrays
 from .errors import InputError
 from .minverse import Checked, run_checked
-from .spatial import add, cross, cross_motion, dot, get6, matmul, rot, scale, transpose, _rotation_log
+from .spatial import add, cross, cross_force, cross_motion, dot, get6, matmul, rot, scale, transpose, _rotation_log
 
 ZERO3 = (0.0, 0.0, 0.0)
 
@@ -215,73 +215,93 @@ def _force_partials(tree, C, rws, anc, owner, lam, P):
             sign = 1.0 if s == 0 else -1.0
             Fn, Ff = scale(sign, add(cross(x, f), tq)), scale(sign, f)
             for j in range(nv):
+                inb, ina = anc[b, owner[j]], kind == 2 and ba >= 0 and anc[ba, owner[j]]
+                if not (inb or ina):  # F does not change along q_j, nor does any J_k of b's support
+                    continue
                 Jw, Jv = get6(rws.J, j)
-                dn = ZERO3
-                if anc[b, owner[j]]:
-                    dn = cross(add(Jv, cross(Jw, x)), f)
-                if kind == 2 and ba >= 0 and anc[ba, owner[j]]:
+                dn = cross(add(Jv, cross(Jw, x)), f) if inb else ZERO3
+                if ina:
                     dn = add(dn, cross(Jw, tq))
                 dn = scale(sign, dn)
+                # F . (J_j x J_k) = -J_k . (J_j x* F)
+                Hn, Hf = cross_force(Jw, Jv, Fn, Ff)
                 for k in range(nv):
                     if not anc[b, owner[k]]:
                         continue
                     Kw, Kv = get6(rws.J, k)
                     y = dot(Kw, dn)
-                    if anc[owner[k], owner[j]]:  # q_j turns the axis J_k: J_j x J_k
-                        cw, cv = cross_motion(Jw, Jv, Kw, Kv)
-                        y += dot(cw, Fn) + dot(cv, Ff)
+                    if inb and anc[owner[k], owner[j]]:  # q_j turns the axis J_k: J_j x J_k
+                        y -= dot(Kw, Hn) + dot(Kv, Hf)
                     P[k, j] += y
 
 
 @kernel
-def _kkt_columns(kws, K, XT, RT, x):
+def _kkt_columns(kws, K, Kinv, YT, XT, RT, x):
     """Each row c of XT (nv,) and RT (m,) holds a column of X and Z (module docstring); replaced by the
     column of da and of dlam: dlam = K^+ (Z - J M^-1 X), da = M^-1 (X + J^T dlam), M^-1 = L^-1 L^-T and
-    J M^-1 = Y^T L^-T from the dynamics' factors in ``kws``."""
+    J M^-1 = Y^T L^-T from the dynamics' factors in ``kws``.  The products run as axpy loops over contiguous
+    rows (Y^T in YT, K^-1 formed once when K is regular): reductions do not vectorise without fastmath, and
+    were 4x slower here."""
     LM, Y, LK, dof_parents, piv, t = kws[3], kws[8], kws[12], kws[13], kws[14], kws[15]
     m, nv = Y.shape[0], Y.shape[1]
+    _gram(Y, K)
     dmax = 0.0
-    for r in range(m):  # K = Y Y^T afresh (the dynamics' minimum-norm solve may have overwritten its copy)
-        for s in range(m):
+    for r in range(m):
+        copy_into(LK[r], K[r])
+        dmax = max(dmax, K[r, r])
+        for k in range(nv):
+            YT[k, r] = Y[r, k]
+    full = dmax > 0.0 and _cholesky(LK, m, CHOLESKY_RTOL * dmax)
+    if full:  # K^-1 row by row (symmetric)
+        for r in range(m):
+            for s in range(m):
+                Kinv[r, s] = 1.0 if r == s else 0.0
+            _lower_solve(LK, m, Kinv[r])
+            _upper_solve(LK, m, Kinv[r])
+    for c in range(XT.shape[0]):
+        w, z = XT[c], RT[c]
+        _ltl_solve_t(LM, dof_parents, w)
+        copy_into(x, z)
+        for k in range(nv):  # x = z - Y w
+            wk = w[k]
+            if wk != 0.0:
+                for r in range(m):
+                    x[r] -= YT[k, r] * wk
+        if full:
+            for r in range(m):
+                z[r] = 0.0
+            for r in range(m):
+                xr = x[r]
+                for s in range(m):
+                    z[s] += Kinv[r, s] * xr
+        else:  # the dynamics' minimum-norm solve (it overwrites K: rebuilt each time)
+            _gram(Y, K)
+            _pinv_solve(K, x, RANK_RTOL, z, LK, piv, t)
+        for r in range(m):  # w += Y^T z
+            zr = z[r]
+            for k in range(nv):
+                w[k] += Y[r, k] * zr
+        _ltl_solve(LM, dof_parents, w)
+
+
+@kernel
+def _gram(Y, K):
+    """K = Y Y^T (m, m)."""
+    m, nv = Y.shape[0], Y.shape[1]
+    for r in range(m):
+        for s in range(r, m):
             y = 0.0
             for k in range(nv):
                 y += Y[r, k] * Y[s, k]
             K[r, s] = y
-            LK[r, s] = y
-        dmax = max(dmax, K[r, r])
-    full = dmax > 0.0 and _cholesky(LK, m, CHOLESKY_RTOL * dmax)
-    for c in range(XT.shape[0]):
-        w, z = XT[c], RT[c]
-        _ltl_solve_t(LM, dof_parents, w)
-        for r in range(m):
-            y = z[r]
-            for k in range(nv):
-                y -= Y[r, k] * w[k]
-            x[r] = y
-        if full:
-            _lower_solve(LK, m, x)
-            _upper_solve(LK, m, x)
-            for r in range(m):
-                z[r] = x[r]
-        else:  # the dynamics' minimum-norm solve (it overwrites K and LK: K is rebuilt from Y each time)
-            for r in range(m):
-                for s in range(m):
-                    y = 0.0
-                    for k in range(nv):
-                        y += Y[r, k] * Y[s, k]
-                    K[r, s] = y
-            _pinv_solve(K, x, RANK_RTOL, z, LK, piv, t)
-        for r in range(m):
-            for k in range(nv):
-                w[k] += Y[r, k] * z[r]
-        _ltl_solve(LM, dof_parents, w)
+            K[s, r] = y
 
 
 @kernel
 def _state_derivatives(tree, C, gravity, q, v, tau, alpha, beta, work, out):
     """One state into out (3, nv + m, nv): [da; dlam] along q, v, tau.  Returns -1, or the body whose joint
     makes M singular."""
-    kws, rws, dq, dv, M, G, H, P, XT, RT, K, x, a, lam, anc, owner = work
+    kws, rws, dq, dv, M, G, H, P, XT, RT, K, Kinv, YT, x, a, lam, anc, owner = work
     nv, m = a.shape[0], lam.shape[0]
     status = _constrained_accel_kernel(tree, C, gravity, q, v, tau, alpha, beta, kws, a, lam)
     if status >= 0:
@@ -298,7 +318,7 @@ def _state_derivatives(tree, C, gravity, q, v, tau, alpha, beta, work, out):
             RT[c, r] = -G[r, c]
             RT[nv + c, r] = -H[r, c]
             RT[2 * nv + c, r] = 0.0
-    _kkt_columns(kws, K, XT, RT, x)
+    _kkt_columns(kws, K, Kinv, YT, XT, RT, x)
     for c in range(3 * nv):
         i, j = c // nv, c % nv
         for k in range(nv):
@@ -317,7 +337,7 @@ def _derivatives_batch(tree, Q, V, T, C, gravity, alpha, beta, out, status):
     anc, owner = _ancestry(tree)
     work = (kkt_workspace(nb, nv, m), rws, np.empty((nv, nv)), np.empty((nv, nv)), np.empty((nv, nv)),
             np.empty((m, nv)), np.empty((m, nv)), np.empty((nv, nv)), np.empty((3 * nv, nv)), np.empty((3 * nv, m)),
-            np.empty((m, m)), np.empty(m), np.empty(nv), np.empty(m), anc, owner)
+            np.empty((m, m)), np.empty((m, m)), np.empty((nv, m)), np.empty(m), np.empty(nv), np.empty(m), anc, owner)
     lv, lt = V.shape[0] - 1, T.shape[0] - 1
     for b in range(Q.shape[0]):
         status[b] = _state_derivatives(tree, C, gravity, Q[b], V[min(b, lv)], T[min(b, lt)], alpha, beta, work,
