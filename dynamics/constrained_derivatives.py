@@ -39,25 +39,33 @@ The generalised force J^T lambda is the sum over anchors of J_b^T F with F the w
 dF/dq_j = (dx_j x f, 0) for j on b's support, plus (J_j^w x n_hinge, 0) for j on body a's support (t turns with
 body a), J_j x J_k being how moving q_j turns the axis J_k (the tangent-space convention of the RNEA derivatives).
 
-**Redundant rows** (K singular, lambda the minimum-norm multiplier): dlam is the minimum-norm solution of the
-differentiated KKT system (K^+ on the right-hand side, as the dynamics).  That is the derivative of the
-minimum-norm lambda wherever the rows stay dependent along fixed combinations (a closure declared twice, a
-planar loop's out-of-plane rows, which stay zero); where the dependency itself turns with q, the derivative of
-K^+ adds a term along the null space of J^T, N (dJ/dq) J^+ lambda, which is left out.  da is unique in every
-case.
+**Redundant rows** (K singular, lambda the minimum-norm multiplier (J^T)^+ (M a + b - tau)): the KKT solve
+gives the minimum-norm dlam (K^+ on the right-hand side, as the dynamics), which misses one term of the
+derivative of a pseudo-inverse where the dependency of the rows turns with q (a planar loop closed in 3-D on a
+floating base: the plane's normal turns with the base): N d(J w)/dq with w = J^+ lambda and N the projector onto
+null(J^T) (:func:`_null_space_term`, Golub and Pereyra 1973).  With it, dlam is the derivative of the
+minimum-norm lambda wherever the rank of J stays constant nearby (a rank that changes at q has no derivative).
+da is unique in every case.
 
 Cost per state: the constrained dynamics, the RNEA derivatives, O(m nv^2) for the constraint partials and
-3 nv solves with the factors of M and K.  A batch runs one compiled kernel per chunk of states.
+3 nv solves with the factors of M and K (with dependent rows, one more forward pass and O(m^2 nv) for the
+null-space term).  A batch runs one compiled kernel per chunk of states.
 """
 
 import numpy as np
 
 from . import checks, rnea_derivatives
-from ._numba import copy_into, inline_kernel, keep_alive, kernel
-from .constrained_dynamics import (CHOLESKY_RTOL, RANK_RTOL, _cholesky, _constrained_accel_kernel, _lower_solve,
-                                   _ltl_solve, _ltl_solve_t, _pinv_solve, _upper_solve, baumgarte_gains)
+from numba import types
+
+from ._numba import PACKED, SingleCall, VECTOR, borrowed, copy_into, inline_kernel, keep_alive, kernel
+from .checks import DONE, GENERAL, NOT_ARRAYS, _config_ok, _vector_ok
+from .constrained_dynamics import (CHOLESKY_RTOL, RANK_RTOL, _C_rows, _cholesky, _constrained_accel_kernel,
+                                   _lower_solve, _ltl_solve, _ltl_solve_t, _pinv_solve, _pivoted_cholesky,
+                                   _upper_solve, baumgarte_gains)
 from .constrained_dynamics import _workspace as kkt_workspace
-from .constraints import _anchor_pose, _col, arrays
+from .constraints import _anchor_pose, _col, arrays, packed
+from .constraints import _unpack as unpack_constraints
+from .model import _unpack
 from .errors import InputError
 from .minverse import Checked, run_checked
 from .spatial import add, cross, cross_force, cross_motion, dot, get6, matmul, rot, scale, transpose, _rotation_log
@@ -124,8 +132,9 @@ def _jl_inverse(e, y):
 
 
 @inline_kernel
-def _angular_rows(kind, r, j, Ra, Rb, wA, wB, alA, alB, pa, pb, alpha, beta, G, H):
-    """Column j of the weld's or hinge's angular rows (r + 3 on) of dr2/dq into G and dr2/dv into H."""
+def _angular_rows(kind, r, j, Ra, Rb, wA, wB, alA, alB, pa, pb, acc, alpha, beta, G, H):
+    """Column j of the weld's or hinge's angular rows (r + 3 on) of dr2/dq into G and dr2/dv into H (the
+    acceleration rows J a + gamma weighted by acc)."""
     dwq, dalq, dalv = _sub(pa[4], pb[4]), _sub(pa[5], pb[5]), _sub(pa[6], pb[6])
     dA, dB = pa[7], pb[7]  # J_j^w on each side's support, else zero
     ddw_v = _sub(dA, dB)
@@ -133,8 +142,8 @@ def _angular_rows(kind, r, j, Ra, Rb, wA, wB, alA, alB, pa, pb, alpha, beta, G, 
         R = matmul(Ra, transpose(Rb))
         dphi = _jl_inverse(_rotation_log(R), _sub(dA, rot(R, dB)))
         for t in range(3):
-            G[r + 3 + t, j] += dalq[t] + 2.0 * alpha * dwq[t] + beta * beta * dphi[t]
-            H[r + 3 + t, j] += dalv[t] + 2.0 * alpha * ddw_v[t]
+            G[r + 3 + t, j] += acc * dalq[t] + 2.0 * alpha * dwq[t] + beta * beta * dphi[t]
+            H[r + 3 + t, j] += acc * dalv[t] + 2.0 * alpha * ddw_v[t]
         return
     uA, uB = _col(Ra, 2), _col(Rb, 2)
     n, dn = cross(uB, uA), add(cross(cross(dB, uB), uA), cross(uB, cross(dA, uA)))
@@ -143,10 +152,11 @@ def _angular_rows(kind, r, j, Ra, Rb, wA, wB, alA, alB, pa, pb, alpha, beta, G, 
         tk = _col(Ra, s)
         dt = cross(dA, tk)
         wt = cross(wA, tk)
-        G[r + 3 + s, j] += (dot(dt, dal) + dot(tk, dalq) + dot(add(cross(pa[4], tk), cross(wA, dt)), dw)
-                            + dot(wt, dwq) + 2.0 * alpha * (dot(dt, dw) + dot(tk, dwq))
+        G[r + 3 + s, j] += (acc * (dot(dt, dal) + dot(tk, dalq) + dot(add(cross(pa[4], tk), cross(wA, dt)), dw)
+                                   + dot(wt, dwq)) + 2.0 * alpha * (dot(dt, dw) + dot(tk, dwq))
                             + beta * beta * (dot(dt, n) + dot(tk, dn)))
-        H[r + 3 + s, j] += dot(tk, dalv) + dot(cross(dA, tk), dw) + dot(wt, ddw_v) + 2.0 * alpha * dot(tk, ddw_v)
+        H[r + 3 + s, j] += (acc * (dot(tk, dalv) + dot(cross(dA, tk), dw) + dot(wt, ddw_v))
+                            + 2.0 * alpha * dot(tk, ddw_v))
 
 
 @inline_kernel
@@ -158,9 +168,9 @@ def _body_w(X, b):
 
 
 @kernel
-def _row_partials(tree, C, rws, anc, owner, alpha, beta, G, H):
+def _row_partials(tree, C, rws, anc, owner, acc, alpha, beta, G, H):
     """G = dr2/dq and H = dr2/dv (m, nv) at fixed a, from the RNEA derivatives' forward pass ``rws`` at (q, v, a)
-    (module docstring)."""
+    (module docstring); acc = 0 leaves out J a + gamma (acc = 0, alpha = 1/2, beta = 0: d(J v)/dq in G)."""
     nv = G.shape[1]
     G[:, :] = 0.0
     H[:, :] = 0.0
@@ -184,10 +194,10 @@ def _row_partials(tree, C, rws, anc, owner, alpha, beta, G, H):
             pa, pb = _point_partials(rws, ba, xa, j, ina), _point_partials(rws, bb, xb, j, inb)
             dx, dvel, dacc, dacc_v = _sub(pa[0], pb[0]), _sub(pa[1], pb[1]), _sub(pa[2], pb[2]), _sub(pa[3], pb[3])
             for t in range(3):
-                G[r + t, j] += dacc[t] + 2.0 * alpha * dvel[t] + beta * beta * dx[t]
-                H[r + t, j] += dacc_v[t] + 2.0 * alpha * dx[t]
+                G[r + t, j] += acc * dacc[t] + 2.0 * alpha * dvel[t] + beta * beta * dx[t]
+                H[r + t, j] += acc * dacc_v[t] + 2.0 * alpha * dx[t]
             if kind != 0:
-                _angular_rows(kind, r, j, Ra, Rb, wA, wB, alA, alB, pa, pb, alpha, beta, G, H)
+                _angular_rows(kind, r, j, Ra, Rb, wA, wB, alA, alB, pa, pb, acc, alpha, beta, G, H)
 
 
 @kernel
@@ -282,6 +292,7 @@ def _kkt_columns(kws, K, Kinv, YT, XT, RT, x):
             for k in range(nv):
                 w[k] += Y[r, k] * zr
         _ltl_solve(LM, dof_parents, w)
+    return full
 
 
 @kernel
@@ -298,16 +309,72 @@ def _gram(Y, K):
 
 
 @kernel
+def _null_space_term(tree, C, q, J, lam, rws, anc, owner, no_forces, null, G, H, RT):
+    """Rows 0..nv-1 of RT (dlam along each q_j) += N d(J w)/dq_j with w = J^+ lam and N the projector onto
+    null(J^T): the part of the derivative of the minimum-norm lam = (J^T)^+ (M a + b - tau) that the minimum-norm
+    KKT solve leaves out when rows are dependent, d(A^+) g = ... + (1 - A^+ A) dA^T A^+T A^+ g with A = J^T
+    (Golub and Pereyra 1973); zero where the dependency does not turn with q.  N = 1 - Q Q^T with Q an
+    orthonormal basis of range(J J^T) = B R^-T, J J^T = B B^T (Cholesky with diagonal pivoting), R R^T = B^T B.
+    ``null`` = (JJ, L, Gm, Q (m, m), piv (m,) int, s, t (m,), w, zero (nv,), zero3 (3,)).  Overwrites rws."""
+    JJ, L, Gm, Q, piv, s, t, w, zero, zero3 = null
+    m, nv = J.shape[0], J.shape[1]
+    dmax = 0.0
+    for r in range(m):
+        for c in range(m):
+            y = 0.0
+            for k in range(nv):
+                y += J[r, k] * J[c, k]
+            JJ[r, c] = y
+            Q[r, c] = y
+        dmax = max(dmax, JJ[r, r])
+    _pinv_solve(Q, lam, RANK_RTOL, s, L, piv, t)  # J J^T s = lam (lam lies in J's range); Q as scratch
+    for k in range(nv):  # w = J^T s = J^+ lam
+        y = 0.0
+        for r in range(m):
+            y += J[r, k] * s[r]
+        w[k] = y
+        zero[k] = 0.0
+    rank = _pivoted_cholesky(JJ, RANK_RTOL * dmax, L, piv)  # B[piv[i]] = L[i, :rank]
+    for a in range(rank):
+        for b in range(a + 1):
+            y = 0.0
+            for r in range(m):
+                y += L[r, a] * L[r, b]
+            Gm[a, b] = y
+    _cholesky(Gm, rank, 0.0)
+    for i in range(m):  # row piv[i] of Q = R^-1 (row i of L)
+        for a in range(rank):
+            t[a] = L[i, a]
+        _lower_solve(Gm, rank, t)
+        for a in range(rank):
+            Q[piv[i], a] = t[a]
+    for i in range(tree.parents.shape[0]):  # the kinematics at velocity w (acceleration and gravity zero)
+        rnea_derivatives._forward_step(tree, i, q, w, zero, zero3, no_forces, rws)
+    _row_partials(tree, C, rws, anc, owner, 0.0, 0.5, 0.0, G, H)  # G = d(J w)/dq
+    for j in range(nv):  # RT[j] += G[:, j] - Q Q^T G[:, j]
+        for a in range(rank):
+            y = 0.0
+            for r in range(m):
+                y += Q[r, a] * G[r, j]
+            t[a] = y
+        for r in range(m):
+            y = G[r, j]
+            for a in range(rank):
+                y -= Q[r, a] * t[a]
+            RT[j, r] += y
+
+
+@kernel
 def _state_derivatives(tree, C, gravity, q, v, tau, alpha, beta, work, out):
     """One state into out (3, nv + m, nv): [da; dlam] along q, v, tau.  Returns -1, or the body whose joint
     makes M singular."""
-    kws, rws, dq, dv, M, G, H, P, XT, RT, K, Kinv, YT, x, a, lam, anc, owner = work
+    kws, rws, dq, dv, M, G, H, P, XT, RT, K, Kinv, YT, x, a, lam, anc, owner, null = work
     nv, m = a.shape[0], lam.shape[0]
     status = _constrained_accel_kernel(tree, C, gravity, q, v, tau, alpha, beta, kws, a, lam)
     if status >= 0:
         return status
     rnea_derivatives._rnea_derivatives_terms(tree, q, v, a, gravity, kws[11], rws, dq, dv, M)
-    _row_partials(tree, C, rws, anc, owner, alpha, beta, G, H)
+    _row_partials(tree, C, rws, anc, owner, 1.0, alpha, beta, G, H)
     _force_partials(tree, C, rws, anc, owner, lam, P)
     for c in range(nv):  # X = -dr1/dx, Z = -dr2/dx, column by column (rows of XT, RT)
         for k in range(nv):
@@ -318,7 +385,8 @@ def _state_derivatives(tree, C, gravity, q, v, tau, alpha, beta, work, out):
             RT[c, r] = -G[r, c]
             RT[nv + c, r] = -H[r, c]
             RT[2 * nv + c, r] = 0.0
-    _kkt_columns(kws, K, Kinv, YT, XT, RT, x)
+    if not _kkt_columns(kws, K, Kinv, YT, XT, RT, x):  # dependent rows
+        _null_space_term(tree, C, q, kws[4], lam, rws, anc, owner, kws[11], null, G, H, RT)
     for c in range(3 * nv):
         i, j = c // nv, c % nv
         for k in range(nv):
@@ -329,23 +397,61 @@ def _state_derivatives(tree, C, gravity, q, v, tau, alpha, beta, work, out):
 
 
 @kernel
-def _derivatives_batch(tree, Q, V, T, C, gravity, alpha, beta, out, status):
-    """out[b] = [da; dlam] along q, v, tau at the rows of Q, V, T (V, T may have one row)."""
+def _work(tree, m):
+    """(buffer, work) of one thread for :func:`_state_derivatives`: the dynamics' workspace, the RNEA derivatives'
+    (carved from the buffer: keep it alive), then dtau/dq, dtau/dv, M, G, H, P, XT, RT, K, K^-1, Y^T, x, a, lam
+    and the tree's ancestry."""
     nb, nv = tree.parents.shape[0], tree.S.shape[0]
-    m = out.shape[2] - nv
     buf, rws = rnea_derivatives._derivatives_workspace(nb, nv)
     anc, owner = _ancestry(tree)
     work = (kkt_workspace(nb, nv, m), rws, np.empty((nv, nv)), np.empty((nv, nv)), np.empty((nv, nv)),
             np.empty((m, nv)), np.empty((m, nv)), np.empty((nv, nv)), np.empty((3 * nv, nv)), np.empty((3 * nv, m)),
-            np.empty((m, m)), np.empty((m, m)), np.empty((nv, m)), np.empty(m), np.empty(nv), np.empty(m), anc, owner)
+            np.empty((m, m)), np.empty((m, m)), np.empty((nv, m)), np.empty(m), np.empty(nv), np.empty(m), anc, owner,
+            (np.empty((m, m)), np.empty((m, m)), np.empty((m, m)), np.empty((m, m)), np.empty(m, np.int64),
+             np.empty(m), np.empty(m), np.empty(nv), np.empty(nv), np.zeros(3)))
+    return buf, work
+
+
+@kernel
+def _derivatives_batch(tree, Q, V, T, C, gravity, alpha, beta, out, status):
+    """out[b] = [da; dlam] along q, v, tau at the rows of Q, V, T (V, T may have one row)."""
+    # borrowed (no reference counts), which also gives the tree and C the single call's types: one compiled
+    # _state_derivatives serves both
+    t, c, q, v, tau, o = borrowed(tree), borrowed(C), borrowed(Q), borrowed(V), borrowed(T), borrowed(out)
+    buf, work = _work(t, out.shape[2] - tree.S.shape[0])
     lv, lt = V.shape[0] - 1, T.shape[0] - 1
     for b in range(Q.shape[0]):
-        status[b] = _state_derivatives(tree, C, gravity, Q[b], V[min(b, lv)], T[min(b, lt)], alpha, beta, work,
-                                       out[b])
+        status[b] = _state_derivatives(t, c, gravity, q[b], v[min(b, lv)], tau[min(b, lt)], alpha, beta, work, o[b])
     keep_alive(buf)
+    keep_alive(tree)
+    keep_alive(C)
+    keep_alive(Q)
+    keep_alive(V)
+    keep_alive(T)
+    keep_alive(out)
+
+
+def _derivatives_one(packed, packed_C, q, v, tau, alpha, beta, out):
+    """One state from Python into out (3, nv + m, nv), inputs checked in the same compiled call: DONE, or
+    GENERAL for a bad input or a singular M (the general path then says which)."""
+    tree, gravity, nq = _unpack(packed)
+    C = unpack_constraints(packed_C)
+    nv = tree.S.shape[0]
+    m = out.shape[1] - nv
+    if not (_config_ok(tree, nq, q) and _vector_ok(v, nv) and _vector_ok(tau, nv) and out.shape[2] == nv
+            and m == _C_rows(C)):
+        return GENERAL
+    g = np.empty(3)  # gravity as a writable array: the batch's type
+    g[0], g[1], g[2] = gravity[0], gravity[1], gravity[2]
+    buf, work = _work(tree, m)
+    status = _state_derivatives(tree, C, g, q, v, tau, alpha, beta, work, out)
+    keep_alive(buf)
+    return DONE if status < 0 else GENERAL
 
 
 _checked = Checked(_derivatives_batch)
+_single = SingleCall(_derivatives_one, PACKED, VECTOR, VECTOR, VECTOR, types.float64, types.float64,
+                     types.float64[:, :, ::1])
 
 
 def constrained_forward_dynamics_derivatives(model, q, v, tau, *, baumgarte=None, gravity=None):
@@ -356,18 +462,27 @@ def constrained_forward_dynamics_derivatives(model, q, v, tau, *, baumgarte=None
 
     q derivatives are in the tangent space (nv columns, as :func:`inverse_dynamics_derivatives`).  The a blocks
     are (nv, nv), the lam blocks (m, nv), with a leading B for a batch; lam's rows are those of
-    :mod:`dynamics.constraints` (world axes).  Redundant rows: dlam is the minimum-norm solution of the
-    differentiated KKT system (module docstring says when that is the derivative of the minimum-norm lam).
+    :mod:`dynamics.constraints` (world axes).  Redundant rows: dlam is the derivative of the minimum-norm lam
+    where the rank of the rows stays constant nearby (module docstring).
     Raises InputError on a model without constraints, for bad inputs (naming the argument) and when M is
     singular (naming the joint).
     """
+    alpha, beta = baumgarte_gains(baumgarte)
+    try:  # one state: one compiled call that checks q, v and tau itself
+        if gravity is None and model.constraints:
+            nv, m = model.nv, arrays(model)[1]
+            out = np.empty((3, nv + m, nv))
+            if _single.call(model.packed, packed(model), q, v, tau, alpha, beta, out) == DONE:
+                a, lam = out[:, :nv], out[:, nv:]
+                return a[0], a[1], a[2], lam[0], lam[1], lam[2]
+    except NOT_ARRAYS:  # not a model, or arrays of other types: the general path says what is wrong or converts
+        pass
     checks.check_model(model)
     C, m = arrays(model)
     if m == 0:
         raise InputError("model: has no constraints; constrained_forward_dynamics_derivatives differentiates the "
                          "dynamics of a model with constraints (dynamics.with_constraints); for an open tree use "
                          "forward_dynamics_derivatives")
-    alpha, beta = baumgarte_gains(baumgarte)
     Q, (V, T), B, batched = checks.state_batch(model, q, (("v", v, model.nv), ("tau", tau, model.nv)))
     g = checks.gravity_vector(model, gravity)
     nv = model.nv

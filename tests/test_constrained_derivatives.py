@@ -2,7 +2,8 @@
 
 * Every output against central finite differences on the manifold (q moved by dynamics.integrate along each
   tangent coordinate, step 1e-7): the lectures' four-bar closed by its 5-row hinge (rows redundant: the loop is
-  planar) and by a 3-row point closure, a random floating tree with a point, a weld, a hinge and a coupling (on
+  planar) and by a 3-row point closure, the hinge-closed four-bar on a floating base (redundant rows whose
+  dependency turns with q), a random floating tree with a point, a weld, a hinge and a coupling (on
   and off the constraint manifold, with and without Baumgarte's terms), Panda's fingers coupled by their mimic
   and the Stewart platform's six ball joints.
 * Point (CONTACT_3D) and weld (CONTACT_6D) contacts with the world against Pinocchio's
@@ -92,6 +93,21 @@ def test_four_bar_against_finite_differences(kind, baumgarte):
         q = dynamics.assemble(model, np.array([rng.uniform(-np.pi, np.pi), 0.5, 1.5]), fixed=["theta1"])
         v = dynamics.project_velocity(model, q, rng.normal(size=3) * 3)
         check_finite_differences(model, q, v, rng.normal(size=3), baumgarte)
+
+
+def test_redundant_rows_that_turn_with_the_floating_base():
+    """The four-bar's hinge on a floating base: 5 rows of rank 2 whose dependent combinations (the loop plane's
+    normal) turn with the base, so the minimum-norm lambda's derivative has its null-space term."""
+    model = dynamics.load_urdf(FOUR_BAR, floating_base=True)
+    assert model.info["constraints"]["rank"] == 2
+    rng = np.random.default_rng(2)
+    guess = model.neutral()
+    guess[:3], guess[3:7], guess[7:] = rng.normal(size=3), [0.3, -0.5, 0.1, 0.8], [0.3, 0.5, 1.5]
+    guess[3:7] /= np.linalg.norm(guess[3:7])
+    q = dynamics.assemble(model, guess, fixed=["root_joint"])
+    v = dynamics.project_velocity(model, q, rng.normal(size=model.nv))
+    errors = check_finite_differences(model, q, v, rng.normal(size=model.nv), (2.0, 3.0))
+    assert errors["dlam_dq"] < FD_TOL
 
 
 @pytest.mark.parametrize("seed", range(2))
