@@ -75,16 +75,17 @@ ZERO3 = (0.0, 0.0, 0.0)
 
 @kernel
 def _ancestry(tree):
-    """anc (nb, nb): anc[i, j] is True where body j is i or an ancestor of i; owner (nv,): each coordinate's body."""
+    """anc (nb, nb) int64: anc[i, j] is 1 where body j is i or an ancestor of i, else 0 (int64, not bool, for
+    :func:`~dynamics._numba.borrowed`); owner (nv,): each coordinate's body."""
     parents, v_idx, nv_j = tree.parents, tree.v_idx, tree.nv_j
     nb, nv = parents.shape[0], tree.S.shape[0]
-    anc = np.zeros((nb, nb), np.bool_)
+    anc = np.zeros((nb, nb), np.int64)
     owner = np.empty(nv, np.int64)
     for i in range(nb):
         if parents[i] >= 0:
             for j in range(nb):
                 anc[i, j] = anc[parents[i], j]
-        anc[i, i] = True
+        anc[i, i] = 1
         for k in range(v_idx[i], v_idx[i] + nv_j[i]):
             owner[k] = i
     return anc, owner
@@ -188,7 +189,7 @@ def _row_partials(tree, C, rws, anc, owner, acc, alpha, beta, G, H):
         Rb, xb = _anchor_pose(C, c, 1, rws.oR, rws.op)
         wA, wB, alA, alB = _body_w(rws.ov, ba), _body_w(rws.ov, bb), _body_w(rws.oa, ba), _body_w(rws.oa, bb)
         for j in range(nv):
-            ina, inb = ba >= 0 and anc[ba, owner[j]], bb >= 0 and anc[bb, owner[j]]
+            ina, inb = ba >= 0 and anc[ba, owner[j]] != 0, bb >= 0 and anc[bb, owner[j]] != 0
             if not (ina or inb):
                 continue
             pa, pb = _point_partials(rws, ba, xa, j, ina), _point_partials(rws, bb, xb, j, inb)
@@ -225,7 +226,7 @@ def _force_partials(tree, C, rws, anc, owner, lam, P):
             sign = 1.0 if s == 0 else -1.0
             Fn, Ff = scale(sign, add(cross(x, f), tq)), scale(sign, f)
             for j in range(nv):
-                inb, ina = anc[b, owner[j]], kind == 2 and ba >= 0 and anc[ba, owner[j]]
+                inb, ina = anc[b, owner[j]] != 0, kind == 2 and ba >= 0 and anc[ba, owner[j]] != 0
                 if not (inb or ina):  # F does not change along q_j, nor does any J_k of b's support
                     continue
                 Jw, Jv = get6(rws.J, j)
@@ -236,11 +237,11 @@ def _force_partials(tree, C, rws, anc, owner, lam, P):
                 # F . (J_j x J_k) = -J_k . (J_j x* F)
                 Hn, Hf = cross_force(Jw, Jv, Fn, Ff)
                 for k in range(nv):
-                    if not anc[b, owner[k]]:
+                    if anc[b, owner[k]] == 0:
                         continue
                     Kw, Kv = get6(rws.J, k)
                     y = dot(Kw, dn)
-                    if inb and anc[owner[k], owner[j]]:  # q_j turns the axis J_k: J_j x J_k
+                    if inb and anc[owner[k], owner[j]] != 0:  # q_j turns the axis J_k: J_j x J_k
                         y -= dot(Kw, Hn) + dot(Kv, Hf)
                     P[k, j] += y
 
@@ -418,11 +419,13 @@ def _derivatives_batch(tree, Q, V, T, C, gravity, alpha, beta, out, status):
     # borrowed (no reference counts), which also gives the tree and C the single call's types: one compiled
     # _state_derivatives serves both
     t, c, q, v, tau, o = borrowed(tree), borrowed(C), borrowed(Q), borrowed(V), borrowed(T), borrowed(out)
-    buf, work = _work(t, out.shape[2] - tree.S.shape[0])
+    buf, owned = _work(t, out.shape[2] - tree.S.shape[0])
+    work = borrowed(owned)
     lv, lt = V.shape[0] - 1, T.shape[0] - 1
     for b in range(Q.shape[0]):
         status[b] = _state_derivatives(t, c, gravity, q[b], v[min(b, lv)], tau[min(b, lt)], alpha, beta, work, o[b])
     keep_alive(buf)
+    keep_alive(owned)
     keep_alive(tree)
     keep_alive(C)
     keep_alive(Q)
@@ -443,9 +446,10 @@ def _derivatives_one(packed, packed_C, q, v, tau, alpha, beta, out):
         return GENERAL
     g = np.empty(3)  # gravity as a writable array: the batch's type
     g[0], g[1], g[2] = gravity[0], gravity[1], gravity[2]
-    buf, work = _work(tree, m)
-    status = _state_derivatives(tree, C, g, q, v, tau, alpha, beta, work, out)
+    buf, owned = _work(tree, m)
+    status = _state_derivatives(tree, C, g, q, v, tau, alpha, beta, borrowed(owned), out)
     keep_alive(buf)
+    keep_alive(owned)
     return DONE if status < 0 else GENERAL
 
 
