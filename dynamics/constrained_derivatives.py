@@ -60,7 +60,7 @@ from numba import types
 from ._numba import PACKED, SingleCall, VECTOR, borrowed, copy_into, inline_kernel, keep_alive, kernel
 from .checks import DONE, GENERAL, NOT_ARRAYS, _config_ok, _vector_ok
 from .constrained_dynamics import (CHOLESKY_RTOL, RANK_RTOL, _C_rows, _cholesky, _constrained_accel_kernel,
-                                   _lower_solve, _ltl_solve, _ltl_solve_t, _pinv_solve, _pivoted_cholesky,
+                                   _lower_solve, _pinv_solve, _pivoted_cholesky,
                                    _upper_solve, baumgarte_gains)
 from .constrained_dynamics import _workspace as kkt_workspace
 from .constraints import _anchor_pose, _col, arrays, packed
@@ -246,6 +246,30 @@ def _force_partials(tree, C, rws, anc, owner, lam, P):
                     P[k, j] += y
 
 
+@inline_kernel
+def _solve_t(L, lam, w):
+    """w = L^-T w in place: :func:`dynamics.constrained_dynamics._ltl_solve_t` inlined (called per column, the
+    call cost more than its loop at small nv)."""
+    for i in range(w.shape[0] - 1, -1, -1):
+        w[i] /= L[i, i]
+        j = lam[i]
+        while j >= 0:
+            w[j] -= L[i, j] * w[i]
+            j = lam[j]
+
+
+@inline_kernel
+def _solve(L, lam, w):
+    """w = L^-1 w in place: :func:`dynamics.constrained_dynamics._ltl_solve` inlined."""
+    for i in range(w.shape[0]):
+        y = w[i]
+        j = lam[i]
+        while j >= 0:
+            y -= L[i, j] * w[j]
+            j = lam[j]
+        w[i] = y / L[i, i]
+
+
 @kernel
 def _kkt_columns(kws, K, Kinv, YT, XT, RT, x):
     """Each row c of XT (nv,) and RT (m,) holds a column of X and Z (module docstring); replaced by the
@@ -271,7 +295,7 @@ def _kkt_columns(kws, K, Kinv, YT, XT, RT, x):
             _upper_solve(LK, m, Kinv[r])
     for c in range(XT.shape[0]):
         w, z = XT[c], RT[c]
-        _ltl_solve_t(LM, dof_parents, w)
+        _solve_t(LM, dof_parents, w)
         copy_into(x, z)
         for k in range(nv):  # x = z - Y w
             wk = w[k]
@@ -292,7 +316,7 @@ def _kkt_columns(kws, K, Kinv, YT, XT, RT, x):
             zr = z[r]
             for k in range(nv):
                 w[k] += Y[r, k] * zr
-        _ltl_solve(LM, dof_parents, w)
+        _solve(LM, dof_parents, w)
     return full
 
 
