@@ -107,10 +107,10 @@ def bench_constrained(dyn, pin, B, repeat, rng):
         for k in range(3):
             ours = dyn.constrained_forward_dynamics_derivatives(model, Q[k], V[k], T[k])
             pin_one(k)
-            for x, y in ((ours[1], pd.ddq_dv), (ours[2], pd.ddq_dtau)):
-                check = max(check, rel_diff(x, np.array(y)[np.ix_(P, P)]))
+            for x, y in ((ours[1], pd.ddq_dv), (ours[2], pd.ddq_dtau)):  # ours in Pinocchio's order: X[P]
+                check = max(check, rel_diff(x[np.ix_(P, P)], np.array(y)))
             for x, y in ((ours[4], pd.dlambda_dv), (ours[5], pd.dlambda_dtau)):
-                check = max(check, rel_diff(x, np.array(y)[:, P]))
+                check = max(check, rel_diff(x[:, P], np.array(y)))
         r = {"robot": name, "nv": model.nv, "m": model.info["constraints"]["rows"], "B": B, "check": check}
         r["b"], r["b_pin"] = (t / B for t in best_pair(
             lambda: dyn.constrained_forward_dynamics_derivatives(model, Q, V, T),
