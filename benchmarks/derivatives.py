@@ -6,7 +6,12 @@ Per robot (Panda, UR5, Talos floating; example-robot-data, found through the ins
   (default 10,000; capped so that the (B, 3, nv, nv) answer stays under ~400 MB) on 2 threads, as ratios to a
   Python loop over Pinocchio's ``computeRNEADerivatives`` / ``computeABADerivatives`` (Pinocchio has no
   parallel version of them);
-* single call from Python: one call of each against one call of Pinocchio's, on one state.
+* single call from Python: one call of each against one call of Pinocchio's, on one state;
+* constrained: ``constrained_forward_dynamics_derivatives`` against Pinocchio's ``constraintDynamics`` followed
+  by ``computeConstraintDynamicsDerivatives`` (both give a, lambda and the six blocks), batched (B capped at
+  2,000) and single, on the closed loops of benchmarks/constraints.py without redundant rows (the Cassie-like
+  leg, fixed and floating, and the Stewart platform).  Its "check" compares the v and tau blocks only:
+  Pinocchio's q blocks are wrong for loops between two moving bodies (tests/test_constrained_derivatives.py).
 
 Ratios are ours / Pinocchio's (below 1.0 we are faster); the two sides of each ratio are measured alternately
 (best of --repeat runs, benchmarks.core's conventions).  Before timing, our results are compared with
@@ -79,6 +84,60 @@ def bench_robot(dyn, pin, robot, B, repeat, rng):
     return r
 
 
+def bench_constrained(dyn, pin, B, repeat, rng):
+    """One row per closed-loop case of benchmarks/constraints.py without redundant rows (module docstring)."""
+    from benchmarks.constraints import cases, pinocchio_side
+
+    rows = []
+    for name, model, source, floating, redundant, states in cases(dyn):
+        if redundant:  # Pinocchio's derivatives need its exact (undamped) solve
+            continue
+        Q, V, T = states(dyn, model, B, rng)
+        pm, pd, cm, cd = pinocchio_side(pin, model, source, floating)
+        pmap = PinMap(model, pm)
+        P = pmap.v_perm
+        Qp, Vp, Tp = pmap.q(Q), pmap.v(V), pmap.v(T)
+        prox = pin.ProximalSettings(1e-12, 0.0, 1)
+
+        def pin_one(k):
+            pin.constraintDynamics(pm, pd, Qp[k], Vp[k], Tp[k], cm, cd, prox)
+            pin.computeConstraintDynamicsDerivatives(pm, pd, cm, cd, prox)
+
+        check = 0.0
+        for k in range(3):
+            ours = dyn.constrained_forward_dynamics_derivatives(model, Q[k], V[k], T[k])
+            pin_one(k)
+            for x, y in ((ours[1], pd.ddq_dv), (ours[2], pd.ddq_dtau)):  # ours in Pinocchio's order: X[P]
+                check = max(check, rel_diff(x[np.ix_(P, P)], np.array(y)))
+            for x, y in ((ours[4], pd.dlambda_dv), (ours[5], pd.dlambda_dtau)):
+                check = max(check, rel_diff(x[:, P], np.array(y)))
+        r = {"robot": name, "nv": model.nv, "m": model.info["constraints"]["rows"], "B": B, "check": check}
+        r["b"], r["b_pin"] = (t / B for t in best_pair(
+            lambda: dyn.constrained_forward_dynamics_derivatives(model, Q, V, T),
+            lambda: [pin_one(k) for k in range(B)], repeat))
+        q, v, tau = Q[0].copy(), V[0].copy(), T[0].copy()
+        r["s"], r["s_pin"] = best_pair(lambda: dyn.constrained_forward_dynamics_derivatives(model, q, v, tau),
+                                       lambda: pin_one(0), 3 * repeat, 300)
+        rows.append(r)
+        print(name, "done", flush=True)
+    return rows
+
+
+def constrained_table(rows, threads):
+    us = 1e6
+    out = [f"Constrained forward dynamics derivatives (a, lambda and the six blocks; {threads} threads batched) "
+           "against Pinocchio's constraintDynamics + computeConstraintDynamicsDerivatives; check: the v and tau "
+           "blocks.", "",
+           "| case | nv | m | B | check | batched (us) | Pinocchio loop (us) | ratio | single (us) | Pinocchio (us) "
+           "| ratio |", "|---|---|---|---|---|---|---|---|---|---|---|"]
+    for r in rows:
+        cells = [r["robot"], r["nv"], r["m"], r["B"], f"{r['check']:.1e}"]
+        for k in ("b", "s"):
+            cells += [f"{r[k] * us:.2f}", f"{r[k + '_pin'] * us:.2f}", f"{r[k] / r[k + '_pin']:.2f}"]
+        out.append("| " + " | ".join(str(c) for c in cells) + " |")
+    return "\n".join(out)
+
+
 def table(rows, threads):
     us = 1e6
     out = [f"Batched: per-state time on B states ({threads} threads) against a Python loop over Pinocchio's "
@@ -99,6 +158,7 @@ def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--batch", type=int, default=10_000)
     ap.add_argument("--repeat", type=int, default=5)
+    ap.add_argument("--constrained-only", action="store_true", help="only the constrained dynamics table")
     args = ap.parse_args(argv)
     import pinocchio as pin
 
@@ -107,12 +167,14 @@ def main(argv=None):
 
     rng = np.random.default_rng(0)
     rows = []
-    for robot in benchmark_robots():
+    for robot in [] if args.constrained_only else benchmark_robots():
         if robot.label.startswith("chain"):
             continue
         rows.append(bench_robot(dyn, pin, robot, args.batch, args.repeat, rng))
         print(rows[-1]["robot"], "done", flush=True)
-    text = table(rows, num_threads())
+    text = table(rows, num_threads()) + "\n\n" if rows else ""
+    text += constrained_table(bench_constrained(dyn, pin, min(args.batch, 2000), args.repeat, rng),
+                                       num_threads())
     print(text)
     OUT.parent.mkdir(exist_ok=True)
     OUT.write_text(f"# Derivatives benchmark (`python -m benchmarks.derivatives`)\n\n{text}\n")

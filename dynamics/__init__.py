@@ -33,6 +33,7 @@ from .constrained_dynamics import constrained_forward_dynamics, constrained_inve
 from .assemble import assemble
 from .rnea_derivatives import inverse_dynamics_derivatives
 from .aba_derivatives import forward_dynamics_derivatives
+from .constrained_derivatives import constrained_forward_dynamics_derivatives
 from .kinematics_derivatives import (center_of_mass_derivatives, frame_acceleration_derivatives,
                                      frame_jacobian_time_variation, frame_velocity_derivatives)
 from .configuration_jacobians import difference_jacobians, integrate_jacobians
@@ -61,7 +62,8 @@ __all__ = [
     "PointConstraint", "WeldConstraint", "RevoluteConstraint", "JointCoupling", "with_constraints",
     "constraint_residual", "constraint_jacobian", "constraint_bias", "constrained_forward_dynamics",
     "constrained_inverse_dynamics", "project_velocity", "assemble",
-    "inverse_dynamics_derivatives", "forward_dynamics_derivatives", "frame_velocity_derivatives",
+    "inverse_dynamics_derivatives", "forward_dynamics_derivatives", "constrained_forward_dynamics_derivatives",
+    "frame_velocity_derivatives",
     "frame_acceleration_derivatives", "frame_jacobian_time_variation", "center_of_mass_derivatives",
     "integrate_jacobians", "difference_jacobians",
     "CollisionGeometry", "Sphere", "Box", "Capsule", "Cylinder", "ContactPoint", "Ground", "HalfSpace",
