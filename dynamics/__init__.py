@@ -36,6 +36,7 @@ from .aba_derivatives import forward_dynamics_derivatives
 from .kinematics_derivatives import (center_of_mass_derivatives, frame_acceleration_derivatives,
                                      frame_jacobian_time_variation, frame_velocity_derivatives)
 from .configuration_jacobians import difference_jacobians, integrate_jacobians
+from .torque_derivatives import closed_loop_derivatives, torque_source_derivatives
 from .contact.geometry import (Box, Capsule, CollisionGeometry, ContactPoint, Cylinder, Ground, HalfSpace,
                                Sphere)
 from .contact.free_bodies import add_free_body
@@ -63,7 +64,7 @@ __all__ = [
     "constrained_inverse_dynamics", "project_velocity", "assemble",
     "inverse_dynamics_derivatives", "forward_dynamics_derivatives", "frame_velocity_derivatives",
     "frame_acceleration_derivatives", "frame_jacobian_time_variation", "center_of_mass_derivatives",
-    "integrate_jacobians", "difference_jacobians",
+    "integrate_jacobians", "difference_jacobians", "torque_source_derivatives", "closed_loop_derivatives",
     "CollisionGeometry", "Sphere", "Box", "Capsule", "Cylinder", "ContactPoint", "Ground", "HalfSpace",
     "add_free_body", "Contact", "Material", "contact_forces",
 ]
