@@ -37,6 +37,7 @@ from .constrained_derivatives import constrained_forward_dynamics_derivatives
 from .kinematics_derivatives import (center_of_mass_derivatives, frame_acceleration_derivatives,
                                      frame_jacobian_time_variation, frame_velocity_derivatives)
 from .configuration_jacobians import difference_jacobians, integrate_jacobians
+from .torque_derivatives import closed_loop_derivatives, torque_source_derivatives
 from .contact.geometry import (Box, Capsule, CollisionGeometry, ContactPoint, Cylinder, Ground, HalfSpace,
                                Sphere)
 from .contact.free_bodies import add_free_body
@@ -65,7 +66,7 @@ __all__ = [
     "inverse_dynamics_derivatives", "forward_dynamics_derivatives", "constrained_forward_dynamics_derivatives",
     "frame_velocity_derivatives",
     "frame_acceleration_derivatives", "frame_jacobian_time_variation", "center_of_mass_derivatives",
-    "integrate_jacobians", "difference_jacobians",
+    "integrate_jacobians", "difference_jacobians", "torque_source_derivatives", "closed_loop_derivatives",
     "CollisionGeometry", "Sphere", "Box", "Capsule", "Cylinder", "ContactPoint", "Ground", "HalfSpace",
     "add_free_body", "Contact", "Material", "contact_forces",
 ]

@@ -166,7 +166,7 @@ def forward_dynamics_derivatives(model, q, v, tau, *, gravity=None, f_ext=None):
     if getattr(model, "constraints", None):
         raise InputError("model: forward_dynamics_derivatives differentiates the unconstrained dynamics; this "
                          "model has constraints (differentiate the model without them, or its constrained "
-                         "dynamics with constrained_dynamics_derivatives)")
+                         "dynamics with constrained_forward_dynamics_derivatives)")
     try:  # one state: one compiled call, which checks q, v and tau itself (anything else takes the general path)
         if gravity is None and f_ext is None:
             nv = model.nv

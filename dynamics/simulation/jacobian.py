@@ -14,8 +14,10 @@ v at q = q(delta), :mod:`dynamics.configuration`; a: the ABA's accelerations und
 da/dq (in the tangent space of q, nv columns, Pinocchio's convention), da/dv and M^-1 come from
 :func:`aba_derivatives` (Carpentier & Mansard 2018, :mod:`dynamics.aba_derivatives`); dtau_p (damping,
 regularised friction, limit springs) is written out
-(:func:`passive_derivatives`); the source's dtau_s by central differences of the source alone
-(:func:`source_derivatives`).  The W columns are zero (f does not depend on the quadratures).
+(:func:`passive_derivatives`); the source's dtau_s analytically (:func:`source_derivatives`, from
+:mod:`dynamics.control.derivatives`: PD, computed torque, tables, constants), or by central differences of the
+source alone for the operational-space controller and Python callables.  The W columns are zero (f does not
+depend on the quadratures).
 
 Contact forces have no assembled derivatives: after an evaluation that found a contact (since the last
 Jacobian), the whole right-hand side is differenced instead; a robot touching nothing keeps this Jacobian.
@@ -29,6 +31,7 @@ import numpy as np
 from .._numba import generic_kernel, keep_alive, kernel
 from ..aba_derivatives import _aba_derivatives_into, _derivatives_workspace
 from ..configuration import _difference, _integrate_q, chart_rate_in, retract_in
+from ..control.derivatives import source_derivatives_into
 from ..control.dispatch import torque_eval
 from ..control.passive import passive_torques
 from ..contact.calls import contact_touched
@@ -49,6 +52,20 @@ def aba_derivatives(tree, q, v, tau, gravity, f_ext, da_dq, da_dv, Minv):
 
 @generic_kernel
 def source_derivatives(p, t, delta, v, dts_dd, dts_dv):
+    """d tau_source / d delta (chart coordinates) and / dv: analytical for the kinds that have it
+    (:mod:`dynamics.control.derivatives`, in the tangent space, then times T as the ABA's), else by central
+    differences of the source alone (:func:`_source_differences`)."""
+    q = np.empty(p.base.shape[0])
+    _retract_at(p, delta, q)
+    if source_derivatives_into(p.tag, p.source, p.tree, p.passive, t, q, v, p.ws_source, dts_dd, dts_dv):
+        if q.shape[0] != v.shape[0]:
+            tangent_to_chart(p.tree, p.base, q, dts_dd)
+        return
+    _source_differences(p, t, delta, v, dts_dd, dts_dv)
+
+
+@generic_kernel
+def _source_differences(p, t, delta, v, dts_dd, dts_dv):
     """d tau_source / d delta (chart coordinates) and / dv by central differences of the source alone."""
     nv = v.shape[0]
     dt, vt = delta.copy(), v.copy()
