@@ -418,11 +418,29 @@ class Robot:
         report = ans.get("report", {})
         if isinstance(report, str):
             report = json.loads(report)
-        contacts = {k.split(".", 1)[1]: v for k, v in ans.items() if k.startswith("contacts.")} or None
-        if contacts is not None and isinstance(contacts.get("pairs"), str):
-            contacts["pairs"] = [tuple(p) for p in json.loads(contacts["pairs"])]
         return Trajectory(t=ans["t"], q=ans["q"], v=ans["v"], tau=ans["tau"], report=report, lam=ans.get("lambda"),
-                          contacts=contacts, sensitivities=ans.get("sensitivities"))
+                          contacts=contact_rows(ans), sensitivities=ans.get("sensitivities"))
+
+
+def contact_rows(ans: Mapping[str, Any]) -> Optional[dict[str, Any]]:
+    """An answer's ``contacts.<field>`` members -> {field: array}, ``pairs`` as [(a, b)] (None without them)."""
+    contacts = {k.split(".", 1)[1]: v for k, v in ans.items() if k.startswith("contacts.")} or None
+    if contacts is not None:
+        pairs = contacts.get("pairs")
+        contacts["pairs"] = [tuple(p) for p in (json.loads(pairs) if isinstance(pairs, str) else pairs or [])]
+    return contacts
+
+
+def contacts_per_run(ans: Mapping[str, Any]) -> Optional[list[dict[str, Any]]]:
+    """A simulate_many job's result with contact outputs -> one dict per run, as ``Robot.simulate`` returns a
+    run's ``contacts`` (sample, pair, pairs, point, normal, normal_force, friction, depth, slip): the rows of
+    ``contacts.run`` == k, views into the result's arrays. None without contact outputs."""
+    rows = contact_rows(ans)
+    if rows is None:
+        return None
+    run = np.asarray(rows.pop("run")).astype(np.int64)
+    ends = np.searchsorted(run, np.arange(len(ans["counts"]) + 1))  # (rows are in run order)
+    return [{k: (v if k == "pairs" else v[a:b]) for k, v in rows.items()} for a, b in zip(ends[:-1], ends[1:])]
 
 
 #: the library's torque classes (dynamics.torques) the service knows: class name -> (HTTP type, attributes sent)
@@ -517,8 +535,12 @@ class Job:
 
     def result(self) -> dict[str, Any]:
         """The result as arrays (tau / a / mass_matrix; or t, q, v, tau, counts and reports of simulate_many);
-        a ServiceError 409 until it is done."""
-        return decode_answer(self.client.request("GET", f"/v1/jobs/{self.id}/result", headers={"Accept": NPZ}))
+        a ServiceError 409 until it is done. A simulate_many whose contact asked for ``outputs=["contacts"]``
+        also has ``contacts``: one dict per run, as :class:`Trajectory`'s ``contacts`` (``contacts[k]["sample"]``,
+        ``["normal_force"]``, ...), beside the flat rows of every run (``contacts.run``, ``contacts.sample``, ...)."""
+        out = decode_answer(self.client.request("GET", f"/v1/jobs/{self.id}/result", headers={"Accept": NPZ}))
+        per_run = contacts_per_run(out) if "contacts.run" in out else None
+        return out if per_run is None else {**out, "contacts": per_run}
 
     def cancel(self) -> dict[str, Any]:
         """Cancel it if it is queued or running; remove it (and its result) if it has finished."""

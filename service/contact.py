@@ -10,8 +10,9 @@ naming no geometry) the library finds when the simulation resolves the contact, 
 ``contact.`` in front of its message.
 
 The answer's side: :func:`samples` turns ``Trajectory.contacts`` (``dynamics.contact.outputs.ContactSamples``)
-into one row per active contact, arrays named ``contacts.<field>``, plus the pair names, and :func:`robot_geometry` describes a model's
-collision geometry for ``GET /v1/robots/{id}``.
+into one row per active contact, arrays named ``contacts.<field>``, plus the pair names; :func:`run_samples` does
+the same for every run of ``simulate_many`` (``Trajectories.contacts``), with a ``contacts.run`` column, for
+jobs; :func:`robot_geometry` describes a model's collision geometry for ``GET /v1/robots/{id}``.
 """
 
 from __future__ import annotations
@@ -136,6 +137,31 @@ def samples(contacts) -> dict[str, Any]:
     out: dict[str, Any] = {"contacts.sample": sample.astype(np.int64), "contacts.pair": pair[sample, row]}
     for name in SAMPLE_FIELDS:
         out[f"contacts.{name}"] = np.ascontiguousarray(np.asarray(getattr(contacts, name))[sample, row])
+    out["contacts.pairs"] = [list(p) for p in contacts.pairs]
+    return out
+
+
+#: trailing shape of each field of a contact row (``contacts.<name>`` is (N, *shape))
+SAMPLE_SHAPES = {"point": (3,), "normal": (3,), "normal_force": (), "friction": (3,), "depth": (), "slip": (3,)}
+#: the arrays of a simulate_many job's contacts, one row per active contact of any run (the run's index first)
+RUN_MEMBERS = ("contacts.run", "contacts.sample", "contacts.pair", *(f"contacts.{n}" for n in SAMPLE_FIELDS))
+
+
+def run_samples(contacts, first: int = 0) -> dict[str, Any]:
+    """``Trajectories.contacts`` of ``simulate_many`` (every field but ``pairs`` with a leading run axis (B, T,
+    ...)) -> the active contacts of every run as in :func:`samples`, plus ``contacts.run`` (N,) (``first`` + the
+    run's index), in run then sample order; ``contacts.pairs`` None when no run kept contacts (``contacts``
+    None: every run failed). A run's rows are exactly what :func:`samples` gives for it alone."""
+    if contacts is None:
+        out: dict[str, Any] = {name: np.zeros(0, np.int64) for name in RUN_MEMBERS[:3]}
+        out.update({f"contacts.{n}": np.zeros((0, *SAMPLE_SHAPES[n])) for n in SAMPLE_FIELDS})
+        return {**out, "contacts.pairs": None}
+    pair = np.asarray(contacts.pair)
+    run, sample, row = np.nonzero(pair >= 0)
+    out = {"contacts.run": run.astype(np.int64) + first, "contacts.sample": sample.astype(np.int64),
+           "contacts.pair": pair[run, sample, row]}
+    for name in SAMPLE_FIELDS:
+        out[f"contacts.{name}"] = np.ascontiguousarray(np.asarray(getattr(contacts, name))[run, sample, row])
     out["contacts.pairs"] = [list(p) for p in contacts.pairs]
     return out
 

@@ -13,6 +13,7 @@ from __future__ import annotations
 import io
 import json
 import math
+import time
 
 import httpx
 import numpy as np
@@ -20,7 +21,7 @@ import pytest
 
 import dynamics
 from service.client import Client, ServiceError
-from service_fixtures import shared_server, while_simulation_starts
+from service_fixtures import Server, shared_server, while_simulation_starts
 
 RADIUS, MASS, G = 0.1, 1.0, 9.81
 INERTIA = 0.4 * MASS * RADIUS ** 2
@@ -192,11 +193,128 @@ def test_huge_lists_are_refused_by_their_size(server, ball):
     assert r.status_code == 422 and r.json()["field"].startswith("contact.objects.0.box.pose"), r.text
 
 
-def test_a_job_refuses_contact_outputs_and_bad_geometry_at_submission(client, ball):
-    for options, field in (({"contact": {"outputs": ["contacts"]}}, "options.contact.outputs"),
-                           ({"contact": {"geometries": [{"type": "box", "frame": "ball", "size": [1, 1, 0]}]}},
-                            "options.contact.geometries")):
+def test_a_job_refuses_bad_geometry_at_submission(client, ball):
+    for contact, field in (({"geometries": [{"type": "box", "frame": "ball", "size": [1, 1, 0]}]},
+                            "options.contact.geometries"),
+                           ({"geometries": [{"type": "sphere", "frame": "no_such_link", "radius": 0.1}],
+                             "outputs": ["contacts"]}, "options.contact.geometries[0].frame")):
         with pytest.raises(ServiceError) as e:
             client.submit(ball, "simulate_many", {"q0": np.array(q0()), "v0": np.zeros(6)},
-                          options={"duration": 0.1, **options})
+                          options={"duration": 0.1, "contact": contact})
         assert e.value.status == 422 and e.value.field.startswith(field), str(e.value)
+
+
+# -- the contacts per sample of simulate_many jobs ------------------------------------------------------------
+FIELDS = ("point", "normal", "normal_force", "friction", "depth", "slip")
+
+
+def library_runs(heights):
+    """The library's simulate_many of the ball dropped from each height, with the job's options."""
+    model = dynamics.load_urdf(BALL.encode(), floating_base=True, collision=True)
+    q = np.array([q0(z) for z in heights])
+    options = {k: v for k, v in DROP.items() if k != "duration"}
+    return dynamics.simulate_many(model, q, np.zeros(6), DROP["duration"], progress=False,
+                                  contact=dynamics.Contact(friction=0.5, outputs=("contacts",)), **options)
+
+
+def library_rows(contacts, k):
+    """Run k's active contacts, one row each in sample order, read off the library's stacked (B, T, K) arrays."""
+    sample, row = np.nonzero(contacts.pair[k] >= 0)
+    return {"sample": sample, "pair": contacts.pair[k][sample, row],
+            **{name: getattr(contacts, name)[k][sample, row] for name in FIELDS}}
+
+
+def assert_runs_equal(flat, contacts, runs):
+    """The job's flat rows (``contacts.run``, ``contacts.sample``, ...: from JSON or .npz) are the library's runs
+    ``runs``, bit for bit, in run then sample order."""
+    expected = [library_rows(contacts, k) for k in runs]
+    assert np.array_equal(np.asarray(flat["contacts.run"]),
+                          np.concatenate([np.full(len(e["sample"]), run) for e, run in zip(expected, runs)]))
+    for name in ("sample", "pair", *FIELDS):
+        assert np.array_equal(np.asarray(flat[f"contacts.{name}"], dtype=expected[0][name].dtype),
+                              np.concatenate([e[name] for e in expected])), name
+
+
+HEIGHTS = [Z0, 6.0, 0.3, 0.15]  # the second falls 4.9 m in 1 s: it never touches (no rows between others')
+
+
+def test_a_simulate_many_job_keeps_the_contacts_per_sample(server, client, ball, drop):
+    job = client.submit(ball, "simulate_many", {"q0": np.array([q0(z) for z in HEIGHTS]), "v0": np.zeros(6)},
+                        options={**DROP, "contact": CONTACT})
+    assert job.wait(timeout=600)["status"] == "done", job.status()
+    reference = library_runs(HEIGHTS).contacts
+    out = job.result()  # the client: one dict per run, as Robot.simulate's contacts
+    assert len(out["contacts"]) == len(HEIGHTS)
+    for k, run in enumerate(out["contacts"]):
+        assert run["pairs"] == [(GEOMETRY, "ground")]
+        for name, value in library_rows(reference, k).items():
+            assert np.array_equal(run[name], value), (k, name)
+    assert len(out["contacts"][1]["sample"]) == 0 and len(out["contacts"][2]["sample"]) > 0
+    assert np.array_equal(out["contacts"][0]["normal_force"], drop["contacts.normal_force"])  # as /simulate's
+    assert np.array_equal(out["contacts"][0]["sample"], drop["contacts.sample"])
+    last = out["contacts"][3]["sample"] == len(out["t"]) - 1  # at rest: the contact carries m g (module doc)
+    assert out["contacts"][3]["normal_force"][last].sum() == pytest.approx(MASS * G, rel=1e-6)
+    assert out["contacts"][3]["depth"][last][0] == pytest.approx(1e-3, rel=1e-6)
+
+    url = f"{server.url}/v1/jobs/{job.id}/result"
+    answer = httpx.get(url, headers={"Accept": "application/json"}, timeout=60)
+    assert answer.headers["content-type"].startswith("application/json"), answer.headers
+    body = answer.json()
+    assert body["contacts.pairs"] == [[GEOMETRY, "ground"]]
+    assert_runs_equal(body, reference, range(len(HEIGHTS)))  # (shortest round-trip floats: exact)
+    answer = httpx.get(url, headers={"Accept": "application/x-npz"}, timeout=60)
+    with np.load(io.BytesIO(answer.content), allow_pickle=False) as npz:
+        assert json.loads(str(npz["contacts.pairs"])) == [[GEOMETRY, "ground"]]
+        assert_runs_equal({k: npz[k] for k in npz.files}, reference, range(len(HEIGHTS)))
+
+
+#: a result limit that a job of 120 drops from 0.15-0.6 m meets whatever its contacts (1.84 MB of states and at
+#: most 101 contact rows of 128 bytes per run: 3.39 MB), and that 200 drops from 0.11 m (3.07 MB of states, within
+#: it alone, and about 2.6 MB of contacts) pass
+LIMIT = 4_000_000
+
+
+def test_contacts_count_in_the_result_limit_and_survive_a_killed_server(tmp_path):
+    env = {"DYNAMICS_MAX_JOB_RESULT_BYTES": str(LIMIT), "DYNAMICS_JOB_PART_SECONDS": "0.2"}
+    server = Server(tmp_path / "store", env=env).start()
+    try:
+        client = Client(server.url, timeout=600)
+        ball = client.upload(BALL.encode(), name="contact-ball", floating_base=True)
+        options = {**DROP, "contact": CONTACT}
+        small = client.submit(ball, "simulate_many", {"q0": np.array([q0(z) for z in HEIGHTS]), "v0": np.zeros(6)},
+                              options=options)
+        assert small.wait(timeout=600)["status"] == "done"
+        heights = np.linspace(0.15, 0.6, 120)
+        job = client.submit(ball, "simulate_many", {"q0": np.array([q0(z) for z in heights]), "v0": np.zeros(6)},
+                            options=options)
+        end = time.monotonic() + 600
+        while not (0 < (before := job.status())["progress"]["done"] < 120 and before["status"] == "running"):
+            assert time.monotonic() < end and before["status"] in ("queued", "running"), before
+            time.sleep(0.05)
+        server.kill()  # mid-job: parts with contact rows on disk, the rest to do
+        server = Server(tmp_path / "store", env=env).start()
+        client = Client(server.url, timeout=600)
+        after = client.job(job.id).wait(timeout=600)
+        assert after["status"] == "done" and after["attempts"] == 2 and "restarted" in after["error"], after
+        reference = library_runs(heights).contacts
+        answer = httpx.get(f"{server.url}/v1/jobs/{job.id}/result", headers={"Accept": "application/x-npz"},
+                           timeout=60)
+        with np.load(io.BytesIO(answer.content), allow_pickle=False) as npz:
+            assert_runs_equal({k: npz[k] for k in npz.files}, reference, range(120))  # across the restart
+        runs = client.job(small.id).result()["contacts"]  # finished before the crash: still served
+        reference = library_runs(HEIGHTS).contacts
+        assert all(np.array_equal(runs[k]["normal_force"], library_rows(reference, k)["normal_force"])
+                   for k in range(len(HEIGHTS)))
+
+        over = client.submit(ball, "simulate_many", {"q0": np.array([q0(0.11)] * 200), "v0": np.zeros(6)},
+                             options=options)  # (accepted: its states alone are within the limit)
+        info = over.wait(timeout=600)
+        assert info["status"] == "failed", info
+        assert info["error"].startswith("options.contact.outputs: the contacts per sample of runs 0-")
+        assert f"over the limit of {LIMIT} bytes (DYNAMICS_MAX_JOB_RESULT_BYTES)" in info["error"], info
+        with pytest.raises(ServiceError) as e:
+            over.result()
+        assert e.value.status == 409 and "DYNAMICS_MAX_JOB_RESULT_BYTES" in e.value.message
+        assert not (tmp_path / "store" / "jobs" / "parts" / over.id).exists()  # its parts went with it
+    finally:
+        server.stop()

@@ -101,6 +101,19 @@ def read_member(path: Path, name: str) -> np.ndarray:
         return npz[name]
 
 
+def member_shapes(path: Path) -> dict[str, tuple[tuple, np.dtype]]:
+    """Every member's (shape, dtype), read from the .npy headers only (no array is loaded)."""
+    out = {}
+    with zipfile.ZipFile(path) as zf:
+        for info in zf.infolist():
+            with zf.open(info) as f:
+                version = npformat.read_magic(f)
+                read = npformat.read_array_header_1_0 if version == (1, 0) else npformat.read_array_header_2_0
+                shape, _, dtype = read(f)
+            out[info.filename.removesuffix(".npy")] = (tuple(shape), np.dtype(dtype))
+    return out
+
+
 def read_npz(path: Path) -> dict[str, np.ndarray]:
     with np.load(path, allow_pickle=False) as npz:
         return {name: npz[name] for name in npz.files}

@@ -8,6 +8,12 @@ is written atomically to ``parts/<id>/<lo>-<hi>.npz`` before the progress is rec
 anywhere (a SIGKILLed server, a dead worker) resumes after its last finished part, and the parts stacked give
 exactly what one call on the whole input gives (every item is computed alone, bit for bit).
 
+A ``simulate_many`` whose contact asks for ``outputs: ["contacts"]`` keeps every run's active contacts per
+sample as rows (``contacts.run``, ``contacts.sample``, ... : :func:`service.contact.run_samples`) in its parts and
+its result. Their number is known only as the runs end: the result's size limit counts them part by part (a job
+past it fails, saying so, before the part is written), and a part holds at most the runs whose fixed-capacity
+contact arrays fit :data:`PART_CONTACT_BYTES`.
+
 Between parts the runner records progress and, by the same write, learns whether the job is still its own
 (cancelled, deleted or handed to another server: it stops). Within a part the library's progress callback
 updates ``done`` at most every :data:`PROGRESS_EVERY` seconds.
@@ -26,7 +32,7 @@ from typing import Any, Callable, Optional
 
 import numpy as np
 
-from ..errors import InvalidInput, storage_full
+from ..errors import InvalidInput, figure, storage_full
 from ..library import lib
 from ..models import ModelCache, cached, load_model
 from ..settings import Settings
@@ -36,7 +42,7 @@ from .. import torque as torques
 from ..codec import finite_report
 from ..store import RobotStore
 from .db import JobDB, JobRecord
-from .files import JobFiles, Stacked, read_member, read_npz, write_npz
+from .files import JobFiles, Stacked, member_shapes, read_member, read_npz, write_npz
 
 log = logging.getLogger("service.jobs")
 
@@ -44,6 +50,12 @@ log = logging.getLogger("service.jobs")
 PROGRESS_EVERY = 0.5
 #: size of the first part (items), before any rate is known
 FIRST_PART = {"simulate_many": 8, "dynamics": 4096}
+#: memory for one part's contacts per sample (the library's fixed-capacity arrays: T samples x K rows per run):
+#: the part size is capped to fit
+PART_CONTACT_BYTES = 256 * 1024 * 1024
+#: numbers a run holds per sample and contact row while its part is stacked: its own ContactSamples (15), the
+#: stacked copy (15) and at most the flattened active rows (16)
+HELD_PER_ROW = 48
 _PART_NAME = re.compile(r"^(\d+)-(\d+)\.npz$")
 
 # -- the kinds of job ----------------------------------------------------------------------------------------
@@ -107,6 +119,10 @@ class SimulateMany:
                                   progress=progress, **engine, **options)
         reports = [dict(finite_report(r), run=lo + k) for k, r in enumerate(out.reports)]
         extra = {} if out.sensitivities is None else {"sensitivities": out.sensitivities}
+        if "contacts" in (spec["options"].get("contact") or {}).get("outputs", ()):
+            rows = contacts.run_samples(out.contacts, lo)
+            rows["contacts.pairs"] = np.array(json.dumps(rows["contacts.pairs"]))  # (a JSON member, as reports)
+            extra.update(rows)
         return {"t": out.t, "q": out.q, "v": out.v, "tau": out.tau, "counts": out.counts,
                 "reports": np.array(json.dumps(reports)), **extra}
 
@@ -125,12 +141,46 @@ class SimulateMany:
         extra = {"sensitivities": padded("sensitivities")} if _has_member(parts[0], "sensitivities") else {}
         return {"t": t, "q": padded("q"), "v": padded("v"), "tau": padded("tau"),
                 "counts": np.concatenate([read_member(p, "counts") for p in parts]),
-                "reports": np.array(json.dumps(reports)), **extra}
+                "reports": np.array(json.dumps(reports)), **extra, **_stacked_contacts(parts)}
 
 
 def _has_member(path: Path, name: str) -> bool:
     with np.load(path, allow_pickle=False) as npz:
         return name in npz.files
+
+
+def _stacked_contacts(parts: list[Path]) -> dict[str, Any]:
+    """The parts' contact rows (``contacts.run``, ``sample``, ... : already in run order) streamed one after
+    the other, and the pair names (every run has the same; none when no run kept contacts)."""
+    shapes = [member_shapes(p) for p in parts]
+    if "contacts.run" not in shapes[0]:
+        return {}
+    def stacked(name: str) -> Stacked:  # (a function: each generator reads its own member)
+        shape, dtype = shapes[0][name]
+        n = sum(s[name][0][0] for s in shapes)
+        return Stacked((n, *shape[1:]), dtype, (read_member(p, name) for p in parts))
+
+    out: dict[str, Any] = {name: stacked(name) for name in contacts.RUN_MEMBERS}
+    pairs = (json.loads(str(read_member(p, "contacts.pairs"))) for p in parts)
+    out["contacts.pairs"] = np.array(json.dumps(next((x for x in pairs if x is not None), [])))
+    return out
+
+
+def contact_bytes(shapes: dict[str, tuple[tuple, Any]]) -> int:
+    """Bytes of the contact rows among arrays given by {name: (shape, dtype)} (0 without contact outputs)."""
+    return sum(int(np.prod(shapes[n][0])) * np.dtype(shapes[n][1]).itemsize
+               for n in contacts.RUN_MEMBERS if n in shapes)
+
+
+def contact_part_cap(result: dict[str, Any]) -> float:
+    """The most runs a part may hold so that the library's fixed-capacity contact arrays of the part (T samples
+    x K = the scene's ``max_contacts`` rows per run, read from the reports) stay within
+    :data:`PART_CONTACT_BYTES`; unbounded (inf) without contact outputs."""
+    if "contacts.run" not in result:
+        return float("inf")
+    reports = json.loads(str(result["reports"]))
+    K = max((r.get("contact", {}).get("max_contacts", 0) for r in reports), default=0)
+    return max(1, PART_CONTACT_BYTES // max(1, 8 * HELD_PER_ROW * len(result["t"]) * K))
 
 
 def _sensitivity_numbers(model, options: dict[str, Any], spec: dict[str, Any]) -> int:
@@ -224,6 +274,8 @@ def _run(files: JobFiles, settings: Settings, db: JobDB, store: RobotStore, mode
     lo = done_parts[-1][1] if done_parts else 0
     seconds = job.compute_seconds
     size = FIRST_PART["simulate_many" if job.kind == "simulate_many" else "dynamics"]
+    estimate = kind.result_bytes(model, job.total, job.spec)  # (without the contact rows: known as they come)
+    kept = sum(contact_bytes(member_shapes(folder / f"{a}-{b}.npz")) for a, b in done_parts)
     while lo < job.total:
         hi = min(job.total, lo + size)
         t0 = time.perf_counter()
@@ -231,12 +283,15 @@ def _run(files: JobFiles, settings: Settings, db: JobDB, store: RobotStore, mode
         elapsed = time.perf_counter() - t0
         if not db.owns(job.id, boot):  # cancelled, deleted or handed on meanwhile: leave it
             return
+        kept += contact_bytes({k: (np.shape(v), np.asarray(v).dtype) for k, v in result.items()})
+        if estimate + kept > settings.max_job_result_bytes:
+            raise ValueError(_over_limit(kept, estimate, hi, settings.max_job_result_bytes))
         write_npz(folder / f"{lo}-{hi}.npz", result)
         seconds += elapsed
         if not db.progress(job.id, boot, hi, seconds):
             return
         rate = (hi - lo) / max(elapsed, 1e-6)
-        size = int(min(4 * size, max(1, rate * settings.job_part_seconds)))
+        size = int(min(4 * size, max(1, rate * settings.job_part_seconds), contact_part_cap(result)))
         lo = hi
     parts = [folder / f"{a}-{b}.npz" for a, b in parts_done(folder)]
     nbytes = write_npz(files.result(job.id), kind.assemble(parts, job.total))
@@ -244,6 +299,13 @@ def _run(files: JobFiles, settings: Settings, db: JobDB, store: RobotStore, mode
         files.remove(job.id, keep_result=True)
     else:  # cancelled meanwhile
         files.remove(job.id)
+
+
+def _over_limit(kept: int, estimate: int, done: int, limit: int) -> str:
+    return (f"options.contact.outputs: the contacts per sample of runs 0-{done - 1} take {figure(kept)} bytes, "
+            f"which with the rest of the result (about {figure(estimate)} bytes) is over the limit of {limit} bytes "
+            f"(DYNAMICS_MAX_JOB_RESULT_BYTES); split the job into fewer runs, sample less often (sample_dt) or "
+            f"leave out outputs ['contacts']")
 
 
 def _progress_writer(db: JobDB, job_id: str, boot: str, base: int, seconds: float) -> Callable[[int, int], None]:
@@ -274,9 +336,6 @@ def check_inputs(kind_name: str, model, inputs: dict[str, np.ndarray], spec: dic
             return f"inputs.{name}: expected shape {rows}, got {x.shape}"
     if kind_name == "simulate_many" and spec["options"].get("contact") is not None:
         contact = spec["options"]["contact"]
-        if contact.get("outputs"):
-            return "options.contact.outputs: the contacts per sample are not kept by simulate_many jobs (each run's " \
-                   "report has its contact summary); use /simulate for them"
         try:  # the declarations the library refuses and unknown frames (a 422 now, not when the job runs)
             contacts.build(contact)
             contacts.check_frames(model, contact)

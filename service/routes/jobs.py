@@ -79,8 +79,9 @@ async def result(job_id: str, request: Request, d: Deps = Depends(deps),
     arrays = await d.compute.run(read_npz, path)
     if not all(np.isfinite(a).all() for a in arrays.values() if a.dtype.kind == "f"):  # JSON has no NaN: runs
         return FileResponse(path, media_type=NPZ, filename=f"{job_id}.npz")         # that stopped early are NaN
-    if "reports" in arrays:
-        arrays["reports"] = json.loads(str(arrays["reports"]))
+    for name, a in arrays.items():  # reports, contacts.pairs: JSON held in a 0-d string member
+        if a.ndim == 0 and a.dtype.kind == "U":
+            arrays[name] = json.loads(str(a))
     return await d.compute.run(encode, arrays, JSON)
 
 
