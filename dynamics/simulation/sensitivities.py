@@ -374,6 +374,10 @@ def sensitivity_spec(model, src, sensitivities, integrator, project):
     if unknown or not names or len(set(names)) != len(names):
         raise InputError(f"sensitivities: expected distinct names among {('x0',) + tuple(allowed)} for this torque "
                          f"source, got {names!r}")
+    if "q_target" in names and model.nq != model.nv:
+        raise InputError("sensitivities: 'q_target' is for models of 1-dof joints only (nq == nv): this model has a "
+                         "free, spherical or planar joint, whose target configuration is no vector of nv entries; "
+                         "ask for 'x0', 'kp', 'kd', 'v_target' or 'tau_ff'")
     if integrator == "euler":
         raise InputError("sensitivities: not with integrator='euler'; use 'rk4', 'rk45', 'dop853', 'radau' or 'auto'")
     if project:
