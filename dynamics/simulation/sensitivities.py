@@ -38,12 +38,13 @@ SO(3) right Jacobian Jr(delta_theta)).  After a re-centring dS/dt is evaluated a
 derivative depends on the chart, so the first-same-as-last stage is not reused for S): one right-hand side and
 Jacobian more per accepted step, for models with a free, spherical or planar joint only.
 
-With contact (:class:`dynamics.Contact`) df/dx is the whole right-hand side differenced (the robot Jacobian's
-fall-back after an evaluation that touched something).  The compliant force k x (1 + d xdot)_+ is continuous at
+With contact (:class:`dynamics.Contact`) df/dx holds the contact force's derivatives (central differences of
+the contact law, :func:`.jacobian.robot_jacobian`, after an evaluation that touched something).  The compliant force k x (1 + d xdot)_+ is continuous at
 touch-down (x = 0), so the flow is differentiable and no jump of S occurs there (the saltation matrix
 I + (f+ - f-) n^T / (n^T f-) is the identity when f+ = f-); df/dx is only piecewise smooth (it jumps at x = 0
 and where the clamp acts), so S's error is controlled by the step size there and S at an exact touch-down time
-is the one-sided limit's mix.
+is the one-sided limit's mix.  Measured on a ball through an impact: S agrees with differences of whole runs
+to ~1e-5 relative after the impact (1e-13 in flight), a systematic limit not yet explained.
 
 The parameters are entries of the compiled torque source
 (:class:`dynamics.control.sources.Source`): PD's kp, kd, v_target, tau_ff (rows of ``gains``) and q_target
