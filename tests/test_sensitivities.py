@@ -152,6 +152,7 @@ def test_refusals(two_r):
     table = Table(np.linspace(0, 1, 300), np.zeros((300, 2)))  # 600 parameters
     with pytest.raises(InputError, match="dense"):
         sim(model, q0, v0, 0.1, torque=table, integrator="radau", sensitivities=("tau",))
-    floating = dynamics.load_urdf(TWO_R, floating_base=True)
-    with pytest.raises(InputError, match="1-dof joints only"):
-        sim(floating, floating.neutral(), np.zeros(floating.nv), 0.1, sensitivities=True)
+    floating = dynamics.load_urdf(TWO_R, floating_base=True)  # a free joint: x0 and the gains, not q_target
+    with pytest.raises(InputError, match="'q_target' is for models of 1-dof joints only"):
+        sim(floating, floating.neutral(), np.zeros(floating.nv), 0.1, torque=PD(floating.neutral(), 1.0, 0.1),
+            sensitivities=("x0", "q_target"))

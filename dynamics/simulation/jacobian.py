@@ -19,8 +19,12 @@ regularised friction, limit springs) is written out
 source alone for the operational-space controller and Python callables.  The W columns are zero (f does not
 depend on the quadratures).
 
-Contact forces have no assembled derivatives: after an evaluation that found a contact (since the last
-Jacobian), the whole right-hand side is differenced instead; a robot touching nothing keeps this Jacobian.
+Contact: after an evaluation that found a contact (since the last Jacobian), tau also holds the generalised
+contact force tau_c (:mod:`dynamics.contact`), and its derivatives d tau_c/d delta, d tau_c/dv come from central
+differences of the contact force alone (:func:`contact_derivatives`), entering as the source's do:
+da/d delta += M^-1 dtau_c/d delta, da/dv += M^-1 dtau_c/dv, and the contact power's row d(v . tau_c)/dz.  The
+contact law is only piecewise smooth (its kink at touch-down, x = 0, and where (1 + d xdot)_+ clamps): there the
+differences mix both sides within one difference step of the kink.  A robot touching nothing skips them.
 
 A problem class carries this as its ``jacobian`` attribute (:func:`.solvers.linalg.problem_jacobian` reaches
 it, and falls back to differencing the whole right-hand side for a problem without one).
@@ -34,8 +38,8 @@ from ..configuration import _difference, _integrate_q, chart_rate_in, retract_in
 from ..control.derivatives import source_derivatives_into
 from ..control.dispatch import torque_eval
 from ..control.passive import passive_torques
-from ..contact.calls import contact_touched
-from .solvers.linalg import fd_jacobian, lu_factor, lu_solve
+from ..contact.calls import contact_torques, contact_touched
+from .solvers.linalg import lu_factor, lu_solve
 
 #: central-difference step (relative): ~ eps^(1/3), the error of the differences of a smooth function
 FD_STEP = 6e-6
@@ -118,6 +122,45 @@ def passive_derivatives(ps, q, v, dq, dv):
 
 
 @generic_kernel
+def _contact_at(p, q, v, tau):
+    """tau = the generalised contact force at (q, v); returns its power.  Not inlined (called several times)."""
+    for k in range(tau.shape[0]):
+        tau[k] = 0.0
+    return contact_torques(p.contact, p.tree, q, v, tau)
+
+
+@generic_kernel
+def contact_derivatives(p, delta, v, tau_c, dtc_dd, dtc_dv):
+    """tau_c at (delta, v) and d tau_c / d delta (chart coordinates), d tau_c / dv by central differences of the
+    contact force alone (module docstring); returns the contact power v . tau_c."""
+    nv = v.shape[0]
+    dt, vt = delta.copy(), v.copy()
+    q, tp, tm = np.empty(p.base.shape[0]), np.empty(nv), np.empty(nv)
+    for k in range(nv):
+        h = FD_STEP * max(1.0, abs(delta[k]))
+        dt[k] = delta[k] + h
+        _retract_at(p, dt, q)
+        _contact_at(p, q, v, tp)
+        dt[k] = delta[k] - h
+        _retract_at(p, dt, q)
+        _contact_at(p, q, v, tm)
+        dt[k] = delta[k]
+        for r in range(nv):
+            dtc_dd[r, k] = (tp[r] - tm[r]) / (2 * h)
+    _retract_at(p, delta, q)
+    for k in range(nv):
+        h = FD_STEP * max(1.0, abs(v[k]))
+        vt[k] = v[k] + h
+        _contact_at(p, q, vt, tp)
+        vt[k] = v[k] - h
+        _contact_at(p, q, vt, tm)
+        vt[k] = v[k]
+        for r in range(nv):
+            dtc_dv[r, k] = (tp[r] - tm[r]) / (2 * h)
+    return _contact_at(p, q, v, tau_c)
+
+
+@generic_kernel
 def _retract_at(p, delta, q):
     """retract_in from the problem's base, not inlined (see :func:`_chart_rate_at`)."""
     retract_in(p.chart, p.tree, p.base, delta, q)
@@ -187,15 +230,14 @@ def tangent_to_chart(tree, base, q, da_dq):
 
 @generic_kernel
 def robot_jacobian(p, t, z, f0, mag, ne, J, st):
-    """J = df/dz at (t, z) for a :class:`.problem.RobotProblem` (module docstring); f0 = f(t, z) is needed only
-    when something touched since the last Jacobian (the derivatives of the contact forces are not assembled:
-    then the whole right-hand side is differenced)."""
-    if contact_touched(p.contact):
-        fd_jacobian(p, t, z, f0, mag, ne, J, st)
-        contact_touched(p.contact)  # forget the differences' own contacts
-        return
+    """J = df/dz at (t, z) for a :class:`.problem.RobotProblem` (module docstring; f0 unused).  Over ~80 lines:
+    the assembly of the blocks of one matrix, each a line of the module docstring's table."""
     nv = p.tau_s.shape[0]
     delta, v = z[:nv], z[nv:2 * nv]
+    tau_c, dtc_dd, dtc_dv = np.zeros(nv), np.zeros((nv, nv)), np.zeros((nv, nv))
+    if contact_touched(p.contact):  # the evaluation at z (or one since the last Jacobian) touched something
+        contact_derivatives(p, delta, v, tau_c, dtc_dd, dtc_dv)
+        contact_touched(p.contact)  # forget the differences' own contacts
     q = np.empty(p.base.shape[0])
     _retract_at(p, delta, q)
     tau_s, tau = np.empty(nv), np.empty(nv)
@@ -203,7 +245,7 @@ def robot_jacobian(p, t, z, f0, mag, ne, J, st):
     passive_torques(p.passive, q, v, tau)
     tau_p = tau.copy()
     for k in range(nv):
-        tau[k] += tau_s[k]
+        tau[k] += tau_s[k] + tau_c[k]
     da_dq, da_dv, Minv = np.empty((nv, nv)), np.empty((nv, nv)), np.empty((nv, nv))
     aba_derivatives(p.tree, q, v, tau, p.passive.gravity, p.passive.f_ext, da_dq, da_dv, Minv)
     dts_dd, dts_dv = np.empty((nv, nv)), np.empty((nv, nv))
@@ -219,8 +261,8 @@ def robot_jacobian(p, t, z, f0, mag, ne, J, st):
             sd = 0.0
             sv = 0.0
             for m in range(nv):
-                sd += Minv[r, m] * dts_dd[m, k]
-                sv += Minv[r, m] * dts_dv[m, k]
+                sd += Minv[r, m] * (dts_dd[m, k] + dtc_dd[m, k])
+                sv += Minv[r, m] * (dts_dv[m, k] + dtc_dv[m, k])
             J[nv + r, k] = da_dq[r, k] + sd + Minv[r, k] * dtp_dq[k]
             J[nv + r, nv + k] = da_dv[r, k] + sv + Minv[r, k] * dtp_dv[k]
     for k in range(nv):  # the powers v . tau_s and v . tau_p
@@ -236,7 +278,13 @@ def robot_jacobian(p, t, z, f0, mag, ne, J, st):
     for r in range(n):
         for k in range(2 * nv, n):
             J[r, k] = 0.0
-    for r in range(2 * nv + 2, n):  # the contact work's rate: zero while nothing touches
-        for k in range(2 * nv):
-            J[r, k] = 0.0
+    for r in range(2 * nv + 2, n):  # the contact power v . tau_c (zero while nothing touches)
+        for k in range(nv):
+            pc_d = 0.0
+            pc_v = tau_c[k]
+            for m in range(nv):
+                pc_d += v[m] * dtc_dd[m, k]
+                pc_v += v[m] * dtc_dv[m, k]
+            J[r, k] = pc_d
+            J[r, nv + k] = pc_v
     st.jacobian_evals += 1

@@ -141,7 +141,8 @@ def simulate(model, q0, v0, duration, *, torque=None, integrator="auto", rtol=1e
         "kp", "kd", "q_target", "v_target", "tau_ff"; ComputedTorque: "kp", "kd"; a constant or a Table:
         "tau"): forward sensitivities integrated with the state under the same error control, returned as
         ``Trajectory.sensitivities`` (T, 2 nv, ncol) with the column names and their error estimate in
-        ``report["sensitivities"]`` (:mod:`dynamics.simulation.sensitivities`; models of 1-dof joints).
+        ``report["sensitivities"]`` (:mod:`dynamics.simulation.sensitivities`; q-rows and q0-columns are tangent
+        vectors, Pinocchio's ``difference`` and ``integrate``, for models with free, spherical or planar joints).
 
     Raises InputError for bad arguments and when the step budget is exceeded; a run that goes unstable
     stops, returns the samples up to the failure and says so in ``report["status"]`` and ``warnings``.
@@ -153,9 +154,6 @@ def simulate(model, q0, v0, duration, *, torque=None, integrator="auto", rtol=1e
     ps = _passive(model, s, limits, limit_stiffness, limit_damping, friction_eps)
     src = make_source(model, torque)
     s = s._replace(sens=sensitivity_spec(model, src, sensitivities, s.integrator, s.project))
-    if s.sens is not None and s.contact is not None:
-        raise InputError("sensitivities: not available with contact (the contact forces' derivatives are not in the "
-                         "variational equations yet); pass sensitivities=None or contact=None")
     try:
         main = _one_run(model, s, ps, src, s.dt, s.out_t, s.rtol, s.atol, max_steps, s.outputs,
                         h0=s.dt if not s.fixed else 0.0, watch=watcher(progress, s.duration), probe=True)
@@ -265,7 +263,7 @@ def _one_run(model, s, ps, src, dt, out_t, rtol, atol, max_steps, outputs, h0=0.
     if s.sens is not None:
         ncol = len(s.sens.columns)
         p = sensitivity_problem(inner, s.sens.x0, s.sens.params, out_t, out_t is s.out_t)  # not in the rerun
-        z = sensitivity_state(nv, s.v0, p.nx, ncol)
+        z = sensitivity_state(p, s.v0)
         ne = 2 * nv * (1 + ncol)
     nsteps = max(1, math.ceil(s.duration / dt * (1 - 1e-12))) if s.fixed and s.duration > 0 else 0
     opt = Options(nc=nv, nvel=nv, ne=ne, max_steps=int(max_steps), nsteps=nsteps, dt=float(dt or 0.0),
@@ -280,7 +278,7 @@ def _one_run(model, s, ps, src, dt, out_t, rtol, atol, max_steps, outputs, h0=0.
     if p is inner:
         return RunResult(p, st, sw, wall, qf, z[nv:2 * nv].copy())
     return RunResult(inner, st, sw, wall, qf, z[nv:2 * nv].copy(), p.out_S,
-                     final_sensitivities(z, nv, p.out_S.shape[2]))
+                     final_sensitivities(p, z))
 
 
 def _blowup(v0):
