@@ -14,7 +14,7 @@ v at q = q(delta), :mod:`dynamics.configuration`; a: the ABA's accelerations und
 da/dq (in the tangent space of q, nv columns, Pinocchio's convention), da/dv and M^-1 come from
 :func:`aba_derivatives` (Carpentier & Mansard 2018, :mod:`dynamics.aba_derivatives`); dtau_p (damping,
 regularised friction, limit springs) is written out
-(:func:`passive_derivatives`); the source's dtau_s analytically (:func:`source_derivatives`, from
+(:func:`dynamics.control.passive.passive_derivatives`); the source's dtau_s analytically (:func:`source_derivatives`, from
 :mod:`dynamics.control.derivatives`: PD, computed torque, tables, constants), or by central differences of the
 source alone for the operational-space controller and Python callables.  The W columns are zero (f does not
 depend on the quadratures).
@@ -37,7 +37,7 @@ from ..aba_derivatives import _aba_derivatives_into, _derivatives_workspace
 from ..configuration import _difference, _integrate_q, chart_rate_in, retract_in
 from ..control.derivatives import source_derivatives_into
 from ..control.dispatch import torque_eval
-from ..control.passive import passive_torques
+from ..control.passive import passive_derivatives, passive_torques
 from ..contact.calls import contact_torques, contact_touched
 from .solvers.linalg import lu_factor, lu_solve
 
@@ -95,30 +95,6 @@ def _source_differences(p, t, delta, v, dts_dd, dts_dv):
         vt[k] = v[k]
         for r in range(nv):
             dts_dv[r, k] = (tp[r] - tm[r]) / (2 * h)
-
-
-@kernel
-def passive_derivatives(ps, q, v, dq, dv):
-    """Diagonals of d tau_passive/dq (1-dof coordinates) and d tau_passive/dv (:func:`passive_torques`' laws:
-    -b v, -mu tanh(v/eps), the Hunt-Crossley springs while they push)."""
-    for k in range(v.shape[0]):
-        dq[k] = 0.0
-        dv[k] = -ps.damping[k]
-        if ps.friction[k] != 0.0:
-            th = np.tanh(v[k] / ps.friction_eps)
-            dv[k] -= ps.friction[k] * (1.0 - th * th) / ps.friction_eps
-        if ps.limits == 1 and ps.qpos[k] >= 0:
-            x = q[ps.qpos[k]]
-            if x < ps.lower[k]:
-                pen = ps.lower[k] - x
-                if ps.k_limit * pen - ps.b_limit * pen * v[k] > 0.0:
-                    dq[k] = -(ps.k_limit - ps.b_limit * v[k])
-                    dv[k] -= ps.b_limit * pen
-            elif x > ps.upper[k]:
-                pen = x - ps.upper[k]
-                if ps.k_limit * pen + ps.b_limit * pen * v[k] > 0.0:
-                    dq[k] = -(ps.k_limit + ps.b_limit * v[k])
-                    dv[k] -= ps.b_limit * pen
 
 
 @generic_kernel
