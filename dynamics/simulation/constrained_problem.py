@@ -27,7 +27,7 @@ from ..constrained_dynamics import _workspace as constrained_workspace
 from ..configuration import retract_in
 from ..constraints import arrays
 from .problem import (RobotProblem, applied_torques, chart_and_velocity, emit, euler_config, quadratures, rebase,
-                      robot_problem)
+                      robot_problem, touchdown)
 
 #: Gauss-Newton of the position projection: stop below this max |phi| (m or rad), after at most PROJECT_ITER steps
 PROJECT_TOL = 1e-12
@@ -120,3 +120,4 @@ ConstrainedProblem.rhs = constrained_rhs
 ConstrainedProblem.rebase = constrained_rebase
 ConstrainedProblem.euler_config = euler_config
 ConstrainedProblem.emit = constrained_emit
+ConstrainedProblem.touchdown = touchdown

@@ -33,7 +33,7 @@ from ..configuration import chart_rate_in, chart_tag, _integrate_delta, retract_
 from ..joints import _joint_magnitudes
 from ..control.dispatch import kind_tag, source_workspace, torque_eval
 from ..control.passive import passive_torques
-from ..contact.calls import contact_emit, contact_torques, contact_track
+from ..contact.calls import contact_emit, contact_torques, contact_touchdown, contact_track
 
 NQUAD = 2  # W_source, W_passive; a run with contact has a third, W_contact (z and out_w one longer)
 
@@ -175,8 +175,15 @@ def emit(p, j, t, z):
     p.count[0] = j + 1
 
 
+@generic_kernel
+def touchdown(p):
+    """auto's contact test (:func:`.solvers.interface.problem_touchdown`)."""
+    return contact_touchdown(p.contact)
+
+
 RobotProblem.rhs = rhs
 RobotProblem.rebase = rebase
 RobotProblem.euler_config = euler_config
 RobotProblem.emit = emit
+RobotProblem.touchdown = touchdown
 RobotProblem.jacobian = robot_jacobian  # Radau's Newton matrix (.jacobian: assembled from the parts' derivatives)

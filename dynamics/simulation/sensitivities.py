@@ -59,7 +59,7 @@ from .._numba import generic_kernel, kernel
 from ..control.sources import COMPUTED_TORQUE, CONSTANT, PD_KIND, TABLE_LINEAR, TABLE_ZOH
 from ..configuration import chart_rate_in
 from ..errors import InputError
-from .solvers.interface import new_stats, problem_emit, problem_rebase, problem_rhs
+from .solvers.interface import new_stats, problem_emit, problem_rebase, problem_rhs, problem_touchdown
 from .solvers.linalg import lu_factor, lu_solve, problem_jacobian
 
 GAINS, QREF, TABLE = 0, 1, 2  # where a parameter lives in the Source
@@ -326,10 +326,17 @@ def emit(p, j, t, z):
         rows_to_tangent(p.C, p.piv, p.col, z, n2, S.shape[1], n2, S)
 
 
+@generic_kernel
+def touchdown(p):
+    """The inner problem's contact test (``auto``'s switch at a touch-down)."""
+    return problem_touchdown(p.inner)
+
+
 SensitivityProblem.rhs = rhs
 SensitivityProblem.rebase = rebase
 SensitivityProblem.emit = emit
 SensitivityProblem.jacobian = jacobian
+SensitivityProblem.touchdown = touchdown
 
 
 # ---------------------------------------------------------------------------------------------------

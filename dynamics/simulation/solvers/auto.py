@@ -20,8 +20,7 @@ import numpy as np
 
 from ..._numba import generic_inline, kernel
 from . import radau, rk45
-from ...contact.calls import contact_touchdown
-from .interface import MAX_SWITCHES, RADAU, RK45, SWITCH_CONTACT, SWITCH_NONSTIFF, SWITCH_STIFF
+from .interface import MAX_SWITCHES, RADAU, RK45, SWITCH_CONTACT, SWITCH_NONSTIFF, SWITCH_STIFF, problem_touchdown
 
 NONSTIFF_HRHO, NONSTIFF_STEPS = 2.0, 20
 
@@ -70,7 +69,7 @@ def attempt_rk45(m, p, t, h, z, f0, znew, fnew, errv, mag, opt, st, sw, rejected
         if c.stiff_event:
             if _log(sw, st, t + h, RADAU, SWITCH_STIFF, c.hlamb):
                 st.switch_request = 1
-        elif contact_touchdown(p.contact) and _log(sw, st, t, RADAU, SWITCH_CONTACT, t):
+        elif problem_touchdown(p) and _log(sw, st, t, RADAU, SWITCH_CONTACT, t):
             st.switch_request = 1
     return accepted, hnew
 

@@ -14,7 +14,9 @@ compiled with the problem's code, once per method and problem type (:mod:`dynami
   new chart, and stores in ``mag`` the magnitude of every state component (|q| for a chart coordinate) for
   the relative tolerance.  Plain ODEs do nothing;
 * ``euler_config(p, z, h)``: symplectic Euler's position update from the (already updated) velocity part;
-* ``emit(p, j, t, z)``: record output sample j at time t (z is in the chart of the current step).
+* ``emit(p, j, t, z)``: record output sample j at time t (z is in the chart of the current step);
+* optionally ``touchdown(p)``: True once when the last accepted state touches something after touching nothing
+  (``auto`` then switches to radau; a problem without it never touches).
 
 State layout: z = [configuration part (nc), velocity part (nvel), quadratures].  Only the first ``ne``
 components enter error norms and Newton convergence tests; components from ``ne`` on are quadratures (the
@@ -39,6 +41,9 @@ from typing import NamedTuple
 
 import numpy as np
 
+from numba.extending import overload
+
+from ..._numba import GENERIC_OPTIONS
 from ..._numba.boundary import interface_call
 
 OK, NONFINITE, BLOWUP, MAX_STEPS, STEP_TOO_SMALL, SWITCHED = 0, 1, 2, 3, 4, 5
@@ -107,6 +112,25 @@ problem_rebase = interface_call("rebase", ("p", "t", "z", "dz", "mag"))
 problem_euler_config = interface_call("euler_config", ("p", "z", "h"))
 #: ``problem_emit(p, j, t, z)``: record output sample j
 problem_emit = interface_call("emit", ("p", "j", "t", "z"))
+
+
+def problem_touchdown(p):
+    """Whether the problem's last accepted state touches something after touching nothing (``auto`` switches to
+    radau then): the problem class's own ``touchdown(p)`` when it has one (a robot with contact), else False.
+    Compiled code only (chosen at compile time from ``type(p)``)."""
+    raise NotImplementedError("problem_touchdown: compiled code only")
+
+
+def _never(p):
+    return False
+
+
+@overload(problem_touchdown, jit_options=GENERIC_OPTIONS)
+def _ov_problem_touchdown(p):
+    fn = getattr(getattr(p, "instance_class", None), "touchdown", None)
+    if fn is None:
+        return _never
+    return getattr(fn, "py_func", fn)
 
 # ---------------------------------------------------------------------------------------------------
 # the stepper interface (compiled code only)
