@@ -248,17 +248,19 @@ def run_job(files: JobFiles, job_id: str, boot: str) -> None:
         now = db.get(job_id)
         if now is None or now.status != "running" or now.boot != boot:  # cancelled or deleted under our feet
             files.remove(job_id, keep_result=now is not None and now.status == "done")
+        # the files go before the record says "failed": whoever sees the failure sees no leftover parts (a crash
+        # in between leaves a running job without files, which its next attempt fails the same way)
         elif isinstance(e, ValueError):  # the library's InputError (names the argument) and our own refusals
             contact = (now.spec.get("options") or {}).get("contact") is not None
-            db.fail(job_id, contacts.qualify(str(e)) if contact else str(e), boot)
             files.remove(job_id)
+            db.fail(job_id, contacts.qualify(str(e)) if contact else str(e), boot)
         elif (full := storage_full(e, f"the job store {files.root}")) is not None:
-            files.remove(job_id)  # (first: the record's update needs room too)
+            files.remove(job_id)  # (also: the record's update needs room)
             db.fail(job_id, full.detail, boot)
         else:
             log.error("job %s failed:\n%s", job_id, traceback.format_exc())
-            db.fail(job_id, f"internal error: {type(e).__name__}: {e}", boot)
             files.remove(job_id)
+            db.fail(job_id, f"internal error: {type(e).__name__}: {e}", boot)
 
 
 def _run(files: JobFiles, settings: Settings, db: JobDB, store: RobotStore, models: ModelCache, job: JobRecord,
