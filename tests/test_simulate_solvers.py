@@ -193,3 +193,54 @@ def test_lu_solve_real_and_complex():
         linalg.lu_factor(LU, piv)
         linalg.lu_solve(LU, piv, x)
         assert np.allclose(A @ x, b, atol=1e-12)
+
+
+def _block_diagonal(rng, b, blocks, extra, dtype):
+    """blocks copies of one random b x b block on the diagonal (the sensitivities' Newton matrix), ``extra`` rows
+    at the bottom that read the first block's columns (its quadratures), a shift on the diagonal."""
+    n = b * blocks + extra
+    block = rng.normal(size=(b, b)) + (1j * rng.normal(size=(b, b)) if dtype is np.complex128 else 0)
+    A = np.zeros((n, n), dtype)
+    for k in range(blocks):
+        A[k * b:(k + 1) * b, k * b:(k + 1) * b] = block
+    A[n - extra:, :b] = rng.normal(size=(extra, b))
+    return A + 0.5 * np.eye(n)
+
+
+@pytest.mark.parametrize("dtype", [np.float64, np.complex128])
+def test_envelope_lu_equals_dense_lu_bit_for_bit(dtype):
+    """radau's LU skips only exact zeros: the same factors and solutions as the dense one, bit for bit, on dense
+    matrices, on block-diagonal ones with rows below (pivoting across the envelope: the bottom rows are large),
+    and on a matrix with a NaN."""
+    rng = np.random.default_rng(1)
+    cases = [rng.normal(size=(9, 9)).astype(dtype), _block_diagonal(rng, 6, 5, 2, dtype)]
+    big = _block_diagonal(rng, 4, 3, 2, dtype)
+    big[-2:, :4] *= 1e3  # the bottom rows win the pivot search of the first block's columns: fill-in
+    cases += [big, np.where(rng.random((8, 8)) < 0.6, 0.0, rng.normal(size=(8, 8))).astype(dtype) + np.eye(8)]
+    nan = rng.normal(size=(6, 6)).astype(dtype)
+    nan[3, 1] = np.nan
+    cases.append(nan)
+    for A in cases:
+        n = A.shape[0]
+        LU, piv = A.copy(), np.zeros(n, np.int64)
+        LUe, pive, env = A.copy(), np.zeros(n, np.int64), np.zeros((3, n), np.int64)
+        linalg.lu_factor(LU, piv)
+        linalg.envelope_lu_factor(LUe, pive, env)
+        assert np.array_equal(piv, pive) and np.array_equal(LU, LUe, equal_nan=True)
+        b = rng.normal(size=n).astype(dtype)
+        x, xe = b.copy(), b.copy()
+        linalg.lu_solve(LU, piv, x)
+        linalg.envelope_lu_solve(LUe, pive, env, xe)
+        assert np.array_equal(x, xe, equal_nan=True)
+        if np.isfinite(A).all():
+            assert np.allclose(A @ x, b, atol=1e-9 * np.abs(A).max() * np.abs(x).max())
+
+
+def test_spectral_radius_of_a_block_diagonal_matrix_is_its_blocks():
+    """The power iteration reads only each row's nonzero span: on a block-diagonal matrix (a dominant eigenvalue
+    -40, well separated) it finds the block's, as numpy's eigenvalues."""
+    rng = np.random.default_rng(2)
+    Q = rng.normal(size=(5, 5))
+    block = Q @ np.diag([-40.0, 3.0, -2.0, 1.0, 0.5]) @ np.linalg.inv(Q)
+    A = np.kron(np.eye(4), block)
+    assert np.isclose(linalg.spectral_radius(A, 20), 40.0, rtol=1e-6)

@@ -11,8 +11,8 @@ then integrate S with the very stages of the state (the "simultaneous" approach 
 component of S enters the error norm with the same rtol and atol, so steps are accepted only when S is as
 accurate as asked.  Radau's Newton matrix for the augmented system is block diagonal, I - h gamma diag(J, J, ...,
 J) (the Jacobian of the state repeated on each column of S: the simultaneous-corrector approximation of
-CVODES, Hindmarsh et al. 2005 sec. 3.2): its LU costs about as much as one of J's per column, because the
-elimination skips the zero blocks.
+CVODES, Hindmarsh et al. 2005 sec. 3.2): its LU, solves and spectral radius cost about as much as one of
+J's per column, because radau's linear algebra visits only each row's envelope (:mod:`.solvers.linalg`).
 
 df/dx is :func:`.jacobian.robot_jacobian` (the ABA's derivatives, the source's and passive torques'), or finite
 differences of the right-hand side for a constrained model.  df/dp is the right-hand side differenced with

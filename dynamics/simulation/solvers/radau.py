@@ -13,7 +13,7 @@ import numpy as np
 
 from ..._numba import generic_inline, kernel
 from .interface import OK, problem_rhs
-from .linalg import lu_factor, lu_solve, problem_jacobian, scaled_rms, spectral_radius, state_status
+from .linalg import envelope_lu_factor, envelope_lu_solve, problem_jacobian, scaled_rms, spectral_radius, state_status
 
 ORDER = 3  # for the starting step (the embedded estimate's order)
 EPS = 2.220446049250313e-16
@@ -54,6 +54,8 @@ class Radau(NamedTuple):
     LUc: np.ndarray  # (n, n) complex LU of mu_complex/h - J
     pivr: np.ndarray
     pivc: np.ndarray
+    envr: np.ndarray  # (3, n) the envelopes of the two LUs (linalg.envelope_lu_factor)
+    envc: np.ndarray
     Z: np.ndarray  # (3, n) stage increments
     W: np.ndarray  # (3, n) transformed increments T^-1 Z
     F: np.ndarray  # (3, n) f at the stages
@@ -68,7 +70,8 @@ class Radau(NamedTuple):
 def make(n):
     ctl = np.zeros(1, CTL)
     m = Radau(np.zeros((n, n)), np.empty((n, n)), np.empty((n, n), np.complex128), np.empty(n, np.int64),
-              np.empty(n, np.int64), np.zeros((3, n)), np.zeros((3, n)), np.empty((3, n)), np.zeros((n, 3)),
+              np.empty(n, np.int64), np.empty((3, n), np.int64), np.empty((3, n), np.int64), np.zeros((3, n)),
+              np.zeros((3, n)), np.empty((3, n)), np.zeros((n, 3)),
               np.empty(n), np.empty(n), np.empty(n, np.complex128), ctl)
     reset(m)
     return m
@@ -157,8 +160,8 @@ def _factor(m, h, st):
             m.LUc[r, k] = -m.J[r, k]
         m.LUr[r, r] += mr
         m.LUc[r, r] += mc
-    lu_factor(m.LUr, m.pivr)
-    lu_factor(m.LUc, m.pivc)
+    envelope_lu_factor(m.LUr, m.pivr, m.envr)
+    envelope_lu_factor(m.LUc, m.pivc, m.envc)
     st.lu_decompositions += 2
     m.ctl[0].have_lu = 1
 
@@ -194,8 +197,8 @@ def _newton(m, p, t, h, z, mag, opt, st):
             dWr[r] = RA_TI[0, 0] * F[0, r] + RA_TI[0, 1] * F[1, r] + RA_TI[0, 2] * F[2, r] - mr * W[0, r]
             dWc[r] = (complex(RA_TI[1, 0], RA_TI[2, 0]) * F[0, r] + complex(RA_TI[1, 1], RA_TI[2, 1]) * F[1, r]
                       + complex(RA_TI[1, 2], RA_TI[2, 2]) * F[2, r] - mc * complex(W[1, r], W[2, r]))
-        lu_solve(m.LUr, m.pivr, dWr)
-        lu_solve(m.LUc, m.pivc, dWc)
+        envelope_lu_solve(m.LUr, m.pivr, m.envr, dWr)
+        envelope_lu_solve(m.LUc, m.pivc, m.envc, dWc)
         acc = 0.0
         for r in range(opt.ne):
             sc = opt.atol + opt.rtol * (abs(z[r]) + mag[r])
@@ -244,7 +247,7 @@ def _error(m, h, z, znew, f0, errv, mag, opt):
     Z = m.Z
     for r in range(z.shape[0]):
         errv[r] = f0[r] + (Z[0, r] * RA_E[0] + Z[1, r] * RA_E[1] + Z[2, r] * RA_E[2]) / h
-    lu_solve(m.LUr, m.pivr, errv)
+    envelope_lu_solve(m.LUr, m.pivr, m.envr, errv)
     return scaled_rms(errv, z, znew, mag, opt.ne, opt.rtol, opt.atol)
 
 
