@@ -312,6 +312,16 @@ class Robot:
                                                           "f_ext": self._opt(f_ext), "locked": self._locked(locked)})
         return ans["da_dq"], ans["da_dv"], ans["inverse_mass_matrix"]
 
+    def constrained_forward_dynamics_derivatives(self, q, v, tau, *, baumgarte=None, gravity=None,
+                                                 locked=None) -> tuple:
+        """(da_dq, da_dv, da_dtau, dlam_dq, dlam_dv, dlam_dtau) as ``dynamics.constrained_forward_dynamics_derivatives``
+        ((nv, nv) and (m, nv) blocks, a leading B for a batch)."""
+        ans = self._call("derivatives/constrained_forward_dynamics", {
+            "q": _as_array(q), "v": _as_array(v), "tau": _as_array(tau), "gravity": self._opt(gravity),
+            "baumgarte": None if baumgarte is None else [float(x) for x in baumgarte],
+            "locked": self._locked(locked)})
+        return tuple(ans[k] for k in ("da_dq", "da_dv", "da_dtau", "dlambda_dq", "dlambda_dv", "dlambda_dtau"))
+
     # -- kinematics and task space ---------------------------------------------------------------------------
     @property
     def frame_names(self) -> tuple[str, ...]:

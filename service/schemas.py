@@ -1039,6 +1039,16 @@ class ConstrainedForwardDynamicsAnswer(BaseModel):
     scene: Scene
 
 
+class ConstrainedForwardDynamicsDerivativesAnswer(BaseModel):
+    da_dq: Answer(2, "(nv, nv) da/dq, q in the tangent space")
+    da_dv: Answer(2, "(nv, nv) da/dv")
+    da_dtau: Answer(2, "(nv, nv) da/dtau")
+    dlambda_dq: Answer(2, "(m, nv) dlambda/dq (the minimum-norm multipliers')")
+    dlambda_dv: Answer(2, "(m, nv) dlambda/dv")
+    dlambda_dtau: Answer(2, "(m, nv) dlambda/dtau")
+    scene: Scene
+
+
 class ConstraintItem(BaseModel):
     type: Literal["point", "weld", "revolute", "coupling"]
     name: str

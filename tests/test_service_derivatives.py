@@ -1,5 +1,6 @@
 """The derivative endpoints (issue 20, section 4): ``POST /v1/robots/{id}/derivatives/inverse_dynamics`` and
-``/forward_dynamics``, one state or a batch, JSON and .npz, the answer-size limit and the refusals.
+``/forward_dynamics`` and ``/constrained_forward_dynamics``, one state or a batch, JSON and .npz, the answer-size
+limit and the refusals.
 
 Every number is compared bit for bit with the library called here on the same model (the library itself is
 checked against Pinocchio and finite differences in tests/test_derivatives.py).  The in-process app covers the
@@ -114,3 +115,49 @@ def test_client_methods_have_the_library_names(tmp_path_factory, puma):
             for got, ref in zip(robot.forward_dynamics_derivatives(q, v, x),
                                 dynamics.forward_dynamics_derivatives(puma, q, v, x)):
                 assert np.array_equal(got, ref)
+            for got, ref in zip(robot.constrained_forward_dynamics_derivatives(q, v, x),
+                                dynamics.forward_dynamics_derivatives(puma, q, v, x)):  # (no constraints)
+                assert np.array_equal(got, ref)
+
+
+def _four_bar_states(batch):
+    fb = dynamics.load_urdf(str(ROBOTS / "four_bar.urdf"))
+    Q = np.array([dynamics.assemble(fb, [c, 0.5, 1.5], fixed=["theta1"]) for c in (0.1, 0.7, 1.3)])
+    V = dynamics.project_velocity(fb, Q, np.tile([1.0, 0.0, 0.0], (3, 1)))
+    T = np.random.default_rng(5).normal(size=(3, fb.nv))
+    return (fb, Q, V, T) if batch else (fb, Q[1], V[1], T[1])
+
+
+@pytest.mark.parametrize("batch", [False, True])
+def test_constrained_derivatives_are_the_library_s(app_client, batch):
+    """The four-bar's six blocks (JSON one state with Baumgarte, .npz a batch) bit for bit; a robot without
+    constraints answers the ABA's derivatives with no multiplier rows."""
+    fb, q, v, tau = _four_bar_states(batch)
+    baumgarte = None if batch else (5.0, 8.0)  # (an .npz body carries arrays only)
+    expected = dynamics.constrained_forward_dynamics_derivatives(fb, q, v, tau, baumgarte=baumgarte)
+    keys = ("da_dq", "da_dv", "da_dtau", "dlambda_dq", "dlambda_dv", "dlambda_dtau")
+    url = "/v1/robots/four-bar/derivatives/constrained_forward_dynamics"
+    if batch:
+        buf = io.BytesIO()
+        np.savez(buf, q=q, v=v, tau=tau)
+        r = app_client.post(url, content=buf.getvalue(),
+                            headers={"Content-Type": "application/x-npz", "Accept": "application/x-npz"})
+        assert r.status_code == 200, r.text
+        with np.load(io.BytesIO(r.content), allow_pickle=False) as npz:
+            ans = {k: npz[k] for k in keys}
+    else:
+        r = app_client.post(url, json={"q": q.tolist(), "v": v.tolist(), "tau": tau.tolist(), "baumgarte": [5.0, 8.0]})
+        assert r.status_code == 200, r.text
+        ans = r.json()
+        assert ans["scene"]["nv"] == fb.nv
+    for key, ref in zip(keys, expected):
+        assert np.array_equal(ans[key], ref) and np.shape(ans[key]) == ref.shape, key
+    assert expected[3].shape[-2:] == (fb.info["constraints"]["rows"], fb.nv)
+    puma = dynamics.load_urdf(str(ROBOTS / "puma560.urdf"))
+    q, v, x = states(puma, np.random.default_rng(6), 3 if batch else None)
+    r = app_client.post("/v1/robots/puma560/derivatives/constrained_forward_dynamics",
+                        json={"q": q.tolist(), "v": v.tolist(), "tau": x.tolist()})
+    assert r.status_code == 200, r.text
+    for got, ref in zip([r.json()[k] for k in keys[:3]], dynamics.forward_dynamics_derivatives(puma, q, v, x)):
+        assert np.array_equal(got, ref)
+    assert np.size(r.json()["dlambda_dq"]) == 0  # (JSON: [] for one state, B empty lists for a batch)

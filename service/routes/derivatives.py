@@ -1,4 +1,5 @@
-"""Derivatives of the dynamics: ``POST /v1/robots/{id}/derivatives/inverse_dynamics`` and ``/forward_dynamics``
+"""Derivatives of the dynamics: ``POST /v1/robots/{id}/derivatives/inverse_dynamics``, ``/forward_dynamics`` and
+``/constrained_forward_dynamics``
 with one state or a batch, JSON or .npz, ``locked`` and ``scene`` like the dynamics operations (same path:
 :func:`service.routes.dynamics.add_routes`; the library calls are :data:`service.derivatives.OPERATIONS`)."""
 
