@@ -40,15 +40,21 @@ def lu_factor(A, piv):
 
 
 @kernel
-def lu_solve(LU, piv, b):
-    """Solve (P^T L U) x = b in place, given lu_factor's output."""
-    n = LU.shape[0]
+def _permute(piv, b, n):
+    """b (n) in the row order of lu_factor's pivots."""
     for k in range(n):
         m = piv[k]
         if m != k:
             tmp = b[k]
             b[k] = b[m]
             b[m] = tmp
+
+
+@kernel
+def lu_solve(LU, piv, b):
+    """Solve (P^T L U) x = b in place, given lu_factor's output."""
+    n = LU.shape[0]
+    _permute(piv, b, n)
     for i in range(n):
         s = b[i]
         for j in range(i):
@@ -115,12 +121,7 @@ def envelope_lu_solve(LU, piv, env, b):
     """:func:`lu_solve` for :func:`envelope_lu_factor`'s output: each row's sums over its envelope only."""
     n = LU.shape[0]
     lo, hi = env[0], env[1]
-    for k in range(n):
-        m = piv[k]
-        if m != k:
-            tmp = b[k]
-            b[k] = b[m]
-            b[m] = tmp
+    _permute(piv, b, n)
     for i in range(n):
         s = b[i]
         for j in range(lo[i], i):
