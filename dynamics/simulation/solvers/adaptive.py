@@ -10,7 +10,7 @@ import numpy as np
 
 from ..._numba import copy_into, generic_inline, keep_alive
 from ..._numba.boundary import borrow
-from .interface import (MAX_STEPS, OK, STEP_TOO_SMALL, SWITCHED, problem_emit, problem_rebase, problem_rhs, stepper_attempt,
+from .interface import (MAX_STEPS, OK, STEP_TOO_SMALL, SWITCHED, driver_rhs, problem_emit, problem_rebase, stepper_attempt,
                         stepper_dense, stepper_order)
 from .linalg import initial_step, max_abs, state_status
 
@@ -32,7 +32,7 @@ def solve_adaptive(p, m, z, t0, t_end, out_t, opt, stats, switches):
     errv = buf[5 * n:6 * n]
     zi = buf[6 * n:]
     problem_rebase(p, t0, z, f0, mag)  # magnitudes of the initial state (z's chart part is zero)
-    problem_rhs(p, t0, z, f0)
+    driver_rhs(p, t0, z, f0)
     st.rhs_evals += 1
     status = state_status(f0, 0, 0, opt.blowup)
     t = t0

@@ -9,7 +9,7 @@ import numpy as np
 
 from ..._numba import copy_into, generic_inline, keep_alive
 from ..._numba.boundary import borrow
-from .interface import NONFINITE, OK, problem_emit, problem_rebase, problem_rhs, stepper_fixed_dense, stepper_step
+from .interface import NONFINITE, OK, driver_rhs, problem_emit, problem_rebase, stepper_fixed_dense, stepper_step
 from .linalg import jacobian_spectral_radius, state_status
 
 
@@ -27,7 +27,7 @@ def solve_fixed(p, m, z, t0, t_end, out_t, opt, stats):
     f1 = buf[2 * n:3 * n]  # slope at its end
     z0 = buf[3 * n:4 * n]
     zi = buf[4 * n:]
-    problem_rhs(p, t0, z, f0)
+    driver_rhs(p, t0, z, f0)
     st.rhs_evals += 1
     status = OK if state_status(f0, 0, 0, opt.blowup) == OK else NONFINITE
     if opt.probe and status == OK:
@@ -47,7 +47,7 @@ def solve_fixed(p, m, z, t0, t_end, out_t, opt, stats):
         status = state_status(z, opt.nc, opt.nvel, opt.blowup)
         if status != OK:
             break
-        problem_rhs(p, t, z, f1)
+        driver_rhs(p, t, z, f1)
         st.rhs_evals += 1
         if state_status(f1, 0, 0, opt.blowup) != OK:
             status = NONFINITE

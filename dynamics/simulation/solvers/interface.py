@@ -44,7 +44,7 @@ import numpy as np
 from numba.extending import overload
 
 from ..._numba import GENERIC_OPTIONS
-from ..._numba.boundary import interface_call
+from ..._numba.boundary import _IMPL_OPTIONS, interface_call
 
 OK, NONFINITE, BLOWUP, MAX_STEPS, STEP_TOO_SMALL, SWITCHED = 0, 1, 2, 3, 4, 5
 #: SWITCHED is never a run's final status: ``auto`` resumes with its other method (:mod:`.auto`)
@@ -146,3 +146,18 @@ stepper_order = interface_call("order", ("m",))
 stepper_step = interface_call("step", ("m", "p", "t", "h", "z", "f0", "st"))
 #: ``stepper_fixed_dense(m, x, h, z0, f0, z1, f1, out)``: interpolation inside a fixed step
 stepper_fixed_dense = interface_call("fixed_dense", ("m", "x", "h", "z0", "f0", "z1", "f1", "out"))
+
+
+def driver_rhs(p, t, z, dz):
+    """``problem_rhs(p, t, z, dz)`` for the drivers' own evaluations (the first slope, Hairer's starting step):
+    compiled code only (an inlined ``overload``)."""
+    raise NotImplementedError("driver_rhs: compiled code only")
+
+
+def _driver_rhs(p, t, z, dz):
+    problem_rhs(p, t, z, dz)
+
+
+@overload(driver_rhs, jit_options=_IMPL_OPTIONS)
+def _ov_driver_rhs(p, t, z, dz):
+    return _driver_rhs

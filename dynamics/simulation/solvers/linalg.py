@@ -8,7 +8,7 @@ import numpy as np
 from numba.extending import overload
 
 from ..._numba import GENERIC_OPTIONS, generic_inline, kernel
-from .interface import BLOWUP, NONFINITE, OK, STATS, problem_rhs
+from .interface import BLOWUP, NONFINITE, OK, STATS, driver_rhs
 
 
 @kernel
@@ -191,7 +191,7 @@ def initial_step(p, t, z, f0, order, rtol, atol, mag, ne, t_end, st):
     f1 = np.empty(n)
     for i in range(n):
         z1[i] = z[i] + h0 * f0[i]
-    problem_rhs(p, t + h0, z1, f1)
+    driver_rhs(p, t + h0, z1, f1)
     st.rhs_evals += 1
     d2 = 0.0
     for i in range(ne):
@@ -221,7 +221,7 @@ def fd_jacobian(p, t, z, f0, mag, ne, J, st):
         d = 1.4901161193847656e-08 * max(1.0, abs(z[c]) + mag[c])
         zt[c] = z[c] + d
         d = zt[c] - z[c]  # the step actually representable
-        problem_rhs(p, t, zt, ft)
+        driver_rhs(p, t, zt, ft)
         zt[c] = z[c]
         for r in range(n):
             J[r, c] = (ft[r] - f0[r]) / d
