@@ -157,6 +157,8 @@ def simulate(model, q0, v0, duration, *, torque=None, integrator="auto", rtol=1e
     try:
         main = _one_run(model, s, ps, src, s.dt, s.out_t, s.rtol, s.atol, max_steps, s.outputs,
                         h0=s.dt if not s.fixed else 0.0, watch=watcher(progress, s.duration), probe=True)
+        if main.stats["status"] == NONFINITE and main.stats["steps"] == 0:
+            _check_not_singular(model, s.q0, s.v0, s.gravity)
         stability = _stability(s, main.stats["rho0"], warnings)
         if s.contact is not None and s.fixed and s.duration > 0:
             stability = R.contact_stability(model, s, stability, warnings)
@@ -330,7 +332,6 @@ def _settings(model, q0, v0, duration, integrator, rtol, atol, dt, sample_dt, gr
         if nsteps > max_steps:
             raise InputError(f"max_steps: dt={dt:g} needs {nsteps} steps over {duration:g} s, more than "
                              f"max_steps={max_steps}")
-    _check_not_singular(model, q0, v0, g)
     constrained = bool(getattr(model, "constraints", ()))
     gains = baumgarte_gains(DEFAULT_BAUMGARTE if baumgarte is None else baumgarte)
     if not isinstance(project, (bool, np.bool_)):
@@ -365,9 +366,10 @@ def _project_initial(model, q0, v0, warnings):
 
 
 def _check_not_singular(model, q0, v0, g):
-    """A singular M at q0: say which joint and why now (:func:`dynamics.checks.singular_joint_error`, the rule
-    ``dynamics check`` applies too), rather than NaN in the first step; through the run's own ABA
-    (:func:`.problem.singular_body`), so that it compiles once."""
+    """A singular M at q0: say which joint and why (:func:`dynamics.checks.singular_joint_error`, the rule
+    ``dynamics check`` applies too), rather than a run that stops with NaN at t0; through the run's own ABA
+    (:func:`.problem.singular_body`), so that it compiles once.  Asked only after a run that could not take its
+    first step (the right-hand side was not finite at t0): a run that starts compiles none of it."""
     body = singular_body(model.tree, q0, v0, g, aba_workspace.py_func(model.tree.parents.shape[0], model.nv))
     if body >= 0:
         raise singular_joint_error(model, body, "q0")
