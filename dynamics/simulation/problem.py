@@ -30,6 +30,7 @@ from .._numba import copy_into, generic_kernel, inline_kernel, keep_alive, kerne
 from .._numba.boundary import borrow
 from .jacobian import robot_jacobian
 from ..configuration import chart_rate_in, chart_tag, _integrate_delta, retract_in
+from ..energy import sample_energies
 from ..joints import _joint_magnitudes
 from ..control.dispatch import kind_tag, source_workspace, torque_eval
 from ..control.passive import passive_torques
@@ -57,6 +58,7 @@ class RobotProblem(NamedTuple):
     out_v: np.ndarray  # (T, nv) or (0, nv)
     out_tau: np.ndarray  # (T, nv) or (0, nv): applied source torques
     out_w: np.ndarray  # (T, 2) work of the source and passive torques (T, 3): and of the contact forces
+    out_e: np.ndarray  # (T, 2) kinetic and potential energy (the report's energy balance)
     count: np.ndarray  # (1,) int64: samples written (also read by the progress bar while the run goes)
     contact: object  # None, or a dynamics.contact.resolve.ContactModel
 
@@ -73,7 +75,7 @@ def robot_problem(model, passive, source, q0, out_t, outputs, contact=None):
         np.empty(nv), np.empty(nv), ws, out_t,
         np.zeros((T if "q" in outputs else 0, nq)), np.zeros((T if "v" in outputs else 0, nv)),
         np.zeros((T if "tau" in outputs else 0, nv)), np.zeros((T, NQUAD + (contact is not None))),
-        np.zeros(1, np.int64), contact)
+        np.zeros((T, 2)), np.zeros(1, np.int64), contact)
 
 
 @kernel
@@ -160,8 +162,8 @@ def euler_config(p, z, h):
 
 @generic_kernel
 def emit(p, j, t, z):
-    """Write sample j.  An output the caller did not ask for has zero rows: it is neither kept nor, for the
-    torques, computed."""
+    """Write sample j, and its energies (always: the report's energy balance).  An output the caller did not ask
+    for has zero rows: it is neither kept nor, for the torques, computed."""
     nv = p.tau_s.shape[0]
     p.out_t[j] = t
     q = p.out_q[j] if p.out_q.shape[0] > 0 else p.qbuf  # qbuf is free between right-hand-side evaluations
@@ -172,6 +174,7 @@ def emit(p, j, t, z):
         torque_eval(p.tag, p.source, p.tree, p.passive, t, q, z[nv:2 * nv], p.ws_source, p.out_tau[j])
     contact_emit(p.contact, p.tree, j, q, z[nv:2 * nv])
     copy_into(p.out_w[j], z[2 * nv:])
+    sample_energies(p.tree, q, z[nv:2 * nv], p.passive.gravity, p.passive.f_ext, p.ws_aba, p.out_e[j])
     p.count[0] = j + 1
 
 

@@ -54,7 +54,6 @@ import math
 import numpy as np
 
 from ..configuration import _difference
-from ..energy import _energy_batch
 from ..errors import InputError
 from .solvers import OK, RADAU, STATUS_NAMES, SWITCH_CONTACT, SWITCH_STIFF
 
@@ -143,18 +142,15 @@ def error_estimate(model, s, run, rerun, order, warnings):
             "cost_of_estimate": wall / run.wall if run.wall > 0 else 0.0}
 
 
-def energy_balance(model, s, t, q, v, w, run):
-    """The energy fields of the report: at every sample when q and v were kept, else between the first and
-    last states (then ``energy_drift_max`` is None)."""
-    cnt = len(t)
+def energy_balance(model, s, e, w):
+    """The energy fields of the report from the samples' energies e (cnt, 2) (kinetic, potential; the run's
+    ``emit`` wrote them) and work w: at every sample when q and v were kept, else between the first and last
+    samples (then ``energy_drift_max`` is None)."""
+    cnt = len(e)
     per_sample = "q" in s.outputs and "v" in s.outputs
     if not per_sample and cnt:
-        q = np.array([s.q0, run.qf])
-        v = np.array([s.v0, run.vf])
-        w = w[[0, cnt - 1]]
-    KU = np.empty((len(q), 2))
-    _energy_batch(model.tree, q, v, s.gravity, True, True, KU)
-    K, U = KU[:, 0], KU[:, 1]
+        e, w = e[[0, cnt - 1]], w[[0, cnt - 1]]
+    K, U = e[:, 0], e[:, 1]
     E = K + U
     W = w.sum(axis=1) if cnt else np.zeros(0)
     scale = float("nan")

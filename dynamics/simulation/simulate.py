@@ -197,7 +197,7 @@ def _trajectory(model, s, ps, src, main, stability, warnings):
     R.accuracy_warnings(s, errors, main.qf, main.vf, warnings)
     report.update(errors)
     t, q, v, tau, w = p.out_t[:cnt], p.out_q[:cnt], p.out_v[:cnt], p.out_tau[:cnt], p.out_w[:cnt]
-    report.update(R.energy_balance(model, s, t, q, v, w, main))
+    report.update(R.energy_balance(model, s, p.out_e[:cnt], w))
     lam = None
     if s.constrained:
         report["constraint_drift"] = {"position": float(p.drift[0]), "velocity": float(p.drift[1]),
