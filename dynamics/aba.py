@@ -99,6 +99,14 @@ def _aba_terms(tree, q, v, tau, gravity, f_ext, ws, qdd, with_v):
     """ABA for one state: Featherstone's three passes (RBDA Table 7.1).  ``with_v=False`` (v is zero) skips
     the velocity products c_i and v x* I v.  Returns -1, or the body whose joint is singular."""
     _rigid_body_terms(tree, q, v, f_ext, ws, with_v)
+    return _aba_rest(tree, tau, gravity, ws, qdd)
+
+
+@inline_kernel
+def _aba_rest(tree, tau, gravity, ws, qdd):
+    """Passes 2 and 3, after pass 1 (:func:`_rigid_body_terms`) filled ``ws``.  A caller may add external body
+    forces in between, as p^A_i -= f_i (the simulation's contact forces, found from pass 1's poses and
+    velocities).  Returns -1, or the body whose joint is singular."""
     singular = _articulated_inertias(tree, tau, ws)
     if singular >= 0:
         return singular

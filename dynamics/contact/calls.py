@@ -14,6 +14,12 @@ def contact_torques(c, tree, q, v, tau):
     raise NotImplementedError("contact_torques: compiled code only")
 
 
+def contact_bias(c, tree, d, pA):
+    """After the ABA's first pass (forward pass d, bias forces pA): pA -= the contact wrenches; returns the
+    contact power (0.0 without contact)."""
+    raise NotImplementedError("contact_bias: compiled code only")
+
+
 def contact_track(c, tree, t, q, v):
     """After an accepted step ending at (t, q, v): the largest penetration and the time in contact."""
     raise NotImplementedError("contact_track: compiled code only")
@@ -25,6 +31,10 @@ def contact_emit(c, tree, j, q, v):
 
 
 def _no_power(c, tree, q, v, tau):
+    return 0.0
+
+
+def _no_bias(c, tree, d, pA):
     return 0.0
 
 
@@ -65,6 +75,14 @@ def _ov_contact_torques(c, tree, q, v, tau):
         return _no_power
     from .resolve import _power
     return _power
+
+
+@overload(contact_bias, jit_options=JIT_OPTIONS, inline="always")
+def _ov_contact_bias(c, tree, d, pA):
+    if isinstance(c, types.NoneType):
+        return _no_bias
+    from .resolve import _bias
+    return _bias
 
 
 @overload(contact_track, jit_options=JIT_OPTIONS, inline="always")

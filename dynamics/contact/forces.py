@@ -71,14 +71,28 @@ def world_kinematics(tree, q, v, ws, with_v):
     d, oR, op = ws.d, ws.oR, ws.op
     for i in range(tree.parents.shape[0]):
         R, p, w, vl, cw, cv = _forward_body(tree, i, q, v, d, with_v)
-        par = tree.parents[i]
-        if par < 0:
-            store33(oR, i, R)
-            store3(op, i, p)
-        else:
-            oRp = load33(oR, par)
-            store33(oR, i, matmul(oRp, R))
-            store3(op, i, add(load3(op, par), rot(oRp, p)))
+        world_pose(tree, i, R, p, oR, op)
+
+
+@inline_kernel
+def world_pose(tree, i, R, p, oR, op):
+    """oR[i], op[i] = body i's world pose from its pose (R, p) in its parent's frame (the parent's is done)."""
+    par = tree.parents[i]
+    if par < 0:
+        store33(oR, i, R)
+        store3(op, i, p)
+    else:
+        oRp = load33(oR, par)
+        store33(oR, i, matmul(oRp, R))
+        store3(op, i, add(load3(op, par), rot(oRp, p)))
+
+
+@inline_kernel
+def world_poses(tree, d, oR, op):
+    """Every body's world pose from a forward pass already done (d.R, d.p: poses in the parents' frames)."""
+    dR, dp = d.R, d.p
+    for i in range(tree.parents.shape[0]):
+        world_pose(tree, i, load33(dR, i), load3(dp, i), oR, op)
 
 
 @inline_kernel

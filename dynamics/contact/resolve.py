@@ -33,8 +33,8 @@ from .._numba import inline_kernel, kernel
 from .._numba.boundary import borrow
 from ..errors import InputError
 from .config import Contact, combine
-from .forces import (D_FN, D_FT, D_SLIP, NDETAIL, NMAT, apply_contacts, contact_work, generalized_forces,
-                     world_kinematics)
+from .forces import (D_FN, D_FT, D_SLIP, NDETAIL, NMAT, ContactWork, apply_contacts, contact_work,
+                     generalized_forces, world_kinematics, world_poses)
 from .narrow_phase import _collide, contact_buffer
 from .scene import build_scene
 
@@ -184,6 +184,32 @@ def evaluate_kernel(c, tree, q, v, f_ext, tau):
 def _power(c, tree, q, v, tau):
     n = _found(c, tree, q, v)
     return _forces(c, tree, q, v, tau, c.no_f_ext, n) if n > 0 else 0.0
+
+
+def _bias(c, tree, d, pA):
+    """After the ABA's first pass at (q, v) (its forward pass d: poses and body velocities; its bias forces pA):
+    pA_i -= every body's contact wrench, so that the ABA's other passes take the contact forces as external
+    forces, and the contact power is returned.  The contact code runs no forward pass of its own (the robot's
+    right-hand side, :func:`dynamics.simulation.problem.rhs`)."""
+    world_poses(tree, d, c.ws.oR, c.ws.op)
+    n = _collide(c.scene, c.ws.oR, c.ws.op, c.buf)
+    return _bias_forces(c, d, pA, n) if n > 0 else 0.0  # touching nothing: no forces
+
+
+@kernel
+def _bias_forces(c, d, pA, n):
+    """:func:`_bias` once the narrow phase found n > 0 contacts (a kernel, as :func:`_forces`: numba's inlining
+    of the force law into the inlined call lost its writes)."""
+    c.touched[0] = 1
+    cw = ContactWork(d, c.ws.oR, c.ws.op, c.ws.fb)
+    b = c.buf
+    power = apply_contacts(n, b.pair, b.point, b.normal, b.depth, c.pair_body, c.mat, cw, c.detail)
+    fb = cw.fb
+    for i in range(fb.shape[0]):  # fb: [force, torque]; pA: [moment, force] (dynamics.aba)
+        for r in range(3):
+            pA[i, r] -= fb[i, 3 + r]
+            pA[i, 3 + r] -= fb[i, r]
+    return power
 
 
 def _track(c, tree, t, q, v):

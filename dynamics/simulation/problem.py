@@ -24,7 +24,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ..aba import _aba_into
+from ..aba import _aba_into, _aba_rest, _rigid_body_terms
 from ..aba import _workspace as aba_workspace
 from .._numba import copy_into, generic_kernel, inline_kernel, keep_alive, kernel
 from .._numba.boundary import borrow
@@ -34,7 +34,7 @@ from ..energy import sample_energies
 from ..joints import _joint_magnitudes
 from ..control.dispatch import kind_tag, source_workspace, torque_eval
 from ..control.passive import passive_torques
-from ..contact.calls import contact_emit, contact_torques, contact_touchdown, contact_track
+from ..contact.calls import contact_bias, contact_emit, contact_torques, contact_touchdown, contact_track
 
 NQUAD = 2  # W_source, W_passive; a run with contact has a third, W_contact (z and out_w one longer)
 
@@ -96,6 +96,14 @@ def singular_body(tree, q, v, gravity, ws):
 def applied_torques(p, t, q, v):
     """p.tau_p = source + passive + contact torques at (t, q, v); returns the powers (v . tau_source,
     v . tau_passive, contact power)."""
+    power_s, power_p = source_and_passive_torques(p, t, q, v)
+    power_c = contact_torques(p.contact, p.tree, q, v, p.tau_p)  # its power: sum_k F_k . v_rel_k (= v . J_c^T f_c)
+    return power_s, power_p, power_c
+
+
+@inline_kernel
+def source_and_passive_torques(p, t, q, v):
+    """p.tau_p = source + passive torques at (t, q, v) (p.tau_s: the source's); returns their powers."""
     tau_s, tau_p = p.tau_s, p.tau_p
     torque_eval(p.tag, p.source, p.tree, p.passive, t, q, v, p.ws_source, tau_s)
     passive_torques(p.passive, q, v, tau_p)
@@ -105,8 +113,7 @@ def applied_torques(p, t, q, v):
         power_s += v[k] * tau_s[k]
         power_p += v[k] * tau_p[k]
         tau_p[k] += tau_s[k]
-    power_c = contact_torques(p.contact, p.tree, q, v, tau_p)  # its power: sum_k F_k . v_rel_k (= v . J_c^T f_c)
-    return power_s, power_p, power_c
+    return power_s, power_p
 
 
 @inline_kernel
@@ -120,11 +127,18 @@ def chart_and_velocity(p, z, dz):
 
 @generic_kernel
 def rhs(p, t, z, dz):
-    """dz = f(t, z): chart rate, ABA accelerations (NaN when the articulated inertia is singular), powers."""
+    """dz = f(t, z): chart rate, ABA accelerations (NaN when the articulated inertia is singular), powers.  The
+    contact forces enter the ABA as external body forces (:func:`dynamics.contact.calls.contact_bias`), not as
+    generalised torques: the same accelerations, without the contact's own forward and backward passes."""
     nv = p.tau_s.shape[0]
     q, v = chart_and_velocity(p, z, dz)
-    power_s, power_p, power_c = applied_torques(p, t, q, v)
-    if _aba_into(p.tree, q, v, p.tau_p, p.passive.gravity, p.passive.f_ext, p.ws_aba, dz[nv:2 * nv]) >= 0:
+    power_s, power_p = source_and_passive_torques(p, t, q, v)
+    ws = p.ws_aba
+    # the ABA (dynamics.aba._aba_terms) with the contact forces between its first pass and the others: they act
+    # on the bodies as external forces, found from the first pass's poses and velocities (no pass of their own)
+    _rigid_body_terms(p.tree, q, v, p.passive.f_ext, ws, True)
+    power_c = contact_bias(p.contact, p.tree, ws.d, ws.pA)
+    if _aba_rest(p.tree, p.tau_p, p.passive.gravity, ws, dz[nv:2 * nv]) >= 0:
         dz[nv:2 * nv] = np.nan
     quadratures(dz, nv, power_s, power_p, power_c)
 
