@@ -102,10 +102,11 @@ def _work_at(base, o, nb, nv):
     return Work(oR, op, ov, oa, mass, h, Io, B, hf, F, J, dV, dAq, dAv, Fa, Fv, Fq, lv, tau), o
 
 
-@kernel
+@inline_kernel
 def _derivatives_workspace(nb, nv):
     """A :class:`Work` for nb bodies and nv coordinates over one owned buffer; returns (buffer, work): keep the
-    buffer alive as long as the work is used."""
+    buffer alive as long as the work is used.  Compiled code only, inlined (a kernel of its own compiled a Python
+    wrapper boxing the whole work)."""
     buf = np.empty(_work_at(0, 0, nb, nv)[1])
     return buf, _work_at(address(buf), 0, nb, nv)[0]
 
