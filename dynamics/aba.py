@@ -67,7 +67,7 @@ def _work_at(base, o, nb, nv):
     return Work(d, IA, pA, U, Dinv, u, acc, Ia, D, pa, t), o
 
 
-@kernel
+@helper
 def _workspace(nb, nv):
     """A :class:`Work` of owned arrays, which the caller may keep (the simulation's problem holds one)."""
     d = Data(np.empty((nb, 3, 3)), np.empty((nb, 3)), np.empty((nb, 3)), np.empty((nb, 3)), np.empty((nb, 3)),
@@ -252,7 +252,7 @@ def refuse_singular(model, q, what):
     check`` to the neutral configuration, so both say the same."""
     nv, nb = model.nv, model.nbodies
     zero = np.zeros(nv)
-    body = _aba_into(model.tree, q, zero, zero, np.zeros(3), np.zeros((0, 6)), _workspace.py_func(nb, nv),
+    body = _aba_into(model.tree, q, zero, zero, np.zeros(3), np.zeros((0, 6)), _workspace(nb, nv),
                      np.empty(nv))
     if body >= 0:
         raise checks.singular_joint_error(model, body, what)

@@ -49,8 +49,8 @@ import numpy as np
 from numba import types
 
 from . import checks
-from ._numba import (PACKED, SingleCall, VECTOR, address, borrowed, copy_into, inline_kernel, keep_alive, kernel,
-                     scratch, view)
+from ._numba import (PACKED, SingleCall, VECTOR, address, borrowed, copy_into, helper, inline_kernel, keep_alive,
+                     kernel, scratch, view)
 from .configuration import _integrate_q
 from .data import _take
 from .constraints import arrays, _constraint_terms, packed
@@ -76,7 +76,7 @@ CHOLESKY_RTOL = 1e-10
 DEFAULT_BAUMGARTE = (10.0, 10.0)
 
 
-@kernel
+@helper
 def _workspace(nb, nv, m):
     """Scratch of one state: kinematics, CRBA, RNEA, then L (nv, nv; M = L^T L), J (m, nv), phi, gamma (m,),
     f (nv,), Y = (L^-T J^T)^T (m, nv), K (m, m), rhs (m,), an empty f_ext, K's Cholesky factor (m, m), the

@@ -38,7 +38,7 @@ from typing import NamedTuple
 import numpy as np
 
 from . import checks
-from ._numba import borrowed, address, float_at, inline_kernel, int_at, kernel
+from ._numba import borrowed, address, float_at, helper, inline_kernel, int_at, kernel
 from .data import _take
 from .configuration import _integrate_q
 from .errors import InputError
@@ -534,7 +534,7 @@ def _assembly_notes(constraints, C, J, tol, err):
 
 # -- kernels -----------------------------------------------------------------------------------------------------
 
-@kernel
+@helper
 def _workspace(nb, nv):
     """World poses, motion axes oS (nv, 6), body velocities V and bias accelerations A (nb, 6) at the origin."""
     return np.empty((nb, 3, 3)), np.empty((nb, 3)), np.empty((nv, 6)), np.empty((nb, 6)), np.empty((nb, 6))

@@ -11,7 +11,7 @@ Only the lower triangle is computed; the upper one is its mirror.
 import numpy as np
 
 from . import checks
-from ._numba import (borrowed, MATRIX, SingleCall, VECTOR, address, inline_kernel, keep_alive, kernel, scratch)
+from ._numba import (borrowed, MATRIX, SingleCall, VECTOR, address, helper, inline_kernel, keep_alive, kernel, scratch)
 from .data import _take
 from .checks import NOT_ARRAYS, DONE, GENERAL, _config_shape_ok, _finite, _roots_finite
 from .model import _unpack
@@ -20,7 +20,7 @@ from .joints import _joint_transform
 from .spatial import add, force_to_parent, inertia_times, inertia_to_parent, load3, load33, store3, store33
 
 
-@kernel
+@helper
 def _workspace(nb):
     """Scratch: poses (R, p) and composite inertias (m, h, Io)."""
     return np.empty((nb, 3, 3)), np.empty((nb, 3)), np.empty(nb), np.empty((nb, 3)), np.empty((nb, 3, 3))

@@ -25,7 +25,7 @@ loops specialised with their 6-vectors in locals; the free joint the generic one
 import numpy as np
 
 from . import checks
-from ._numba import (borrowed, MATRIX, SingleCall, VECTOR, address, inline_kernel, keep_alive, kernel, scratch)
+from ._numba import (borrowed, MATRIX, SingleCall, VECTOR, address, helper, inline_kernel, keep_alive, kernel, scratch)
 from .checks import DONE, GENERAL, NOT_ARRAYS, _config_shape_ok, _finite, _roots_finite
 from .kinematics import _world_pose
 from .data import _take, _take_int
@@ -34,7 +34,7 @@ from .parallel import run_chunks
 from .spatial import add, cross, inertia_to_parent, _joint_gram, load3, load33, rot, _spd_inverse, _store_inertia6
 
 
-@kernel
+@helper
 def _workspace(nb, nv):
     return (np.empty((nb, 3, 3)), np.empty((nb, 3)), np.empty((nb, 6, 6)),  # world poses, I^A (world)
             np.empty((nv, 6)), np.empty((nv, 6)), np.empty((nv, 6)),  # S (world), U, U D^-1

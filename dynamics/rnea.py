@@ -17,7 +17,7 @@ from typing import NamedTuple
 import numpy as np
 
 from . import checks
-from ._numba import (borrowed, VECTOR, address, inline_kernel, keep_alive, kernel, scratch, SingleCall, view,
+from ._numba import (borrowed, VECTOR, address, helper, inline_kernel, keep_alive, kernel, scratch, SingleCall, view,
                      )
 from .checks import NOT_ARRAYS, DONE, GENERAL, _config_shape_ok, _finite, _nonzero, _roots_finite
 from .data import Data, _data_at, _forward_body, _take
@@ -51,7 +51,7 @@ def _work_at(base, o, nb):
     return Work(d, aw, av, n, f), o
 
 
-@kernel
+@helper
 def _workspace(nb):
     """A :class:`Work` of owned arrays, which the caller may keep (a torque source's scratch)."""
     d = Data(np.empty((nb, 3, 3)), np.empty((nb, 3)), np.empty((nb, 3)), np.empty((nb, 3)), np.empty((nb, 3)),

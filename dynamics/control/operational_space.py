@@ -35,7 +35,7 @@ and the simulation stops with a non-finite status; ``damping`` d > 0 uses (J M^-
 
 import numpy as np
 
-from .._numba import kernel
+from .._numba import helper, kernel
 from ..configuration import _difference
 from ..jacobians import _jacobian_into
 from ..kinematics import BIAS_ACCELERATION, LOCAL_WORLD_ALIGNED, _motion_batch
@@ -72,7 +72,7 @@ def orientation_at(times, otable, t):
     return matmul(E, Rk), w
 
 
-@kernel
+@helper
 def _workspace(nb, nv, nq):
     """Scratch of :func:`operational_space_into`, one per simulation (its Source): J is zero off the frame's
     support, which is all _jacobian_into leaves untouched, and ``zero`` is never written."""

@@ -68,7 +68,7 @@ def robot_problem(model, passive, source, q0, out_t, outputs, contact=None):
     ``contact``: None or the run's :class:`dynamics.contact.resolve.ContactModel`."""
     nv, nq, nb = model.nv, model.nq, model.tree.parents.shape[0]
     T = out_t.shape[0]
-    ws = aba_workspace.py_func(nb, nv)  # numpy's allocations from Python: the compiled kernel would cost 0.2 s
+    ws = aba_workspace(nb, nv)  # (a helper: numpy's allocations from Python, nothing compiled)
     return RobotProblem(
         model.tree, passive, source, source_workspace(source, nb, nv), kind_tag(source.kind), chart_tag(model),
         q0.copy(), np.empty(nq),

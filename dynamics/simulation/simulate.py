@@ -370,7 +370,7 @@ def _check_not_singular(model, q0, v0, g):
     ``dynamics check`` applies too), rather than a run that stops with NaN at t0; through the run's own ABA
     (:func:`.problem.singular_body`), so that it compiles once.  Asked only after a run that could not take its
     first step (the right-hand side was not finite at t0): a run that starts compiles none of it."""
-    body = singular_body(model.tree, q0, v0, g, aba_workspace.py_func(model.tree.parents.shape[0], model.nv))
+    body = singular_body(model.tree, q0, v0, g, aba_workspace(model.tree.parents.shape[0], model.nv))
     if body >= 0:
         raise singular_joint_error(model, body, "q0")
 
