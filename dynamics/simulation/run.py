@@ -61,8 +61,8 @@ ENTRY = {"euler": _euler, "rk4": _rk4, "rk45": _rk45, "dop853": _dop853, "radau"
          "auto (rk45)": _auto_rk45, "auto (radau)": _auto_radau}
 
 
-#: seconds to compile a method's entry point with a problem's functions from an empty cache (2R arm, process CPU
-#: less the library's, on a loaded 2-core machine: rk4 ~13, auto ~24)
+#: seconds to compile a method's entry point with a problem's functions from an empty cache (2R arm, the first
+#: simulate's wall time on an idle machine: rk4 ~16, auto ~18; a loaded machine takes longer)
 COMPILE_SECONDS = {"euler": 15, "rk4": 15, "rk45": 20, "dop853": 25, "radau": 25, "auto (rk45)": 20,
                    "auto (radau)": 25}
 #: what contact adds to a first compilation (the narrow phase and the force law in the right-hand side; the ball's
