@@ -6,37 +6,36 @@
 With a fixed base the world is the root link's frame; U is zero when every centre of mass is at height 0
 along g.
 
-The forward pass is the ABA's first pass (:func:`dynamics.aba._rigid_body_terms`).  A simulation evaluates
-the energy of every sample as it writes it (:func:`sample_energies`, from the run's ``emit``), with the types
-and the workspace of its own ABA: the run then compiles the sums only, not a kernel of its own (~4 s of a first
-simulate from an empty cache).
+:func:`_energy_sums` takes a forward pass already done.  The public functions run the plain forward pass
+(poses, and velocities only for T); a simulation evaluates the energy of every sample as it writes it
+(:func:`sample_energies`, from the run's ``emit``) with the ABA's first pass and workspace, which its run has
+compiled anyway (a kernel of its own cost ~4 s of a first simulate from an empty cache).
 """
 
 import numpy as np
 
 from . import checks
 from ._numba import (borrowed, address, inline_kernel, keep_alive, kernel)
-from .aba import _rigid_body_terms, _work_at
+from .aba import _rigid_body_terms
 from .parallel import run_chunks
-from .data import _take
+from .data import _data_at, _forward_pass, _take
 from .spatial import add, dot, inertia_times, load3, load33, matmul, rot, store3, store33
 
 
 @inline_kernel
-def _energies(tree, q, v, gravity, potential, ws, f_none, Rw, pw):
-    """(T, U) at one state (U when ``potential``, else 0): the ABA's first pass into ``ws``
-    (:class:`~dynamics.aba.Work`; its velocities are zero when v is, and so is T), then T from the body
-    velocities and U from the world poses Rw (nb, 3, 3), pw (nb, 3) composed from the same transforms."""
+def _energy_sums(tree, d, gravity, kinetic, potential, Rw, pw):
+    """(T, U) from a forward pass in ``d`` (:class:`~dynamics.data.Data`: T when ``kinetic``, from its body
+    velocities; U when ``potential``, from the world poses Rw (nb, 3, 3), pw (nb, 3) composed from its
+    transforms); 0 for the one not asked."""
     parents, mass, hs, Ios = tree.parents, tree.mass, tree.h, tree.Io
-    _rigid_body_terms(tree, q, v, f_none, ws, True)
-    d = ws.d
     g = (gravity[0], gravity[1], gravity[2])
     T = 0.0
     U = 0.0
     for i in range(parents.shape[0]):
-        w, vl = load3(d.w, i), load3(d.vl, i)
-        n, f = inertia_times(mass[i], load3(hs, i), load33(Ios, i), w, vl)
-        T += 0.5 * (dot(w, n) + dot(vl, f))
+        if kinetic:
+            w, vl = load3(d.w, i), load3(d.vl, i)
+            n, f = inertia_times(mass[i], load3(hs, i), load33(Ios, i), w, vl)
+            T += 0.5 * (dot(w, n) + dot(vl, f))
         if potential:
             R, p = load33(d.R, i), load3(d.p, i)
             par = parents[i]
@@ -51,33 +50,33 @@ def _energies(tree, q, v, gravity, potential, ws, f_none, Rw, pw):
 
 @inline_kernel
 def sample_energies(tree, q, v, gravity, f_ext, ws, out):
-    """out[:] = (T, U) at (q, v) with the ABA's workspace ws (:class:`~dynamics.aba.Work`) and the run's external
-    forces f_ext (they enter the pass's bias forces, which the energies do not read).  U's world poses are
-    composed in ws.IA: pass 1 writes I^A = I_i there, and nothing here reads it."""
+    """out[:] = (T, U) at (q, v) with the ABA's first pass into its workspace ws (:class:`~dynamics.aba.Work`;
+    the run's external forces f_ext enter the pass's bias forces, which the energies do not read).  U's world
+    poses are composed in ws.IA: pass 1 writes I^A = I_i there, and nothing here reads it."""
     nb = tree.parents.shape[0]
+    _rigid_body_terms(tree, q, v, f_ext, ws, True)
     flat = ws.IA.reshape(36 * nb)
     Rw = flat[:9 * nb].reshape((nb, 3, 3))
     pw = flat[9 * nb:12 * nb].reshape((nb, 3))
-    out[0], out[1] = _energies(tree, q, v, gravity, True, ws, f_ext, Rw, pw)
+    out[0], out[1] = _energy_sums(tree, ws.d, gravity, True, True, Rw, pw)
 
 
 @kernel
 def _energy_batch(tree, Q, V, gravity, kinetic, potential, out):
-    """out[b] = (T, U) at (Q[b], V[b]), T only if ``kinetic`` (else 0 and V may have one row, of zeros), U only
-    if ``potential`` (else 0)."""
+    """out[b] = (T, U) at (Q[b], V[b]), T only if ``kinetic`` (else 0 and V may have one row), U only if
+    ``potential`` (else 0)."""
     # the arguments as views with no owner: no reference counts in the loops (dynamics._numba.borrowed)
     tree, Q, V = borrowed(tree), borrowed(Q), borrowed(V)
     gravity, kinetic, potential = borrowed(gravity), borrowed(kinetic), borrowed(potential)
     out = borrowed(out)
-    nb, nv = tree.parents.shape[0], V.shape[1]
-    buf = np.empty(_work_at(0, 0, nb, nv)[1] + 12 * nb)
-    ws, o = _work_at(address(buf), 0, nb, nv)
+    nb = tree.parents.shape[0]
+    buf = np.empty(_data_at(0, 0, nb)[1] + 12 * nb)
+    d, o = _data_at(address(buf), 0, nb)
     Rw, o = _take(address(buf), o, (nb, 3, 3))
     pw, o = _take(address(buf), o, (nb, 3))
-    f_none = np.zeros((0, 6))
     for b in range(Q.shape[0]):
-        T, U = _energies(tree, Q[b], V[b if kinetic else 0], gravity, potential, ws, f_none, Rw, pw)
-        out[b, 0], out[b, 1] = T if kinetic else 0.0, U
+        _forward_pass(tree, Q[b], V[b if kinetic else 0], d, kinetic)
+        out[b, 0], out[b, 1] = _energy_sums(tree, d, gravity, kinetic, potential, Rw, pw)
     keep_alive(buf)
 
 
