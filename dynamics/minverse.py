@@ -94,59 +94,69 @@ def _minverse_into(tree, q, ws, Minv):
             nsub[parents[i]] += nsub[i]
 
     for i in range(nb - 1, -1, -1):  # backward pass
-        k0, nj, ns, par = v_idx[i], nv_j[i], nsub[i], parents[i]
-        if nj == 1:  # the common joint, with its 6-vectors in locals
-            if not _backward_1dof_body(IA, Sw, U, UD, Dinv, F, Minv, i, k0, ns, par):
-                return i
-            continue
-        for a in range(nj):
-            for r in range(6):
-                x = 0.0
-                for c in range(6):
-                    x += IA[i, r, c] * Sw[k0 + a, c]
-                U[k0 + a, r] = x
-        _joint_gram(Sw, U, k0, nj, D)  # D = S^T U
-        if not _spd_inverse(D, nj, Dinv, i, scratch):
+        if not _backward_body(IA, Sw, U, UD, Dinv, F, Minv, D, scratch, i, v_idx[i], nv_j[i], nsub[i], parents[i]):
             return i
-        for a in range(nj):
-            for r in range(6):
-                x = 0.0
-                for b in range(nj):
-                    x += U[k0 + b, r] * Dinv[i, b, a]
-                UD[k0 + a, r] = x
-        _backward_columns(Sw, U, Dinv, F, Minv, scratch, i, k0, nj, ns, par)
-        if par < 0:
-            continue
+    A = F  # F is spent: its memory holds the accelerations A_i
+    for i in range(nb):  # forward pass, columns c >= k0
+        _forward_body(Sw, UD, A, Minv, i, v_idx[i], nv_j[i], nsub[i], parents[i], nv)
+    for r in range(nv):
+        for c in range(r + 1, nv):
+            Minv[c, r] = Minv[r, c]
+    return -1
+
+
+@inline_kernel
+def _backward_body(IA, Sw, U, UD, Dinv, F, Minv, D, scratch, i, k0, nj, ns, par):
+    """The backward pass at body i (its children done): U, D^-1, U D^-1, its rows of M^-1, F_p and I^A_p.
+    False when D is not positive (the joint moves no mass or inertia)."""
+    if nj == 1:  # the common joint, with its 6-vectors in locals
+        return _backward_1dof_body(IA, Sw, U, UD, Dinv, F, Minv, i, k0, ns, par)
+    for a in range(nj):
+        for r in range(6):
+            x = 0.0
+            for c in range(6):
+                x += IA[i, r, c] * Sw[k0 + a, c]
+            U[k0 + a, r] = x
+    _joint_gram(Sw, U, k0, nj, D)  # D = S^T U
+    if not _spd_inverse(D, nj, Dinv, i, scratch):
+        return False
+    for a in range(nj):
+        for r in range(6):
+            x = 0.0
+            for b in range(nj):
+                x += U[k0 + b, r] * Dinv[i, b, a]
+            UD[k0 + a, r] = x
+    _backward_columns(Sw, U, Dinv, F, Minv, scratch, i, k0, nj, ns, par)
+    if par >= 0:
         for r in range(6):  # I^A_p += I^A - U D^-1 U^T
             for c in range(6):
                 x = IA[i, r, c]
                 for a in range(nj):
                     x -= UD[k0 + a, r] * U[k0 + a, c]
                 IA[par, r, c] += x
+    return True
 
-    A = F  # F is spent: its memory holds the accelerations A_i
-    for i in range(nb):  # forward pass, columns c >= k0
-        k0, nj, ns, par = v_idx[i], nv_j[i], nsub[i], parents[i]
-        if nj == 1:
-            _forward_1dof(Sw, UD, A, Minv, i, k0, ns, par, nv)
-            continue
-        for c in range(k0, nv):
-            for a in range(nj):
-                x = Minv[k0 + a, c] if c < k0 + ns else 0.0
-                if par >= 0:
-                    for r in range(6):
-                        x -= UD[k0 + a, r] * A[par, c, r]
-                Minv[k0 + a, c] = x
-            if ns > nj:  # i has children: they need A_i
+
+@inline_kernel
+def _forward_body(Sw, UD, A, Minv, i, k0, nj, ns, par, nv):
+    """The forward pass at body i (its parent done): its rows of M^-1 from column k0 on, and A_i if it has
+    children."""
+    if nj == 1:
+        _forward_1dof(Sw, UD, A, Minv, i, k0, ns, par, nv)
+        return
+    for c in range(k0, nv):
+        for a in range(nj):
+            x = Minv[k0 + a, c] if c < k0 + ns else 0.0
+            if par >= 0:
                 for r in range(6):
-                    x = A[par, c, r] if par >= 0 else 0.0
-                    for a in range(nj):
-                        x += Sw[k0 + a, r] * Minv[k0 + a, c]
-                    A[i, c, r] = x
-    for r in range(nv):
-        for c in range(r + 1, nv):
-            Minv[c, r] = Minv[r, c]
-    return -1
+                    x -= UD[k0 + a, r] * A[par, c, r]
+            Minv[k0 + a, c] = x
+        if ns > nj:  # i has children: they need A_i
+            for r in range(6):
+                x = A[par, c, r] if par >= 0 else 0.0
+                for a in range(nj):
+                    x += Sw[k0 + a, r] * Minv[k0 + a, c]
+                A[i, c, r] = x
 
 
 @inline_kernel
@@ -194,7 +204,7 @@ def _backward_1dof_body(IA, Sw, U, UD, Dinv, F, Minv, i, k0, ns, par):
     if not d > 0.0:
         return False
     dinv = 1.0 / d
-    Dinv[i, 0, 0] = dinv
+    _set_entry(Dinv, i, dinv)
     UD[k0, 0], UD[k0, 1], UD[k0, 2] = u0 * dinv, u1 * dinv, u2 * dinv
     UD[k0, 3], UD[k0, 4], UD[k0, 5] = u3 * dinv, u4 * dinv, u5 * dinv
     _backward_1dof(Sw, U, dinv, F, Minv, i, k0, ns, par)
@@ -208,6 +218,14 @@ def _backward_1dof_body(IA, Sw, U, UD, Dinv, F, Minv, i, k0, ns, par):
             IA[par, r, 4] += IA[i, r, 4] - x * u4
             IA[par, r, 5] += IA[i, r, 5] - x * u5
     return True
+
+
+@helper
+def _set_entry(Dinv, i, x):
+    """Dinv[i, 0, 0] = x, through a helper: this kernel is inlined into the fused ABA derivatives, which read
+    Dinv later in another inlined kernel, and numba's dead-code elimination there dropped the bare assignment
+    to the workspace view (the value read was the buffer's garbage)."""
+    Dinv[i, 0, 0] = x
 
 
 @inline_kernel

@@ -144,43 +144,43 @@ def _velocity_variation(m, h, Io, w, vl):
 def _forward_step(tree, i, q, v, a, gravity, f_ext, ws):
     """Body i's step of the forward pass (its parent's is done): world pose, J, ov, oa, dV, dAq, dAv, the
     world inertia, dY and the body's force f_i."""
+    cw, cv = _velocity_step(tree, i, q, v, f_ext, ws)
+    _acceleration_step(tree, i, a, gravity, ws, cw, cv)
+
+
+@inline_kernel
+def _velocity_step(tree, i, q, v, f_ext, ws):
+    """The part of body i's forward step that does not depend on the acceleration: world pose, J, ov, dV, dAv,
+    the world inertia, dY, and F_i = ov_i x* I_i ov_i - f_ext_i (the ABA's bias force).  Returns
+    ov_i x (J_i qd_i), the velocity product of oa_i (:func:`_acceleration_step`)."""
     R, p = _joint_transform(tree, i, q)
     par, S, k0, nj = tree.parents[i], tree.S, tree.v_idx[i], tree.nv_j[i]
     zero = (0.0, 0.0, 0.0)
     if par < 0:
-        oR, op, vpw, vpv, apw, apv = R, p, zero, zero, zero, (-gravity[0], -gravity[1], -gravity[2])
+        oR, op, vpw, vpv = R, p, zero, zero
     else:
         Rp = load33(ws.oR, par)
         oR, op = matmul(Rp, R), add(rot(Rp, p), load3(ws.op, par))
-        (vpw, vpv), (apw, apv) = get6(ws.ov, par), get6(ws.oa, par)
+        vpw, vpv = get6(ws.ov, par)
     store33(ws.oR, i, oR)
     store3(ws.op, i, op)
-    vjw, vjv, ajw, ajv = zero, zero, zero, zero
-    for k in range(k0, k0 + nj):  # J_k = oX_i S_k;  J_i qd_i and J_i qdd_i
+    vjw, vjv = zero, zero
+    for k in range(k0, k0 + nj):  # J_k = oX_i S_k;  J_i qd_i
         Jw, Jv = motion_to_parent(oR, op, (S[k, 0], S[k, 1], S[k, 2]), (S[k, 3], S[k, 4], S[k, 5]))
         set6(ws.J, k, Jw, Jv)
         vjw, vjv = add(vjw, scale(v[k], Jw)), add(vjv, scale(v[k], Jv))
-        ajw, ajv = add(ajw, scale(a[k], Jw)), add(ajv, scale(a[k], Jv))
     w, vl = add(vpw, vjw), add(vpv, vjv)
-    cw, cv = cross_motion(w, vl, vjw, vjv)
-    aw, al = add(add(apw, ajw), cw), add(add(apv, ajv), cv)
     set6(ws.ov, i, w, vl)
-    set6(ws.oa, i, aw, al)
     for k in range(k0, k0 + nj):
         Jw, Jv = get6(ws.J, k)
         dJw, dJv = cross_motion(w, vl, Jw, Jv)
         dVw, dVv = cross_motion(vpw, vpv, Jw, Jv)
-        qw, qv = cross_motion(apw, apv, Jw, Jv)
-        xw, xv = cross_motion(vpw, vpv, dVw, dVv)
         set6(ws.dV, k, dVw, dVv)
-        set6(ws.dAq, k, add(qw, xw), add(qv, xv))
         set6(ws.dAv, k, add(dJw, dVw), add(dJv, dVv))
     m = tree.mass[i]
     h, Io = inertia_to_parent(oR, op, m, load3(tree.h, i), load33(tree.Io, i))
     hn, hf = inertia_times(m, h, Io, w, vl)
-    fn, ff = inertia_times(m, h, Io, aw, al)
-    bn, bf = cross_force(w, vl, hn, hf)
-    fn, ff = add(fn, bn), add(ff, bf)
+    fn, ff = cross_force(w, vl, hn, hf)
     if f_ext.shape[0] > 0:  # f_ext_i in the body frame, [force, torque]
         en, ef = force_to_parent(oR, op, (f_ext[i, 3], f_ext[i, 4], f_ext[i, 5]),
                                  (f_ext[i, 0], f_ext[i, 1], f_ext[i, 2]))
@@ -192,6 +192,33 @@ def _forward_step(tree, i, q, v, a, gravity, f_ext, ws):
     store33(ws.Io, i, Io)
     store33(ws.B, i, B)
     store3(ws.hf, i, hf)
+    return cross_motion(w, vl, vjw, vjv)
+
+
+@inline_kernel
+def _acceleration_step(tree, i, a, gravity, ws, cw, cv):
+    """The rest of body i's forward step, once its velocity step and its parent's steps are done and a is known
+    at its joint: oa_i = oa_p + J_i qdd_i + (cw, cv), dAq and F_i += I_i oa_i."""
+    par, k0, nj = tree.parents[i], tree.v_idx[i], tree.nv_j[i]
+    zero = (0.0, 0.0, 0.0)
+    if par < 0:
+        vpw, vpv, apw, apv = zero, zero, zero, (-gravity[0], -gravity[1], -gravity[2])
+    else:
+        (vpw, vpv), (apw, apv) = get6(ws.ov, par), get6(ws.oa, par)
+    ajw, ajv = zero, zero
+    for k in range(k0, k0 + nj):
+        Jw, Jv = get6(ws.J, k)
+        ajw, ajv = add(ajw, scale(a[k], Jw)), add(ajv, scale(a[k], Jv))
+        dVw, dVv = get6(ws.dV, k)
+        qw, qv = cross_motion(apw, apv, Jw, Jv)
+        xw, xv = cross_motion(vpw, vpv, dVw, dVv)
+        set6(ws.dAq, k, add(qw, xw), add(qv, xv))
+    aw, al = add(add(apw, ajw), cw), add(add(apv, ajv), cv)
+    set6(ws.oa, i, aw, al)
+    m, h, Io = ws.mass[i], load3(ws.h, i), load33(ws.Io, i)
+    fn, ff = inertia_times(m, h, Io, aw, al)
+    bn, bf = get6(ws.F, i)
+    set6(ws.F, i, add(fn, bn), add(ff, bf))
 
 
 @inline_kernel
