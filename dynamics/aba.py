@@ -89,17 +89,23 @@ def _set6(A, i, x, y):
 
 @kernel
 def _aba_into(tree, q, v, tau, gravity, f_ext, ws, qdd):
-    """ABA for one state into ``qdd``.  Returns -1, or the index of a body whose joint sees a singular
-    articulated inertia (then qdd is not valid)."""
-    return _aba_terms(tree, q, v, tau, gravity, f_ext, ws, qdd, True)
+    """ABA for one state into ``qdd``, through the passes' own kernels (those the simulation's right-hand side
+    links).  Returns -1, or the index of a body whose joint sees a singular articulated inertia (then qdd is
+    not valid)."""
+    _rigid_body_terms(tree, q, v, f_ext, ws, True)
+    return _aba_rest(tree, tau, gravity, ws, qdd)
 
 
 @inline_kernel
 def _aba_terms(tree, q, v, tau, gravity, f_ext, ws, qdd, with_v):
-    """ABA for one state: Featherstone's three passes (RBDA Table 7.1).  ``with_v=False`` (v is zero) skips
-    the velocity products c_i and v x* I v.  Returns -1, or the body whose joint is singular."""
-    _rigid_body_terms(tree, q, v, f_ext, ws, with_v)
-    return _aba_rest(tree, tau, gravity, ws, qdd)
+    """ABA for one state: Featherstone's three passes (RBDA Table 7.1), inlined.  ``with_v=False`` (v is zero)
+    skips the velocity products c_i and v x* I v.  Returns -1, or the body whose joint is singular."""
+    _rigid_body_pass(tree, q, v, f_ext, ws, with_v)
+    singular = _articulated_pass(tree, tau, ws)
+    if singular >= 0:
+        return singular
+    _acceleration_pass(tree, gravity, ws, qdd)
+    return -1
 
 
 @inline_kernel
@@ -114,8 +120,7 @@ def _aba_rest(tree, tau, gravity, ws, qdd):
     return -1
 
 
-@kernel
-def _rigid_body_terms(tree, q, v, f_ext, ws, with_v):
+def _rigid_body_pass(tree, q, v, f_ext, ws, with_v):
     """Pass 1: the forward pass (X_i, v_i, c_i), and I^A_i = I_i, p^A_i = v_i x* I_i v_i - f_ext_i."""
     mass, hs, Ios, d = tree.mass, tree.h, tree.Io, ws.d
     zero = (0.0, 0.0, 0.0)
@@ -134,8 +139,7 @@ def _rigid_body_terms(tree, q, v, f_ext, ws, with_v):
         _set6(ws.pA, i, bn, bf)
 
 
-@kernel
-def _articulated_inertias(tree, tau, ws):
+def _articulated_pass(tree, tau, ws):
     """Pass 2, from the leaves in: U, D^-1, u per joint, and I^A_p += X^T I^a X, p^A_p += X^T p^a with
     I^a = I^A - U D^-1 U^T and p^a = p^A + I^a c + U D^-1 u.  Returns -1, or a body whose D is singular."""
     parents, S, v_idx, nv_j, d = tree.parents, tree.S, tree.v_idx, tree.nv_j, ws.d
@@ -185,8 +189,7 @@ def _articulated_inertias(tree, tau, ws):
     return -1
 
 
-@kernel
-def _accelerations(tree, gravity, ws, qdd):
+def _acceleration_pass(tree, gravity, ws, qdd):
     """Pass 3, from the root out: a'_i = X_i a_p + c_i (a_0 = (0, -g)), qdd_i = D_i^-1 (u_i - U_i^T a'_i),
     a_i = a'_i + S_i qdd_i."""
     parents, v_idx, nv_j, d = tree.parents, tree.v_idx, tree.nv_j, ws.d
@@ -214,6 +217,15 @@ def _accelerations(tree, gravity, ws, qdd):
             qdd[k0 + a_] = x
         sw, sv = _joint_motion(tree, i, qdd)
         _set6(acc, i, add(aw, sw), add(al, sv))
+
+
+#: each pass both as a kernel of its own (the simulation's right-hand side and the energies link them, so a
+#: first simulation compiles each once; inlined, each caller would type and lower its own copy) and inlined
+#: (the batch and the single call: one Panda state 1.7 -> 1.1 us, as the kernels take the workspace as an
+#: argument and their loops cannot keep its views in registers)
+_rigid_body_terms, _rigid_body_pass = kernel(_rigid_body_pass), inline_kernel(_rigid_body_pass)
+_articulated_inertias, _articulated_pass = kernel(_articulated_pass), inline_kernel(_articulated_pass)
+_accelerations, _acceleration_pass = kernel(_acceleration_pass), inline_kernel(_acceleration_pass)
 
 
 @kernel

@@ -37,8 +37,9 @@ def _work_at(base, o, nb):
     return (R, p, m, h, Io), o
 
 
-@kernel
 def _crba_into(tree, q, ws, M):
+    """M (nv, nv) at q into M, whose entries between coordinates on different branches are not written (the
+    caller zeroes M)."""
     parents, mass, hs, Ios, S, v_idx, nv_j = tree.parents, tree.mass, tree.h, tree.Io, tree.S, tree.v_idx, tree.nv_j
     Rs, ps, mc, hc, Ioc = ws
     nb = parents.shape[0]
@@ -74,7 +75,12 @@ def _crba_into(tree, q, ws, M):
                 j = pj
 
 
-@kernel
+#: a kernel of its own for the constrained dynamics, inlined into the single call and the batch (as the ABA's
+#: passes, dynamics/aba.py)
+_crba_into, _crba_inline = kernel(_crba_into), inline_kernel(_crba_into)
+
+
+@helper
 def _add9(A, B):
     return (A[0] + B[0], A[1] + B[1], A[2] + B[2], A[3] + B[3], A[4] + B[4], A[5] + B[5], A[6] + B[6],
             A[7] + B[7], A[8] + B[8])
@@ -87,7 +93,7 @@ def _crba_batch(tree, Q, out):
     ws = _workspace(tree.parents.shape[0])
     out[:] = 0.0
     for b in range(Q.shape[0]):
-        _crba_into(tree, Q[b], ws, out[b])
+        _crba_inline(tree, Q[b], ws, out[b])
 
 
 def _crba_one(packed, q, M):
@@ -102,7 +108,7 @@ def _crba_one(packed, q, M):
         for c in range(nv):
             M[r, c] = 0.0
     buf = scratch(_work_at(0, 0, nb)[1])
-    _crba_into(tree, q, _work_at(address(buf), 0, nb)[0], M)
+    _crba_inline(tree, q, _work_at(address(buf), 0, nb)[0], M)
     keep_alive(buf)
     return DONE if _finite(M) else GENERAL
 
