@@ -1,9 +1,9 @@
 """Where a cold start's compile time goes: numba's ``numba:compile`` events per dispatcher, in CPU seconds.
 
-    python -m benchmarks.compile_profile {library,default,rk4,os} [--top N]
+    python -m benchmarks.compile_profile {library,default,rk4,os,contact} [--top N]
 
 Runs one case of :data:`benchmarks.core.SIM_COLD_CASES` (plus ``os``: a first simulate with an
-operational-space torque source) in a fresh interpreter with an empty numba cache and prints, per compiled
+operational-space torque source; ``contact``: a free ball dropped on the ground, the default integrator) in a fresh interpreter with an empty numba cache and prints, per compiled
 function, the CPU seconds spent compiling it (exclusive of the functions it compiled on the way: numba
 compiles a callee while typing its caller) and inclusive, and the process's CPU seconds.  CPU time, not wall:
 the machines are shared.
@@ -40,6 +40,8 @@ class Listener(event.Listener):
 event.register("numba:compile", Listener())
 import numpy as np
 import dynamics
+BALL = '''<robot name="ball"><link name="ball"><inertial><mass value="0.2"/>
+<inertia ixx="2e-4" iyy="2e-4" izz="2e-4" ixy="0" ixz="0" iyz="0"/></inertial></link></robot>'''
 arm = dynamics.load_urdf(sys.argv[1])
 dynamics.inverse_dynamics(arm, np.zeros(2), np.zeros(2), np.zeros(2))
 cpu_lib = time.process_time()
@@ -51,6 +53,10 @@ elif case == "rk4":
 elif case == "os":
     src = dynamics.torques.Target("tip", [1.2, 0.0, 0.9], kp=100.0, kd=20.0, rows=[0, 2])
     dynamics.simulate(arm, [0.5, 0.2], [0.0, 0.0], 0.2, torque=src, integrator="rk4", dt=1e-3)
+elif case == "contact":
+    ball = dynamics.load_urdf(BALL, floating_base=True)
+    dynamics.simulate(ball, [0, 0, 0.3, 0, 0, 0, 1.0], np.zeros(6), 0.3,
+                      contact=dynamics.Contact(geometries=[dynamics.Sphere("ball", 0.05)]))
 cpu = resource.getrusage(resource.RUSAGE_SELF)
 print(json.dumps({"rows": rows, "cpu_lib": cpu_lib, "cpu": cpu.ru_utime + cpu.ru_stime}))
 """
@@ -68,7 +74,7 @@ def profile(case, urdf):
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("case", choices=("library", "default", "rk4", "os"))
+    ap.add_argument("case", choices=("library", "default", "rk4", "os", "contact"))
     ap.add_argument("--top", type=int, default=15)
     args = ap.parse_args(argv)
     urdf = str(Path(__file__).resolve().parent.parent / "robots" / "planar_2r.urdf")

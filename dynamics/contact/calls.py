@@ -30,6 +30,13 @@ def contact_emit(c, tree, j, q, v):
     raise NotImplementedError("contact_emit: compiled code only")
 
 
+def contact_jacobian(c, tree, q, v, dq, dv):
+    """dv = d tau_c/dv and dq = the stiffness part of d tau_c/dq (tangent space) at (q, v)
+    (:mod:`dynamics.contact.force_derivatives`); returns whether the run needs the exact d tau_c/dq (it integrates
+    sensitivities: the caller differences it).  Compiled to nothing without contact."""
+    raise NotImplementedError("contact_jacobian: compiled code only")
+
+
 def _no_power(c, tree, q, v, tau):
     return 0.0
 
@@ -61,12 +68,24 @@ def _no_touch(c):
     return False
 
 
+def _no_jacobian(c, tree, q, v, dq, dv):
+    return False
+
+
 @overload(contact_touched, jit_options=JIT_OPTIONS)
 def _ov_contact_touched(c):
     if isinstance(c, types.NoneType):
         return _no_touch
     from .resolve import _touched
     return _touched
+
+
+@overload(contact_jacobian, jit_options=JIT_OPTIONS)
+def _ov_contact_jacobian(c, tree, q, v, dq, dv):
+    if isinstance(c, types.NoneType):
+        return _no_jacobian
+    from .resolve import _jacobian
+    return _jacobian
 
 
 @overload(contact_torques, jit_options=JIT_OPTIONS, inline="always")

@@ -19,6 +19,8 @@ out          (T, K, 15) or 0   contacts kept per sample (:data:`OUT_COLUMNS`); o
 touched      (3,) int64        [0] 1 when an evaluation found a contact since :func:`_touched` last looked (the
                                Jacobian's); [1] 1 while the last accepted state touches; [2] 1 once
                                :func:`_touchdown` reported the present episode of contact (``auto``'s)
+exact        (1,) int64        1: the run's Jacobian differences d tau_c/dq (a run with sensitivities needs it
+                               exact); 0: its stiffness part (:mod:`.force_derivatives`) serves Radau's Newton
 no_f_ext     (0, 6)            an empty f_ext: the simulation keeps only the generalised force
 ===========  ================  ==================================================================================
 """
@@ -33,6 +35,7 @@ from .._numba import inline_kernel, kernel
 from .._numba.boundary import borrow
 from ..errors import InputError
 from .config import Contact, combine
+from .force_derivatives import contact_force_derivatives
 from .forces import (D_FN, D_FT, D_SLIP, NDETAIL, NMAT, ContactWork, apply_contacts, contact_work,
                      generalized_forces, world_kinematics, world_poses)
 from .narrow_phase import _collide, contact_buffer
@@ -59,6 +62,7 @@ class ContactModel(NamedTuple):
     out: np.ndarray
     out_n: np.ndarray
     touched: np.ndarray
+    exact: np.ndarray
     no_f_ext: np.ndarray
 
 
@@ -125,15 +129,16 @@ def _resolve(contact, model, gravity):
     return Resolved(scene, pair_body, mat, contact)
 
 
-def contact_model(r, model, T=0):
+def contact_model(r, model, T=0, exact=False):
     """A :class:`ContactModel` of the resolved contact ``r`` with its own buffers (T samples kept when the
-    contact asked for "contacts")."""
+    contact asked for "contacts"); ``exact``: the run's Jacobian needs the exact d tau_c/dq (sensitivities)."""
     nb, nv = model.tree.parents.shape[0], model.nv
     K = int(r.scene.max_contacts)
     T = T if "contacts" in r.contact.outputs else 0
     return ContactModel(r.scene.arrays, r.pair_body, r.mat, contact_buffer(r.scene), contact_work(nb),
                         np.zeros((K, NDETAIL)), np.zeros(nv), np.array([0.0, 0.0, 0.0]), np.zeros((T, K, NOUT)),
-                        np.zeros(T, np.int64), np.zeros(3, np.int64), np.zeros((0, 6)))
+                        np.zeros(T, np.int64), np.zeros(3, np.int64), np.array([int(exact)], np.int64),
+                        np.zeros((0, 6)))
 
 
 @inline_kernel
@@ -222,6 +227,14 @@ def _track(c, tree, t, q, v):
         c.touched[0] = 1
     c.touched[1] = 1 if n > 0 else 0
     tr[2] = t
+
+
+def _jacobian(c, tree, q, v, dq, dv):
+    n = _found(c, tree, q, v)
+    b = c.buf
+    contact_force_derivatives(tree, n, b.pair, b.point, b.normal, b.depth, c.pair_body, c.mat, c.ws.oR, c.ws.op, v,
+                              dq, dv)
+    return c.exact[0] > 0
 
 
 def _touched(c):

@@ -20,11 +20,13 @@ source alone for the operational-space controller and Python callables.  The W c
 depend on the quadratures).
 
 Contact: after an evaluation that found a contact (since the last Jacobian), tau also holds the generalised
-contact force tau_c (:mod:`dynamics.contact`), and its derivatives d tau_c/d delta, d tau_c/dv come from central
-differences of the contact force alone (:func:`contact_derivatives`), entering as the source's do:
-da/d delta += M^-1 dtau_c/d delta, da/dv += M^-1 dtau_c/dv, and the contact power's row d(v . tau_c)/dz.  The
-contact law is only piecewise smooth (its kink at touch-down, x = 0, and where (1 + d xdot)_+ clamps): there the
-differences mix both sides within one difference step of the kink.  A robot touching nothing skips them.
+contact force tau_c (:mod:`dynamics.contact`), and its derivatives enter as the source's do: da/d delta +=
+M^-1 dtau_c/d delta, da/dv += M^-1 dtau_c/dv, and the contact power's row d(v . tau_c)/dz
+(:func:`contact_derivatives`).  d tau_c/dv is analytical and exact (:mod:`dynamics.contact.force_derivatives`);
+d tau_c/d delta is its stiffness part for Radau's Newton matrix, or, in a run with sensitivities (which need it
+exact), central differences of the contact force alone.  The contact law is only piecewise smooth (its kink at
+touch-down, x = 0, and where (1 + d xdot)_+ clamps): there the differences mix both sides within one difference
+step of the kink.  A robot touching nothing skips them.
 
 A problem class carries this as its ``jacobian`` attribute (:func:`.solvers.linalg.problem_jacobian` reaches
 it, and falls back to differencing the whole right-hand side for a problem without one).
@@ -38,7 +40,7 @@ from ..configuration import _difference, _integrate_q, chart_rate_in, retract_in
 from ..control.derivatives import source_derivatives_into
 from ..control.dispatch import torque_eval
 from ..control.passive import passive_derivatives, passive_torques
-from ..contact.calls import contact_torques, contact_touched
+from ..contact.calls import contact_jacobian, contact_torques, contact_touched
 from .solvers.linalg import lu_factor, lu_solve
 
 #: central-difference step (relative): ~ eps^(1/3), the error of the differences of a smooth function
@@ -107,11 +109,19 @@ def _contact_at(p, q, v, tau):
 
 @generic_kernel
 def contact_derivatives(p, delta, v, tau_c, dtc_dd, dtc_dv):
-    """tau_c at (delta, v) and d tau_c / d delta (chart coordinates), d tau_c / dv by central differences of the
-    contact force alone (module docstring); returns the contact power v . tau_c."""
+    """tau_c at (delta, v), d tau_c / dv (analytical, exact) and d tau_c / d delta (chart coordinates): its
+    stiffness part (:mod:`dynamics.contact.force_derivatives`) for Radau's Newton matrix, or, in a run that needs it
+    exact (sensitivities), central differences of the contact force alone (module docstring); returns the contact
+    power v . tau_c."""
     nv = v.shape[0]
-    dt, vt = delta.copy(), v.copy()
-    q, tp, tm = np.empty(p.base.shape[0]), np.empty(nv), np.empty(nv)
+    q = np.empty(p.base.shape[0])
+    _retract_at(p, delta, q)
+    if not contact_jacobian(p.contact, p.tree, q, v, dtc_dd, dtc_dv):
+        if q.shape[0] != nv:
+            tangent_to_chart(p.tree, p.base, q, dtc_dd)
+        return _contact_at(p, q, v, tau_c)
+    dt = delta.copy()
+    tp, tm = np.empty(nv), np.empty(nv)
     for k in range(nv):
         h = FD_STEP * max(1.0, abs(delta[k]))
         dt[k] = delta[k] + h
@@ -124,15 +134,6 @@ def contact_derivatives(p, delta, v, tau_c, dtc_dd, dtc_dv):
         for r in range(nv):
             dtc_dd[r, k] = (tp[r] - tm[r]) / (2 * h)
     _retract_at(p, delta, q)
-    for k in range(nv):
-        h = FD_STEP * max(1.0, abs(v[k]))
-        vt[k] = v[k] + h
-        _contact_at(p, q, vt, tp)
-        vt[k] = v[k] - h
-        _contact_at(p, q, vt, tm)
-        vt[k] = v[k]
-        for r in range(nv):
-            dtc_dv[r, k] = (tp[r] - tm[r]) / (2 * h)
     return _contact_at(p, q, v, tau_c)
 
 

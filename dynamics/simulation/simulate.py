@@ -253,7 +253,7 @@ def _one_run(model, s, ps, src, dt, out_t, rtol, atol, max_steps, outputs, h0=0.
     cm = None
     if s.contact is not None:  # the contact modules are imported by a run with contact only
         from ..contact.resolve import contact_model
-        cm = contact_model(s.contact, model, out_t.shape[0])
+        cm = contact_model(s.contact, model, out_t.shape[0], exact=s.sens is not None)
     if s.constrained:
         alpha, beta = s.baumgarte
         p = constrained_problem(model, ps, src, s.q0, out_t, outputs, alpha, beta, s.project, cm)
