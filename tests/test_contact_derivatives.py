@@ -11,6 +11,7 @@ import dynamics
 from dynamics.contact.force_derivatives import contact_force_derivatives, point_jacobian
 from dynamics.contact.forces import NDETAIL, _contacts_kernel, contact_work
 from robots import ALL_TYPES, random_state, random_urdf
+from test_derivatives import vector_fd
 
 #: k, d, mu_s, mu_d, v_s
 MAT = np.array([1e4, 2.0, 0.8, 0.5, 1e-2])
@@ -23,15 +24,6 @@ def _tau_c(model, q, v, pair_body, point, normal, depth, mat):
     _contacts_kernel(model.tree, q, v, K, np.arange(K, dtype=np.int64), point, normal, depth, pair_body, mat, ws,
                      np.zeros((K, NDETAIL)), np.zeros((model.tree.parents.shape[0], 6)), tau)
     return tau, ws
-
-
-def _central(f, x, h):
-    cols = []
-    for k in range(x.shape[0]):
-        e = np.zeros_like(x)
-        e[k] = h
-        cols.append((f(x + e) - f(x - e)) / (2 * h))
-    return np.array(cols).T
 
 
 @pytest.mark.parametrize("s", [1e-3, 0.5, 2.0, 5.0], ids=["near-rest", "stiction", "stribeck", "sliding"])
@@ -67,7 +59,7 @@ def test_velocity_derivative_is_exact(s):
     dq, dv = np.empty((model.nv, model.nv)), np.empty((model.nv, model.nv))
     contact_force_derivatives(model.tree, K, np.arange(K, dtype=np.int64), point, normal, depth, pair_body, mat,
                               ws.oR, ws.op, v, dq, dv)
-    fd = _central(lambda x: _tau_c(model, q, x, pair_body, point, normal, depth, mat)[0], v, 1e-7)
+    fd = vector_fd(lambda x: _tau_c(model, q, x, pair_body, point, normal, depth, mat)[0], v, 1e-7)
     assert np.abs(dv - fd).max() <= 1e-6 * np.abs(fd).max()
 
 
@@ -113,7 +105,7 @@ def test_configuration_derivative_where_exact(normal, speed):
     c = contact_model(r, model)
     dq, dv = np.empty((3, 3)), np.empty((3, 3))
     _jacobian(c, model.tree, q, v, dq, dv)
-    fd_q = _central(lambda x: tau(x, v), q, 1e-7)
-    fd_v = _central(lambda x: tau(q, x), v, 1e-7)
+    fd_q = vector_fd(lambda x: tau(x, v), q, 1e-7)
+    fd_v = vector_fd(lambda x: tau(q, x), v, 1e-7)
     assert np.abs(dq - fd_q).max() <= 1e-6 * np.abs(fd_q).max()
     assert np.abs(dv - fd_v).max() <= 1e-6 * np.abs(fd_v).max()

@@ -32,7 +32,7 @@ import numpy as np
 
 from .._numba import inline_kernel, kernel
 from ..spatial import cross, dot, load3, load33, rot
-from .forces import K_DISS, K_MU_D, K_MU_S, K_STIFF, K_VS, friction_coefficient
+from .forces import K_DISS, K_MU_D, K_MU_S, K_STIFF, K_VS, friction_coefficient, friction_ratio
 
 
 @inline_kernel
@@ -57,17 +57,18 @@ def point_jacobian(tree, oR, op, body, P, sign, A):
 
 @inline_kernel
 def friction_slope(speed, mat):
-    """(c, dc/d|v_t|) of the module docstring at slip speed ``speed`` >= 0."""
+    """(c, dc/d|v_t|) of the module docstring at slip speed ``speed`` >= 0 (c: :func:`.forces.friction_ratio`)."""
     vs, mu_s, mu_d = mat[K_VS], mat[K_MU_S], mat[K_MU_D]
+    c = friction_ratio(speed, mat)
     if speed < vs:  # c = mu_s (2 - s) / v_s
-        return mu_s * (2.0 - speed / vs) / vs, -mu_s / (vs * vs)
+        return c, -mu_s / (vs * vs)
     s = speed / vs
     mu = friction_coefficient(s, mu_s, mu_d)
-    if s >= 3.0:
-        return mu / speed, -mu / (speed * speed)
+    if s >= 3.0:  # c = mu_d / speed
+        return c, -mu / (speed * speed)
     x = 0.5 * (s - 1.0)  # mu = mu_s - (mu_s - mu_d) step5(x): dmu/ds = -(mu_s - mu_d) 30 x^2 (1 - x)^2 / 2
     dmu = -(mu_s - mu_d) * 15.0 * x * x * (1.0 - x) * (1.0 - x)
-    return mu / speed, dmu / (vs * speed) - mu / (speed * speed)
+    return c, dmu / (vs * speed) - mu / (speed * speed)
 
 
 @inline_kernel

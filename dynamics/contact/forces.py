@@ -118,6 +118,16 @@ def friction_coefficient(s, mu_s, mu_d):
 
 
 @inline_kernel
+def friction_ratio(speed, mat):
+    """c = mu(s) / |v_t| at slip speed ``speed`` >= 0 (f_t = -c f_n v_t; s = speed / v_s): below v_s it is
+    mu_s (2 - s) / v_s, with no division by a vanishing speed."""
+    vs = mat[K_VS]
+    if speed < vs:
+        return mat[K_MU_S] * (2.0 - speed / vs) / vs
+    return friction_coefficient(speed / vs, mat[K_MU_S], mat[K_MU_D]) / speed
+
+
+@inline_kernel
 def contact_force(n, x, vrel, mat):
     """(f_n, f_t, v_t) of one contact (module docstring): the normal force (N), the friction force and the slip
     velocity (world 3-tuples).  n: unit normal from b to a; x > 0: penetration; vrel: v_a - v_b at the point;
@@ -126,11 +136,7 @@ def contact_force(n, x, vrel, mat):
     fn = mat[K_STIFF] * x * max(0.0, 1.0 - mat[K_DISS] * vn)
     vt = (vrel[0] - vn * n[0], vrel[1] - vn * n[1], vrel[2] - vn * n[2])
     speed = np.sqrt(dot(vt, vt))
-    vs = mat[K_VS]
-    if speed < vs:  # mu(s) / |v_t| = mu_s (2 - s) / v_s: no division by a vanishing speed
-        c = mat[K_MU_S] * (2.0 - speed / vs) / vs
-    else:
-        c = friction_coefficient(speed / vs, mat[K_MU_S], mat[K_MU_D]) / speed
+    c = friction_ratio(speed, mat)
     return fn, scale(-c * fn, vt), vt
 
 
