@@ -14,14 +14,15 @@ def contact_torques(c, tree, q, v, tau):
     raise NotImplementedError("contact_torques: compiled code only")
 
 
-def contact_bias(c, tree, d, pA):
-    """After the ABA's first pass (forward pass d, bias forces pA): pA -= the contact wrenches; returns the
-    contact power (0.0 without contact)."""
+def contact_bias(c, tree, d, pA, delta):
+    """After the ABA's first pass (forward pass d, bias forces pA) at the chart coordinate ``delta``: pA -= the
+    contact wrenches; returns the contact power (0.0 without contact)."""
     raise NotImplementedError("contact_bias: compiled code only")
 
 
-def contact_track(c, tree, t, q, v):
-    """After an accepted step ending at (t, q, v): the largest penetration and the time in contact."""
+def contact_track(c, tree, t, q, v, delta):
+    """After an accepted step ending at (t, q, v) (chart coordinate ``delta`` in the step's chart): the largest
+    penetration, the time in contact, and the clearance (:mod:`dynamics.contact.clearance`)."""
     raise NotImplementedError("contact_track: compiled code only")
 
 
@@ -41,11 +42,11 @@ def _no_power(c, tree, q, v, tau):
     return 0.0
 
 
-def _no_bias(c, tree, d, pA):
+def _no_bias(c, tree, d, pA, delta):
     return 0.0
 
 
-def _no_track(c, tree, t, q, v):  # numba matches an overload's implementation by its parameter names
+def _no_track(c, tree, t, q, v, delta):  # numba matches an overload's implementation by its parameter names
     return None
 
 
@@ -97,7 +98,7 @@ def _ov_contact_torques(c, tree, q, v, tau):
 
 
 @overload(contact_bias, jit_options=JIT_OPTIONS, inline="always")
-def _ov_contact_bias(c, tree, d, pA):
+def _ov_contact_bias(c, tree, d, pA, delta):
     if isinstance(c, types.NoneType):
         return _no_bias
     from .resolve import _bias
@@ -105,14 +106,14 @@ def _ov_contact_bias(c, tree, d, pA):
 
 
 @overload(contact_track, jit_options=JIT_OPTIONS, inline="always")
-def _ov_contact_track(c, tree, t, q, v):
+def _ov_contact_track(c, tree, t, q, v, delta):
     if isinstance(c, types.NoneType):
         return _no_track
     from .resolve import _track
     return _track
 
 
-@overload(contact_emit, jit_options=JIT_OPTIONS)
+@overload(contact_emit, jit_options=JIT_OPTIONS, inline="always")
 def _ov_contact_emit(c, tree, j, q, v):
     if isinstance(c, types.NoneType):
         return _no_emit

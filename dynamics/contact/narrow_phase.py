@@ -153,6 +153,18 @@ def _overlap(S, a, b, oR, op):
     return dot(d, d) < r * r
 
 
+@helper
+def _separation(S, a, b, oR, op):
+    """How far apart the pair's bounding volumes are, the quantity :func:`_overlap` compares with zero (its
+    square root for two spheres): negative when they overlap (:mod:`.clearance`)."""
+    ca = _centre(S, a, oR, op)
+    if S.kind[b] == PLANE:
+        nn = column(load33(S.R, b), 2)
+        return dot(nn, ca) - dot(nn, load3(S.p, b)) - S.radius[a]
+    d = sub(ca, _centre(S, b, oR, op))
+    return np.sqrt(dot(d, d)) - (S.radius[a] + S.radius[b])
+
+
 @kernel
 def _broad_phase(S, oR, op, keep):
     """keep[:m] = the pairs that pass the broad phase; returns m (what the narrow phase then examines)."""

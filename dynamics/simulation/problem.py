@@ -137,7 +137,7 @@ def rhs(p, t, z, dz):
     # the ABA (dynamics.aba._aba_terms) with the contact forces between its first pass and the others: they act
     # on the bodies as external forces, found from the first pass's poses and velocities (no pass of their own)
     _rigid_body_terms(p.tree, q, v, p.passive.f_ext, ws, True)
-    power_c = contact_bias(p.contact, p.tree, ws.d, ws.pA)
+    power_c = contact_bias(p.contact, p.tree, ws.d, ws.pA, z[:nv])
     if _aba_rest(p.tree, p.tau_p, p.passive.gravity, ws, dz[nv:2 * nv]) >= 0:
         dz[nv:2 * nv] = np.nan
     quadratures(dz, nv, power_s, power_p, power_c)
@@ -161,7 +161,7 @@ def rebase(p, t, z, dz, mag):
     nv = p.tau_s.shape[0]
     retract_in(p.chart, tree, base, z[:nv], p.qbuf)
     copy_into(base, p.qbuf)
-    contact_track(p.contact, tree, t, base, z[nv:2 * nv])
+    contact_track(p.contact, tree, t, base, z[nv:2 * nv], z[:nv])  # (z's chart part: the step's delta)
     z[:nv] = 0.0
     chart_rate_in(p.chart, tree, base, z[:nv], z[nv:2 * nv], dz[:nv])
     for i in range(tree.jtype.shape[0]):
