@@ -65,8 +65,9 @@ def constrained_problem(model, passive, source, q0, out_t, outputs, alpha, beta,
 def constrained_rhs(p, t, z, dz):
     """dz = f(t, z) with the constrained accelerations (NaN when M is singular); p.lam = the multipliers."""
     nv = p.tau_s.shape[0]
-    q, v = chart_and_velocity(p, z, dz)
-    power_s, power_p, power_c = applied_torques(p, t, q, v)
+    q, v = chart_and_velocity(p.chart, p.tree, p.base, p.qbuf, nv, z, dz)
+    power_s, power_p, power_c = applied_torques(p.tag, p.source, p.tree, p.passive, p.ws_source, p.contact, p.tau_s,
+                                                p.tau_p, t, q, v)
     if _constrained_accel_kernel(p.tree, p.C, p.passive.gravity, q, v, p.tau_p, p.alpha, p.beta, p.ws_con,
                                 dz[nv:2 * nv], p.lam) >= 0:
         dz[nv:2 * nv] = np.nan
@@ -111,7 +112,7 @@ def constrained_emit(p, j, t, z):
     v = z[nv:2 * nv]
     _track_drift(p, q, v)
     if p.out_lam.shape[0] > 0:
-        applied_torques(p, t, q, v)
+        applied_torques(p.tag, p.source, p.tree, p.passive, p.ws_source, p.contact, p.tau_s, p.tau_p, t, q, v)
         _constrained_accel_kernel(p.tree, p.C, p.passive.gravity, q, v, p.tau_p, p.alpha, p.beta, p.ws_con, p.abuf,
                                  p.out_lam[j])
 

@@ -93,20 +93,21 @@ def singular_body(tree, q, v, gravity, ws):
 
 
 @inline_kernel
-def applied_torques(p, t, q, v):
-    """p.tau_p = source + passive + contact torques at (t, q, v); returns the powers (v . tau_source,
-    v . tau_passive, contact power)."""
-    power_s, power_p = source_and_passive_torques(p, t, q, v)
-    power_c = contact_torques(p.contact, p.tree, q, v, p.tau_p)  # its power: sum_k F_k . v_rel_k (= v . J_c^T f_c)
+def applied_torques(tag, source, tree, passive, ws_source, contact, tau_s, tau_p, t, q, v):
+    """tau_p = source + passive + contact torques at (t, q, v) (the problem's fields of those names); returns the
+    powers (v . tau_source, v . tau_passive, contact power)."""
+    power_s, power_p = source_and_passive_torques(tag, source, tree, passive, ws_source, tau_s, tau_p, t, q, v)
+    power_c = contact_torques(contact, tree, q, v, tau_p)  # its power: sum_k F_k . v_rel_k (= v . J_c^T f_c)
     return power_s, power_p, power_c
 
 
 @inline_kernel
-def source_and_passive_torques(p, t, q, v):
-    """p.tau_p = source + passive torques at (t, q, v) (p.tau_s: the source's); returns their powers."""
-    tau_s, tau_p = p.tau_s, p.tau_p
-    torque_eval(p.tag, p.source, p.tree, p.passive, t, q, v, p.ws_source, tau_s)
-    passive_torques(p.passive, q, v, tau_p)
+def source_and_passive_torques(tag, source, tree, passive, ws_source, tau_s, tau_p, t, q, v):
+    """tau_p = source + passive torques at (t, q, v) (tau_s: the source's); returns their powers.  (The
+    problem's fields, not the problem: numba counts the references of every array of a tuple an inlined
+    function binds, twice per call, and the problem has dozens.)"""
+    torque_eval(tag, source, tree, passive, t, q, v, ws_source, tau_s)
+    passive_torques(passive, q, v, tau_p)
     power_s = 0.0
     power_p = 0.0
     for k in range(v.shape[0]):
@@ -117,12 +118,12 @@ def source_and_passive_torques(p, t, q, v):
 
 
 @inline_kernel
-def chart_and_velocity(p, z, dz):
-    """p.qbuf = the configuration of z; dz's chart part = the chart rate of v.  Returns (q, v) views."""
-    nv = p.tau_s.shape[0]
-    retract_in(p.chart, p.tree, p.base, z[:nv], p.qbuf)
-    chart_rate_in(p.chart, p.tree, p.qbuf, z[:nv], z[nv:2 * nv], dz[:nv])
-    return p.qbuf, z[nv:2 * nv]
+def chart_and_velocity(chart, tree, base, qbuf, nv, z, dz):
+    """qbuf = the configuration of z in the chart around ``base``; dz's chart part = the chart rate of v.
+    Returns (q, v) views.  (Fields, not the problem: :func:`source_and_passive_torques`.)"""
+    retract_in(chart, tree, base, z[:nv], qbuf)
+    chart_rate_in(chart, tree, qbuf, z[:nv], z[nv:2 * nv], dz[:nv])
+    return qbuf, z[nv:2 * nv]
 
 
 @generic_kernel
@@ -131,8 +132,9 @@ def rhs(p, t, z, dz):
     contact forces enter the ABA as external body forces (:func:`dynamics.contact.calls.contact_bias`), not as
     generalised torques: the same accelerations, without the contact's own forward and backward passes."""
     nv = p.tau_s.shape[0]
-    q, v = chart_and_velocity(p, z, dz)
-    power_s, power_p = source_and_passive_torques(p, t, q, v)
+    q, v = chart_and_velocity(p.chart, p.tree, p.base, p.qbuf, nv, z, dz)
+    power_s, power_p = source_and_passive_torques(p.tag, p.source, p.tree, p.passive, p.ws_source, p.tau_s, p.tau_p,
+                                                  t, q, v)
     ws = p.ws_aba
     # the ABA (dynamics.aba._aba_terms) with the contact forces between its first pass and the others: they act
     # on the bodies as external forces, found from the first pass's poses and velocities (no pass of their own)
