@@ -83,7 +83,7 @@ def test_configuration_derivative_where_exact(normal, speed):
     """A sphere on Cartesian joints against a ground or an incline: the contact Jacobian is constant, so the
     stiffness part is all of d tau_c/dq; both derivatives against central differences of the whole evaluation
     (narrow phase, force law, backward pass), relative 1e-6."""
-    from dynamics.contact.resolve import _jacobian, contact_model, resolve
+    from dynamics.contact.resolve import contact_record, jacobian_kernel, resolve
     model = dynamics.load_urdf(CARTESIAN)
     n = np.array(normal) / np.linalg.norm(normal)
     contact = dynamics.Contact(ground=dynamics.Ground(normal=tuple(n), height=0.0),
@@ -102,9 +102,9 @@ def test_configuration_derivative_where_exact(normal, speed):
         return det.generalized_force
 
     r = resolve(contact, model)
-    c = contact_model(r, model)
+    c = contact_record(r, model)
     dq, dv = np.empty((3, 3)), np.empty((3, 3))
-    _jacobian(c, model.tree, q, v, dq, dv)
+    jacobian_kernel(c, model.tree, q, v, dq, dv)
     fd_q = vector_fd(lambda x: tau(x, v), q, 1e-7)
     fd_v = vector_fd(lambda x: tau(q, x), v, 1e-7)
     assert np.abs(dq - fd_q).max() <= 1e-6 * np.abs(fd_q).max()

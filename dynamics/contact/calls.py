@@ -1,6 +1,6 @@
 """The simulation's calls into contact (:mod:`dynamics.simulation.problem`), each compiled to nothing when the
 problem has no contact (its ``contact`` field is None): a run without contact neither compiles nor imports the
-narrow phase.  For a :class:`dynamics.contact.resolve.ContactModel` they compile its implementations in
+narrow phase.  For a :class:`dynamics.contact.resolve.PackedContact` they compile its implementations in
 :mod:`.resolve` (imported then)."""
 
 from numba import types

@@ -35,14 +35,14 @@ def contact_forces(model, contact, q, v, *, details=False):
     origin] (:func:`dynamics.inverse_dynamics`'s convention), so that ``forward_dynamics(model, q, v, tau,
     f_ext=f_ext)`` is the acceleration a simulation with ``contact`` has.  contact: a :class:`dynamics.Contact`.
     With ``details=True`` returns (f_ext, :class:`ContactDetails`)."""
-    from .resolve import Resolved, contact_model, evaluate_kernel, resolve  # the narrow phase: on first use
+    from .resolve import Resolved, contact_record, evaluate_kernel, resolve  # the narrow phase: on first use
     check_model(model)
     r = contact if isinstance(contact, Resolved) else resolve(contact, model)
     Q, batched = configurations(model, q)
     if batched:
         raise InputError(f"q: expected one state of shape ({model.nq},), got {np.shape(q)}")
     v = vector("v", v, model.nv)
-    c = contact_model(r, model)
+    c = contact_record(r, model)
     f_ext = np.zeros((model.tree.parents.shape[0], 6))
     tau = np.zeros(model.nv)
     power, n = evaluate_kernel(c, model.tree, Q[0].copy(), v, f_ext, tau)
@@ -57,8 +57,8 @@ def contact_forces(model, contact, q, v, *, details=False):
 
 def elastic_energy_at(model, resolved, q, v):
     """sum 1/2 k x^2 over the contacts of the state (q, v) (J)."""
-    from .resolve import contact_model, evaluate_kernel
-    c = contact_model(resolved, model)
+    from .resolve import contact_record, evaluate_kernel
+    c = contact_record(resolved, model)
     q = np.ascontiguousarray(q, float)
     v = np.ascontiguousarray(v, float)
     _, n = evaluate_kernel(c, model.tree, q, v, np.zeros((model.tree.parents.shape[0], 6)), np.zeros(model.nv))

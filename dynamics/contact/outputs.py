@@ -41,11 +41,13 @@ class ContactSamples(NamedTuple):
     pairs: list
 
 
-def contact_samples(resolved, cm, cnt):
-    """The :class:`ContactSamples` of the first cnt samples a run's ContactModel ``cm`` kept, or None when the
-    contact did not ask for them."""
+def contact_samples(resolved, c, cnt):
+    """The :class:`ContactSamples` of the first cnt samples a run's contact ``c`` (a PackedContact) kept, or None
+    when the contact did not ask for them."""
     if "contacts" not in resolved.contact.outputs:
         return None
+    from .resolve import contact_views
+    cm = contact_views(c)
     out, n = cm.out[:cnt], cm.out_n[:cnt].copy()
     K = out.shape[1]
     used = np.arange(K)[None, :] < n[:, None]

@@ -2,7 +2,8 @@
 each pair's material row (the combination rules of :mod:`.config`), and the buffers of the compiled evaluation;
 and that evaluation, which the simulation's right-hand side calls (:func:`contact_torques`).
 
-:class:`ContactModel` (K = scene.max_contacts, the narrow phase's capacity; nb bodies; T kept samples):
+:class:`ContactModel` (K = scene.max_contacts, the narrow phase's capacity; nb bodies; T kept samples), which a
+simulation's problem holds packed into two buffers (:class:`PackedContact`, :mod:`dynamics._numba.packing`):
 
 ===========  ================  ==================================================================================
 field        shape             meaning
@@ -35,14 +36,15 @@ import numpy as np
 
 from .._numba import inline_kernel, kernel
 from .._numba.boundary import borrow
+from .._numba.packing import Packing, unpack
 from ..errors import InputError
-from .clearance import advance, apart, clearance, set_reference
+from .clearance import Clearance, advance, apart, clearance, set_reference
 from .config import Contact, combine
 from .force_derivatives import contact_force_derivatives
 from .forces import (D_FN, D_FT, D_SLIP, NDETAIL, NMAT, ContactWork, apply_contacts, contact_work,
                      generalized_forces, world_kinematics, world_poses)
-from .narrow_phase import _collide, contact_buffer
-from .scene import build_scene
+from .narrow_phase import ContactBuffer, _collide, contact_buffer
+from .scene import SceneArrays, build_scene
 
 #: columns of a kept contact (ContactModel.out): pair index, point (3), normal (3), normal force, friction (3),
 #: depth, slip velocity (3)
@@ -133,9 +135,11 @@ def _resolve(contact, model, gravity):
     return Resolved(scene, pair_body, mat, contact)
 
 
-def contact_model(r, model, T=0, exact=False):
+def contact_record(r, model, T=0, exact=False):
     """A :class:`ContactModel` of the resolved contact ``r`` with its own buffers (T samples kept when the
-    contact asked for "contacts"); ``exact``: the run's Jacobian needs the exact d tau_c/dq (sensitivities)."""
+    contact asked for "contacts"); ``exact``: the run's Jacobian needs the exact d tau_c/dq (sensitivities).
+    What a single evaluation from Python takes (:func:`evaluate_kernel`); a simulation takes it packed
+    (:func:`contact_model`)."""
     nb, nv = model.tree.parents.shape[0], model.nv
     K = int(r.scene.max_contacts)
     T = T if "contacts" in r.contact.outputs else 0
@@ -143,6 +147,45 @@ def contact_model(r, model, T=0, exact=False):
                         np.zeros((K, NDETAIL)), np.zeros(nv), np.array([0.0, 0.0, 0.0]), np.zeros((T, K, NOUT)),
                         np.zeros(T, np.int64), np.zeros(3, np.int64), np.array([int(exact)], np.int64),
                         clearance(model), np.zeros((0, 6)))
+
+
+class PackedContact(NamedTuple):
+    """A :class:`ContactModel` packed into two buffers (:mod:`dynamics._numba.packing`): what a simulation's
+    problem holds, so that its compiled functions pass two arrays where the record has 37."""
+
+    f: np.ndarray
+    i: np.ndarray
+
+
+def _example():
+    """A ContactModel of empty arrays: the dtypes and dimensions of every field (the packing's layout)."""
+    def z(*shape, dtype=float):
+        return np.zeros(shape, dtype)
+    i = np.int64
+    scene = SceneArrays(z(0, dtype=i), z(0, dtype=i), z(0, 3), z(0, 3, 3), z(0, 3), z(0), z(0, dtype=i),
+                        z(0, dtype=i))
+    return ContactModel(scene, z(0, 2, dtype=i), z(0, NMAT), ContactBuffer(z(0, dtype=i), z(0, 3), z(0, 3), z(0),
+                                                                          z(2, 8, 3)),
+                        contact_work(0), z(0, NDETAIL), z(0), z(3), z(0, 0, NOUT), z(0, dtype=i), z(3, dtype=i),
+                        z(1, dtype=i), Clearance(z(3), z(0), z(0), z(0), z(0, dtype=i)), z(0, 6))
+
+
+LAYOUT = Packing(PackedContact, _example())
+#: the fields the checks of a robot touching nothing read (the whole record is unpacked beyond them)
+_clearance_of = LAYOUT.unpacker("clear")
+_stepped_of = LAYOUT.unpacker("clear", "track", "touched")
+_touched_of = LAYOUT.unpacker("touched")
+_kept_of = LAYOUT.unpacker("out")
+
+
+def contact_model(r, model, T=0, exact=False):
+    """:func:`contact_record` packed (a :class:`PackedContact`): a simulation run's contact."""
+    return LAYOUT.pack(contact_record(r, model, T, exact))
+
+
+def contact_views(c):
+    """The :class:`ContactModel` of a :class:`PackedContact` as numpy views (a run's results, in Python)."""
+    return LAYOUT.views(c)
 
 
 @inline_kernel
@@ -187,10 +230,18 @@ def evaluate_kernel(c, tree, q, v, f_ext, tau):
 
 
 # ---------------------------------------------------------------------------------------------------------
-# the implementations of the simulation's calls (:mod:`.calls`) for a ContactModel
-# (inlined into the right-hand side: a call passing the whole ContactModel costs about a microsecond, as much as
-# the pose pass and the broad phase of a robot touching nothing)
+# the implementations of the simulation's calls (:mod:`.calls`) for a PackedContact c: each unpacks the record
+# (:func:`dynamics._numba.packing.unpack`; inlined, only the fields it reads are made) and, beyond the
+# checks that keep a robot touching nothing cheap, hands it to a kernel, where it is an argument.  Stores
+# through the unpacked record outside a kernel use constant indices (the packing module's rule: numba's
+# dead-code elimination may drop a store with a variable index there).
 def _power(c, tree, q, v, tau):
+    return _power_kernel(unpack(c), tree, q, v, tau)
+
+
+@kernel
+def _power_kernel(c, tree, q, v, tau):
+    """The contact power, tau += the generalised contact force (the constrained right-hand side's call)."""
     n = _found(c, tree, q, v)
     return _forces(c, tree, q, v, tau, c.no_f_ext, n) if n > 0 else 0.0
 
@@ -201,8 +252,15 @@ def _bias(c, tree, d, pA, delta):
     forces, and the contact power is returned.  The contact code runs no forward pass of its own (the robot's
     right-hand side, :func:`dynamics.simulation.problem.rhs`), and nothing at all while the chart coordinate
     ``delta`` keeps the robot clear of everything (:mod:`.clearance`)."""
-    if apart(c.clear, delta):
+    cl, = _clearance_of(c)
+    if apart(cl, delta):
         return 0.0
+    return _bias_near(unpack(c), tree, d, pA)
+
+
+@kernel
+def _bias_near(c, tree, d, pA):
+    """:func:`_bias` when the robot may touch something: the poses, the narrow phase, the forces."""
     world_poses(tree, d, c.ws.oR, c.ws.op)
     n = _collide(c.scene, c.ws.oR, c.ws.op, c.buf)
     return _bias_forces(c, d, pA, n) if n > 0 else 0.0  # touching nothing: no forces
@@ -225,11 +283,18 @@ def _bias_forces(c, d, pA, n):
 
 
 def _track(c, tree, t, q, v, delta):
-    tr = c.track
-    if advance(c.clear, delta):  # still clear of everything since the reference: no contact
-        c.touched[1] = 0
-        tr[2] = t
+    cl, track, touched = _stepped_of(c)
+    if advance(cl, delta):  # still clear of everything since the reference: no contact
+        touched[1] = 0
+        track[2] = t
         return
+    _track_near(unpack(c), tree, t, q, v)
+
+
+@kernel
+def _track_near(c, tree, t, q, v):
+    """:func:`_track` when the accepted state must be measured: its contacts, and the clearance from it."""
+    tr = c.track
     n = _found(c, tree, q, v)
     set_reference(c.clear, c.scene, tree, c.ws.oR, c.ws.op)
     for k in range(n):
@@ -242,6 +307,13 @@ def _track(c, tree, t, q, v, delta):
 
 
 def _jacobian(c, tree, q, v, dq, dv):
+    return jacobian_kernel(unpack(c), tree, q, v, dq, dv)
+
+
+@kernel
+def jacobian_kernel(c, tree, q, v, dq, dv):
+    """dv = d tau_c/dv, dq = its stiffness part of d tau_c/dq at (q, v) (:func:`.calls.contact_jacobian`) for a
+    ContactModel c; returns whether the run needs the exact d tau_c/dq."""
     n = _found(c, tree, q, v)
     b = c.buf
     contact_force_derivatives(tree, n, b.pair, b.point, b.normal, b.depth, c.pair_body, c.mat, c.ws.oR, c.ws.op, v,
@@ -250,24 +322,27 @@ def _jacobian(c, tree, q, v, dq, dv):
 
 
 def _touched(c):
-    touched = c.touched[0] > 0
-    c.touched[0] = 0
-    return touched
+    touched, = _touched_of(c)
+    found = touched[0] > 0
+    touched[0] = 0
+    return found
 
 
 def _touchdown(c):
-    if c.touched[1] == 0:  # the accepted state touches nothing: the next contact is a new episode
-        c.touched[2] = 0
+    touched, = _touched_of(c)
+    if touched[1] == 0:  # the accepted state touches nothing: the next contact is a new episode
+        touched[2] = 0
         return False
-    if c.touched[2] == 1:
+    if touched[2] == 1:
         return False
-    c.touched[2] = 1
+    touched[2] = 1
     return True
 
 
 def _emit(c, tree, j, q, v):
-    if c.out.shape[0] > 0:  # (inlined into the sample's code: a call passing the whole record costs ~0.4 us)
-        _emit_kept(c, tree, j, q, v)
+    out, = _kept_of(c)
+    if out.shape[0] > 0:  # (inlined into the sample's code: a call passing the whole record costs ~0.4 us)
+        _emit_kept(unpack(c), tree, j, q, v)
 
 
 @kernel

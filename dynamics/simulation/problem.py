@@ -8,7 +8,7 @@ The integrated state is z = [delta (nv), v (nv), W_source, W_passive (, W_contac
 coordinate of q around ``base``, the configuration at the start of the current step
 (:mod:`dynamics.configuration`; re-centred after every step by ``rebase`` so free-flyer quaternions stay unit
 length), and the quadratures integrate the power of the source and of the passive torques, W' = v . tau, for
-the energy balance, and with contact (``contact``: a :class:`dynamics.contact.resolve.ContactModel`) the power
+the energy balance, and with contact (``contact``: a :class:`dynamics.contact.resolve.PackedContact`) the power
 of the contact forces, whose generalised force J_c^T f_c joins the passive torques.  Without contact
 (``contact`` None) the contact calls compile to nothing (:mod:`dynamics.contact.resolve`).
 
@@ -60,12 +60,12 @@ class RobotProblem(NamedTuple):
     out_w: np.ndarray  # (T, 2) work of the source and passive torques (T, 3): and of the contact forces
     out_e: np.ndarray  # (T, 2) kinetic and potential energy (the report's energy balance)
     count: np.ndarray  # (1,) int64: samples written (also read by the progress bar while the run goes)
-    contact: object  # None, or a dynamics.contact.resolve.ContactModel
+    contact: object  # None, or a dynamics.contact.resolve.PackedContact
 
 
 def robot_problem(model, passive, source, q0, out_t, outputs, contact=None):
     """A :class:`RobotProblem` for a run from q0 that keeps ``outputs`` (of "q", "v", "tau") at ``out_t``;
-    ``contact``: None or the run's :class:`dynamics.contact.resolve.ContactModel`."""
+    ``contact``: None or the run's :class:`dynamics.contact.resolve.PackedContact`."""
     nv, nq, nb = model.nv, model.nq, model.tree.parents.shape[0]
     T = out_t.shape[0]
     ws = aba_workspace(nb, nv)  # (a helper: numpy's allocations from Python, nothing compiled)
