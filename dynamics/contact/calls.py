@@ -9,8 +9,10 @@ from numba.extending import overload
 from .._numba import JIT_OPTIONS
 
 
-def contact_torques(c, tree, q, v, tau):
-    """tau += the generalised contact force; returns the contact power (0.0 without contact)."""
+def contact_torques(c, tree, q, v, tau, delta):
+    """tau += the generalised contact force; returns the contact power (0.0 without contact).  ``delta``: q's
+    chart coordinate around the step's base, by which a robot clear of everything skips the contact code
+    (:mod:`dynamics.contact.clearance`), or None where q is not on the step's chart (never skipped)."""
     raise NotImplementedError("contact_torques: compiled code only")
 
 
@@ -38,7 +40,7 @@ def contact_jacobian(c, tree, q, v, dq, dv):
     raise NotImplementedError("contact_jacobian: compiled code only")
 
 
-def _no_power(c, tree, q, v, tau):
+def _no_power(c, tree, q, v, tau, delta):
     return 0.0
 
 
@@ -52,6 +54,24 @@ def _no_track(c, tree, t, q, v, delta):  # numba matches an overload's implement
 
 def _no_emit(c, tree, j, q, v):
     return None
+
+
+def contact_rebased(c):
+    """The step's base moved off its chart (a projection onto the constraints): the clearance measures the next
+    accepted state again (:mod:`dynamics.contact.clearance`).  Nothing without contact."""
+    raise NotImplementedError("contact_rebased: compiled code only")
+
+
+def _no_rebased(c):
+    return None
+
+
+@overload(contact_rebased, jit_options=JIT_OPTIONS, inline="always")
+def _ov_contact_rebased(c):
+    if isinstance(c, types.NoneType):
+        return _no_rebased
+    from .resolve import _rebased
+    return _rebased
 
 
 def contact_touched(c):
@@ -90,11 +110,11 @@ def _ov_contact_jacobian(c, tree, q, v, dq, dv):
 
 
 @overload(contact_torques, jit_options=JIT_OPTIONS, inline="always")
-def _ov_contact_torques(c, tree, q, v, tau):
+def _ov_contact_torques(c, tree, q, v, tau, delta):
     if isinstance(c, types.NoneType):
         return _no_power
-    from .resolve import _power
-    return _power
+    from .resolve import _power, _power_on_chart
+    return _power if isinstance(delta, types.NoneType) else _power_on_chart
 
 
 @overload(contact_bias, jit_options=JIT_OPTIONS, inline="always")

@@ -235,8 +235,22 @@ def evaluate_kernel(c, tree, q, v, f_ext, tau):
 # checks that keep a robot touching nothing cheap, hands it to a kernel, where it is an argument.  Stores
 # through the unpacked record outside a kernel use constant indices (the packing module's rule: numba's
 # dead-code elimination may drop a store with a variable index there).
-def _power(c, tree, q, v, tau):
+def _power(c, tree, q, v, tau, delta):
     return _power_kernel(unpack(c), tree, q, v, tau)
+
+
+def _power_on_chart(c, tree, q, v, tau, delta):
+    """:func:`_power` at q = the chart coordinate ``delta`` around the step's base: nothing while the robot is
+    clear of everything (:mod:`.clearance`)."""
+    cl, = _clearance_of(c)
+    if apart(cl, delta):
+        return 0.0
+    return _power_kernel(unpack(c), tree, q, v, tau)
+
+
+def _rebased(c):
+    cl, = _clearance_of(c)
+    cl.state[2] = 0.0  # (no reference: the next accepted state is measured)
 
 
 @kernel

@@ -26,6 +26,7 @@ from ..constrained_dynamics import (_constrained_accel_kernel, _drift_kernel, _p
 from ..constrained_dynamics import _workspace as constrained_workspace
 from ..configuration import retract_in
 from ..constraints import arrays
+from ..contact.calls import contact_rebased
 from .problem import (RobotProblem, applied_torques, chart_and_velocity, emit, euler_config, quadratures, rebase,
                       robot_problem, touchdown)
 
@@ -67,7 +68,7 @@ def constrained_rhs(p, t, z, dz):
     nv = p.tau_s.shape[0]
     q, v = chart_and_velocity(p.chart, p.tree, p.base, p.qbuf, nv, z, dz)
     power_s, power_p, power_c = applied_torques(p.tag, p.source, p.tree, p.passive, p.ws_source, p.contact, p.tau_s,
-                                                p.tau_p, t, q, v)
+                                                p.tau_p, t, q, v, z[:nv])
     if _constrained_accel_kernel(p.tree, p.C, p.passive.gravity, q, v, p.tau_p, p.alpha, p.beta, p.ws_con,
                                 dz[nv:2 * nv], p.lam) >= 0:
         dz[nv:2 * nv] = np.nan
@@ -92,6 +93,7 @@ def constrained_rebase(p, t, z, dz, mag):
         err = _project_position_kernel(p.tree, p.C, p.base, p.ws_con, PROJECT_TOL, PROJECT_ITER, p.qbuf)
         if err <= PROJECT_TOL:
             copy_into(p.base, p.qbuf)
+            contact_rebased(p.contact)  # (the clearance's bound follows chart steps, not projections)
         else:  # keep the step's configuration; the drift and the report say how far off it is
             p.project_failures[0] += 1
         if _project_velocity_kernel(p.tree, p.C, p.base, v, p.ws_con, p.vbuf) < 0:
@@ -112,7 +114,8 @@ def constrained_emit(p, j, t, z):
     v = z[nv:2 * nv]
     _track_drift(p, q, v)
     if p.out_lam.shape[0] > 0:
-        applied_torques(p.tag, p.source, p.tree, p.passive, p.ws_source, p.contact, p.tau_s, p.tau_p, t, q, v)
+        applied_torques(p.tag, p.source, p.tree, p.passive, p.ws_source, p.contact, p.tau_s, p.tau_p, t, q, v,
+                        z[:nv])
         _constrained_accel_kernel(p.tree, p.C, p.passive.gravity, q, v, p.tau_p, p.alpha, p.beta, p.ws_con, p.abuf,
                                  p.out_lam[j])
 

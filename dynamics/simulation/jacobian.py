@@ -104,7 +104,7 @@ def _contact_at(p, q, v, tau):
     """tau = the generalised contact force at (q, v); returns its power.  Not inlined (called several times)."""
     for k in range(tau.shape[0]):
         tau[k] = 0.0
-    return contact_torques(p.contact, p.tree, q, v, tau)
+    return contact_torques(p.contact, p.tree, q, v, tau, None)
 
 
 @generic_kernel

@@ -93,11 +93,12 @@ def singular_body(tree, q, v, gravity, ws):
 
 
 @inline_kernel
-def applied_torques(tag, source, tree, passive, ws_source, contact, tau_s, tau_p, t, q, v):
-    """tau_p = source + passive + contact torques at (t, q, v) (the problem's fields of those names); returns the
-    powers (v . tau_source, v . tau_passive, contact power)."""
+def applied_torques(tag, source, tree, passive, ws_source, contact, tau_s, tau_p, t, q, v, delta):
+    """tau_p = source + passive + contact torques at (t, q, v) (the problem's fields of those names; ``delta``:
+    q's chart coordinate, :func:`dynamics.contact.calls.contact_torques`); returns the powers (v . tau_source,
+    v . tau_passive, contact power)."""
     power_s, power_p = source_and_passive_torques(tag, source, tree, passive, ws_source, tau_s, tau_p, t, q, v)
-    power_c = contact_torques(contact, tree, q, v, tau_p)  # its power: sum_k F_k . v_rel_k (= v . J_c^T f_c)
+    power_c = contact_torques(contact, tree, q, v, tau_p, delta)  # its power: sum_k F_k . v_rel_k (= v . J_c^T f_c)
     return power_s, power_p, power_c
 
 
