@@ -25,6 +25,7 @@ from numba.extending import overload
 
 from . import address, float_at, int_at
 
+_F64, _I64 = np.dtype(np.float64), np.dtype(np.int64)
 _LAYOUTS = {}  # packed NamedTuple class -> its Packing (found by unpack's overload at compile time)
 
 
@@ -60,21 +61,23 @@ class Packing:
 
     def pack(self, record):
         """A new ``cls(f, i)`` holding a copy of every array of ``record`` (shaped like the example)."""
-        leaves = [np.ascontiguousarray(a) for _, a in _leaves(record)]
+        leaves = [a for _, a in _leaves(record)]
         if len(leaves) != len(self.kinds):
             raise TypeError(f"{self.cls.__name__}: {len(leaves)} arrays, expected {len(self.kinds)}")
-        nf = sum(a.size for a, k in zip(leaves, self.kinds) if k[1])
-        ni = self.header + sum(a.size for a, k in zip(leaves, self.kinds) if not k[1])
-        f, i = np.zeros(nf), np.zeros(ni, np.int64)
+        header, floats, ints = [], [], []
         at = [0, self.header]  # next free item in f, in i
         for a, (path, is_float, ndim, pos) in zip(leaves, self.kinds):
-            if a.ndim != ndim or a.dtype != (np.float64 if is_float else np.int64):
-                raise TypeError(f"{self.cls.__name__}: leaf {path} is {a.dtype} {a.shape}, unlike the example")
-            buf, k = (f, 0) if is_float else (i, 1)
-            i[pos] = at[k]
-            i[pos + 1:pos + 1 + ndim] = a.shape
-            buf[at[k]:at[k] + a.size] = a.ravel()
+            want = _F64 if is_float else _I64
+            if not isinstance(a, np.ndarray) or a.ndim != ndim or (a.dtype is not want and a.dtype != want):
+                raise TypeError(f"{self.cls.__name__}: leaf {path} is {np.asarray(a).dtype} {np.shape(a)}, "
+                                "unlike the example")
+            k = 0 if is_float else 1
+            header.append(at[k])
+            header.extend(a.shape)
+            (floats if is_float else ints).append(a.ravel())
             at[k] += a.size
+        f = np.concatenate(floats) if floats else np.zeros(0)
+        i = np.concatenate([np.array(header, np.int64), *ints])
         return self.cls(f, i)
 
     def views(self, packed):
