@@ -124,13 +124,16 @@ class Packing:
             raise NotImplementedError("compiled code only")
 
         def typer(packed):
-            if getattr(packed, "instance_class", None) is not self.cls:
-                return None
-            src, ns = self.source(fields)
-            exec(src, ns)
-            return ns["impl"]
+            return self.compiled(fields) if getattr(packed, "instance_class", None) is self.cls else None
         overload(stub, inline="always")(typer)
         return stub
+
+    def compiled(self, fields=None):
+        """The implementation of :func:`unpack` (``fields`` None) or of an :meth:`unpacker` for numba."""
+        src, ns = self.source(fields)
+        exec(src, ns)
+        return ns["impl"]
+
 
 def _rebuild(example, items):
     if isinstance(example, tuple):
@@ -146,8 +149,4 @@ def unpack(packed):
 @overload(unpack, inline="always")
 def _ov_unpack(packed):
     layout = _LAYOUTS.get(getattr(packed, "instance_class", None))
-    if layout is None:
-        return None
-    src, ns = layout.source()
-    exec(src, ns)
-    return ns["impl"]
+    return None if layout is None else layout.compiled()
