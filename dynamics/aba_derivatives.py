@@ -24,9 +24,9 @@ One state takes four passes over the tree, all in the world frame, sharing what 
 then the products -M^-1 dtau/dq, -M^-1 dtau/dv.  (Three separate kernels, ABA, M^-1 and the RNEA
 derivatives, took 6.8 us per Panda call from Python, against 4.5 us for the four passes.)
 
-For other compiled code (an implicit integrator's Jacobian, simulation sensitivities) the inlined kernel
-:func:`_aba_derivatives_into` takes a workspace from :func:`_derivatives_workspace` (one buffer, one per
-thread) and leaves the acceleration in ``ws.a``.
+Every caller (one state from Python, a batch, an implicit integrator's Jacobian, a closed loop's derivatives)
+calls the one kernel :func:`_aba_derivatives_into` with the address of a workspace buffer of
+:func:`_work_size` floats (one per thread).
 """
 
 from typing import NamedTuple
@@ -92,13 +92,9 @@ def _work_at(base, o, nb, nv):
 
 
 @inline_kernel
-def _derivatives_workspace(nb, nv):
-    """(buffer, work): a :class:`Work` for nb bodies and nv coordinates carved from one owned buffer.  Keep the
-    buffer referenced as long as the work is used (in compiled code: hold both, end with ``keep_alive(buffer)``);
-    one per thread.  Compiled code only, inlined: as a kernel of its own it compiled a Python wrapper boxing the
-    whole work (~2.4 s of a first contact simulation from an empty cache)."""
-    buf = np.empty(_work_at(0, 0, nb, nv)[1])
-    return buf, _work_at(address(buf), 0, nb, nv)[0]
+def _work_size(nb, nv):
+    """The floats of one state's workspace (:class:`Work`) for nb bodies and nv coordinates."""
+    return _work_at(0, 0, nb, nv)[1]
 
 
 #: above this nv the products go to BLAS (np.dot): its dgemm is ~6x faster than the compiled loops at nv = 50
@@ -130,19 +126,24 @@ def _neg_products(Minv, dq, dv, out_q, out_v):
             out_v[i, j] = y
 
 
-@inline_kernel
-def _aba_derivatives_into(tree, q, v, tau, gravity, f_ext, ws, da_dq, da_dv, Minv):
+@kernel
+def _aba_derivatives_into(tree, q, v, tau, gravity, f_ext, base, da_dq, da_dv, Minv):
     """Forward dynamics derivatives of one state into da_dq, da_dv, Minv (nv, nv), in four passes over the tree
-    (module docstring); the acceleration into ws.a.  ``ws`` from :func:`_derivatives_workspace`; f_ext (nb, 6)
-    [force, torque] per body in its frame, or (0, 6).  Returns -1, or a body whose joint makes M singular (then
-    nothing is valid).  Inlined into its compiled callers: called as a kernel of its own, with the workspace
-    passed as an argument, one Panda state took 5.8 us against 2.7 us inlined."""
-    # the workspace is unpacked once, as a tuple: numba's dead-code elimination keeps a write to an array it
-    # knows aliases a live variable, and it follows tuple items but not attributes of a tuple that was not an
-    # argument (inlined into a batch kernel, bare item writes to ``ws.X`` were dropped)
-    rd, IA, U, UD, Dinv, F, nsub, D, scr, pA, c, u, dq, dv, M, a = ws
+    (module docstring); the acceleration into the workspace's ``a``.  ``base``: the address of a workspace
+    buffer of :func:`_work_size` floats, which the caller keeps alive; f_ext (nb, 6) [force, torque] per body in
+    its frame, or (0, 6).  Returns -1, or a body whose joint makes M singular (then nothing is valid).
+
+    One kernel, compiled (and cached) once for every caller, which passes the buffer's address: the workspace's
+    views are carved here, so their inner strides are constants of this function's code.  (Passed in as a
+    :class:`Work` argument, one Panda state took 5.8 us against 2.7 us with the views made in the function.
+    Inlined into each caller instead, as before, its ~300 blocks cost numba's inliner ~22 s per caller: it
+    deep-copies the callee's variable scope once per block.)"""
     parents, v_idx, nv_j = tree.parents, tree.v_idx, tree.nv_j
     nb, nv = parents.shape[0], tree.S.shape[0]
+    # the workspace is unpacked once, as a tuple: numba's dead-code elimination keeps a write to an array it
+    # knows aliases a live variable, and it follows tuple items but not attributes of a tuple that was not an
+    # argument (bare item writes to ``ws.X`` were dropped)
+    rd, IA, U, UD, Dinv, F, nsub, D, scr, pA, c, u, dq, dv, M, a = _work_at(base, 0, nb, nv)[0]
     for r in range(nv):
         for k in range(nv):
             dq[r, k] = 0.0
@@ -245,12 +246,11 @@ def _aba_derivatives_batch(tree, Q, V, T, F, gravity, out, status):
     tree, Q, V, T, F, out = borrowed(tree), borrowed(Q), borrowed(V), borrowed(T), borrowed(F), borrowed(out)
     status = borrowed(status)
     nb, nv = tree.parents.shape[0], tree.S.shape[0]
-    buf = np.empty(_work_at(0, 0, nb, nv)[1])
-    ws = _work_at(address(buf), 0, nb, nv)[0]
+    buf = np.empty(_work_size(nb, nv))
     lf, lv, lt = F.shape[0] - 1, V.shape[0] - 1, T.shape[0] - 1
     for b in range(Q.shape[0]):
-        status[b] = _aba_derivatives_into(tree, Q[b], V[min(b, lv)], T[min(b, lt)], gravity, F[min(b, lf)], ws,
-                                           out[b, 0], out[b, 1], out[b, 2])
+        status[b] = _aba_derivatives_into(tree, Q[b], V[min(b, lv)], T[min(b, lt)], gravity, F[min(b, lf)],
+                                           address(buf), out[b, 0], out[b, 1], out[b, 2])
     keep_alive(buf)
 
 
@@ -261,9 +261,9 @@ def _aba_derivatives_one(packed, q, v, tau, da_dq, da_dv, Minv):
     nb, nv = tree.parents.shape[0], tree.S.shape[0]
     if not (_config_shape_ok(tree, nq, q) and v.shape[0] == nv and tau.shape[0] == nv):
         return GENERAL
-    buf = scratch(_work_at(0, 0, nb, nv)[1])
-    singular = _aba_derivatives_into(tree, q, v, tau, gravity, view(buf, 0, (0, 6)),
-                                      _work_at(address(buf), 0, nb, nv)[0], da_dq, da_dv, Minv)
+    buf = scratch(_work_size(nb, nv))
+    singular = _aba_derivatives_into(tree, q, v, tau, gravity, view(buf, 0, (0, 6)), address(buf), da_dq, da_dv,
+                                     Minv)
     keep_alive(buf)
     return DONE if singular < 0 and _finite(da_dq) and _finite(da_dv) else GENERAL
 

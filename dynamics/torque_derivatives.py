@@ -17,8 +17,8 @@ controller and Python callables are differenced (central differences, step 6e-6,
 import numpy as np
 
 from . import checks
-from ._numba import keep_alive, kernel
-from .aba_derivatives import _aba_derivatives_into, _derivatives_workspace
+from ._numba import address, keep_alive, kernel
+from .aba_derivatives import _aba_derivatives_into, _work_size
 from .configuration import _configuration
 from .control.derivatives import source_derivatives_tangent
 from .control.dispatch import kind_tag, source_workspace, torque_eval
@@ -43,9 +43,9 @@ def _closed_loop_kernel(tag, src, tree, ps, t, q, v, ws, da_dq, da_dv):
         tau[k] += pas[k]
         dq[k, k] += pq[k]
         dv[k, k] += pv[k]
-    buf, aws = _derivatives_workspace(tree.parents.shape[0], nv)
+    buf = np.empty(_work_size(tree.parents.shape[0], nv))
     Minv = np.empty((nv, nv))
-    singular = _aba_derivatives_into(tree, q, v, tau, ps.gravity, ps.f_ext, aws, da_dq, da_dv, Minv)
+    singular = _aba_derivatives_into(tree, q, v, tau, ps.gravity, ps.f_ext, address(buf), da_dq, da_dv, Minv)
     keep_alive(buf)
     if singular >= 0:
         return singular

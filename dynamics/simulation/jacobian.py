@@ -34,8 +34,8 @@ it, and falls back to differencing the whole right-hand side for a problem witho
 
 import numpy as np
 
-from .._numba import generic_kernel, keep_alive, kernel
-from ..aba_derivatives import _aba_derivatives_into, _derivatives_workspace
+from .._numba import address, generic_kernel, keep_alive, kernel
+from ..aba_derivatives import _aba_derivatives_into, _work_size
 from ..configuration import _difference, _integrate_q, chart_rate_in, retract_in
 from ..control.derivatives import source_derivatives_into
 from ..control.dispatch import torque_eval
@@ -51,8 +51,8 @@ FD_STEP = 6e-6
 def aba_derivatives(tree, q, v, tau, gravity, f_ext, da_dq, da_dv, Minv):
     """da/dq (tangent space), da/dv, M^-1 at (q, v, tau): the one place that picks the kernel (the analytical
     one of :mod:`dynamics.aba_derivatives`)."""
-    buf, ws = _derivatives_workspace(tree.parents.shape[0], v.shape[0])
-    _aba_derivatives_into(tree, q, v, tau, gravity, f_ext, ws, da_dq, da_dv, Minv)
+    buf = np.empty(_work_size(tree.parents.shape[0], v.shape[0]))
+    _aba_derivatives_into(tree, q, v, tau, gravity, f_ext, address(buf), da_dq, da_dv, Minv)
     keep_alive(buf)
 
 
