@@ -10,7 +10,7 @@ import pytest
 
 import dynamics
 from dynamics.torques import ComputedTorque, OperationalSpace, Target, TaskReference
-from robots import OUR_ROBOTS, erd
+from robots import ALL_TYPES, OUR_ROBOTS, erd, random_urdf
 
 PANDA_Q0 = np.array([0.0, -0.3, 0.0, -2.2, 0.0, 2.0, 0.8, 0.02, 0.02])
 
@@ -100,6 +100,34 @@ def test_torque_is_the_textbook_operational_space_law(panda):
         kd0 = 2 * np.sqrt(kp0 * np.diag(dynamics.mass_matrix(panda, PANDA_Q0)))
         tau0 = kp0 * (PANDA_Q0 - q) - kd0 * v + b
         expected = J.T @ (Lam @ xdd + mu_p) + N @ tau0
+        assert np.abs(tau - expected).max() < 1e-7 * np.abs(expected).max()
+
+
+def test_quaternion_joints_without_a_posture():
+    """A fixed base with spherical joints and no posture task: the posture reference is the neutral
+    configuration (a zero quaternion gave NaN torques), and the torque is the textbook law with tau_p = 0,
+    tau = J^T Lambda (xdd* + J M^-1 b - Jdot v) + N b."""
+    for seed in range(100):
+        model = dynamics.load_urdf(random_urdf(np.random.default_rng(seed), 6, types=ALL_TYPES))
+        if "spherical" in model.joint_types:
+            break
+    rng = np.random.default_rng(0)
+    q0 = dynamics.integrate(model, model.neutral(), 0.3 * rng.normal(size=model.nv))
+    frame = max(model.frame_names, key=lambda f: np.linalg.matrix_rank(
+        dynamics.frame_jacobian(model, q0, f, reference="local_world_aligned")[:3], tol=1e-3))
+    target = dynamics.frame_placement(model, q0, frame)[:3, 3] + [0.02, -0.01, 0.01]
+    tr = dynamics.simulate(model, q0, np.zeros(model.nv), 0.05, torque=Target(frame, target, kp=50.0, kd=10.0),
+                           sample_dt=0.01)
+    assert tr.report["status"] == "ok" and np.isfinite(tr.tau).all()
+    for q, v, tau in zip(tr.q, tr.v, tr.tau):
+        J = dynamics.frame_jacobian(model, q, frame, reference="local_world_aligned")[:3]
+        Minv = dynamics.inverse_mass_matrix(model, q)
+        b = dynamics.bias_forces(model, q, v) + model.damping * v
+        Lam = np.linalg.inv(J @ Minv @ J.T)
+        p = dynamics.frame_placement(model, q, frame)[:3, 3]
+        xdd = 50.0 * (target - p) - 10.0 * (J @ v)
+        jdv = dynamics.frame_bias_acceleration(model, q, v, frame)[:3]
+        expected = J.T @ Lam @ (xdd + J @ Minv @ b - jdv) + (np.eye(model.nv) - J.T @ Lam @ J @ Minv) @ b
         assert np.abs(tau - expected).max() < 1e-7 * np.abs(expected).max()
 
 

@@ -74,6 +74,7 @@ class OperationalSpace:
     posture (nq,): the null-space posture, pulled by the joint torques posture_kp (posture - q) - posture_kd v
     projected into the dynamically consistent null space (posture_kp in N m/rad, scalar or (nv,));
     posture_kd defaults to 2 sqrt(posture_kp M_ii(posture)) (each joint critically damped on its own inertia).
+    Without a posture (posture_kp must then be 0) posture_kd (default 0) damps the joints toward rest alone.
     Before the first and after the last sample the reference holds its end position at rest.
     damping >= 0: added to the diagonal of J M^-1 J^T (robust near singularities, at the cost of exact
     tracking).  Fixed base only.

@@ -125,7 +125,7 @@ def _operational_space_source(model, spec):
     gains[0] = _array("torque.posture_kp", spec.posture_kp, (nv,), nonneg=True)
     if spec.posture is None and np.any(gains[0] > 0):
         raise InputError("torque.posture: required (shape (nq,)) when posture_kp > 0")
-    qref = np.zeros(nq) if spec.posture is None else _array("torque.posture", spec.posture, (nq,))
+    qref = model.neutral() if spec.posture is None else _array("torque.posture", spec.posture, (nq,))
     if spec.posture_kd is not None:
         gains[1] = _array("torque.posture_kd", spec.posture_kd, (nv,), nonneg=True)
     elif spec.posture is not None:
