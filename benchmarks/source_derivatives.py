@@ -2,7 +2,8 @@
 `python -m benchmarks.source_derivatives`.
 
 For a PD and a computed-torque source on Panda and on the stiff 10-link chain (damping 1e3, benchmarks
-.work_precision's), in one process, alternately (best of --repeat):
+.work_precision's), and the operational-space controller (a pose target with a posture task) on Panda, in one
+process, alternately (best of --repeat):
 
 * one Jacobian of the robot's right-hand side (:func:`dynamics.simulation.jacobian.robot_jacobian`);
 * a whole Radau run (rtol 1e-8).
@@ -29,7 +30,7 @@ from dynamics.simulation.jacobian import robot_jacobian
 from dynamics.simulation.problem import robot_problem
 from dynamics.simulation.solvers.interface import new_stats
 from dynamics.torque_derivatives import _passive
-from dynamics.torques import PD, ComputedTorque, make_source
+from dynamics.torques import PD, ComputedTorque, Target, make_source
 
 
 class DifferencedPD(NamedTuple):
@@ -40,12 +41,19 @@ class DifferencedComputedTorque(NamedTuple):
     """A computed-torque source with no analytical derivative (benchmark only)."""
 
 
+class DifferencedOperationalSpace(NamedTuple):
+    """An operational-space source with no analytical derivative (benchmark only)."""
+
+
 dispatch._EVAL[DifferencedPD] = dispatch._EVAL[dispatch.PDKind]
 dispatch._EVAL[DifferencedComputedTorque] = dispatch._EVAL[dispatch.ComputedTorqueKind]
 derivatives._DERIVATIVES[DifferencedPD] = derivatives._differenced
 derivatives._DERIVATIVES[DifferencedComputedTorque] = derivatives._differenced
+dispatch._EVAL[DifferencedOperationalSpace] = dispatch._EVAL[dispatch.OperationalSpaceKind]
+derivatives._DERIVATIVES[DifferencedOperationalSpace] = derivatives._differenced
 _ANALYTICAL_TAG = problem_module.kind_tag
-_DIFFERENCED = {dispatch.PDKind: DifferencedPD, dispatch.ComputedTorqueKind: DifferencedComputedTorque}
+_DIFFERENCED = {dispatch.PDKind: DifferencedPD, dispatch.ComputedTorqueKind: DifferencedComputedTorque,
+                dispatch.OperationalSpaceKind: DifferencedOperationalSpace}
 
 
 def _differenced_tag(kind):
@@ -72,7 +80,10 @@ def cases():
         V = 2 * (q1 - q0) * t[:, None]
         A = np.broadcast_to(2 * (q1 - q0), Q.shape)
         return ComputedTorque(t, Q, V, A, kp=100.0, kd=20.0)
+    hand = dynamics.frame_placement(panda, pqt, "panda_hand")
+    osc = Target("panda_hand", hand[:3, 3], hand[:3, :3], kp=100.0, kd=20.0, posture=pqt, posture_kp=10.0)
     return [("Panda PD", panda, pq0, pd_panda, 2.0), ("Panda computed torque", panda, pq0, ct(panda, pq0, pqt), 1.0),
+            ("Panda operational space (pose + posture)", panda, pq0, osc, 1.0),
             ("chain10 stiff PD", chain, cq0, pd_chain, 0.5),
             ("chain10 stiff computed torque", chain, cq0, ct(chain, cq0, np.zeros(10)), 0.5)]
 
@@ -102,11 +113,14 @@ def run_time(model, q0, source, T):
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeat", type=int, default=3)
+    ap.add_argument("--only", default="", help="run the cases whose name contains this text")
     args = ap.parse_args()
     print("| case | Jacobian differenced (us) | analytical (us) | ratio | run differenced (s) | analytical (s) | "
           "ratio | Jacobians | max |x diff| |")
     print("|---|---|---|---|---|---|---|---|---|")
     for name, model, q0, source, T in cases():
+        if args.only not in name:
+            continue
         best = {True: [np.inf, np.inf], False: [np.inf, np.inf]}
         runs, Js = {}, {}
         for k in range(args.repeat + 1):  # the first round compiles

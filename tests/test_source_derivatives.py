@@ -13,8 +13,9 @@ from dynamics.control.dispatch import kind_tag, source_workspace, torque_eval
 from dynamics.control.registry import release_callable
 from dynamics.control.validation import make_source
 from dynamics.errors import InputError
-from dynamics.torque_derivatives import _passive
-from dynamics.torques import PD, ComputedTorque, Table, Target
+from dynamics.control.derivatives import source_derivatives_tangent
+from dynamics.torque_derivatives import _passive, _prepared
+from dynamics.torques import PD, ComputedTorque, OperationalSpace, Table, Target, TaskReference
 from robots import ALL_TYPES, erd, random_state, random_urdf
 
 H = 1e-7
@@ -170,18 +171,71 @@ def test_time_only_sources_are_zero(panda):
     check_closed_loop(panda, table, 0.5, q, v)
 
 
-def test_differenced_kinds(panda):
-    """The operational-space controller and callables have no analytical derivative: differenced, still to
-    the finite differences' accuracy."""
-    rng = np.random.default_rng(4)
+def _analytical(model, source, t, q, v):
+    """Whether the source's derivative came from its analytical function (not the differences)."""
+    src, tag, ps, t, q, v, ws = _prepared(model, source, t, q, v, (None, None, 1e4, 100.0, 1e-3))
+    n = model.nv
+    return source_derivatives_tangent(tag, src, model.tree, ps, t, q, v, ws, np.empty((n, n)), np.empty((n, n)))
+
+
+def _pose_path():
+    """A moving pose for Panda's hand: a circle, turning about three axes."""
+    t = np.linspace(0.0, 1.0, 11)
+    p = np.stack([0.4 + 0.1 * np.cos(3 * t), 0.1 * np.sin(3 * t), 0.5 + 0.05 * t], 1)
+    R = [dynamics.spatial.rpy_to_matrix((np.pi + 0.3 * s, 0.2 * s, s)) for s in t]
+    return TaskReference(t, p, orientation=R)
+
+
+@pytest.mark.parametrize("case", ["position", "rows", "pose_path", "damped_springs"])
+def test_operational_space_panda(panda, case):
+    """The operational-space controller's analytical derivatives (dynamics.control.operational_space_derivatives)
+    against central differences of its torque: position only, two task rows, a moving pose with a posture task
+    at three times (before, inside and after the reference's times), and damping with the limit springs."""
+    rng = np.random.default_rng(11)
     q, v, _ = random_state(panda, rng)
     q = np.clip(q, panda.lower + 0.005, panda.upper - 0.005)  # off the springs' kinks
-    target = Target("panda_hand", [0.4, 0.1, 0.5], kp=100.0, kd=20.0)
-    check_source(panda, target, 0.0, q, v)
+    v = 2.0 * rng.normal(size=panda.nv)
+    limits, times = None, (0.0,)
+    if case == "position":
+        source = Target("panda_hand", [0.4, 0.1, 0.5], kp=100.0, kd=20.0)
+    elif case == "rows":
+        source = Target("panda_hand", [0.4, 0.1, 0.5], kp=[100.0, 50.0], kd=[20.0, 10.0], rows=[0, 2])
+    elif case == "pose_path":
+        source = OperationalSpace("panda_hand", _pose_path(), [80.0, 80.0, 80.0, 30.0, 30.0, 30.0], [15.0] * 6,
+                                  posture=np.zeros(panda.nq), posture_kp=3.0)
+        times = (-0.5, 0.37, 2.0)
+    else:
+        source = Target("panda_hand", [0.4, 0.1, 0.5], kp=100.0, kd=20.0, orientation=np.eye(3),
+                        posture=np.zeros(panda.nq), posture_kp=5.0, damping=1e-2)
+        q[3] = panda.lower[3] - 0.01  # inside a limit spring
+        limits = "spring"
+    for t in times:
+        assert _analytical(panda, source, t, q, v)
+        check_source(panda, source, t, q, v, limits)
+    check_closed_loop(panda, source, times[-1], q, v, limits)
+
+
+def test_operational_space_multi_dof_is_differenced(multi_dof):
+    """A fixed base with spherical and planar joints (nq > nv): the controller's derivatives are differenced,
+    still to the differences' accuracy."""
+    model, rng = multi_dof
+    q, v, _ = random_state(model, rng)
+    frame = max(model.frame_names, key=lambda f: np.linalg.matrix_rank(
+        dynamics.frame_jacobian(model, q, f, reference="local_world_aligned")[:3], tol=1e-3))  # a full-rank task
+    source = Target(frame, dynamics.frame_placement(model, q, frame)[:3, 3] + 0.1, kp=50.0, kd=10.0)
+    assert not _analytical(model, source, 0.0, q, v)
+    check_source(model, source, 0.0, q, v)
+
+
+def test_differenced_kinds(panda):
+    """Callables have no analytical derivative: differenced, still to the finite differences' accuracy."""
+    rng = np.random.default_rng(4)
+    q, v, _ = random_state(panda, rng)
     K = rng.normal(size=(panda.nv, panda.nv))
 
     def fn(t, q, v):
         return np.sin(K @ q) + K.T @ v * t
+    assert not _analytical(panda, fn, 0.7, q, v)
     check_source(panda, fn, 0.7, q, v)
     check_closed_loop(panda, fn, 0.7, q, v)
 

@@ -22,9 +22,11 @@ Computed torque, tau = RNEA(q, v, a*) - tau_passive(q, v), a* = a_ref + kd (v_re
 
 with the RNEA derivatives and M from :mod:`dynamics.rnea_derivatives` (the model has 1-dof joints only).
 
-Zero, constant and tables: zero (they depend on t alone).  The operational-space controller and Python
-callables have no analytical derivative here: their function returns False and the caller differences the
-source (:func:`dynamics.simulation.jacobian.source_derivatives`, :func:`source_derivatives_tangent`).
+Operational space: :mod:`.operational_space_derivatives` (1-dof joints; other models are differenced).
+
+Zero, constant and tables: zero (they depend on t alone).  Python callables have no analytical derivative: their
+function returns False and the caller differences the source
+(:func:`dynamics.simulation.jacobian.source_derivatives`, :func:`source_derivatives_tangent`).
 """
 
 import numpy as np
@@ -38,6 +40,7 @@ from ..spatial import qrot
 from .dispatch import (CallableKind, ComputedTorqueKind, ConstantKind, OperationalSpaceKind, PDKind, TableKind,
                        ZeroKind, torque_eval)
 from .interpolation import reference_at
+from .operational_space_derivatives import operational_space_derivatives
 from .passive import passive_derivatives
 
 #: central-difference step of the kinds without an analytical derivative (relative, ~ eps^(1/3))
@@ -131,15 +134,21 @@ def _time_only_derivatives(tag, src, tree, ps, t, q, v, ws, dq, dv):
     return True
 
 
+def _operational_space_derivatives(tag, src, tree, ps, t, q, v, ws, dq, dv):
+    """The operational-space controller (:mod:`.operational_space_derivatives`; False, differenced by the caller,
+    unless every joint is 1-dof)."""
+    return operational_space_derivatives(src, tree, ps, t, q, v, ws, dq, dv)
+
+
 def _differenced(tag, src, tree, ps, t, q, v, ws, dq, dv):
-    """Operational space, callables: no analytical derivative (the caller differences the source)."""
+    """Python callables: no analytical derivative (the caller differences the source)."""
     return False
 
 
 _DERIVATIVES = {ZeroKind: _time_only_derivatives, ConstantKind: _time_only_derivatives,
                 TableKind: _time_only_derivatives, PDKind: _pd_derivatives,
                 ComputedTorqueKind: _computed_torque_derivatives, CallableKind: _differenced,
-                OperationalSpaceKind: _differenced}
+                OperationalSpaceKind: _operational_space_derivatives}
 
 
 def source_derivatives_into(tag, src, tree, ps, t, q, v, ws, dq, dv):

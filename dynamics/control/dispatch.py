@@ -11,7 +11,7 @@ from ..configuration import _difference
 from ..rnea import _rnea_into
 from ..rnea import _workspace as rnea_workspace
 from .interpolation import reference_at, segment
-from .operational_space import operational_space_into
+from .operational_space import operational_space_into, task_reference_at
 from .passive import passive_torques
 from .registry import torque_callable
 from .sources import (CALLABLE, COMPUTED_TORQUE, CONSTANT, OPERATIONAL_SPACE, PD_KIND, TABLE_LINEAR, TABLE_ZOH,
@@ -37,9 +37,7 @@ def _computed_torque_eval(tag, src, tree, ps, t, q, v, ws, tau):
 def _operational_space_eval(tag, src, tree, ps, t, q, v, ws, tau):
     """The operational-space torques; compiled as :func:`torque_eval` for this kind."""
     x_ref = np.empty((3, 3))
-    reference_at(src.times, src.table, 3, t, x_ref[0], x_ref[1], x_ref[2])
-    if t < src.times[0] or t > src.times[-1]:  # hold the end position at rest
-        x_ref[1:] = 0.0
+    task_reference_at(src, t, x_ref)
     pas = ws[1][3]
     passive_torques(ps, q, v, pas)
     operational_space_into(src, tree, ps.gravity, ps.f_ext, t, q, v, x_ref, pas, ws[0], tau)

@@ -44,6 +44,7 @@ from ..minverse import _workspace as minverse_workspace
 from ..rnea import _rnea_into
 from ..spatial import matmul, _rotation_about_axis, _rotation_log, _spd_inverse, transpose
 from ..task_space import MAX_CONDITION
+from .interpolation import reference_at
 
 
 @kernel
@@ -83,10 +84,21 @@ def _workspace(nb, nv, nq):
 
 
 @kernel
+def task_reference_at(src, t, x_ref):
+    """x_ref (3, 3) = [p_d; pdot_d; pddot_d] at t, interpolated in the reference's table; outside its times the
+    end position is held at rest."""
+    reference_at(src.times, src.table, 3, t, x_ref[0], x_ref[1], x_ref[2])
+    if t < src.times[0] or t > src.times[-1]:
+        x_ref[1:] = 0.0
+
+
+@kernel
 def operational_space_into(src, tree, gravity, f_ext, t, q, v, x_ref, tau_passive, ws_rnea, tau):
     """tau by (*) of the module docstring for the task of ``src`` (a :class:`dynamics.torques.Source`):
     frame ``src.frame`` of ``src.frames``, rows ``src.rows``, gains ``src.task_gains`` [Kp; Kd] (2, 6) and
-    posture gains ``src.gains`` [Kp0; Kd0] toward ``src.qref``.  x_ref (3, 3) = [p_d; pdot_d; pddot_d] at t."""
+    posture gains ``src.gains`` [Kp0; Kd0] toward ``src.qref``.  x_ref (3, 3) = [p_d; pdot_d; pddot_d] at t
+    (:func:`task_reference_at`).  Returns the frame's world pose (R, p); leaves J, M^-1, tau_p, J M^-1, y and
+    Lambda in ``src.ws`` (:mod:`.operational_space_derivatives` reads them)."""
     frames, f, rows, kt = src.frames, src.frame, src.rows, src.task_gains
     path, oR, op, J, Q1, V1, jdv, Minv, ws_minv, tp, zero, JM, y, A, Lam, scratch = src.ws
     nv, r = v.shape[0], rows.shape[0]
@@ -95,7 +107,7 @@ def operational_space_into(src, tree, gravity, f_ext, t, q, v, x_ref, tau_passiv
     _motion_batch(tree, Q1, V1, V1, frames, f, LOCAL_WORLD_ALIGNED, BIAS_ACCELERATION, True, jdv)
     if _minverse_into(tree, q, ws_minv, Minv) >= 0:
         tau[:] = np.nan
-        return
+        return R, p
     # the posture torque tau_p = Kp0 (q_0 - q) - Kd0 v, and b = ID(q, v, 0) - tau_passive into tau
     _difference(tree, q, src.qref, tp)
     for i in range(nv):
@@ -137,10 +149,11 @@ def operational_space_into(src, tree, gravity, f_ext, t, q, v, x_ref, tau_passiv
         big_A, big_Lam = max(big_A, A[a, a]), max(big_Lam, Lam[0, a, a])
     if not ok or not big_A * big_Lam <= MAX_CONDITION:
         tau[:] = np.nan
-        return
+        return R, p
     for a in range(r):
         F = 0.0
         for b in range(r):
             F += Lam[0, a, b] * y[b]
         for c in range(nv):
             tau[c] += J[rows[a], c] * F
+    return R, p
