@@ -105,7 +105,7 @@ def one_jacobian_us(model, q0, v0, torque):
 
 def radau_section(quick):
     rows = ["| case | nv | steps | Jacobians | one Jacobian: analytical / FD (us) | run, analytical (s) | "
-            "run, finite differences (s) | ratio FD/analytical | |dx| |",
+            "run, finite differences (s) | ratio FD/analytical | \\|dx\\| |",
             "|---|---:|---:|---:|---:|---:|---:|---:|---:|"]
     reps = 1 if quick else 3
     for name, m, q0, v0, T, torque in stiff_cases(quick):

@@ -116,7 +116,7 @@ def main():
     ap.add_argument("--only", default="", help="run the cases whose name contains this text")
     args = ap.parse_args()
     print("| case | Jacobian differenced (us) | analytical (us) | ratio | run differenced (s) | analytical (s) | "
-          "ratio | Jacobians | max |x diff| |")
+          "ratio | Jacobians | largest difference of the final states |")
     print("|---|---|---|---|---|---|---|---|---|")
     for name, model, q0, source, T in cases():
         if args.only not in name:
