@@ -3,7 +3,8 @@
 Section "radau": wall time of Radau with the robot's Jacobian assembled from its parts' derivatives
 (:mod:`dynamics.simulation.jacobian`, the default) against the same solver on the finite-difference Jacobian of
 the whole right-hand side (what it used before: the problem class without a ``jacobian``), on the stiff suite
-(damped chains, joint damping 1e3: time constants ~10 us) and a stiff PD on Panda.  Both runs alternate in the
+(damped chains, joint damping 1e3: time constants ~10 us), a stiff PD on Panda and (without --quick) a contact
+scene with nv >= 20, Talos standing on box soles (nv 38, rtol 1e-6).  Both runs alternate in the
 same process, after a warm-up that compiles both; the ratio is FD / analytical (> 1: faster).  The final states
 of the two agree to the tolerance (the column "|dx|").
 
@@ -22,6 +23,7 @@ import numpy as np
 from numba import njit
 
 import dynamics
+from dynamics.contact.resolve import contact_model
 from dynamics.control.validation import make_source
 from dynamics.simulation.jacobian import robot_jacobian
 from dynamics.simulation.problem import RobotProblem, rhs, robot_problem
@@ -54,18 +56,47 @@ def stiff_cases(quick):
     out = []
     for n in sizes:
         m = dynamics.load_urdf(chain_urdf(n, damping=1e3))
-        out.append((f"chain{n} damping 1e3", m, np.linspace(0.2, 1.2, n), np.ones(n), 0.5, None))
+        out.append((f"chain{n} damping 1e3", m, np.linspace(0.2, 1.2, n), np.ones(n), 0.5, None, None))
     panda = dynamics.load_urdf(erd("panda_description/urdf/panda.urdf"), mimic="independent")
     q0 = panda.neutral() + 0.1
     target = q0 + 0.2
     pd = PD(target, 1e4, 1e3, tau_ff=dynamics.gravity_torques(panda, target))
-    out.append(("Panda stiff PD (kp 1e4, kd 1e3)", panda, q0, np.zeros(panda.nv), 0.5, pd))
+    out.append(("Panda stiff PD (kp 1e4, kd 1e3)", panda, q0, np.zeros(panda.nv), 0.5, pd, None))
+    if not quick:
+        out.append(talos_standing())
     return out
 
 
-def _wall(model, q0, v0, T, torque, fd, reps, **kw):
+def talos_standing():
+    """Talos (every joint, floating base) standing on two box soles under joint PD with gravity compensation:
+    a contact scene with nv >= 20 (as tests/test_contact_humanoid.py, without its locked upper body)."""
+    soles, sole = ["left_sole_link", "right_sole_link"], (0.2, 0.1, 0.02)
+    model = dynamics.load_urdf(erd("talos_data/robots/talos_reduced.urdf"), floating_base=True,
+                               strict_inertia=False)
+    q = model.neutral().copy()
+    for side in ("left", "right"):
+        for j, angle in ((3, -0.411354), (4, 0.859395), (5, -0.448041)):  # half sitting
+            q[model.q_index[model.joint_names.index(f"leg_{side}_{j}_joint")]] = angle
+    weight = float(np.sum(model.tree.mass)) * 9.81
+    pose = np.eye(4)
+    pose[2, 3] = sole[2] / 2
+    contact = dynamics.Contact(geometries=[dynamics.Box(f, sole, pose) for f in soles])
+    k = weight / contact.friction.penetration_allowance  # the default stiffness of each contact point
+    q[2] = -dynamics.frame_placement(model, q, soles[0])[2, 3] - weight / (8 * k)  # 8 corners share the weight
+    g = dynamics.gravity_torques(model, q)
+    J = [dynamics.frame_jacobian(model, q, f) for f in soles]
+    w = np.linalg.lstsq(np.hstack([Jf[:, :6].T for Jf in J]), g[:6], rcond=None)[0]
+    n = model.nv - 6
+    pd = PD(q.copy(), np.r_[np.zeros(6), np.full(n, 3000.0)], np.r_[np.zeros(6), np.full(n, 100.0)],
+            tau_ff=g - J[0].T @ w[:6] - J[1].T @ w[6:])
+    return ("Talos standing, contact (rtol 1e-6)", model, q, np.zeros(model.nv), 0.5, pd, contact)
+
+
+def _wall(model, q0, v0, T, torque, fd, reps, contact=None, **kw):
     _fd_variant(fd)
     best, tr = np.inf, None
+    if contact is not None:
+        kw.update(contact=contact, rtol=1e-6, atol=1e-8)
     for _ in range(reps):
         tr = dynamics.simulate(model, q0, v0, T, torque=torque, integrator="radau", error_estimate="none",
                                outputs=("q", "v"), **kw)
@@ -75,22 +106,23 @@ def _wall(model, q0, v0, T, torque, fd, reps, **kw):
 
 
 @njit
-def _jacobians(p, z, f0, J, st, fd, reps):
+def _jacobians(p, z, f0, J, st, ne, fd, reps):
     n = z.shape[0]
     for _ in range(reps):
         if fd:
-            fd_jacobian(p, 0.0, z, f0, np.zeros(n), n - 2, J, st[0])
+            fd_jacobian(p, 0.0, z, f0, np.zeros(n), ne, J, st[0])
         else:
-            robot_jacobian(p, 0.0, z, f0, z, n - 2, J, st[0])
+            robot_jacobian(p, 0.0, z, f0, z, ne, J, st[0])
 
 
-def one_jacobian_us(model, q0, v0, torque):
+def one_jacobian_us(model, q0, v0, torque, contact=None):
     """Microseconds of one right-hand-side Jacobian: (analytical, finite differences), alternately timed."""
     s = SIM._settings(model, q0, v0, 1.0, "radau", 1e-6, 1e-8, None, None, None, 10, "none", ("q",), [], None,
-                      False)
+                      False, contact)
+    cm = None if contact is None else contact_model(s.contact, model, 1)
     p = robot_problem(model, SIM._passive(model, s, None, 1e4, 100.0, 1e-3), make_source(model, torque), s.q0,
-                      np.zeros(1), ())
-    n = 2 * model.nv + 2
+                      np.zeros(1), (), cm)
+    n = 2 * model.nv + 2 + (cm is not None)
     z, f0, J, st = np.zeros(n), np.zeros(n), np.zeros((n, n)), new_stats()
     z[model.nv:2 * model.nv] = v0
     rhs(p, 0.0, z, f0)
@@ -98,7 +130,7 @@ def one_jacobian_us(model, q0, v0, torque):
     for _ in range(5):
         for fd in (0, 1):
             t = time.perf_counter()
-            _jacobians(p, z, f0, J, st, fd, 200)
+            _jacobians(p, z, f0, J, st, 2 * model.nv, fd, 200)
             out[fd] = min(out[fd], (time.perf_counter() - t) / 200 * 1e6)
     return out
 
@@ -108,17 +140,17 @@ def radau_section(quick):
             "run, finite differences (s) | ratio FD/analytical | \\|dx\\| |",
             "|---|---:|---:|---:|---:|---:|---:|---:|---:|"]
     reps = 1 if quick else 3
-    for name, m, q0, v0, T, torque in stiff_cases(quick):
+    for name, m, q0, v0, T, torque, contact in stiff_cases(quick):
         for fd in (False, True):  # warm-up: compile both
-            _wall(m, q0, v0, min(T, 0.01), torque, fd, 1)
+            _wall(m, q0, v0, min(T, 0.01), torque, fd, 1, contact)
         wa, wf = [], []
         for _ in range(reps):  # alternately
-            a, ta = _wall(m, q0, v0, T, torque, False, 1)
-            f, tf = _wall(m, q0, v0, T, torque, True, 1)
+            a, ta = _wall(m, q0, v0, T, torque, False, 1, contact)
+            f, tf = _wall(m, q0, v0, T, torque, True, 1, contact)
             wa.append(a)
             wf.append(f)
         dx = max(np.abs(ta.q[-1] - tf.q[-1]).max(), np.abs(ta.v[-1] - tf.v[-1]).max())
-        ja, jf = one_jacobian_us(m, q0, v0, torque)
+        ja, jf = one_jacobian_us(m, q0, v0, torque, contact)
         rows.append(f"| {name} | {m.nv} | {ta.report['steps']} | {ta.report['jacobian_evals']} | "
                     f"{ja:.0f} / {jf:.0f} ({jf / ja:.1f}x) | {min(wa):.3f} | "
                     f"{min(wf):.3f} | {min(wf) / min(wa):.2f} | {dx:.1e} |")

@@ -101,8 +101,8 @@ def torque_source_derivatives(model, source, t, q, v, *, gravity=None, limits=No
     dtau_dq in the tangent space (module docstring).
 
     source: any ``torque=`` argument of :func:`dynamics.simulate` (None, an (nv,) array, ``Table``, ``PD``,
-    ``ComputedTorque``, ``OperationalSpace``, ``Target``, a callable f(t, q, v)).  Analytical for all but the
-    operational-space controller and callables (central differences).  The keyword arguments are simulate's
+    ``ComputedTorque``, ``OperationalSpace``, ``Target``, a callable f(t, q, v)).  Analytical for all but
+    callables and the operational-space controller on spherical or planar joints (central differences).  The keyword arguments are simulate's
     passive-torque settings (the computed torque cancels the passive torques, so they enter its derivatives).
     One state: t a float, q (nq,), v (nv,).
     """

@@ -15,8 +15,9 @@ da/dq (in the tangent space of q, nv columns, Pinocchio's convention), da/dv and
 :func:`aba_derivatives` (Carpentier & Mansard 2018, :mod:`dynamics.aba_derivatives`); dtau_p (damping,
 regularised friction, limit springs) is written out
 (:func:`dynamics.control.passive.passive_derivatives`); the source's dtau_s analytically (:func:`source_derivatives`, from
-:mod:`dynamics.control.derivatives`: PD, computed torque, tables, constants), or by central differences of the
-source alone for the operational-space controller and Python callables.  The W columns are zero (f does not
+:mod:`dynamics.control.derivatives`: PD, computed torque, operational space, tables, constants), or by central
+differences of the source alone for Python callables (and the operational-space controller on spherical or
+planar joints).  The W columns are zero (f does not
 depend on the quadratures).
 
 Contact: after an evaluation that found a contact (since the last Jacobian), tau also holds the generalised
