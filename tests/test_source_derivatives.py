@@ -186,10 +186,11 @@ def _pose_path():
     return TaskReference(t, p, orientation=R)
 
 
-@pytest.mark.parametrize("case", ["position", "rows", "pose_path", "damped_springs"])
+@pytest.mark.parametrize("case", ["position", "rows", "orientation_rows", "pose_path", "damped_springs"])
 def test_operational_space_panda(panda, case):
     """The operational-space controller's analytical derivatives (dynamics.control.operational_space_derivatives)
-    against central differences of its torque: position only, two task rows, a moving pose with a posture task
+    against central differences of its torque: position only, two task rows, two orientation rows far from the
+    target orientation, a moving pose with a posture task
     at three times (before, inside and after the reference's times), and damping with the limit springs."""
     rng = np.random.default_rng(11)
     q, v, _ = random_state(panda, rng)
@@ -200,6 +201,9 @@ def test_operational_space_panda(panda, case):
         source = Target("panda_hand", [0.4, 0.1, 0.5], kp=100.0, kd=20.0)
     elif case == "rows":
         source = Target("panda_hand", [0.4, 0.1, 0.5], kp=[100.0, 50.0], kd=[20.0, 10.0], rows=[0, 2])
+    elif case == "orientation_rows":
+        source = Target("panda_hand", [0.4, 0.1, 0.5], dynamics.spatial.rpy_to_matrix((2.5, -0.4, 1.0)), kp=80.0,
+                        kd=12.0, rows=[3, 5])
     elif case == "pose_path":
         source = OperationalSpace("panda_hand", _pose_path(), [80.0, 80.0, 80.0, 30.0, 30.0, 30.0], [15.0] * 6,
                                   posture=np.zeros(panda.nq), posture_kp=3.0)
