@@ -1,9 +1,10 @@
 """Where a cold start's compile time goes: numba's ``numba:compile`` events per dispatcher, in CPU seconds.
 
-    python -m benchmarks.compile_profile {library,default,rk4,os,contact} [--top N]
+    python -m benchmarks.compile_profile {library,default,rk4,os,os-radau,contact} [--top N]
 
 Runs one case of :data:`benchmarks.core.SIM_COLD_CASES` (plus ``os``: a first simulate with an
-operational-space torque source; ``contact``: a free ball dropped on the ground, the default integrator) in a fresh interpreter with an empty numba cache and prints, per compiled
+operational-space torque source; ``os-radau``: the same with radau, whose Newton matrix compiles the controller's
+derivatives; ``contact``: a free ball dropped on the ground, the default integrator) in a fresh interpreter with an empty numba cache and prints, per compiled
 function, the CPU seconds spent compiling it (exclusive of the functions it compiled on the way: numba
 compiles a callee while typing its caller) and inclusive, and the process's CPU seconds.  CPU time, not wall:
 the machines are shared.
@@ -53,6 +54,9 @@ elif case == "rk4":
 elif case == "os":
     src = dynamics.torques.Target("tip", [1.2, 0.0, 0.9], kp=100.0, kd=20.0, rows=[0, 2])
     dynamics.simulate(arm, [0.5, 0.2], [0.0, 0.0], 0.2, torque=src, integrator="rk4", dt=1e-3)
+elif case == "os-radau":
+    src = dynamics.torques.Target("tip", [1.2, 0.0, 0.9], kp=100.0, kd=20.0, rows=[0, 2])
+    dynamics.simulate(arm, [0.5, 0.2], [0.0, 0.0], 0.2, torque=src, integrator="radau")
 elif case == "contact":
     ball = dynamics.load_urdf(BALL, floating_base=True)
     dynamics.simulate(ball, [0, 0, 0.3, 0, 0, 0, 1.0], np.zeros(6), 0.3,
@@ -74,7 +78,7 @@ def profile(case, urdf):
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("case", choices=("library", "default", "rk4", "os", "contact"))
+    ap.add_argument("case", choices=("library", "default", "rk4", "os", "os-radau", "contact"))
     ap.add_argument("--top", type=int, default=15)
     args = ap.parse_args(argv)
     urdf = str(Path(__file__).resolve().parent.parent / "robots" / "planar_2r.urdf")

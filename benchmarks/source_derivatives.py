@@ -51,6 +51,7 @@ derivatives._DERIVATIVES[DifferencedPD] = derivatives._differenced
 derivatives._DERIVATIVES[DifferencedComputedTorque] = derivatives._differenced
 dispatch._EVAL[DifferencedOperationalSpace] = dispatch._EVAL[dispatch.OperationalSpaceKind]
 derivatives._DERIVATIVES[DifferencedOperationalSpace] = derivatives._differenced
+derivatives.MAY_BE_DIFFERENCED.update({DifferencedPD, DifferencedComputedTorque, DifferencedOperationalSpace})
 _ANALYTICAL_TAG = problem_module.kind_tag
 _DIFFERENCED = {dispatch.PDKind: DifferencedPD, dispatch.ComputedTorqueKind: DifferencedComputedTorque,
                 dispatch.OperationalSpaceKind: DifferencedOperationalSpace}

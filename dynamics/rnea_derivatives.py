@@ -320,6 +320,15 @@ def _rnea_derivatives_into(tree, q, v, a, gravity, f_ext, ws, dtau_dq, dtau_dv, 
 
 
 @kernel
+def rnea_derivatives_at(tree, q, v, a, gravity, f_ext, dtau_dq, dtau_dv, M):
+    """:func:`_rnea_derivatives_into` with a workspace of its own: for compiled callers of one state (the torque
+    sources' derivatives), which then compile and link this one kernel instead of inlining the workspace's views."""
+    buf, ws = _derivatives_workspace(tree.parents.shape[0], v.shape[0])
+    _rnea_derivatives_into(tree, q, v, a, gravity, f_ext, ws, dtau_dq, dtau_dv, M)
+    keep_alive(buf)
+
+
+@kernel
 def _rnea_derivatives_batch(tree, Q, V, A, F, gravity, out):
     """out[b] = (dtau/dq, dtau/dv, M) at the rows of Q, V, A (V, A, F may have one row, shared)."""
     tree, Q, V, A, F, out = borrowed(tree), borrowed(Q), borrowed(V), borrowed(A), borrowed(F), borrowed(out)

@@ -18,7 +18,7 @@ F_x = dF_k/dx (3,):
 The q-part leaves out how A_k, n and v_rel at fixed v turn with q (the geometric terms, of the order of |F| times a
 curvature, against the stiffness k of the law): what Radau's Newton iteration needs, whose convergence test
 accepts any matrix close enough.  A run that integrates sensitivities needs the exact d tau_c/dq and differences
-it (:func:`dynamics.simulation.jacobian.contact_derivatives`).
+it (:func:`dynamics.simulation.jacobian.contact_terms`).
 
 G and F_x from the law of :mod:`.forces` (s = |v_t| / v_s, c(|v_t|) = mu(s) / |v_t|, so that f_t = -c f_n v_t;
 P_t = 1 - n n^T):

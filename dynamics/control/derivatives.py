@@ -32,10 +32,10 @@ function returns False and the caller differences the source
 import numpy as np
 from numba.extending import overload
 
-from .._numba import JIT_OPTIONS, inline_kernel, keep_alive, kernel
+from .._numba import JIT_OPTIONS, inline_kernel, kernel
 from ..configuration import _difference, _integrate_q
 from ..joints import JOINT_FREE, JOINT_PLANAR, JOINT_SPHERICAL, _so3_jr_inv, _unit2
-from ..rnea_derivatives import _derivatives_workspace, _rnea_derivatives_into
+from ..rnea_derivatives import rnea_derivatives_at
 from ..spatial import qrot
 from .dispatch import (CallableKind, ComputedTorqueKind, ConstantKind, OperationalSpaceKind, PDKind, TableKind,
                        ZeroKind, torque_eval)
@@ -113,10 +113,8 @@ def _computed_torque_derivatives(tag, src, tree, ps, t, q, v, ws, dq, dv):
     reference_at(src.times, src.table, nv, t, qr, vr, ar)
     for i in range(nv):
         ar[i] += src.gains[1, i] * (vr[i] - v[i]) + src.gains[0, i] * (qr[i] - q[i])
-    buf, rws = _derivatives_workspace(tree.parents.shape[0], nv)
     M = np.empty((nv, nv))
-    _rnea_derivatives_into(tree, q, v, ar, ps.gravity, ps.f_ext, rws, dq, dv, M)
-    keep_alive(buf)
+    rnea_derivatives_at(tree, q, v, ar, ps.gravity, ps.f_ext, dq, dv, M)
     pq, pv = ws[1][0], ws[1][1]
     passive_derivatives(ps, q, v, pq, pv)
     for r in range(nv):
@@ -134,21 +132,19 @@ def _time_only_derivatives(tag, src, tree, ps, t, q, v, ws, dq, dv):
     return True
 
 
-def _operational_space_derivatives(tag, src, tree, ps, t, q, v, ws, dq, dv):
-    """The operational-space controller (:mod:`.operational_space_derivatives`; False, differenced by the caller,
-    unless every joint is 1-dof)."""
-    return operational_space_derivatives(src, tree, ps, t, q, v, ws, dq, dv)
-
-
 def _differenced(tag, src, tree, ps, t, q, v, ws, dq, dv):
     """Python callables: no analytical derivative (the caller differences the source)."""
     return False
 
 
+#: the kinds whose derivative function may return False (the caller then differences the source); the others'
+#: callers compile no differences (:func:`dynamics.simulation.jacobian.source_derivatives`)
+MAY_BE_DIFFERENCED = {CallableKind, OperationalSpaceKind}
+
 _DERIVATIVES = {ZeroKind: _time_only_derivatives, ConstantKind: _time_only_derivatives,
                 TableKind: _time_only_derivatives, PDKind: _pd_derivatives,
                 ComputedTorqueKind: _computed_torque_derivatives, CallableKind: _differenced,
-                OperationalSpaceKind: _operational_space_derivatives}
+                OperationalSpaceKind: operational_space_derivatives}
 
 
 def source_derivatives_into(tag, src, tree, ps, t, q, v, ws, dq, dv):

@@ -34,9 +34,9 @@ central differences.
 
 import numpy as np
 
-from .._numba import keep_alive, kernel
+from .._numba import kernel
 from ..joints import _so3_jr_inv
-from ..rnea_derivatives import _derivatives_workspace, _rnea_derivatives_into
+from ..rnea_derivatives import rnea_derivatives_at
 from ..spatial import _rotation_log, add, cross, cross_motion, matmul, transpose
 from .operational_space import operational_space_into, orientation_at, task_reference_at
 from .passive import passive_derivatives, passive_torques
@@ -154,12 +154,13 @@ def _orientation_rows(src, t, R, Jw, Dw):
                 Dw[r, m] -= x * Jw[s, m]
 
 
-@kernel
-def operational_space_derivatives(src, tree, ps, t, q, v, ws, dq, dv):
+def operational_space_derivatives(tag, src, tree, ps, t, q, v, ws, dq, dv):
     """dq = dtau/dq, dv = dtau/dv (nv, nv) of the operational-space torque at (t, q, v) (module docstring);
     returns False (nothing written) unless every joint is 1-dof (nq = nv).  NaN where the torque is NaN (a
-    singular task or M).  Arguments as :func:`dynamics.control.dispatch.torque_eval`'s."""
-    nv, nb = v.shape[0], tree.parents.shape[0]
+    singular task or M).  Arguments as :func:`dynamics.control.dispatch.torque_eval`'s; compiled as
+    :func:`dynamics.control.derivatives.source_derivatives_into` for this kind (not a kernel of its own: one
+    compiled layer fewer)."""
+    nv = v.shape[0]
     if q.shape[0] != nv:
         return False
     x_ref, tau = np.empty((3, 3)), np.empty(nv)
@@ -185,11 +186,9 @@ def operational_space_derivatives(src, tree, ps, t, q, v, ws, dq, dv):
         for k in range(nv):
             s[c] += Minv[c, k] * u[k]
     # the inverse dynamics at a = 0 into (dq, dv), and d(M s)/dq without gravity into DM
-    buf, rws = _derivatives_workspace(nb, nv)
     M, DM, scratch = np.empty((nv, nv)), np.empty((nv, nv)), np.empty((nv, nv))
-    _rnea_derivatives_into(tree, q, v, np.zeros(nv), ps.gravity, ps.f_ext, rws, dq, dv, M)
-    _rnea_derivatives_into(tree, q, np.zeros(nv), s, np.zeros(3), np.zeros((0, 6)), rws, DM, scratch, M)
-    keep_alive(buf)
+    rnea_derivatives_at(tree, q, v, np.zeros(nv), ps.gravity, ps.f_ext, dq, dv, M)
+    rnea_derivatives_at(tree, q, np.zeros(nv), s, np.zeros(3), np.zeros((0, 6)), DM, scratch, M)
     # the frame's kinematic derivatives
     K = np.empty((4, nv, 6))  # Sw, pre, suf, T
     D = np.zeros((5, 6, nv))  # dJ v, dJ s, d(Jdot v)/dq, d(Jdot v)/dv, de/dq

@@ -23,7 +23,7 @@ depend on the quadratures).
 Contact: after an evaluation that found a contact (since the last Jacobian), tau also holds the generalised
 contact force tau_c (:mod:`dynamics.contact`), and its derivatives enter as the source's do: da/d delta +=
 M^-1 dtau_c/d delta, da/dv += M^-1 dtau_c/dv, and the contact power's row d(v . tau_c)/dz
-(:func:`contact_derivatives`).  d tau_c/dv is analytical and exact (:mod:`dynamics.contact.force_derivatives`);
+(:func:`contact_terms`).  d tau_c/dv is analytical and exact (:mod:`dynamics.contact.force_derivatives`);
 d tau_c/d delta is its stiffness part for Radau's Newton matrix, or, in a run with sensitivities (which need it
 exact), central differences of the contact force alone.  The contact law is only piecewise smooth (its kink at
 touch-down, x = 0, and where (1 + d xdot)_+ clamps): there the differences mix both sides within one difference
@@ -34,11 +34,13 @@ it, and falls back to differencing the whole right-hand side for a problem witho
 """
 
 import numpy as np
+from numba import types
+from numba.extending import overload
 
-from .._numba import address, generic_kernel, keep_alive, kernel
+from .._numba import GENERIC_OPTIONS, address, generic_kernel, keep_alive, kernel
 from ..aba_derivatives import _aba_derivatives_into, _work_size
 from ..configuration import _difference, _integrate_q, chart_rate_in, retract_in
-from ..control.derivatives import source_derivatives_into
+from ..control.derivatives import MAY_BE_DIFFERENCED, source_derivatives_into
 from ..control.dispatch import torque_eval
 from ..control.passive import passive_derivatives, passive_torques
 from ..contact.calls import contact_jacobian, contact_torques, contact_touched
@@ -61,18 +63,33 @@ def aba_derivatives(tree, q, v, tau, gravity, f_ext, da_dq, da_dv, Minv):
 def source_derivatives(p, t, delta, v, dts_dd, dts_dv):
     """d tau_source / d delta (chart coordinates) and / dv: analytical for the kinds that have it
     (:mod:`dynamics.control.derivatives`, in the tangent space, then times T as the ABA's), else by central
-    differences of the source alone (:func:`_source_differences`)."""
+    differences of the source alone (:func:`source_differences`)."""
     q = np.empty(p.base.shape[0])
     _retract_at(p, delta, q)
     if source_derivatives_into(p.tag, p.source, p.tree, p.passive, t, q, v, p.ws_source, dts_dd, dts_dv):
         if q.shape[0] != v.shape[0]:
             tangent_to_chart(p.tree, p.base, q, dts_dd)
         return
-    _source_differences(p, t, delta, v, dts_dd, dts_dv)
+    source_differences(p.tag, p, t, delta, v, dts_dd, dts_dv)
 
 
-@generic_kernel
-def _source_differences(p, t, delta, v, dts_dd, dts_dv):
+def source_differences(tag, p, t, delta, v, dts_dd, dts_dv):
+    """d tau_source / d delta (chart coordinates) and / dv by central differences of the source alone, for a
+    source kind that may need them (:data:`dynamics.control.derivatives.MAY_BE_DIFFERENCED`); compiled to nothing
+    for the others, whose derivatives are always analytical, so that their Radau runs do not compile them."""
+    raise NotImplementedError("source_differences: compiled code only")
+
+
+def _no_differences(tag, p, t, delta, v, dts_dd, dts_dv):
+    return None
+
+
+@overload(source_differences, jit_options=GENERIC_OPTIONS)
+def _ov_source_differences(tag, p, t, delta, v, dts_dd, dts_dv):
+    return _source_differences if tag.instance_class in MAY_BE_DIFFERENCED else _no_differences
+
+
+def _source_differences(tag, p, t, delta, v, dts_dd, dts_dv):
     """d tau_source / d delta (chart coordinates) and / dv by central differences of the source alone."""
     nv = v.shape[0]
     dt, vt = delta.copy(), v.copy()
@@ -108,34 +125,49 @@ def _contact_at(p, q, v, tau):
     return contact_torques(p.contact, p.tree, q, v, tau, None)
 
 
-@generic_kernel
-def contact_derivatives(p, delta, v, tau_c, dtc_dd, dtc_dv):
-    """tau_c at (delta, v), d tau_c / dv (analytical, exact) and d tau_c / d delta (chart coordinates): its
-    stiffness part (:mod:`dynamics.contact.force_derivatives`) for Radau's Newton matrix, or, in a run that needs it
-    exact (sensitivities), central differences of the contact force alone (module docstring); returns the contact
-    power v . tau_c."""
+def contact_terms(c, p, delta, v, tau_c, dtc_dd, dtc_dv):
+    """If an evaluation since the last Jacobian touched something (c = p.contact): tau_c at (delta, v), d tau_c / dv
+    (analytical, exact) and d tau_c / d delta (chart coordinates): its stiffness part
+    (:mod:`dynamics.contact.force_derivatives`) for Radau's Newton matrix, or, in a run that needs it exact
+    (sensitivities), central differences of the contact force alone (module docstring).  Compiled to nothing for a
+    problem without contact (as :mod:`dynamics.contact.calls`): its Radau runs compile none of this."""
+    raise NotImplementedError("contact_terms: compiled code only")
+
+
+def _no_contact_terms(c, p, delta, v, tau_c, dtc_dd, dtc_dv):
+    return None
+
+
+@overload(contact_terms, jit_options=GENERIC_OPTIONS)
+def _ov_contact_terms(c, p, delta, v, tau_c, dtc_dd, dtc_dv):
+    return _no_contact_terms if isinstance(c, types.NoneType) else _contact_terms
+
+
+def _contact_terms(c, p, delta, v, tau_c, dtc_dd, dtc_dv):
+    if not contact_touched(c):
+        return
     nv = v.shape[0]
     q = np.empty(p.base.shape[0])
     _retract_at(p, delta, q)
-    if not contact_jacobian(p.contact, p.tree, q, v, dtc_dd, dtc_dv):
-        if q.shape[0] != nv:
-            tangent_to_chart(p.tree, p.base, q, dtc_dd)
-        return _contact_at(p, q, v, tau_c)
-    dt = delta.copy()
-    tp, tm = np.empty(nv), np.empty(nv)
-    for k in range(nv):
-        h = FD_STEP * max(1.0, abs(delta[k]))
-        dt[k] = delta[k] + h
-        _retract_at(p, dt, q)
-        _contact_at(p, q, v, tp)
-        dt[k] = delta[k] - h
-        _retract_at(p, dt, q)
-        _contact_at(p, q, v, tm)
-        dt[k] = delta[k]
-        for r in range(nv):
-            dtc_dd[r, k] = (tp[r] - tm[r]) / (2 * h)
-    _retract_at(p, delta, q)
-    return _contact_at(p, q, v, tau_c)
+    if contact_jacobian(c, p.tree, q, v, dtc_dd, dtc_dv):  # exact d tau_c / d delta: differenced
+        dt = delta.copy()
+        tp, tm = np.empty(nv), np.empty(nv)
+        for k in range(nv):
+            h = FD_STEP * max(1.0, abs(delta[k]))
+            dt[k] = delta[k] + h
+            _retract_at(p, dt, q)
+            _contact_at(p, q, v, tp)
+            dt[k] = delta[k] - h
+            _retract_at(p, dt, q)
+            _contact_at(p, q, v, tm)
+            dt[k] = delta[k]
+            for r in range(nv):
+                dtc_dd[r, k] = (tp[r] - tm[r]) / (2 * h)
+        _retract_at(p, delta, q)
+    elif q.shape[0] != nv:
+        tangent_to_chart(p.tree, p.base, q, dtc_dd)
+    _contact_at(p, q, v, tau_c)
+    contact_touched(c)  # forget the differences' own contacts
 
 
 @generic_kernel
@@ -213,9 +245,7 @@ def robot_jacobian(p, t, z, f0, mag, ne, J, st):
     nv = p.tau_s.shape[0]
     delta, v = z[:nv], z[nv:2 * nv]
     tau_c, dtc_dd, dtc_dv = np.zeros(nv), np.zeros((nv, nv)), np.zeros((nv, nv))
-    if contact_touched(p.contact):  # the evaluation at z (or one since the last Jacobian) touched something
-        contact_derivatives(p, delta, v, tau_c, dtc_dd, dtc_dv)
-        contact_touched(p.contact)  # forget the differences' own contacts
+    contact_terms(p.contact, p, delta, v, tau_c, dtc_dd, dtc_dv)
     q = np.empty(p.base.shape[0])
     _retract_at(p, delta, q)
     tau_s, tau = np.empty(nv), np.empty(nv)
