@@ -37,7 +37,7 @@ import numpy as np
 from .._numba import kernel
 from ..joints import _so3_jr_inv
 from ..rnea_derivatives import rnea_derivatives_at
-from ..spatial import _rotation_log, add, cross, cross_motion, matmul, transpose
+from ..spatial import _rotation_log, add, cross, cross_motion, get6, matmul, transpose
 from .operational_space import operational_space_into, orientation_at, task_reference_at
 from .passive import passive_derivatives, passive_torques
 
@@ -72,8 +72,9 @@ def _jacobian_derivative_times(Sw, J, p, u, pre, suf, out):
     _sums(Sw, u, pre, suf)
     wu = (suf[0, 0], suf[0, 1], suf[0, 2])  # sum_j w_j u_j
     for m in range(u.shape[0]):
-        dw, dv = cross_motion((Sw[m, 0], Sw[m, 1], Sw[m, 2]), (Sw[m, 3], Sw[m, 4], Sw[m, 5]),
-                              (suf[m, 0], suf[m, 1], suf[m, 2]), (suf[m, 3], suf[m, 4], suf[m, 5]))
+        sw, sv = get6(Sw, m)
+        uw, uv = get6(suf, m)
+        dw, dv = cross_motion(sw, sv, uw, uv)
         lin = add(add(dv, cross(dw, p)), cross(wu, (J[0, m], J[1, m], J[2, m])))
         out[0, m], out[1, m], out[2, m] = lin
         out[3, m], out[4, m], out[5, m] = dw
@@ -89,13 +90,13 @@ def _jacobian_transpose_derivative(Sw, J, p, rows, F, G):
     n_o = add(fang, cross(p, flin))  # the task force at the world origin
     nv = J.shape[1]
     for j in range(nv):
-        wj = (Sw[j, 0], Sw[j, 1], Sw[j, 2])
+        wj, vj = get6(Sw, j)
         for m in range(nv):
             c = cross(wj, (J[0, m], J[1, m], J[2, m]))
             x = flin[0] * c[0] + flin[1] * c[1] + flin[2] * c[2]
             if m <= j:
-                dw, dv = cross_motion((Sw[m, 0], Sw[m, 1], Sw[m, 2]), (Sw[m, 3], Sw[m, 4], Sw[m, 5]),
-                                      wj, (Sw[j, 3], Sw[j, 4], Sw[j, 5]))
+                sw, sv = get6(Sw, m)
+                dw, dv = cross_motion(sw, sv, wj, vj)
                 x += dw[0] * n_o[0] + dw[1] * n_o[1] + dw[2] * n_o[2] + dv[0] * flin[0] + dv[1] * flin[1] \
                     + dv[2] * flin[2]
             G[j, m] = x
@@ -110,22 +111,22 @@ def _bias_derivatives(Sw, J, p, v, pre, suf, T, Bq, Bv):
     acc = np.zeros(6)
     for m in range(nv - 1, -1, -1):  # T_m = sum_{k >= m} v_k S_k x V_{>k}
         nxt = suf[m + 1] if m + 1 < nv else np.zeros(6)
-        cw, cv = cross_motion((Sw[m, 0], Sw[m, 1], Sw[m, 2]), (Sw[m, 3], Sw[m, 4], Sw[m, 5]),
-                              (nxt[0], nxt[1], nxt[2]), (nxt[3], nxt[4], nxt[5]))
+        sw, sv = get6(Sw, m)
+        cw, cv = cross_motion(sw, sv, (nxt[0], nxt[1], nxt[2]), (nxt[3], nxt[4], nxt[5]))
         acc[0], acc[1], acc[2] = acc[0] + v[m] * cw[0], acc[1] + v[m] * cw[1], acc[2] + v[m] * cw[2]
         acc[3], acc[4], acc[5] = acc[3] + v[m] * cv[0], acc[4] + v[m] * cv[1], acc[5] + v[m] * cv[2]
         T[m] = acc
-    w, vo = (suf[0, 0], suf[0, 1], suf[0, 2]), (suf[0, 3], suf[0, 4], suf[0, 5])
+    w, vo = get6(suf, 0)
     aw = (T[0, 0], T[0, 1], T[0, 2])
     vp = add(vo, cross(w, p))
     for m in range(nv):
-        sw, sv = (Sw[m, 0], Sw[m, 1], Sw[m, 2]), (Sw[m, 3], Sw[m, 4], Sw[m, 5])
+        sw, sv = get6(Sw, m)
         dp = (J[0, m], J[1, m], J[2, m])
-        up = (suf[m, 0], suf[m, 1], suf[m, 2]), (suf[m, 3], suf[m, 4], suf[m, 5])
-        lo = (pre[m, 0], pre[m, 1], pre[m, 2]), (pre[m, 3], pre[m, 4], pre[m, 5])
+        up, lo = get6(suf, m), get6(pre, m)
         dVw, dVv = cross_motion(sw, sv, up[0], up[1])  # dV/dq_m
         dvp = add(add(dVv, cross(dVw, p)), cross(w, dp))
-        t1w, t1v = cross_motion(sw, sv, (T[m, 0], T[m, 1], T[m, 2]), (T[m, 3], T[m, 4], T[m, 5]))
+        tw, tv = get6(T, m)
+        t1w, t1v = cross_motion(sw, sv, tw, tv)
         t2w, t2v = cross_motion(lo[0], lo[1], dVw, dVv)
         dAw, dAv = add(t1w, t2w), add(t1v, t2v)
         lin = add(add(add(dAv, cross(dAw, p)), cross(aw, dp)), add(cross(dVw, vp), cross(w, dvp)))
