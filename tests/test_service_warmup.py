@@ -149,7 +149,15 @@ def test_the_late_warm_up_compiles_and_warmup_failures_fail_the_build(monkeypatc
     worker; ``python -m service --warmup`` printed the traceback and exited 0."""
     from service import __main__ as main
     from service.sim import warm
+    runs = []
+    simulate = dynamics.simulate
+    monkeypatch.setattr(dynamics, "simulate", lambda model, *a, **k: runs.append(simulate(model, *a, **k)))
     warm.warm_up_later()  # compiles, no exception
+    # and each of its simulations runs to its end (an operational-space task singular at t = 0 stopped there
+    # with a SimulationWarning in every worker's log)
+    assert len(runs) == 2 and all(tr.report["status"] == "ok" and tr.t[-1] == 0.01 for tr in runs), \
+        [(tr.report["status"], tr.t[-1]) for tr in runs]
+    monkeypatch.undo()
     monkeypatch.setattr(main, "compile_operations", lambda *a, **k: None)  # (the dynamics stage is not the point)
     monkeypatch.setattr(warm, "warm_up", lambda: None)
     monkeypatch.setattr(warm, "warm_up_rest", lambda: None)

@@ -46,8 +46,10 @@ def warm_up() -> None:
 def warm_up_later() -> None:
     """The simulations :class:`LateWarmup` compiles (``python -m service --warmup`` runs it too)."""
     model = load_model(WARMUP_URDF, floating_base=False)
+    # the frame 'arm' sits on the hinge's axis, so its position rows of J are zero: damping keeps the task
+    # regular (without it the run stops at t = 0 as singular, with a warning in every worker's log)
     torque = torques.build({"type": "operational_space", "frame": "arm", "position": [0.2, 0.0, -0.4],
-                           "kp": 1.0, "kd": 1.0, "rows": [0, 2]})
+                           "kp": 1.0, "kd": 1.0, "rows": [0, 2], "damping": 0.01})
     lib().simulate(model, np.array([0.1]), np.zeros(1), 0.01, torque=torque)
     t = np.array([0.0, 0.01])
     torque = torques.build({"type": "computed_torque", "t": t, "q": np.zeros((2, 1)), "v": np.zeros((2, 1)),
