@@ -367,10 +367,12 @@ class Compute:
         try:
             outcome = self.pool.run(dataclasses.replace(job, deadline=budget.deadline), budget.deadline)
         except PoolTimeout as e:
-            if len(e.args) > 1 and not e.args[1]:  # its worker was still warming up: compiling, not simulating
+            if len(e.args) > 1 and not e.args[1]:  # its worker was compiling, not simulating: it goes on
+                seconds = e.args[2] if len(e.args) > 2 and e.args[2] else 30.0
                 raise Unavailable("simulate: the simulation worker was still compiling the kernels this request "
-                                  "needs (once after a start with an empty cache); retry in a minute", code="starting",
-                                  headers={"Retry-After": "30"}) from None
+                                  "needs (once per kind of simulation after a start with an empty cache); retry in "
+                                  f"about {seconds:.0f} s", code="starting",
+                                  headers={"Retry-After": str(int(seconds))}) from None
             raise BudgetExceeded(f"the simulation of {job.duration:g} s", budget.seconds,
                                  "shorten the duration, loosen rtol/atol or use a larger dt") from None
         except PoolBusy as e:

@@ -104,8 +104,10 @@ class _announcing:
         if len(self.dispatcher.signatures) == self.compiled:
             contact = not self.key[-1]  # (the kind's last item: the problem has no contact)
             seconds = COMPILE_SECONDS.get(self.name, 20) + (CONTACT_COMPILE_SECONDS if contact else 0)
+            # compile_seconds: the same estimate for a program (the service's worker tells its pool, which then
+            # lets a request's deadline pass without killing the compilation)
             log.warning("compiling the simulation kernels for %r%s (first run, about %d s; cached afterwards)",
-                        self.name, " with contact" if contact else "", seconds)
+                        self.name, " with contact" if contact else "", seconds, extra={"compile_seconds": seconds})
 
     def __exit__(self, *exc):
         if self.timer is not None:

@@ -8,7 +8,9 @@ so a runaway simulation never keeps a core busy after its answer (504) has left.
 
 A new worker imports the library and runs one tiny simulation (numba compiles the integrator, or loads it
 from its on-disk cache) before it says "ready"; only ready workers take jobs. So a request budget never kills
-a compilation (which would then never finish). :attr:`SimPool.ready` is set once the first worker is ready:
+a compilation (which would then never finish): neither the warm-up's, nor one that a job starts (a kind of
+simulation the warm-up did not compile, such as a PD controller with contact): the worker says so on its status
+connection, and past the deadline the request is told to retry (503) while the worker finishes. :attr:`SimPool.ready` is set once the first worker is ready:
 the end of the service's warm-up (see :mod:`service.warmup`).
 
 Plain ``subprocess`` rather than ``multiprocessing.Process``: no re-import of ``__main__``, no fork of a process
@@ -40,8 +42,9 @@ class WorkerCrashed(RuntimeError):
 
 
 class PoolTimeout(Exception):
-    """The job ran past its deadline; its worker was killed. ``args[1]``: whether that worker had finished its
-    warm-up (if not, the time may have gone into compiling a kernel the request needed)."""
+    """The job ran past its deadline. ``args[1]``: False if its worker was compiling (its warm-up, or kernels
+    the job needs), so that it was left to finish: the request may be retried; True if it was killed.
+    ``args[2]`` where given: the seconds the compilation was announced to take."""
 
 
 class PoolBusy(Exception):
@@ -54,15 +57,17 @@ WARM_GRACE = 600.0
 
 class _Worker:
     """A worker process and its two connections: jobs (request, answer) and ``status`` (what the worker says of
-    its own, unasked: its late warm-up's outcome)."""
+    its own, unasked: its late warm-up's outcome, a compilation under way)."""
+
+    #: the worker's command line, before its three arguments (FD STATUS_FD PARENT_PID)
+    command = (sys.executable, "-m", "service.sim.worker")
 
     def __init__(self) -> None:
         parent, child = socket.socketpair()
         status_parent, status_child = socket.socketpair()
         try:
             self.proc = subprocess.Popen(
-                [sys.executable, "-m", "service.sim.worker", str(child.fileno()), str(status_child.fileno()),
-                 str(os.getpid())],
+                [*self.command, str(child.fileno()), str(status_child.fileno()), str(os.getpid())],
                 pass_fds=(child.fileno(), status_child.fileno()), stdin=subprocess.DEVNULL, close_fds=True,
             )
         finally:
@@ -73,6 +78,7 @@ class _Worker:
         self.jobs = 0
         self.started = time.monotonic()
         self.warm = False  # True once its whole warm-up (service.sim.warm) is over
+        self.compiling = 0.0  # seconds the worker announced for a compilation during its current job, 0 if none
 
     def kill(self) -> None:
         for conn in (self.conn, self.status):
@@ -116,15 +122,19 @@ class SimPool:
         with self._lock:
             self._all.add(w)
         threading.Thread(target=self._await_ready, args=(w,), daemon=True, name="sim-ready").start()
-        threading.Thread(target=self._await_late, args=(w,), daemon=True, name="sim-late").start()
+        threading.Thread(target=self._await_status, args=(w,), daemon=True, name="sim-status").start()
 
-    def _await_late(self, w: _Worker) -> None:
-        """The worker's word on its late warm-up: ("late", None | "the error"), then ("rest", ...)."""
+    def _await_status(self, w: _Worker) -> None:
+        """The worker's word on its late warm-up: ("late", None | "the error"), then ("contact", ...) and
+        ("rest", ...); and at any time ("compiling", seconds): its job is compiling kernels."""
         while True:
             try:
                 stage, error = w.status.recv()
             except (EOFError, OSError, ValueError, TypeError):
                 return
+            if stage == "compiling":
+                w.compiling = float(error)
+                continue
             if error:
                 log.error("simulation worker %s: the %s warm-up failed: %s", w.proc.pid, stage, error)
             if stage == "late" and not self.late.is_set():
@@ -132,7 +142,6 @@ class SimPool:
                 self.late.set()
             elif stage == "rest":
                 w.warm = True
-                return
 
     def wait_late(self) -> None:
         """Block until a worker's late warm-up ended; a RuntimeError naming the failure if it failed."""
@@ -188,12 +197,14 @@ class SimPool:
             self._idle.put(w)
             raise PoolTimeout("the deadline passed before the simulation could start")
         try:
+            w.compiling = 0.0
             w.conn.send(job)
             if not w.conn.poll(max(0.0, deadline - time.monotonic())):
-                if not w.warm:  # still compiling its warm-up's kernels: killing it would lose them, and its
-                    # replacement would start over (a short budget would then never meet a warm worker)
+                if not w.warm or w.compiling:  # compiling (its warm-up's kernels, or the job's): killing it would
+                    # lose them, and its replacement would start over (a short budget would never meet them
+                    # compiled)
                     threading.Thread(target=self._finish, args=(w,), daemon=True, name="sim-finish").start()
-                    raise PoolTimeout("the simulation's worker was still warming up", False)
+                    raise PoolTimeout("the simulation's worker was compiling", False, w.compiling)
                 self.killed += 1
                 self._replace(w)
                 raise PoolTimeout("the simulation ran past the deadline; its worker was stopped", w.warm)
@@ -212,7 +223,7 @@ class SimPool:
         return answer
 
     def _finish(self, w: _Worker) -> None:
-        """Let a warming-up worker finish the job its request gave up on (its answer dropped), then take jobs
+        """Let a compiling worker finish the job its request gave up on (its answer dropped), then take jobs
         again; one still busy after WARM_GRACE seconds is replaced after all."""
         try:
             if w.conn.poll(WARM_GRACE):

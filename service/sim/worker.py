@@ -2,7 +2,9 @@
 :mod:`service.sim.pool`; it exits when its server dies, :mod:`service.lifeline`).
 
 It compiles the simulation kernels first (:mod:`service.sim.warm`), says "ready", compiles the operational-space
-and computed-torque sources in a background thread and says on STATUS_FD how that went, then reads :class:`~service.sim.job.Job` records from the connection on file descriptor
+and computed-torque sources in a background thread and says on STATUS_FD how that went (and, whenever the library
+announces that a simulation is compiling its kernels, ``("compiling", seconds)``: the pool then lets that job's
+deadline pass without killing the compilation, which would otherwise never finish), then reads :class:`~service.sim.job.Job` records from the connection on file descriptor
 FD, runs ``dynamics.simulate`` and sends an :class:`~service.sim.job.Outcome` back. Models are cached per worker
 by robot id and locked set, as in the server. A library error becomes ``input_error`` (the server answers 422
 naming the field); the process only ends when its connection closes or the server kills it.
@@ -11,7 +13,9 @@ The HTTP torque spec becomes the library's torque object through :mod:`service.t
 
 from __future__ import annotations
 
+import logging
 import sys
+import threading
 import time
 import traceback
 from multiprocessing.connection import Connection
@@ -75,6 +79,20 @@ def handle(job: Job, cache: ModelCache) -> Outcome:
         return Outcome(error=f"{type(e).__name__}: {e}")
 
 
+class _Announcements(logging.Handler):
+    """Passes the library's "compiling the simulation kernels ..." announcements (log records with a
+    ``compile_seconds``) to the pool as ``("compiling", seconds)``."""
+
+    def __init__(self, report) -> None:
+        super().__init__(logging.WARNING)
+        self.report = report
+
+    def emit(self, record: logging.LogRecord) -> None:
+        seconds = getattr(record, "compile_seconds", None)
+        if seconds is not None:
+            self.report("compiling", float(seconds))
+
+
 def main(fd: int, status_fd: int, parent: int) -> None:
     bind_to_parent(parent)
     configure_worker_logging()
@@ -88,12 +106,16 @@ def main(fd: int, status_fd: int, parent: int) -> None:
     except OSError:
         return
 
+    lock = threading.Lock()  # the late warm-up's thread and the library's announcing timer both report
+
     def report(stage: str, error: Optional[str]) -> None:
         try:
-            status.send((stage, error))
+            with lock:
+                status.send((stage, error))
         except OSError:
             pass
 
+    logging.getLogger("dynamics.simulation").addHandler(_Announcements(report))
     warm.LATER.start(report)
     while True:
         try:
