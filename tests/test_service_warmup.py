@@ -133,15 +133,19 @@ def test_a_failed_stage_is_logged_and_the_next_one_runs(caplog):
 
 def test_the_rest_of_the_warm_up_reaches_radau_and_the_free_joint(monkeypatch):
     """warm_up_rest compiles what it says: its stiff PD makes auto switch to radau, its floating model has a free
-    joint (seen through the simulations it runs)."""
+    joint, and it runs contact under a PD controller that touches the ground (seen through the simulations it
+    runs)."""
     from service.sim import warm
     runs = []
     simulate = dynamics.simulate
-    monkeypatch.setattr(dynamics, "simulate", lambda model, *a, **k: runs.append((model, simulate(model, *a, **k))))
+    monkeypatch.setattr(dynamics, "simulate",
+                        lambda model, *a, **k: runs.append((model, k, simulate(model, *a, **k))))
     warm.warm_up_rest()
-    assert any(tr.report["switches"] and tr.report["switches"][0]["to"] == "radau" for _, tr in runs)
-    assert any(model.nq == model.nv + 1 for model, _ in runs)  # a quaternion: the free joint
-    assert all(tr.report["status"] == "ok" for _, tr in runs)
+    assert any(tr.report["switches"] and tr.report["switches"][0]["to"] == "radau" for _, _, tr in runs)
+    assert any(model.nq == model.nv + 1 for model, _, _ in runs)  # a quaternion: the free joint
+    assert any(isinstance(k.get("torque"), dynamics.torques.PD) and k.get("contact") is not None
+               and tr.report["contact"]["max_penetration"] > 0 for _, k, tr in runs)
+    assert all(tr.report["status"] == "ok" for _, _, tr in runs)
 
 
 def test_the_late_warm_up_compiles_and_warmup_failures_fail_the_build(monkeypatch, capsys):

@@ -61,19 +61,26 @@ def warm_up_contact() -> None:
     """A simulation with contact: its problem type (the narrow phase, the force law, the contact quadrature) is
     compiled only for runs with contact, ~10-20 s from an empty cache. A floating body with a sphere on the
     default ground, as most contact requests are (a free base with feet)."""
+    floating, q0, contact = _contact_scene()
+    lib().simulate(floating, q0, np.zeros(floating.nv), 0.2, contact=contact)
+
+
+def _contact_scene():
+    """The warm-up's floating body with a sphere at the end of its arm, 0.05 m above the default ground."""
     floating = load_model(WARMUP_URDF, floating_base=True)
     q0 = floating.neutral()
     q0[2] = 0.6  # the sphere on the arm's end (0.5 m below the base) 0.05 m from touching
     contact = contacts.build({"geometries": [{"type": "sphere", "frame": "arm", "radius": 0.05,
                                               "offset": [0.0, 0.0, -0.5]}]})
-    lib().simulate(floating, q0, np.zeros(floating.nv), 0.2, contact=contact)
+    return floating, q0, contact
 
 
 def warm_up_rest() -> None:
     """What a first request of another kind would otherwise compile inside its time budget, compiled after the
     late warm-up (each is a few seconds from an empty cache): the constant and table torques (a source compiles
     only its own kind), a floating-base model (the free joint's chart), and auto's first switch to radau (a stiff
-    PD: radau is compiled only when auto first switches to it)."""
+    PD: radau is compiled only when auto first switches to it), and contact under a PD controller (a robot
+    standing on its feet: a problem type of its own, a few minutes from an empty cache)."""
     model = load_model(WARMUP_URDF, floating_base=False)
     q0, v0 = np.array([0.1]), np.zeros(1)
     for spec in ({"type": "constant", "tau": [0.1]}, {"type": "table", "t": [0.0, 1.0], "tau": [[0.0], [0.1]]},
@@ -81,6 +88,9 @@ def warm_up_rest() -> None:
         lib().simulate(model, q0, v0, 0.05, torque=torques.build(spec))
     floating = load_model(WARMUP_URDF, floating_base=True)
     lib().simulate(floating, floating.neutral(), np.zeros(floating.nv), 0.01)
+    floating, q0, contact = _contact_scene()
+    pd = torques.build({"type": "pd", "q_target": q0, "kp": 1.0, "kd": 1.0})
+    lib().simulate(floating, q0, np.zeros(floating.nv), 0.2, torque=pd, contact=contact)
 
 
 def attempt(warm: Callable[[], None], tries: int = 2) -> Optional[str]:
