@@ -64,7 +64,8 @@ def warmup() -> int:
         stages.append(Stage("compiling simulation kernels", warm.warm_up))
         stages.append(Stage("compiling the operational-space simulation kernels", warm.warm_up_later))
         stages.append(Stage("compiling the contact simulation kernels", warm.warm_up_contact))
-        stages.append(Stage("compiling the other torque kinds, the free joint and radau", warm.warm_up_rest))
+        stages.append(Stage("compiling the other torque kinds, the free joint, radau and contact under PD",
+                            warm.warm_up_rest))
     run = Warmup()
     run.run(stages)
     if run.failures:  # the Docker build step: an image whose kernels did not compile is not built
