@@ -10,8 +10,9 @@ A new worker imports the library and runs one tiny simulation (numba compiles th
 from its on-disk cache) before it says "ready"; only ready workers take jobs. So a request budget never kills
 a compilation (which would then never finish): neither the warm-up's, nor one that a job starts (a kind of
 simulation the warm-up did not compile, such as a PD controller with contact): the worker says so on its status
-connection, and past the deadline the request is told to retry (503) while the worker finishes. :attr:`SimPool.ready` is set once the first worker is ready:
-the end of the service's warm-up (see :mod:`service.warmup`).
+connection, and past the deadline the request is told to retry (503) while the worker finishes.
+:attr:`SimPool.ready` is set once the first worker is ready: the end of the service's warm-up (see
+:mod:`service.warmup`).
 
 Plain ``subprocess`` rather than ``multiprocessing.Process``: no re-import of ``__main__``, no fork of a process
 that runs an event loop and threads, and it works inside uvicorn's own worker processes.
