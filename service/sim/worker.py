@@ -7,8 +7,8 @@ announces that a simulation is compiling its kernels, ``("compiling", seconds)``
 deadline pass without killing the compilation, which would otherwise never finish), then reads
 :class:`~service.sim.job.Job` records from the connection on file descriptor FD, runs ``dynamics.simulate``
 and sends an :class:`~service.sim.job.Outcome` back. Models are cached per worker by robot id and locked set, as
-in the server. A library error becomes ``input_error`` (the server answers 422
-naming the field); the process only ends when its connection closes or the server kills it.
+in the server. A library error becomes ``input_error`` (the server answers 422 naming the field); the process
+only ends when its connection closes or the server kills it.
 The HTTP torque spec becomes the library's torque object through :mod:`service.torque`, as in the jobs.
 """
 
