@@ -19,7 +19,7 @@ from typing import NamedTuple
 import numpy as np
 
 from . import checks
-from ._numba import (borrowed, SingleCall, VECTOR, address, helper, inline_kernel, keep_alive, kernel, scratch, view)
+from ._numba import (borrow, SingleCall, VECTOR, address, helper, inline_kernel, keep_alive, kernel, scratch, view)
 from .checks import NOT_ARRAYS, DONE, GENERAL, _config_shape_ok, _finite, _nonzero
 from .constrained_dynamics import constrained_forward_dynamics
 from .joints import _joint_motion
@@ -231,9 +231,9 @@ _accelerations, _acceleration_pass = kernel(_acceleration_pass), inline_kernel(_
 @kernel
 def _aba_batch(tree, Q, V, T, F, gravity, with_v, out, status):
     # the arguments as views with no owner: no reference counts in the loops (dynamics._numba.borrowed)
-    tree, Q, V = borrowed(tree), borrowed(Q), borrowed(V)
-    T, F, gravity = borrowed(T), borrowed(F), borrowed(gravity)
-    with_v, out, status = borrowed(with_v), borrowed(out), borrowed(status)
+    tree, Q, V = borrow(tree), borrow(Q), borrow(V)
+    T, F, gravity = borrow(T), borrow(F), borrow(gravity)
+    with_v, out, status = borrow(with_v), borrow(out), borrow(status)
     nb, nv = tree.parents.shape[0], tree.S.shape[0]
     buf = np.empty(_work_at(0, 0, nb, nv)[1])
     ws = _work_at(address(buf), 0, nb, nv)[0]

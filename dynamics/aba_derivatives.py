@@ -34,7 +34,7 @@ from typing import NamedTuple
 import numpy as np
 
 from . import checks, minverse, rnea_derivatives
-from ._numba import (MATRIX, SingleCall, VECTOR, address, borrowed, helper, inline_kernel, keep_alive, kernel,
+from ._numba import (MATRIX, SingleCall, VECTOR, address, borrow, helper, inline_kernel, keep_alive, kernel,
                      scratch, view)
 from .checks import DONE, GENERAL, NOT_ARRAYS, _config_shape_ok, _finite
 from .data import _take, _take_int
@@ -245,8 +245,8 @@ def _acceleration(UD, Dinv, c, u, oa, gravity, a, i, k0, nj, par):
 def _aba_derivatives_batch(tree, Q, V, T, F, gravity, out, status):
     """out[b] = (da/dq, da/dv, M^-1) at the rows of Q, V, T (V, T, F may have one row); status[b] = -1 or a
     singular body."""
-    tree, Q, V, T, F, out = borrowed(tree), borrowed(Q), borrowed(V), borrowed(T), borrowed(F), borrowed(out)
-    status = borrowed(status)
+    tree, Q, V, T, F, out = borrow(tree), borrow(Q), borrow(V), borrow(T), borrow(F), borrow(out)
+    status = borrow(status)
     nb, nv = tree.parents.shape[0], tree.S.shape[0]
     buf = np.empty(_work_size(nb, nv))
     lf, lv, lt = F.shape[0] - 1, V.shape[0] - 1, T.shape[0] - 1

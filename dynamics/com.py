@@ -17,7 +17,7 @@ count.
 import numpy as np
 
 from . import checks
-from ._numba import (MATRIX, SingleCall, VECTOR, address, borrowed, inline_kernel, keep_alive, kernel, scratch,
+from ._numba import (MATRIX, SingleCall, VECTOR, address, borrow, inline_kernel, keep_alive, kernel, scratch,
                      view)
 from .checks import DONE, GENERAL, NOT_ARRAYS, _config_ok
 from .joints import _joint_motion
@@ -34,7 +34,7 @@ COM, VELOCITY, JACOBIAN = 0, 1, 2
 def _com_batch(model_tree, Q, V, what, out):
     """Per state into out[b] (3, 1 or nv): com, vcom (what = VELOCITY) or Jcom (what = JACOBIAN)."""
     # borrowed: _com_into takes the arrays out of the tuple, and out[b] is a view, per state: no reference counts
-    tree, rows = borrowed(model_tree), borrowed(out)
+    tree, rows = borrow(model_tree), borrow(out)
     nb = tree.parents.shape[0]
     oR, op, H, ms = np.empty((nb, 3, 3)), np.empty((nb, 3)), np.empty((nb, 3)), np.empty(nb)
     ws, vs = np.empty((nb, 3)), np.empty((nb, 3))

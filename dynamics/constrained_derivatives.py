@@ -57,7 +57,7 @@ import numpy as np
 from . import checks, rnea_derivatives
 from numba import types
 
-from ._numba import PACKED, SingleCall, VECTOR, borrowed, copy_into, inline_kernel, keep_alive, kernel
+from ._numba import PACKED, SingleCall, VECTOR, borrow, copy_into, inline_kernel, keep_alive, kernel
 from .checks import DONE, GENERAL, NOT_ARRAYS, _config_ok, _vector_ok
 from .constrained_dynamics import (CHOLESKY_RTOL, RANK_RTOL, _C_rows, _cholesky, _constrained_accel_kernel,
                                    _lower_solve, _pinv_solve, _pivoted_cholesky,
@@ -442,9 +442,9 @@ def _derivatives_batch(tree, Q, V, T, C, gravity, alpha, beta, out, status):
     """out[b] = [da; dlam] along q, v, tau at the rows of Q, V, T (V, T may have one row)."""
     # borrowed (no reference counts), which also gives the tree and C the single call's types: one compiled
     # _state_derivatives serves both
-    t, c, q, v, tau, o = borrowed(tree), borrowed(C), borrowed(Q), borrowed(V), borrowed(T), borrowed(out)
+    t, c, q, v, tau, o = borrow(tree), borrow(C), borrow(Q), borrow(V), borrow(T), borrow(out)
     buf, owned = _work(t, out.shape[2] - tree.S.shape[0])
-    work = borrowed(owned)
+    work = borrow(owned)
     lv, lt = V.shape[0] - 1, T.shape[0] - 1
     for b in range(Q.shape[0]):
         status[b] = _state_derivatives(t, c, gravity, q[b], v[min(b, lv)], tau[min(b, lt)], alpha, beta, work, o[b])
@@ -471,7 +471,7 @@ def _derivatives_one(packed, packed_C, q, v, tau, alpha, beta, out):
     g = np.empty(3)  # gravity as a writable array: the batch's type
     g[0], g[1], g[2] = gravity[0], gravity[1], gravity[2]
     buf, owned = _work(tree, m)
-    status = _state_derivatives(tree, C, g, q, v, tau, alpha, beta, borrowed(owned), out)
+    status = _state_derivatives(tree, C, g, q, v, tau, alpha, beta, borrow(owned), out)
     keep_alive(buf)
     keep_alive(owned)
     return DONE if status < 0 else GENERAL

@@ -49,7 +49,7 @@ import numpy as np
 from numba import types
 
 from . import checks
-from ._numba import (PACKED, SingleCall, VECTOR, address, borrowed, copy_into, helper, inline_kernel, keep_alive,
+from ._numba import (PACKED, SingleCall, VECTOR, address, borrow, copy_into, helper, inline_kernel, keep_alive,
                      kernel, scratch, view)
 from .configuration import _integrate_q
 from .data import _take
@@ -361,8 +361,8 @@ def _constrained_fd_batch(tree, Q, V, T, C, gravity, alpha, beta, out, status):
     ws_owned = _workspace(nb, nv, m)
     # borrowed (no reference counts): every array of tree, C and ws, and each row view, would otherwise cost an
     # atomic increment and decrement per call of every sub-kernel, per state (about a microsecond)
-    t, c, ws, q, v, tau, o = borrowed(tree), borrowed(C), borrowed(ws_owned), borrowed(Q), borrowed(V), \
-        borrowed(T), borrowed(out)
+    t, c, ws, q, v, tau, o = borrow(tree), borrow(C), borrow(ws_owned), borrow(Q), borrow(V), \
+        borrow(T), borrow(out)
     lv, lt = V.shape[0] - 1, T.shape[0] - 1
     for b in range(Q.shape[0]):
         status[b] = _constrained_accel_kernel(t, c, gravity, q[b], v[min(b, lv)], tau[min(b, lt)], alpha, beta,
@@ -463,8 +463,8 @@ def _project_position_kernel(tree, C, q, ws, tol, max_iter, q_out):
 @kernel
 def _project_batch(tree, Q, V, C, out, status):
     # the arguments as views with no owner: no reference counts in the loops (dynamics._numba.borrowed)
-    tree, Q, V = borrowed(tree), borrowed(Q), borrowed(V)
-    C, out, status = borrowed(C), borrowed(out), borrowed(status)
+    tree, Q, V = borrow(tree), borrow(Q), borrow(V)
+    C, out, status = borrow(C), borrow(out), borrow(status)
     nb, nv = tree.parents.shape[0], tree.S.shape[0]
     ws = _workspace(nb, nv, _C_rows(C))
     lv = V.shape[0] - 1
@@ -532,9 +532,9 @@ def _constrained_id_kernel(tree, C, gravity, q, v, a, actuated, ws, tau_out):
 @kernel
 def _constrained_id_batch(tree, Q, V, A, C, gravity, actuated, out, status):
     # the arguments as views with no owner: no reference counts in the loops (dynamics._numba.borrowed)
-    tree, Q, V = borrowed(tree), borrowed(Q), borrowed(V)
-    A, C, gravity = borrowed(A), borrowed(C), borrowed(gravity)
-    actuated, out, status = borrowed(actuated), borrowed(out), borrowed(status)
+    tree, Q, V = borrow(tree), borrow(Q), borrow(V)
+    A, C, gravity = borrow(A), borrow(C), borrow(gravity)
+    actuated, out, status = borrow(actuated), borrow(out), borrow(status)
     nb, nv = tree.parents.shape[0], tree.S.shape[0]
     ws = _workspace(nb, nv, _C_rows(C))
     lv, la = V.shape[0] - 1, A.shape[0] - 1

@@ -38,7 +38,7 @@ from typing import NamedTuple
 import numpy as np
 
 from . import checks
-from ._numba import borrowed, address, float_at, helper, inline_kernel, int_at, kernel
+from ._numba import borrow, address, float_at, helper, inline_kernel, int_at, kernel
 from .data import _take
 from .configuration import _integrate_q
 from .errors import InputError
@@ -693,8 +693,8 @@ def _constraint_terms(tree, C, q, v, with_J, with_v, ws, phi, J, gamma):
 def _residual_batch(tree, Q, V, C, out):
     """out[b] = phi(Q[b]) (V unused)."""
     # the arguments as views with no owner: no reference counts in the loops (dynamics._numba.borrowed)
-    tree, Q, V = borrowed(tree), borrowed(Q), borrowed(V)
-    C, out = borrowed(C), borrowed(out)
+    tree, Q, V = borrow(tree), borrow(Q), borrow(V)
+    C, out = borrow(C), borrow(out)
     nb, nv, m = tree.parents.shape[0], tree.S.shape[0], out.shape[1]
     ws, J, gamma = _workspace(nb, nv), np.empty((m, nv)), np.empty(m)
     for b in range(Q.shape[0]):
@@ -705,8 +705,8 @@ def _residual_batch(tree, Q, V, C, out):
 def _jacobian_batch(tree, Q, V, C, out):
     """out[b] = Phi_q(Q[b]) (V unused)."""
     # the arguments as views with no owner: no reference counts in the loops (dynamics._numba.borrowed)
-    tree, Q, V = borrowed(tree), borrowed(Q), borrowed(V)
-    C, out = borrowed(C), borrowed(out)
+    tree, Q, V = borrow(tree), borrow(Q), borrow(V)
+    C, out = borrow(C), borrow(out)
     nb, nv, m = tree.parents.shape[0], tree.S.shape[0], out.shape[1]
     ws, phi, gamma = _workspace(nb, nv), np.empty(m), np.empty(m)
     for b in range(Q.shape[0]):
@@ -717,8 +717,8 @@ def _jacobian_batch(tree, Q, V, C, out):
 def _bias_batch(tree, Q, V, C, out):
     """out[b] = Phi_q_dot v at (Q[b], V[b]) (V may have one row)."""
     # the arguments as views with no owner: no reference counts in the loops (dynamics._numba.borrowed)
-    tree, Q, V = borrowed(tree), borrowed(Q), borrowed(V)
-    C, out = borrowed(C), borrowed(out)
+    tree, Q, V = borrow(tree), borrow(Q), borrow(V)
+    C, out = borrow(C), borrow(out)
     nb, nv, m = tree.parents.shape[0], tree.S.shape[0], out.shape[1]
     ws, phi, J = _workspace(nb, nv), np.empty(m), np.empty((m, nv))
     lv = V.shape[0] - 1

@@ -16,7 +16,7 @@ Cost is O(n d^2) for depth d: it is meant for analysis and control design, not f
 
 import numpy as np
 from . import checks
-from ._numba import borrowed, address, keep_alive, kernel
+from ._numba import borrow, address, keep_alive, kernel
 from .parallel import run_chunks
 
 from .data import _data_at, _forward_pass
@@ -120,8 +120,8 @@ def _coriolis_kernel(tree, q, v, C):
 @kernel
 def _coriolis_batch(tree, Q, V, out):
     # the arguments as views with no owner: no reference counts in the loops (dynamics._numba.borrowed)
-    tree, Q, V = borrowed(tree), borrowed(Q), borrowed(V)
-    out = borrowed(out)
+    tree, Q, V = borrow(tree), borrow(Q), borrow(V)
+    out = borrow(out)
     for b in range(Q.shape[0]):
         _coriolis_kernel(tree, Q[b], V[b], out[b])
 

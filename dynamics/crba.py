@@ -11,7 +11,7 @@ Only the lower triangle is computed; the upper one is its mirror.
 import numpy as np
 
 from . import checks
-from ._numba import (borrowed, MATRIX, SingleCall, VECTOR, address, helper, inline_kernel, keep_alive, kernel, scratch)
+from ._numba import (borrow, MATRIX, SingleCall, VECTOR, address, helper, inline_kernel, keep_alive, kernel, scratch)
 from .data import _take
 from .checks import NOT_ARRAYS, DONE, GENERAL, _config_shape_ok, _finite, _roots_finite
 from .model import _unpack
@@ -89,7 +89,7 @@ def _add9(A, B):
 @kernel
 def _crba_batch(tree, Q, out):
     # the arguments as views with no owner: no reference counts in the loops (dynamics._numba.borrowed)
-    tree, Q, out = borrowed(tree), borrowed(Q), borrowed(out)
+    tree, Q, out = borrow(tree), borrow(Q), borrow(out)
     ws = _workspace(tree.parents.shape[0])
     out[:] = 0.0
     for b in range(Q.shape[0]):

@@ -15,7 +15,7 @@ compiled anyway (a kernel of its own cost ~4 s of a first simulate from an empty
 import numpy as np
 
 from . import checks
-from ._numba import (borrowed, address, inline_kernel, keep_alive, kernel)
+from ._numba import (borrow, address, inline_kernel, keep_alive, kernel)
 from .aba import _rigid_body_terms
 from .parallel import run_chunks
 from .data import _data_at, _forward_pass, _take
@@ -66,9 +66,9 @@ def _energy_batch(tree, Q, V, gravity, kinetic, potential, out):
     """out[b] = (T, U) at (Q[b], V[b]), T only if ``kinetic`` (else 0 and V may have one row), U only if
     ``potential`` (else 0)."""
     # the arguments as views with no owner: no reference counts in the loops (dynamics._numba.borrowed)
-    tree, Q, V = borrowed(tree), borrowed(Q), borrowed(V)
-    gravity, kinetic, potential = borrowed(gravity), borrowed(kinetic), borrowed(potential)
-    out = borrowed(out)
+    tree, Q, V = borrow(tree), borrow(Q), borrow(V)
+    gravity, kinetic, potential = borrow(gravity), borrow(kinetic), borrow(potential)
+    out = borrow(out)
     nb = tree.parents.shape[0]
     buf = np.empty(_data_at(0, 0, nb)[1] + 12 * nb)
     d, o = _data_at(address(buf), 0, nb)

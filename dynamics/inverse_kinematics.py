@@ -22,7 +22,7 @@ are reported, not raised.
 import numpy as np
 
 from . import checks
-from ._numba import borrowed, keep_alive, kernel
+from ._numba import borrow, keep_alive, kernel
 from .configuration import _integrate_q
 from .errors import InputError
 from .jacobians import _jacobian_into
@@ -97,7 +97,7 @@ def _ik_batch(model_tree, Q0, T, model_frames, f, r, tol, max_iter, damping, lim
     """out[b] = (q solving the IK from Q0[b] towards T[b], status, iterations, residual, position error,
     orientation error); T has B rows or one."""
     # borrowed: _jacobian_into takes the arrays out of the tuples per body and per step: no reference counts
-    tree, frames = borrowed(model_tree), borrowed(model_frames)
+    tree, frames = borrow(model_tree), borrow(model_frames)
     nb, nv = tree.parents.shape[0], tree.S.shape[0]
     path, oR, op = np.empty(nb, np.int64), np.empty((nb, 3, 3)), np.empty((nb, 3))
     J, Jt = np.zeros((6, nv)), np.zeros((6, nv))

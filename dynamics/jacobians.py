@@ -16,7 +16,7 @@ import numpy as np
 from numba import types
 
 from . import checks
-from ._numba import (MATRIX, SingleCall, VECTOR, address, borrowed, inline_kernel, keep_alive,
+from ._numba import (MATRIX, SingleCall, VECTOR, address, borrow, inline_kernel, keep_alive,
                      kernel, scratch)
 from .checks import DONE, GENERAL, NOT_ARRAYS, REFERENCES, _config_ok
 from .kinematics import LOCAL, WORLD, _frame_pose, _support, _world_poses
@@ -53,7 +53,7 @@ def _jacobian_into(tree, frames, q, f, ref, point, path, oR, op, J):
 @kernel
 def _jacobian_batch(model_tree, Q, model_frames, f, ref, point, out):
     # borrowed: _jacobian_into takes the arrays out of the tuples per body and per state: no reference counts
-    tree, frames, J = borrowed(model_tree), borrowed(model_frames), borrowed(out)
+    tree, frames, J = borrow(model_tree), borrow(model_frames), borrow(out)
     nb = tree.parents.shape[0]
     path, oR, op = np.empty(nb, np.int64), np.empty((nb, 3, 3)), np.empty((nb, 3))
     out[:] = 0.0

@@ -28,7 +28,7 @@ import numpy as np
 from numba import types
 
 from . import checks
-from ._numba import (borrowed, SingleCall, VECTOR, address, inline_kernel, keep_alive, kernel, scratch)
+from ._numba import (borrow, SingleCall, VECTOR, address, inline_kernel, keep_alive, kernel, scratch)
 from .checks import NOT_ARRAYS, DONE, GENERAL, _config_shape_ok, _finite
 from .joints import _joint_motion, _joint_transform
 from .data import _take
@@ -119,8 +119,8 @@ def _store_pose(R, p, T):
 def _placements_batch(tree, Q, frames, out):
     """out[b, f] = 4x4 world placement of every frame f at Q[b]."""
     # the arguments as views with no owner: no reference counts in the loops (dynamics._numba.borrowed)
-    tree, Q, frames = borrowed(tree), borrowed(Q), borrowed(frames)
-    out = borrowed(out)
+    tree, Q, frames = borrow(tree), borrow(Q), borrow(frames)
+    out = borrow(out)
     nb = tree.parents.shape[0]
     oR, op = np.empty((nb, 3, 3)), np.empty((nb, 3))
     for b in range(Q.shape[0]):
@@ -157,8 +157,8 @@ def _placements_one(packed, q, out):
 def _placement_batch(tree, Q, frames, f, out):
     """out[b] = 4x4 world placement of frame f at Q[b], computed along its support only."""
     # the arguments as views with no owner: no reference counts in the loops (dynamics._numba.borrowed)
-    tree, Q, frames = borrowed(tree), borrowed(Q), borrowed(frames)
-    f, out = borrowed(f), borrowed(out)
+    tree, Q, frames = borrow(tree), borrow(Q), borrow(frames)
+    f, out = borrow(f), borrow(out)
     nb = tree.parents.shape[0]
     path, oR, op = np.empty(nb, np.int64), np.empty((nb, 3, 3)), np.empty((nb, 3))
     n = _support(tree.parents, frames.body[f], path)
@@ -177,10 +177,10 @@ def _motion_batch(tree, Q, V, A, frames, f, ref, what, classical, out):
     """out[b] = [linear; angular] velocity, acceleration or bias acceleration (a = 0, A not read) of frame f
     in reference ``ref``.  V and A have B rows or one."""
     # the arguments as views with no owner: no reference counts in the loops (dynamics._numba.borrowed)
-    tree, Q, V = borrowed(tree), borrowed(Q), borrowed(V)
-    A, frames, f = borrowed(A), borrowed(frames), borrowed(f)
-    ref, what, classical = borrowed(ref), borrowed(what), borrowed(classical)
-    out = borrowed(out)
+    tree, Q, V = borrow(tree), borrow(Q), borrow(V)
+    A, frames, f = borrow(A), borrow(frames), borrow(f)
+    ref, what, classical = borrow(ref), borrow(what), borrow(classical)
+    out = borrow(out)
     parents = tree.parents
     nb = parents.shape[0]
     path, oR, op = np.empty(nb, np.int64), np.empty((nb, 3, 3)), np.empty((nb, 3))

@@ -25,7 +25,7 @@ loops specialised with their 6-vectors in locals; the free joint the generic one
 import numpy as np
 
 from . import checks
-from ._numba import (borrowed, MATRIX, SingleCall, VECTOR, address, helper, inline_kernel, keep_alive, kernel, scratch)
+from ._numba import (borrow, MATRIX, SingleCall, VECTOR, address, helper, inline_kernel, keep_alive, kernel, scratch)
 from .checks import DONE, GENERAL, NOT_ARRAYS, _config_shape_ok, _finite, _roots_finite
 from .kinematics import _world_pose
 from .data import _take, _take_int
@@ -269,8 +269,8 @@ def _forward_1dof(Sw, UD, A, Minv, i, k0, ns, par, nv):
 def _minverse_batch(tree, Q, out, status):
     """out[b] = M^-1 at Q[b]; status[b] = -1 or a body whose joint makes M singular."""
     # the arguments as views with no owner: no reference counts in the loops (dynamics._numba.borrowed)
-    tree, Q, out = borrowed(tree), borrowed(Q), borrowed(out)
-    status = borrowed(status)
+    tree, Q, out = borrow(tree), borrow(Q), borrow(out)
+    status = borrow(status)
     nv = tree.S.shape[0]
     ws, Minv = _workspace(tree.parents.shape[0], nv), np.empty((nv, nv))
     for b in range(Q.shape[0]):

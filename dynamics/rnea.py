@@ -17,7 +17,7 @@ from typing import NamedTuple
 import numpy as np
 
 from . import checks
-from ._numba import (borrowed, VECTOR, address, helper, inline_kernel, keep_alive, kernel, scratch, SingleCall, view,
+from ._numba import (borrow, VECTOR, address, helper, inline_kernel, keep_alive, kernel, scratch, SingleCall, view,
                      )
 from .checks import NOT_ARRAYS, DONE, GENERAL, _config_shape_ok, _finite, _nonzero, _roots_finite
 from .data import Data, _data_at, _forward_body, _take
@@ -159,7 +159,7 @@ def _gravity_into(tree, q, gravity, ws, tau):
 @kernel
 def _gravity_batch(tree, Q, gravity, out):
     # the arguments as views with no owner: no reference counts in the loops (dynamics._numba.borrowed)
-    tree, Q, gravity, out = borrowed(tree), borrowed(Q), borrowed(gravity), borrowed(out)
+    tree, Q, gravity, out = borrow(tree), borrow(Q), borrow(gravity), borrow(out)
     nb = tree.parents.shape[0]
     buf = np.empty(_gravity_work_at(0, 0, nb)[1])
     ws = _gravity_work_at(address(buf), 0, nb)[0]
@@ -178,7 +178,7 @@ def _rnea_into(tree, q, v, a, gravity, f_ext, ws, tau):
 def _rnea_batch(tree, Q, V, A, F, gravity, with_v, with_a, out):
     """Rows of ``out`` = RNEA of the rows of Q, V, A (V or A may have one row when unused); F is
     (1 or B, nb or 0, 6)."""
-    tree, Q, V, A, F, out = borrowed(tree), borrowed(Q), borrowed(V), borrowed(A), borrowed(F), borrowed(out)
+    tree, Q, V, A, F, out = borrow(tree), borrow(Q), borrow(V), borrow(A), borrow(F), borrow(out)
     nb = tree.parents.shape[0]
     buf = np.empty(_work_at(0, 0, nb)[1])
     ws = _work_at(address(buf), 0, nb)[0]

@@ -37,7 +37,7 @@ from typing import NamedTuple
 import numpy as np
 
 from . import checks
-from ._numba import (MATRIX, SingleCall, VECTOR, address, borrowed, helper, inline_kernel, keep_alive, kernel, scratch,
+from ._numba import (MATRIX, SingleCall, VECTOR, address, borrow, helper, inline_kernel, keep_alive, kernel, scratch,
                      view)
 from .checks import DONE, GENERAL, NOT_ARRAYS, _config_shape_ok, _finite
 from .data import _take
@@ -331,7 +331,7 @@ def rnea_derivatives_at(tree, q, v, a, gravity, f_ext, dtau_dq, dtau_dv, M):
 @kernel
 def _rnea_derivatives_batch(tree, Q, V, A, F, gravity, out):
     """out[b] = (dtau/dq, dtau/dv, M) at the rows of Q, V, A (V, A, F may have one row, shared)."""
-    tree, Q, V, A, F, out = borrowed(tree), borrowed(Q), borrowed(V), borrowed(A), borrowed(F), borrowed(out)
+    tree, Q, V, A, F, out = borrow(tree), borrow(Q), borrow(V), borrow(A), borrow(F), borrow(out)
     nb, nv = tree.parents.shape[0], tree.S.shape[0]
     buf = np.empty(_work_at(0, 0, nb, nv)[1])
     ws = _work_at(address(buf), 0, nb, nv)[0]

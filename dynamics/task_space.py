@@ -16,7 +16,7 @@ stretched out) J M^-1 J^T loses rank and Lambda blows up.  Without damping a con
 import numpy as np
 
 from . import checks
-from ._numba import borrowed, keep_alive, kernel
+from ._numba import borrow, keep_alive, kernel
 from .errors import InputError
 from .jacobians import _jacobian_into
 from .kinematics import _support
@@ -30,7 +30,7 @@ MAX_CONDITION = 1e8
 def _jmj_batch(model_tree, Q, model_frames, f, ref, rows, out, status):
     """out[b] = J[rows] M^-1 J[rows]^T at Q[b]; status[b] = -1 or a body whose joint makes M singular."""
     # borrowed: the kernels below take the arrays out of the tuples per body and per state: no reference counts
-    tree, frames = borrowed(model_tree), borrowed(model_frames)
+    tree, frames = borrow(model_tree), borrow(model_frames)
     nb, nv, r = tree.parents.shape[0], tree.S.shape[0], rows.shape[0]
     path, oR, op = np.empty(nb, np.int64), np.empty((nb, 3, 3)), np.empty((nb, 3))
     ws = _workspace(nb, nv)

@@ -41,6 +41,7 @@ numba's error-message formatting in every function that has one).
 
 import numpy as np
 from numba import carray, njit, types
+from numba.core import cgutils
 from numba.extending import intrinsic, overload, register_jitable
 
 JIT_OPTIONS = dict(cache=True, nogil=True, error_model="numpy")
@@ -101,42 +102,55 @@ def view(buf, start, shape):
     return float_at(address(buf), start, shape)
 
 
-def borrowed(x):
-    """``x`` (a C-contiguous array of float64 or int64, or a tuple or namedtuple of them, nested) as views
-    with no owner (:func:`float_at`): the same data, no reference counts.  In compiled code only; the caller
-    keeps ``x`` alive (:func:`keep_alive`) and never stores or returns the result."""
-    return x
+def _viewable(ty):
+    """Whether :func:`borrow` makes an owner-less view of an array of numba type ``ty``: C-contiguous, at least
+    one dimension, items of a plain number type (records and other layouts keep numba's own handling)."""
+    return (isinstance(ty, types.Array) and ty.layout == "C" and ty.ndim > 0
+            and isinstance(ty.dtype, (types.Number, types.Boolean)))
 
 
-def _borrow_source(ty):
-    """The body of :func:`borrowed` for the numba type ``ty``, or None."""
-    if isinstance(ty, types.Array) and ty.layout == "C" and ty.dtype in (types.float64, types.int64):
-        at = "float_at" if ty.dtype == types.float64 else "int_at"
-        return f"{at}(address(x), 0, x.shape)"
-    return None
+def _view_type(ty):
+    """The numba type of ``borrow(x)`` for ``x`` of type ``ty``: a view is a writable C array (as
+    ``numba.carray`` makes one); a tuple's items are mapped, a NamedTuple keeps its class."""
+    if _viewable(ty):
+        return types.Array(ty.dtype, ty.ndim, "C")
+    if isinstance(ty, types.BaseTuple) and len(ty) > 0:
+        cls = ty.instance_class if isinstance(ty, types.BaseNamedTuple) else None
+        return types.BaseTuple.from_types([_view_type(t) for t in ty], cls)
+    return ty
 
 
-@overload(borrowed, inline="always")
-def _borrowed_overload(x):
-    """Compiled :func:`borrowed`: an array becomes a :func:`float_at` / :func:`int_at` view of itself; a tuple
-    is rebuilt from its members' views (a namedtuple as its own class)."""
-    if isinstance(x, types.Array):
-        body = _borrow_source(x)
-        if body is None:  # another layout or item type: the array itself
-            return lambda x: x
-        ns = {"float_at": float_at, "int_at": int_at, "address": address}
-        exec(f"def impl(x):\n    return {body}", ns)
-        return ns["impl"]
-    if isinstance(x, types.BaseTuple):
-        items = ", ".join(f"borrowed(x[{k}])" for k in range(len(x)))
-        ns = {"borrowed": borrowed}
-        if isinstance(x, types.BaseNamedTuple):
-            ns["cls"] = x.instance_class
-            exec(f"def impl(x):\n    return cls({items})", ns)
-        else:
-            exec(f"def impl(x):\n    return ({items}{',' if len(x) == 1 else ''})", ns)
-        return ns["impl"]
-    return lambda x: x  # a scalar: itself
+def _lower_borrow(context, builder, ty, value):
+    """The LLVM value of ``borrow(value)``: each viewable array's struct with no owner (null meminfo and
+    parent: numba then counts no references, as for ``numba.carray``), tuples rebuilt item by item, anything else
+    passed on with a reference of its own (the caller releases the result as a new reference)."""
+    if _viewable(ty):
+        ary = cgutils.create_struct_proxy(ty)(context, builder, value=value)
+        ary.meminfo = cgutils.get_null_value(ary.meminfo.type)
+        ary.parent = cgutils.get_null_value(ary.parent.type)
+        return ary._getvalue()
+    if isinstance(ty, types.BaseTuple) and len(ty) > 0:
+        out = cgutils.get_null_value(context.get_value_type(_view_type(ty)))
+        for k, item_ty in enumerate(ty):
+            item = _lower_borrow(context, builder, item_ty, builder.extract_value(value, k))
+            out = builder.insert_value(out, item, k)
+        return out
+    context.nrt.incref(builder, ty, value)
+    return value
+
+
+@intrinsic
+def borrow(typingctx, x):
+    """``borrow(x)`` in compiled code: ``x`` (an array, a tuple or NamedTuple of them, nested, or any other
+    value) with every C-contiguous array of numbers replaced by an owner-less view of the same memory (the
+    module docstring's rule: the caller keeps ``x`` alive and never stores or returns the result).  One
+    intrinsic for the whole value: its code copies each array's struct with the owner cleared, so a problem of
+    dozens of arrays costs one small function to compile, not one compiled or inlined function per member."""
+    sig = _view_type(x)(x)
+
+    def codegen(context, builder, signature, args):
+        return _lower_borrow(context, builder, signature.args[0], args[0])
+    return sig, codegen
 
 
 #: scratch above this many floats (64 KiB) goes to the heap: threads may have small stacks (musl: 128 KiB)

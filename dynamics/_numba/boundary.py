@@ -37,10 +37,10 @@ torque): numba warns about an object-mode block in a function that would release
 silence warnings for the process.
 """
 
-from numba import carray, njit, types
-from numba.extending import intrinsic, overload
+from numba import njit
+from numba.extending import overload
 
-from . import JIT_OPTIONS
+from . import JIT_OPTIONS, borrow  # noqa: F401 (borrow: the simulation's modules import it from here)
 
 #: options of the interface calls' implementations (the caller's entry point is the cached unit)
 _IMPL_OPTIONS = {k: v for k, v in JIT_OPTIONS.items() if k in ("nogil", "error_model")}
@@ -72,44 +72,3 @@ def interface_call(name, params):
     return stub
 
 
-@intrinsic
-def _address_as_pointer(typingctx, address, like):
-    """The integer ``address`` as a pointer to the dtype of the array ``like`` (numba's documentation example
-    of an intrinsic, ``cast_int_to_byte_ptr``, typed by the array)."""
-    if not (isinstance(address, types.Integer) and isinstance(like, types.Array)):
-        return None
-    sig = types.CPointer(like.dtype)(address, like)
-
-    def codegen(context, builder, signature, args):
-        return builder.inttoptr(args[0], context.get_value_type(signature.return_type))
-    return sig, codegen
-
-
-def borrow(x):
-    """``x`` (an array, a tuple or NamedTuple of them, nested, or any other value) with every C-contiguous
-    array replaced by an owner-less view of the same memory (module docstring), in compiled code."""
-    raise NotImplementedError("borrow: compiled code only")
-
-
-def _same(x):
-    return x
-
-
-def _borrow_array(x):
-    return carray(_address_as_pointer(x.ctypes.data, x), x.shape)
-
-
-@overload(borrow, jit_options=_IMPL_OPTIONS)
-def _ov_borrow(x):
-    if isinstance(x, types.Array):
-        plain = isinstance(x.dtype, (types.Number, types.Boolean))  # records keep numba's own handling
-        return _borrow_array if x.layout == "C" and x.ndim > 0 and plain else _same
-    if isinstance(x, types.BaseTuple) and len(x) > 0:
-        # one function per tuple type: each field borrowed, the NamedTuple class (or a plain tuple) rebuilt
-        items = ", ".join(f"borrow(x[{k}])" for k in range(len(x)))
-        cls = getattr(x, "instance_class", None)
-        ns = {"borrow": borrow, "cls": cls}
-        body = f"cls({items})" if isinstance(x, types.BaseNamedTuple) else f"({items},)"
-        exec(f"def impl(x):\n    return {body}", ns)
-        return ns["impl"]
-    return _same

@@ -44,7 +44,7 @@ from typing import NamedTuple
 import numpy as np
 
 from .. import checks
-from .._numba import borrowed, helper, inline_kernel, kernel
+from .._numba import borrow, helper, inline_kernel, kernel
 from ..errors import InputError
 from ..kinematics import _world_pose
 from ..spatial import add, cross, dot, load3, load33, matmul, rot, rotT, scale
@@ -168,7 +168,7 @@ def _separation(S, a, b, oR, op):
 @kernel
 def _broad_phase(S, oR, op, keep):
     """keep[:m] = the pairs that pass the broad phase; returns m (what the narrow phase then examines)."""
-    S, oR, op, keep = borrowed(S), borrowed(oR), borrowed(op), borrowed(keep)
+    S, oR, op, keep = borrow(S), borrow(oR), borrow(op), borrow(keep)
     m = 0
     for k in range(S.pair_a.shape[0]):
         if _overlap(S, S.pair_a[k], S.pair_b[k], oR, op):
@@ -506,7 +506,7 @@ def _collide(S, oR, op, out):
     poses (oR (nb, 3, 3), op (nb, 3)) into out (a :class:`ContactBuffer`); returns their number."""
     # views with no owner (dynamics._numba.borrowed): passing the 13 arrays down to each pair's function would
     # otherwise cost two atomic reference counts per array per call, most of the time of a contact
-    S, oR, op, out = borrowed(S), borrowed(oR), borrowed(op), borrowed(out)
+    S, oR, op, out = borrow(S), borrow(oR), borrow(op), borrow(out)
     n = 0
     for k in range(S.pair_a.shape[0]):
         a, b = S.pair_a[k], S.pair_b[k]
