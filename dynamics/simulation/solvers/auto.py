@@ -18,7 +18,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ..._numba import generic_inline, kernel
+from ..._numba import generic_inline, helper, kernel
 from . import radau, rk45
 from .interface import MAX_SWITCHES, RADAU, RK45, SWITCH_CONTACT, SWITCH_NONSTIFF, SWITCH_STIFF, problem_touchdown
 
@@ -48,8 +48,10 @@ def make_radau(n):
     return AutoRadau(radau.make(n), np.zeros(1, np.int64))
 
 
-@kernel
+@helper
 def _log(sw, st, t, to, reason, value):
+    """Log a switch in ``sw`` (true) or, past MAX_SWITCHES, not (false).  A helper: as a kernel numba compiled it
+    once per pair of literal constants (to, reason) its callers pass."""
     if st.switches < MAX_SWITCHES:
         s = sw[st.switches]
         s.t = t

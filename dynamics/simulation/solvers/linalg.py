@@ -7,7 +7,7 @@ the state check, Hairer's starting step, the finite-difference Jacobian and a sp
 import numpy as np
 from numba.extending import overload
 
-from ..._numba import GENERIC_OPTIONS, generic_inline, kernel
+from ..._numba import GENERIC_OPTIONS, generic_inline, helper, kernel
 from .interface import BLOWUP, NONFINITE, OK, STATS, driver_rhs
 
 
@@ -155,9 +155,11 @@ def max_abs(x, ne):
     return m
 
 
-@kernel
+@helper
 def state_status(z, nc, nvel, blowup):
-    """OK, NONFINITE or BLOWUP for a state (velocities above ``blowup`` count as a blow-up)."""
+    """OK, NONFINITE or BLOWUP for a state (velocities above ``blowup`` count as a blow-up).  A helper, not a
+    kernel: numba compiles a kernel once per literal argument its compiled callers pass (``0, 0`` and the
+    options' fields made two), and a helper for the plain types."""
     for i in range(z.shape[0]):
         if not np.isfinite(z[i]):
             return NONFINITE
