@@ -57,40 +57,40 @@ def _emit(p, j, t, z):
 ODE.rhs, ODE.rebase, ODE.euler_config, ODE.emit = _rhs, _rebase, _euler_config, _emit
 
 
-# cached callers, one per method (the solvers themselves are generic over the problem type, not cached)
+# cached callers, one per method as dynamics.simulation.run's (the drivers are generic over the problem type, not cached)
 @njit(cache=True)
 def _euler(p, z, t1, out_t, opt, stats, sw):
-    return S.solve_euler(p, z, 0.0, t1, out_t, opt, stats, sw)
+    return S.solve_fixed(p, S.euler.Euler(opt.nc), z, 0.0, t1, out_t, opt, stats)
 
 
 @njit(cache=True)
 def _rk4(p, z, t1, out_t, opt, stats, sw):
-    return S.solve_rk4(p, z, 0.0, t1, out_t, opt, stats, sw)
+    return S.solve_fixed(p, S.rk4.make(z.shape[0]), z, 0.0, t1, out_t, opt, stats)
 
 
 @njit(cache=True)
 def _rk45(p, z, t1, out_t, opt, stats, sw):
-    return S.solve_rk45(p, z, 0.0, t1, out_t, opt, stats, sw)
+    return S.solve_adaptive(p, S.rk45.make(z.shape[0]), z, 0.0, t1, out_t, opt, stats, sw)
 
 
 @njit(cache=True)
 def _dop853(p, z, t1, out_t, opt, stats, sw):
-    return S.solve_dop853(p, z, 0.0, t1, out_t, opt, stats, sw)
+    return S.solve_adaptive(p, S.dop853.make(z.shape[0]), z, 0.0, t1, out_t, opt, stats, sw)
 
 
 @njit(cache=True)
 def _radau(p, z, t1, out_t, opt, stats, sw):
-    return S.solve_radau(p, z, 0.0, t1, out_t, opt, stats, sw)
+    return S.solve_adaptive(p, S.radau.make(z.shape[0]), z, 0.0, t1, out_t, opt, stats, sw)
 
 
 @njit(cache=True)
 def _auto_rk45(p, z, t0, t1, out_t, opt, stats, sw):
-    return S.solve_auto_rk45(p, z, t0, t1, out_t, opt, stats, sw)
+    return S.solve_adaptive(p, S.auto.make_rk45(z.shape[0]), z, t0, t1, out_t, opt, stats, sw)
 
 
 @njit(cache=True)
 def _auto_radau(p, z, t0, t1, out_t, opt, stats, sw):
-    return S.solve_auto_radau(p, z, t0, t1, out_t, opt, stats, sw)
+    return S.solve_adaptive(p, S.auto.make_radau(z.shape[0]), z, t0, t1, out_t, opt, stats, sw)
 
 
 def _auto(p, z, t1, out_t, opt, stats, sw):  # auto's two phases, alternated from Python as the library does

@@ -15,46 +15,51 @@ import time
 from .._numba import kernel
 from .._numba.boundary import borrow
 from . import solvers
+from .solvers import auto, dop853, euler, radau, rk4, rk45, solve_adaptive, solve_fixed
 
 log = logging.getLogger("dynamics.simulation")
 
 
-# One entry point per method, compiled (and cached) once per problem type.  Six small functions, not one generic
-# one: a run compiles only its own method's solver (a generic entry would compile them all).  The solver gets
-# the problem borrowed (no reference counts on its arrays; p, the argument, holds them for the call).
+# One entry point per method, compiled (and cached) once per problem type.  Seven small functions, not one generic
+# one: a run compiles only its own method's stepper (a generic entry would compile them all).  Each calls its
+# driver directly with its stepper (one inlined layer: numba's inliner copies a callee's IR per call site, and a
+# wrapper around the driver made it copy the driver twice, ~0.4 s of each first compile).  The driver gets the
+# problem borrowed (no reference counts on its arrays; p, the argument, holds them for the call).
 @kernel
 def _euler(p, z, t0, t_end, out_t, opt, stats, sw):
-    return solvers.solve_euler(borrow(p), z, t0, t_end, out_t, opt, stats, sw)
+    return solve_fixed(borrow(p), euler.Euler(opt.nc), z, t0, t_end, out_t, opt, stats)
 
 
 @kernel
 def _rk4(p, z, t0, t_end, out_t, opt, stats, sw):
-    return solvers.solve_rk4(borrow(p), z, t0, t_end, out_t, opt, stats, sw)
+    return solve_fixed(borrow(p), rk4.make(z.shape[0]), z, t0, t_end, out_t, opt, stats)
 
 
 @kernel
 def _rk45(p, z, t0, t_end, out_t, opt, stats, sw):
-    return solvers.solve_rk45(borrow(p), z, t0, t_end, out_t, opt, stats, sw)
+    return solve_adaptive(borrow(p), rk45.make(z.shape[0]), z, t0, t_end, out_t, opt, stats, sw)
 
 
 @kernel
 def _dop853(p, z, t0, t_end, out_t, opt, stats, sw):
-    return solvers.solve_dop853(borrow(p), z, t0, t_end, out_t, opt, stats, sw)
+    return solve_adaptive(borrow(p), dop853.make(z.shape[0]), z, t0, t_end, out_t, opt, stats, sw)
 
 
 @kernel
 def _radau(p, z, t0, t_end, out_t, opt, stats, sw):
-    return solvers.solve_radau(borrow(p), z, t0, t_end, out_t, opt, stats, sw)
+    return solve_adaptive(borrow(p), radau.make(z.shape[0]), z, t0, t_end, out_t, opt, stats, sw)
 
 
 @kernel
 def _auto_rk45(p, z, t0, t_end, out_t, opt, stats, sw):
-    return solvers.solve_auto_rk45(borrow(p), z, t0, t_end, out_t, opt, stats, sw)
+    """auto's non-stiff phase: rk45 until its stiffness test fires (status SWITCHED) or t_end."""
+    return solve_adaptive(borrow(p), auto.make_rk45(z.shape[0]), z, t0, t_end, out_t, opt, stats, sw)
 
 
 @kernel
 def _auto_radau(p, z, t0, t_end, out_t, opt, stats, sw):
-    return solvers.solve_auto_radau(borrow(p), z, t0, t_end, out_t, opt, stats, sw)
+    """auto's stiff phase: radau until the problem has been non-stiff for a while (status SWITCHED) or t_end."""
+    return solve_adaptive(borrow(p), auto.make_radau(z.shape[0]), z, t0, t_end, out_t, opt, stats, sw)
 
 
 ENTRY = {"euler": _euler, "rk4": _rk4, "rk45": _rk45, "dop853": _dop853, "radau": _radau,

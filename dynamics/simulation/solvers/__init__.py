@@ -12,14 +12,14 @@ auto        :mod:`.auto`        rk45 <-> radau on the stiffness test and the spe
 ==========  ==================  ============================================================================
 
 :func:`~.fixed.solve_fixed` and :func:`~.adaptive.solve_adaptive` drive any method of their kind over any
-problem (:mod:`.interface`).  ``SOLVERS[name]`` is the entry point for one method: it builds the method's
-workspace and runs the driver, so a compiled caller of ``solve_rk4`` holds rk4 only (compile only what a
-call uses).  ``auto`` is two entry points, its rk45 phase and its radau phase, alternated by :func:`drive_auto`
-(:mod:`.auto`): a run that never turns stiff compiles no radau.  Signature:
-``solve_<name>(p, z, t0, t_end, out_t, opt, stats, switches) -> status``.
+problem (:mod:`.interface`), given the method's stepper (``rk4.make(n)``, ``auto.make_rk45(n)``, ...): a
+compiled caller that passes one stepper holds that method only (compile only what a call uses;
+:mod:`dynamics.simulation.run` has one entry point per method).  ``auto`` is two entry points, its rk45 phase
+and its radau phase, alternated by :func:`drive_auto` (:mod:`.auto`): a run that never turns stiff compiles no
+radau.  Signatures: ``solve_fixed(p, stepper, z, t0, t_end, out_t, opt, stats)`` and
+``solve_adaptive(p, stepper, z, t0, t_end, out_t, opt, stats, switches)``, each returning the status.
 """
 
-from ..._numba import generic_inline
 from . import auto, dop853, euler, radau, rk4, rk45
 from .adaptive import solve_adaptive
 from .fixed import solve_fixed
@@ -33,46 +33,9 @@ ORDER = {"euler": euler.ORDER, "rk4": rk4.ORDER}
 STABILITY_LIMIT = {"euler": euler.STABILITY_LIMIT, "rk4": rk4.STABILITY_LIMIT, "rk45": rk45.STABILITY_LIMIT}
 
 
-@generic_inline
-def solve_euler(p, z, t0, t_end, out_t, opt, stats, switches):
-    return solve_fixed(p, euler.Euler(opt.nc), z, t0, t_end, out_t, opt, stats)
-
-
-@generic_inline
-def solve_rk4(p, z, t0, t_end, out_t, opt, stats, switches):
-    return solve_fixed(p, rk4.make(z.shape[0]), z, t0, t_end, out_t, opt, stats)
-
-
-@generic_inline
-def solve_rk45(p, z, t0, t_end, out_t, opt, stats, switches):
-    return solve_adaptive(p, rk45.make(z.shape[0]), z, t0, t_end, out_t, opt, stats, switches)
-
-
-@generic_inline
-def solve_dop853(p, z, t0, t_end, out_t, opt, stats, switches):
-    return solve_adaptive(p, dop853.make(z.shape[0]), z, t0, t_end, out_t, opt, stats, switches)
-
-
-@generic_inline
-def solve_radau(p, z, t0, t_end, out_t, opt, stats, switches):
-    return solve_adaptive(p, radau.make(z.shape[0]), z, t0, t_end, out_t, opt, stats, switches)
-
-
-@generic_inline
-def solve_auto_rk45(p, z, t0, t_end, out_t, opt, stats, switches):
-    """auto's non-stiff phase: rk45 until its stiffness test fires (status SWITCHED) or t_end."""
-    return solve_adaptive(p, auto.make_rk45(z.shape[0]), z, t0, t_end, out_t, opt, stats, switches)
-
-
-@generic_inline
-def solve_auto_radau(p, z, t0, t_end, out_t, opt, stats, switches):
-    """auto's stiff phase: radau until the problem has been non-stiff for a while (status SWITCHED) or t_end."""
-    return solve_adaptive(p, auto.make_radau(z.shape[0]), z, t0, t_end, out_t, opt, stats, switches)
-
-
 def drive_auto(phases, p, z, t0, t_end, out_t, opt, stats, switches):
-    """``auto`` from Python: ``phases = (entry of solve_auto_rk45, entry of solve_auto_radau)``, compiled callers
-    with the solvers' signature; each runs until it asks for the other method (:mod:`.auto`), which resumes from
+    """``auto`` from Python: ``phases = (entry of its rk45 phase, entry of its radau phase)``, compiled callers
+    taking (p, z, t0, t_end, out_t, opt, stats, switches); each runs until it asks for the other method (:mod:`.auto`), which resumes from
     the time, state, samples and statistics reached, with the step size the first proposed.  A problem that
     never turns stiff never calls (so never compiles) the radau phase.  Returns the final status."""
     stiff = 0
@@ -83,6 +46,3 @@ def drive_auto(phases, p, z, t0, t_end, out_t, opt, stats, switches):
         stiff = 1 - stiff
         t0, opt = float(stats[0]["t"]), opt._replace(h0=float(stats[0]["h"]))
 
-
-SOLVERS = {"euler": solve_euler, "rk4": solve_rk4, "rk45": solve_rk45, "dop853": solve_dop853,
-           "radau": solve_radau, "auto": (solve_auto_rk45, solve_auto_radau)}
