@@ -4,7 +4,8 @@ decorators below; no other module spells numba options.
 
 Everything here is numba's public API: ``njit`` and its documented options, ``numba.carray``,
 ``numba.extending.intrinsic`` used as numba's own documentation uses it (an integer cast to a pointer, a stack
-allocation through the IR builder numba hands an intrinsic), ``register_jitable``.  Nothing changes numba or Python's warnings for
+allocation through the IR builder numba hands an intrinsic, a struct read and written through
+``cgutils.create_struct_proxy`` as in its extension guide's example), ``register_jitable``.  Nothing changes numba or Python's warnings for
 the rest of the process.
 
 * :data:`kernel`: cached to disk, GIL released, ``error_model="numpy"`` (no Python zero-division checks in
@@ -26,7 +27,9 @@ increment and decrement each time it is bound or passed).  :func:`float_at` and 
 with no owner over memory that someone else keeps alive (``numba.carray`` over a pointer): a packed model's
 fields (:func:`dynamics.model._unpack`), a workspace carved from one flat buffer, a state's row.  The rule: the
 owner of the memory (the caller's array) outlives every view of it, and a view is never stored or returned.
-:func:`borrowed` gives such a view of an array, or of every array of a tuple.  :func:`scratch` is scratch
+:func:`borrow` gives such a view of an array, or of every array of a tuple, nested (one intrinsic that copies each
+array's struct with the owner cleared: a simulation's problem of ~60 arrays compiles in well under a second,
+against ~3.5 s for a function per member).  :func:`scratch` is scratch
 memory for one kernel call: on that kernel's stack up to :data:`STACK_FLOATS`, else on the heap (end the
 kernel with :func:`keep_alive` of it).
 

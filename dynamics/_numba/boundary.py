@@ -23,11 +23,10 @@ flags, and a stepper's implementation is compiled without a Python wrapper while
 an atomic increment and decrement each time: a right-hand side that reads the problem's tuples (the model's
 tree, the ABA workspace, the torque source) paid ~2 us per evaluation for it on the 2R arm, four times the
 arithmetic (with borrow: 0.7 us, against 0.5 us through the old address boundary).  Arrays made by ``numba.carray`` over a pointer have no owner, and numba skips their counts.
-:func:`borrow` rebuilds a problem (NamedTuples and tuples of arrays, nested) with every C-contiguous array
-replaced by such a view of the same memory (writable in type: a kernel that must share the run's compiled
-callees borrows its arguments too, :func:`dynamics.simulation.problem.singular_body`), once per run at the entry
-point; the pointer comes from the integer address by the cast of numba's own ``intrinsic`` documentation
-example (:func:`_address_as_pointer`).
+:func:`borrow` (:mod:`dynamics._numba`) gives a problem (NamedTuples and tuples of arrays, nested) with every
+C-contiguous array replaced by such a view of the same memory (writable in type: a kernel that must share the
+run's compiled callees borrows its arguments too, :func:`dynamics.simulation.problem.singular_body`), once per
+run at the entry point.
 The rule: the borrowed value never outlives the call that made it (never stored or returned), and the caller
 holds the original (the entry point's argument, held by its Python caller) meanwhile.
 
