@@ -19,7 +19,7 @@ import warnings
 import numba
 import numpy as np
 
-from dynamics._numba.boundary import borrow
+from dynamics._numba import borrow
 from dynamics.simulation.solvers.interface import problem_rebase, problem_rhs
 
 from .contact_idle import FEET, go1

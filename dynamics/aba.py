@@ -230,7 +230,7 @@ _accelerations, _acceleration_pass = kernel(_acceleration_pass), inline_kernel(_
 
 @kernel
 def _aba_batch(tree, Q, V, T, F, gravity, with_v, out, status):
-    # the arguments as views with no owner: no reference counts in the loops (dynamics._numba.borrowed)
+    # the arguments as views with no owner: no reference counts in the loops (dynamics._numba.borrow)
     tree, Q, V = borrow(tree), borrow(Q), borrow(V)
     T, F, gravity = borrow(T), borrow(F), borrow(gravity)
     with_v, out, status = borrow(with_v), borrow(out), borrow(status)

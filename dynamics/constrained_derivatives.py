@@ -76,7 +76,7 @@ ZERO3 = (0.0, 0.0, 0.0)
 @kernel
 def _ancestry(tree):
     """anc (nb, nb) int64: anc[i, j] is 1 where body j is i or an ancestor of i, else 0 (int64, not bool, for
-    :func:`~dynamics._numba.borrowed`); owner (nv,): each coordinate's body."""
+    :func:`~dynamics._numba.borrow`); owner (nv,): each coordinate's body."""
     parents, v_idx, nv_j = tree.parents, tree.v_idx, tree.nv_j
     nb, nv = parents.shape[0], tree.S.shape[0]
     anc = np.zeros((nb, nb), np.int64)

@@ -462,7 +462,7 @@ def _project_position_kernel(tree, C, q, ws, tol, max_iter, q_out):
 
 @kernel
 def _project_batch(tree, Q, V, C, out, status):
-    # the arguments as views with no owner: no reference counts in the loops (dynamics._numba.borrowed)
+    # the arguments as views with no owner: no reference counts in the loops (dynamics._numba.borrow)
     tree, Q, V = borrow(tree), borrow(Q), borrow(V)
     C, out, status = borrow(C), borrow(out), borrow(status)
     nb, nv = tree.parents.shape[0], tree.S.shape[0]
@@ -531,7 +531,7 @@ def _constrained_id_kernel(tree, C, gravity, q, v, a, actuated, ws, tau_out):
 
 @kernel
 def _constrained_id_batch(tree, Q, V, A, C, gravity, actuated, out, status):
-    # the arguments as views with no owner: no reference counts in the loops (dynamics._numba.borrowed)
+    # the arguments as views with no owner: no reference counts in the loops (dynamics._numba.borrow)
     tree, Q, V = borrow(tree), borrow(Q), borrow(V)
     A, C, gravity = borrow(A), borrow(C), borrow(gravity)
     actuated, out, status = borrow(actuated), borrow(out), borrow(status)

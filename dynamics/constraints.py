@@ -692,7 +692,7 @@ def _constraint_terms(tree, C, q, v, with_J, with_v, ws, phi, J, gamma):
 @kernel
 def _residual_batch(tree, Q, V, C, out):
     """out[b] = phi(Q[b]) (V unused)."""
-    # the arguments as views with no owner: no reference counts in the loops (dynamics._numba.borrowed)
+    # the arguments as views with no owner: no reference counts in the loops (dynamics._numba.borrow)
     tree, Q, V = borrow(tree), borrow(Q), borrow(V)
     C, out = borrow(C), borrow(out)
     nb, nv, m = tree.parents.shape[0], tree.S.shape[0], out.shape[1]
@@ -704,7 +704,7 @@ def _residual_batch(tree, Q, V, C, out):
 @kernel
 def _jacobian_batch(tree, Q, V, C, out):
     """out[b] = Phi_q(Q[b]) (V unused)."""
-    # the arguments as views with no owner: no reference counts in the loops (dynamics._numba.borrowed)
+    # the arguments as views with no owner: no reference counts in the loops (dynamics._numba.borrow)
     tree, Q, V = borrow(tree), borrow(Q), borrow(V)
     C, out = borrow(C), borrow(out)
     nb, nv, m = tree.parents.shape[0], tree.S.shape[0], out.shape[1]
@@ -716,7 +716,7 @@ def _jacobian_batch(tree, Q, V, C, out):
 @kernel
 def _bias_batch(tree, Q, V, C, out):
     """out[b] = Phi_q_dot v at (Q[b], V[b]) (V may have one row)."""
-    # the arguments as views with no owner: no reference counts in the loops (dynamics._numba.borrowed)
+    # the arguments as views with no owner: no reference counts in the loops (dynamics._numba.borrow)
     tree, Q, V = borrow(tree), borrow(Q), borrow(V)
     C, out = borrow(C), borrow(out)
     nb, nv, m = tree.parents.shape[0], tree.S.shape[0], out.shape[1]

@@ -119,7 +119,7 @@ def _coriolis_kernel(tree, q, v, C):
 
 @kernel
 def _coriolis_batch(tree, Q, V, out):
-    # the arguments as views with no owner: no reference counts in the loops (dynamics._numba.borrowed)
+    # the arguments as views with no owner: no reference counts in the loops (dynamics._numba.borrow)
     tree, Q, V = borrow(tree), borrow(Q), borrow(V)
     out = borrow(out)
     for b in range(Q.shape[0]):

@@ -88,7 +88,7 @@ def _add9(A, B):
 
 @kernel
 def _crba_batch(tree, Q, out):
-    # the arguments as views with no owner: no reference counts in the loops (dynamics._numba.borrowed)
+    # the arguments as views with no owner: no reference counts in the loops (dynamics._numba.borrow)
     tree, Q, out = borrow(tree), borrow(Q), borrow(out)
     ws = _workspace(tree.parents.shape[0])
     out[:] = 0.0

@@ -65,7 +65,7 @@ def sample_energies(tree, q, v, gravity, f_ext, ws, out):
 def _energy_batch(tree, Q, V, gravity, kinetic, potential, out):
     """out[b] = (T, U) at (Q[b], V[b]), T only if ``kinetic`` (else 0 and V may have one row), U only if
     ``potential`` (else 0)."""
-    # the arguments as views with no owner: no reference counts in the loops (dynamics._numba.borrowed)
+    # the arguments as views with no owner: no reference counts in the loops (dynamics._numba.borrow)
     tree, Q, V = borrow(tree), borrow(Q), borrow(V)
     gravity, kinetic, potential = borrow(gravity), borrow(kinetic), borrow(potential)
     out = borrow(out)

@@ -118,7 +118,7 @@ def _store_pose(R, p, T):
 @kernel
 def _placements_batch(tree, Q, frames, out):
     """out[b, f] = 4x4 world placement of every frame f at Q[b]."""
-    # the arguments as views with no owner: no reference counts in the loops (dynamics._numba.borrowed)
+    # the arguments as views with no owner: no reference counts in the loops (dynamics._numba.borrow)
     tree, Q, frames = borrow(tree), borrow(Q), borrow(frames)
     out = borrow(out)
     nb = tree.parents.shape[0]
@@ -156,7 +156,7 @@ def _placements_one(packed, q, out):
 @kernel
 def _placement_batch(tree, Q, frames, f, out):
     """out[b] = 4x4 world placement of frame f at Q[b], computed along its support only."""
-    # the arguments as views with no owner: no reference counts in the loops (dynamics._numba.borrowed)
+    # the arguments as views with no owner: no reference counts in the loops (dynamics._numba.borrow)
     tree, Q, frames = borrow(tree), borrow(Q), borrow(frames)
     f, out = borrow(f), borrow(out)
     nb = tree.parents.shape[0]
@@ -176,7 +176,7 @@ VELOCITY, ACCELERATION, BIAS_ACCELERATION = 0, 1, 2
 def _motion_batch(tree, Q, V, A, frames, f, ref, what, classical, out):
     """out[b] = [linear; angular] velocity, acceleration or bias acceleration (a = 0, A not read) of frame f
     in reference ``ref``.  V and A have B rows or one."""
-    # the arguments as views with no owner: no reference counts in the loops (dynamics._numba.borrowed)
+    # the arguments as views with no owner: no reference counts in the loops (dynamics._numba.borrow)
     tree, Q, V = borrow(tree), borrow(Q), borrow(V)
     A, frames, f = borrow(A), borrow(frames), borrow(f)
     ref, what, classical = borrow(ref), borrow(what), borrow(classical)

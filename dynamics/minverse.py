@@ -268,7 +268,7 @@ def _forward_1dof(Sw, UD, A, Minv, i, k0, ns, par, nv):
 @kernel
 def _minverse_batch(tree, Q, out, status):
     """out[b] = M^-1 at Q[b]; status[b] = -1 or a body whose joint makes M singular."""
-    # the arguments as views with no owner: no reference counts in the loops (dynamics._numba.borrowed)
+    # the arguments as views with no owner: no reference counts in the loops (dynamics._numba.borrow)
     tree, Q, out = borrow(tree), borrow(Q), borrow(out)
     status = borrow(status)
     nv = tree.S.shape[0]

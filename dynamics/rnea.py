@@ -158,7 +158,7 @@ def _gravity_into(tree, q, gravity, ws, tau):
 
 @kernel
 def _gravity_batch(tree, Q, gravity, out):
-    # the arguments as views with no owner: no reference counts in the loops (dynamics._numba.borrowed)
+    # the arguments as views with no owner: no reference counts in the loops (dynamics._numba.borrow)
     tree, Q, gravity, out = borrow(tree), borrow(Q), borrow(gravity), borrow(out)
     nb = tree.parents.shape[0]
     buf = np.empty(_gravity_work_at(0, 0, nb)[1])

@@ -5,8 +5,8 @@ decorators below; no other module spells numba options.
 Everything here is numba's public API: ``njit`` and its documented options, ``numba.carray``,
 ``numba.extending.intrinsic`` used as numba's own documentation uses it (an integer cast to a pointer, a stack
 allocation through the IR builder numba hands an intrinsic, a struct read and written through
-``cgutils.create_struct_proxy`` as in its extension guide's example), ``register_jitable``.  Nothing changes numba or Python's warnings for
-the rest of the process.
+``cgutils.create_struct_proxy`` as in its extension guide's interval example), ``register_jitable``.  Nothing
+changes numba or Python's warnings for the rest of the process.
 
 * :data:`kernel`: cached to disk, GIL released, ``error_model="numpy"`` (no Python zero-division checks in
   the inner loops, which cost ~10x).  fastmath stays off: with strict IEEE arithmetic a state gives

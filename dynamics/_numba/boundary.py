@@ -22,7 +22,8 @@ flags, and a stepper's implementation is compiled without a Python wrapper while
 **Arrays without reference counts.**  numba counts the references of every array a compiled function binds,
 an atomic increment and decrement each time: a right-hand side that reads the problem's tuples (the model's
 tree, the ABA workspace, the torque source) paid ~2 us per evaluation for it on the 2R arm, four times the
-arithmetic (with borrow: 0.7 us, against 0.5 us through the old address boundary).  Arrays made by ``numba.carray`` over a pointer have no owner, and numba skips their counts.
+arithmetic (with borrow: 0.7 us, against 0.5 us through the old address boundary).  Arrays with no owner (a
+null meminfo, as ``numba.carray`` makes them) numba does not count.
 :func:`borrow` (:mod:`dynamics._numba`) gives a problem (NamedTuples and tuples of arrays, nested) with every
 C-contiguous array replaced by such a view of the same memory (writable in type: a kernel that must share the
 run's compiled callees borrows its arguments too, :func:`dynamics.simulation.problem.singular_body`), once per
@@ -39,7 +40,7 @@ silence warnings for the process.
 from numba import njit
 from numba.extending import overload
 
-from . import JIT_OPTIONS, borrow  # noqa: F401 (borrow: the simulation's modules import it from here)
+from . import JIT_OPTIONS
 
 #: options of the interface calls' implementations (the caller's entry point is the cached unit)
 _IMPL_OPTIONS = {k: v for k, v in JIT_OPTIONS.items() if k in ("nogil", "error_model")}

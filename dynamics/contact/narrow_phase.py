@@ -504,7 +504,7 @@ def _pair(S, k, a, b, oR, op, out, n):
 def _collide(S, oR, op, out):
     """Write the penetrating contacts of every candidate pair of S (``scene.arrays``) at the bodies' world
     poses (oR (nb, 3, 3), op (nb, 3)) into out (a :class:`ContactBuffer`); returns their number."""
-    # views with no owner (dynamics._numba.borrowed): passing the 13 arrays down to each pair's function would
+    # views with no owner (dynamics._numba.borrow): passing the 13 arrays down to each pair's function would
     # otherwise cost two atomic reference counts per array per call, most of the time of a contact
     S, oR, op, out = borrow(S), borrow(oR), borrow(op), borrow(out)
     n = 0

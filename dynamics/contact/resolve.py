@@ -34,8 +34,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .._numba import inline_kernel, kernel
-from .._numba.boundary import borrow
+from .._numba import borrow, inline_kernel, kernel
 from .._numba.packing import Packing, unpack
 from ..errors import InputError
 from .clearance import Clearance, advance, apart, clearance, set_reference

@@ -26,8 +26,7 @@ import numpy as np
 
 from ..aba import _aba_into, _aba_rest, _rigid_body_terms
 from ..aba import _workspace as aba_workspace
-from .._numba import copy_into, generic_kernel, inline_kernel, keep_alive, kernel
-from .._numba.boundary import borrow
+from .._numba import borrow, copy_into, generic_kernel, inline_kernel, keep_alive, kernel
 from .jacobian import robot_jacobian
 from ..configuration import chart_rate_in, chart_tag, _integrate_delta, retract_in
 from ..energy import sample_energies

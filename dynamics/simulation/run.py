@@ -12,8 +12,7 @@ import logging
 import threading
 import time
 
-from .._numba import kernel
-from .._numba.boundary import borrow
+from .._numba import borrow, kernel
 from . import solvers
 from .solvers import auto, dop853, euler, radau, rk4, rk45, solve_adaptive, solve_fixed
 

@@ -8,8 +8,7 @@ state checks, the samples in each accepted step, and the re-centring of the char
 
 import numpy as np
 
-from ..._numba import copy_into, generic_inline, keep_alive
-from ..._numba.boundary import borrow
+from ..._numba import borrow, copy_into, generic_inline, keep_alive
 from .interface import (MAX_STEPS, OK, STEP_TOO_SMALL, SWITCHED, driver_rhs, problem_emit, problem_rebase, stepper_attempt,
                         stepper_dense, stepper_order)
 from .linalg import initial_step, max_abs, state_status

@@ -7,8 +7,7 @@ The slope at the end of a step serves the interpolant of that step and, re-expre
 
 import numpy as np
 
-from ..._numba import copy_into, generic_inline, keep_alive
-from ..._numba.boundary import borrow
+from ..._numba import borrow, copy_into, generic_inline, keep_alive
 from .interface import NONFINITE, OK, driver_rhs, problem_emit, problem_rebase, stepper_fixed_dense, stepper_step
 from .linalg import jacobian_spectral_radius, state_status
 
@@ -16,7 +15,7 @@ from .linalg import jacobian_spectral_radius, state_status
 @generic_inline
 def solve_fixed(p, m, z, t0, t_end, out_t, opt, stats):
     """Integrate z from t0 to t_end with the fixed-step method m; returns the status (also in stats).  Its
-    vectors and the stepper's are borrowed (:func:`dynamics._numba.boundary.borrow`: no reference counts in
+    vectors and the stepper's are borrowed (:func:`dynamics._numba.borrow`: no reference counts in
     the step loop), their owners kept alive to the end."""
     st = stats[0]
     n = z.shape[0]
