@@ -23,12 +23,7 @@ constant indices (numba never removes those).
 import numpy as np
 from numba.extending import overload
 
-from . import address, float_at, helper, int_at
-
-# the leaf views of an unpack are calls of these helpers, not float_at's inlined IR: numba types a call to a
-# compiled helper once per signature, where it types every inlined copy again (an unpack of the contact record,
-# 37 leaves: 1.25 -> 0.6 CPU s at each site; LLVM inlines the small helpers all the same)
-_float_at, _int_at, _address = helper(float_at.py_func), helper(int_at.py_func), helper(address.py_func)
+from . import address, float_at, int_at
 
 _F64, _I64 = np.dtype(np.float64), np.dtype(np.int64)
 _LAYOUTS = {}  # packed NamedTuple class -> its Packing (found by unpack's overload at compile time)
@@ -98,7 +93,7 @@ class Packing:
     def source(self, fields=None):
         """The body of a compiled unpack: the example's classes rebuilt from views (:func:`unpack`); with
         ``fields`` (top-level field names), a tuple of those fields only (:meth:`unpacker`)."""
-        ns = {"float_at": _float_at, "int_at": _int_at, "address": _address}
+        ns = {"float_at": float_at, "int_at": int_at, "address": address}
         leaf = iter(self.kinds)
 
         def build(x):
