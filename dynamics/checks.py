@@ -14,9 +14,8 @@ the same error as always, so every message has one source.
 import math
 
 import numpy as np
-from numba.core.errors import NumbaError
 
-from ._numba import DONE, GENERAL, address, float_at, inline_kernel, kernel  # noqa: F401 (the status codes' home for the algorithms)
+from ._numba import DONE, GENERAL, NumbaError, address, float_at, inline_kernel, kernel  # noqa: F401 (the status codes' home for the algorithms)
 from .errors import InputError
 from .joints import JOINT_FREE, KINDS, ZERO_QUATERNION_SQ, _joint_config_ok
 from .model import Model

@@ -5,8 +5,10 @@ decorators below; no other module spells numba options.
 Everything here is numba's public API: ``njit`` and its documented options, ``numba.carray``,
 ``numba.extending.intrinsic`` used as numba's own documentation uses it (an integer cast to a pointer, a stack
 allocation through the IR builder numba hands an intrinsic, a struct read and written through
-``cgutils.create_struct_proxy`` as in its extension guide's interval example), ``register_jitable``.  Nothing
-changes numba or Python's warnings for the rest of the process.
+``cgutils.create_struct_proxy`` as in its extension guide's interval example), ``register_jitable``, and
+``NumbaError``, the base of the errors a dispatcher raises (which :mod:`dynamics.checks` catches for an argument
+it cannot type): this is the one module that imports ``numba.core``.  Nothing changes numba or Python's warnings
+for the rest of the process.
 
 * :data:`kernel`: cached to disk, GIL released, ``error_model="numpy"`` (no Python zero-division checks in
   the inner loops, which cost ~10x).  fastmath stays off: with strict IEEE arithmetic a state gives
@@ -48,6 +50,7 @@ numba's error-message formatting in every function that has one).
 import numpy as np
 from numba import carray, njit, types
 from numba.core import cgutils
+from numba.core.errors import NumbaError  # noqa: F401 (what a dispatcher raises for an argument it cannot type: dynamics.checks)
 from numba.extending import intrinsic, overload, register_jitable
 
 JIT_OPTIONS = dict(cache=True, nogil=True, error_model="numpy")
