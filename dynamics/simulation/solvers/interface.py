@@ -150,7 +150,9 @@ stepper_fixed_dense = interface_call("fixed_dense", ("m", "x", "h", "z0", "f0", 
 
 def driver_rhs(p, t, z, dz):
     """``problem_rhs(p, t, z, dz)`` for the drivers' own evaluations (the first slope, Hairer's starting step):
-    compiled code only (an inlined ``overload``)."""
+    compiled code only.  An ``overload`` that is not inlined: numba keys an overload's implementation by its
+    caller's flags, so the problem's rhs reached from here compiles once, under the steppers' flags; inlined into
+    the entry point it would compile a second time under the entry point's."""
     raise NotImplementedError("driver_rhs: compiled code only")
 
 
