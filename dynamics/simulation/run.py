@@ -66,12 +66,13 @@ ENTRY = {"euler": _euler, "rk4": _rk4, "rk45": _rk45, "dop853": _dop853, "radau"
 
 
 #: seconds to compile a method's entry point with a problem's functions from an empty cache (2R arm, the first
-#: simulate's wall time on an idle machine: rk4 ~16, auto ~18; a loaded machine takes longer)
-COMPILE_SECONDS = {"euler": 15, "rk4": 15, "rk45": 20, "dop853": 25, "radau": 25, "auto (rk45)": 20,
+#: simulate's wall time; auto 22-26 s on the benchmarks page's machine, 2026-11-28; a loaded machine takes longer)
+COMPILE_SECONDS = {"euler": 15, "rk4": 15, "rk45": 20, "dop853": 25, "radau": 25, "auto (rk45)": 25,
                    "auto (radau)": 25}
-#: what contact adds to a first compilation (the narrow phase and the force law in the right-hand side; the ball's
-#: first auto run: 84 CPU s against ~20 without contact)
-CONTACT_COMPILE_SECONDS = 60
+#: what contact adds to a first compilation (the narrow phase and the force law in the right-hand side, and for
+#: radau the contact's force derivatives; the ball's first auto run, 2026-11-28: its rk45 phase ~103 CPU s, its
+#: radau phase ~125 s, against ~25 s for a phase without contact)
+CONTACT_COMPILE_SECONDS = 85
 #: a first call that has not returned after this many seconds is compiling (numba's cache loads in less)
 ANNOUNCE_AFTER = 1.5
 _SEEN = set()  # the (method, problem kind) pairs run in this process: their entry points are compiled
