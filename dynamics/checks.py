@@ -15,7 +15,8 @@ import math
 
 import numpy as np
 
-from ._numba import DONE, GENERAL, NumbaError, address, float_at, inline_kernel, kernel  # noqa: F401 (the status codes' home for the algorithms)
+# DONE and GENERAL are re-exported: this module is the status codes' home for the algorithms
+from ._numba import DONE, GENERAL, NumbaError, address, float_at, inline_kernel, kernel  # noqa: F401
 from .errors import InputError
 from .joints import JOINT_FREE, KINDS, ZERO_QUATERNION_SQ, _joint_config_ok
 from .model import Model

@@ -50,7 +50,8 @@ numba's error-message formatting in every function that has one).
 import numpy as np
 from numba import carray, njit, types
 from numba.core import cgutils
-from numba.core.errors import NumbaError  # noqa: F401 (what a dispatcher raises for an argument it cannot type: dynamics.checks)
+# NumbaError: what a dispatcher raises for an argument it cannot type (caught by dynamics.checks)
+from numba.core.errors import NumbaError  # noqa: F401
 from numba.extending import intrinsic, overload, register_jitable
 
 JIT_OPTIONS = dict(cache=True, nogil=True, error_model="numpy")
