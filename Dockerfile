@@ -1,12 +1,20 @@
 # The dynamics HTTP service.
 #   docker build -t dynamics .
 #   docker run -p 8000:8000 -v dynamics-store:/data dynamics
-# Stage 1 builds the wheel (the bundled robots/ ship inside it); stage 2 installs it (no compiler, no sources)
-# and warms numba's on-disk cache so that the first requests do not pay for compilation.
+# Stage 1 compiles the C++ core and builds the wheel (the bundled robots/ ship inside it); stage 2 installs it
+# (no compiler, no sources) and warms numba's on-disk cache so that the first simulations do not pay for
+# compilation.
 FROM python:3.11-slim AS build
+# the one thing the build needs from the system: a C++ compiler (every other build requirement comes from PyPI)
+# hadolint ignore=DL3008
+RUN apt-get update \
+    && apt-get install -y --no-install-recommends g++ \
+    && rm -rf /var/lib/apt/lists/*
 WORKDIR /src
 RUN pip install --no-cache-dir build==1.2.2
-COPY pyproject.toml README.md ./
+COPY pyproject.toml README.md CMakeLists.txt ./
+COPY core/ core/
+COPY bindings/ bindings/
 COPY dynamics/ dynamics/
 COPY service/ service/
 COPY robots/ robots/

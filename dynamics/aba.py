@@ -12,24 +12,75 @@ Pass 3 (forward): a'_i = X_i a_p + c_i (a_0 = (0, -g)),  qdd_i = D_i^-1 (u_i - U
 
 6x6 inertias are in (angular, linear) order in each body's frame.  A joint whose D_i is not positive (it
 carries no mass or inertia it could move) makes M singular: the kernel stops and returns that body's index.
+
+The algorithm is the core's (``core/aba.cpp``); this module checks the arguments and calls it.
 """
 
 from typing import NamedTuple
 
 import numpy as np
 
-from . import checks
-from ._numba import (borrow, SingleCall, VECTOR, address, helper, inline_kernel, keep_alive, kernel, scratch, view)
-from .checks import NOT_ARRAYS, DONE, GENERAL, _config_shape_ok, _finite, _nonzero
+from . import _core, checks
+from ._numba import helper, inline_kernel, kernel
 from .constrained_dynamics import constrained_forward_dynamics
-from .joints import _joint_motion
 from .data import Data, _data_at, _forward_body, _take
-from .model import _unpack
-from .parallel import run_chunks
+from .joints import _joint_motion
+from .parallel import run
 from .rnea import bias_forces, inverse_dynamics
-from .spatial import (add, _add_inertia6_to_parent, cross_force, force_to_parent, inertia_times,
-                      _joint_gram, load3, load33, motion_to_child, _spd_inverse, _store_inertia6)
+from .spatial import (_add_inertia6_to_parent, _joint_gram, _spd_inverse, _store_inertia6, add, cross_force,
+                      force_to_parent, inertia_times, load3, load33, motion_to_child)
 
+
+def refuse_singular(model, q, what):
+    """Raise :func:`~dynamics.checks.singular_joint_error` when the mass matrix is singular at q: the
+    articulated-body pivot D = S^T I^A S of some joint is not positive definite.  The rule ``simulate`` applies to
+    q0 and ``dynamics check`` to the neutral configuration, so both say the same."""
+    zero = np.zeros((1, model.nv))
+    run(_core.aba_batch, model, np.ascontiguousarray(q, dtype=float).reshape(1, model.nq), zero, zero, checks.external_forces(model, None, 1),
+        np.zeros(3), False, out=np.empty((1, model.nv)), singular=what)
+
+
+def forward_dynamics(model, q, v, tau, *, gravity=None, f_ext=None):
+    """Joint accelerations a = M^-1 (tau - C v - g + J^T f_ext) by the ABA, O(n).
+
+    Shapes as :func:`dynamics.inverse_dynamics` with tau in place of a.  Raises InputError naming the
+    joint when the mass matrix is singular (a joint that moves no mass or inertia).
+
+    On a constrained model (``model.constraints``: loops, a gripper's mimic couplings) the accelerations honour
+    the constraints: the ``a`` of :func:`dynamics.constrained_forward_dynamics` without Baumgarte terms (use that
+    function for the multipliers or stabilisation), with f_ext entering as its generalised force J^T f_ext.
+    """
+    if getattr(model, "constraints", None):
+        return _constrained(model, q, v, tau, gravity, f_ext)
+    if gravity is None and f_ext is None:  # one state: one core call, which checks q, v and tau itself
+        try:
+            qdd = _core.aba(model.core, q, v, tau)
+            if qdd is not None:
+                return qdd
+        except checks.NOT_A_MODEL:  # the general path says what is wrong
+            pass
+    checks.check_model(model)
+    Q, (V, T), B, batched = checks.state_batch(model, q, (("v", v, model.nv), ("tau", tau, model.nv)))
+    F = checks.external_forces(model, f_ext, B)
+    g = checks.gravity_vector(model, gravity)
+    out = run(_core.aba_batch, model, Q, V, T, F, g, bool(V.any()), out=np.empty((B, model.nv)),
+              singular="forward dynamics")
+    return out if batched else out[0]
+
+
+def _constrained(model, q, v, tau, gravity, f_ext):
+    """forward_dynamics on a constrained model.  f_ext's generalised force J^T f_ext is read off the RNEA:
+    ID(q, v, 0) - ID(q, v, 0, f_ext) (the same gravity in both, so it cancels)."""
+    if f_ext is not None:
+        ext = bias_forces(model, q, v, gravity=gravity) - inverse_dynamics(model, q, v, np.zeros(model.nv),
+                                                                          gravity=gravity, f_ext=f_ext)
+        tau = np.asarray(tau, dtype=float)
+        if tau.shape[-1:] == (model.nv,):  # (otherwise constrained_forward_dynamics names the bad shape)
+            tau = tau + ext
+    return constrained_forward_dynamics(model, q, v, tau, gravity=gravity)[0]
+
+
+# -- numba kernels that the simulation still calls (until it moves to the core) --------------------------------
 
 class Work(NamedTuple):
     """ABA's scratch for one state: the forward pass's :class:`~dynamics.data.Data`; articulated inertias IA
@@ -94,18 +145,6 @@ def _aba_into(tree, q, v, tau, gravity, f_ext, ws, qdd):
     not valid)."""
     _rigid_body_terms(tree, q, v, f_ext, ws, True)
     return _aba_rest(tree, tau, gravity, ws, qdd)
-
-
-@inline_kernel
-def _aba_terms(tree, q, v, tau, gravity, f_ext, ws, qdd, with_v):
-    """ABA for one state: Featherstone's three passes (RBDA Table 7.1), inlined.  ``with_v=False`` (v is zero)
-    skips the velocity products c_i and v x* I v.  Returns -1, or the body whose joint is singular."""
-    _rigid_body_pass(tree, q, v, f_ext, ws, with_v)
-    singular = _articulated_pass(tree, tau, ws)
-    if singular >= 0:
-        return singular
-    _acceleration_pass(tree, gravity, ws, qdd)
-    return -1
 
 
 @inline_kernel
@@ -219,113 +258,9 @@ def _acceleration_pass(tree, gravity, ws, qdd):
         _set6(acc, i, add(aw, sw), add(al, sv))
 
 
-#: each pass both as a kernel of its own (the simulation's right-hand side and the energies link them, so a
-#: first simulation compiles each once; inlined, each caller would type and lower its own copy) and inlined
-#: (the batch and the single call: one Panda state 1.7 -> 1.1 us, as the kernels take the workspace as an
-#: argument and their loops cannot keep its views in registers)
-_rigid_body_terms, _rigid_body_pass = kernel(_rigid_body_pass), inline_kernel(_rigid_body_pass)
-_articulated_inertias, _articulated_pass = kernel(_articulated_pass), inline_kernel(_articulated_pass)
-_accelerations, _acceleration_pass = kernel(_acceleration_pass), inline_kernel(_acceleration_pass)
+#: each pass as a kernel of its own (the simulation's right-hand side and the energies link them)
+_rigid_body_terms = kernel(_rigid_body_pass)
+_articulated_inertias = kernel(_articulated_pass)
+_accelerations = kernel(_acceleration_pass)
 
 
-@kernel
-def _aba_batch(tree, Q, V, T, F, gravity, with_v, out, status):
-    # the arguments as views with no owner: no reference counts in the loops (dynamics._numba.borrow)
-    tree, Q, V = borrow(tree), borrow(Q), borrow(V)
-    T, F, gravity = borrow(T), borrow(F), borrow(gravity)
-    with_v, out, status = borrow(with_v), borrow(out), borrow(status)
-    nb, nv = tree.parents.shape[0], tree.S.shape[0]
-    buf = np.empty(_work_at(0, 0, nb, nv)[1])
-    ws = _work_at(address(buf), 0, nb, nv)[0]
-    lf, lv, lt = F.shape[0] - 1, V.shape[0] - 1, T.shape[0] - 1
-    for b in range(Q.shape[0]):
-        status[b] = _aba_terms(tree, Q[b], V[min(b, lv)], T[min(b, lt)], gravity, F[min(b, lf)], ws, out[b], with_v)
-    keep_alive(buf)
-
-
-def _aba_one(packed, q, v, tau, qdd):
-    """One state from Python, inputs checked in the call (status codes of :mod:`dynamics.checks`; a singular
-    joint takes the general path, which names it)."""
-    tree, gravity, nq = _unpack(packed)
-    nb, nv = tree.parents.shape[0], tree.S.shape[0]
-    if not (_config_shape_ok(tree, nq, q) and v.shape[0] == nv and tau.shape[0] == nv and qdd.shape[0] == nv):
-        return GENERAL
-    buf = scratch(_work_at(0, 0, nb, nv)[1])
-    singular = _aba_terms(tree, q, v, tau, gravity, view(buf, 0, (0, 6)), _work_at(address(buf), 0, nb, nv)[0], qdd,
-                         _nonzero(v))
-    keep_alive(buf)
-    return DONE if singular < 0 and _finite(qdd) else GENERAL
-
-
-
-def refuse_singular(model, q, what):
-    """Raise :func:`singular_joint_error` when the mass matrix is singular at q: the articulated-body pivot
-    D = S^T I^A S of some joint is not positive definite.  The rule ``simulate`` applies to q0 and ``dynamics
-    check`` to the neutral configuration, so both say the same."""
-    nv, nb = model.nv, model.nbodies
-    zero = np.zeros(nv)
-    body = _aba_into(model.tree, q, zero, zero, np.zeros(3), np.zeros((0, 6)), _workspace(nb, nv),
-                     np.empty(nv))
-    if body >= 0:
-        raise checks.singular_joint_error(model, body, what)
-
-
-# -- public entry point ----------------------------------------------------------------------------
-_aba_batch = _aba_batch
-_aba_single = SingleCall(_aba_one, VECTOR, VECTOR, VECTOR, VECTOR)
-
-
-def _aba_chunk(tree, Q, V, T, F, gravity, with_v, out):
-    status = np.empty(Q.shape[0], np.int64)
-    _aba_batch(tree, Q, V, T, F, gravity, with_v, out, status)
-    bad = status[status >= 0]
-    if bad.size:
-        raise _SingularJoint(int(bad[0]))
-
-
-class _SingularJoint(Exception):
-    def __init__(self, body):
-        self.body = body
-
-
-def forward_dynamics(model, q, v, tau, *, gravity=None, f_ext=None):
-    """Joint accelerations a = M^-1 (tau - C v - g + J^T f_ext) by the ABA, O(n).
-
-    Shapes as :func:`dynamics.inverse_dynamics` with tau in place of a.  Raises InputError naming the
-    joint when the mass matrix is singular (a joint that moves no mass or inertia).
-
-    On a constrained model (``model.constraints``: loops, a gripper's mimic couplings) the accelerations honour
-    the constraints: the ``a`` of :func:`dynamics.constrained_forward_dynamics` without Baumgarte terms (use that
-    function for the multipliers or stabilisation), with f_ext entering as its generalised force J^T f_ext.
-    """
-    if getattr(model, "constraints", None):
-        return _constrained(model, q, v, tau, gravity, f_ext)
-    try:  # one state: one compiled call, which checks q, v and tau itself (anything else takes the general path)
-        if gravity is None and f_ext is None:
-            qdd = np.empty(model.nv)
-            if _aba_single.call(model.packed, q, v, tau, qdd) == DONE:
-                return qdd
-    except NOT_ARRAYS:  # not a model, or arrays of other types: the general path says what is wrong or converts
-        pass
-    checks.check_model(model)
-    Q, (V, T), B, batched = checks.state_batch(model, q, (("v", v, model.nv), ("tau", tau, model.nv)))
-    out = np.empty((B, model.nv))
-    F = checks.external_forces(model, f_ext, B)
-    g = checks.gravity_vector(model, gravity)
-    try:
-        run_chunks(_aba_chunk, model.tree, (Q, V, T, F), (g, bool(V.any())), out)
-    except _SingularJoint as e:
-        raise checks.singular_joint_error(model, e.body, "forward dynamics") from None
-    return out if batched else out[0]
-
-
-def _constrained(model, q, v, tau, gravity, f_ext):
-    """forward_dynamics on a constrained model.  f_ext's generalised force J^T f_ext is read off the RNEA:
-    ID(q, v, 0) - ID(q, v, 0, f_ext) (the same gravity in both, so it cancels)."""
-    if f_ext is not None:
-        ext = bias_forces(model, q, v, gravity=gravity) - inverse_dynamics(model, q, v, np.zeros(model.nv),
-                                                                          gravity=gravity, f_ext=f_ext)
-        tau = np.asarray(tau, dtype=float)
-        if tau.shape[-1:] == (model.nv,):  # (otherwise constrained_forward_dynamics names the bad shape)
-            tau = tau + ext
-    return constrained_forward_dynamics(model, q, v, tau, gravity=gravity)[0]

@@ -55,6 +55,8 @@ _first_zero_unit_k = _first_zero_unit
 #: float64, the dtype the general path's fast checks compare with; NOT_ARRAYS: what a non-array raises there
 F64 = np.dtype(np.float64)
 NOT_ARRAYS = (AttributeError, TypeError, NumbaError)  # NumbaError: older numba refuses a big-endian array so
+#: what a single call into the core raises for a ``model`` that is not a Model (the general path then says so)
+NOT_A_MODEL = (AttributeError, TypeError)
 
 
 @inline_kernel

@@ -40,7 +40,8 @@ eq. 145).  Any Runge-Kutta method applied to it keeps its full order (this is th
 after each accepted step the chart is re-centred (``q0 <- _retract(q0, delta)``, ``delta <- 0``), so
 ``delta_theta`` stays small and far from the singularity of Jr^-1 at |theta| = pi.
 
-All kernels here are ``numba.njit`` and take the model's ``Tree``.  The simulation's chart functions
+The public functions are the core's (``core/configuration.cpp``).  The kernels here are the simulation's
+(``numba.njit``, on the model's ``Tree``) until it moves to the core.  The simulation's chart functions
 (:func:`retract_in`, :func:`chart_rate_in`) also take a tag (:func:`chart_tag`) whose numba type says whether
 the model has a joint with nq != nv (free, spherical, planar): a model of 1-dof joints only compiles the plain
 sums, not the quaternion algebra.
@@ -51,6 +52,7 @@ from typing import NamedTuple
 import numpy as np
 from numba.extending import overload
 
+from . import _core
 from ._numba import JIT_OPTIONS, inline_kernel, kernel
 from .checks import check_model, vector, zero_unit_message
 from .errors import InputError
@@ -167,15 +169,8 @@ def integrate(model, q, v, dt=1.0):
         raise InputError(f"dt: expected a finite float, got {dt!r}") from None
     if not np.isfinite(dt):
         raise InputError(f"dt: expected a finite float, got {dt!r}")
-    return _integrate_q(model.tree, q, v, dt)
-
-
-@kernel
-def _log_difference(tree, q0, q1):
-    """The tangent d with ``_integrate_q(tree, q0, d, 1) == q1`` (a new array)."""
-    out = np.empty(tree.S.shape[0])
-    for i in range(tree.jtype.shape[0]):
-        _joint_log(tree, i, q0, q1, out)
+    out = np.empty(model.nq)
+    _core.integrate(model.core, q, v, dt, out)
     return out
 
 
@@ -190,7 +185,9 @@ def difference(model, q0, q1):
     check_model(model)
     q0 = _configuration(model, "q0", q0)
     q1 = _configuration(model, "q1", q1)
-    return _log_difference(model.tree, q0, q1)
+    out = np.empty(model.nv)
+    _core.difference(model.core, q0, q1, out)
+    return out
 
 
 def _configuration(model, name, q):

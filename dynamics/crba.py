@@ -6,19 +6,35 @@ Backward pass: the composite inertia of the subtree at i, I^c_i = I_i + sum_chil
 (m, h, Io) in body i's frame.  For each velocity coordinate k of joint i, F = I^c_i S_k gives
 M[k, dofs(i)] = S_i^T F, then F is carried to each ancestor j (F = X_j^T F) for M[k, dofs(j)] = S_j^T F.
 Only the lower triangle is computed; the upper one is its mirror.
+
+The algorithm is the core's (``core/crba.cpp``); this module checks the arguments and calls it.
 """
 
 import numpy as np
 
-from . import checks
-from ._numba import (borrow, MATRIX, SingleCall, VECTOR, address, helper, inline_kernel, keep_alive, kernel, scratch)
+from . import _core, checks
+from ._numba import helper, inline_kernel, kernel
 from .data import _take
-from .checks import NOT_ARRAYS, DONE, GENERAL, _config_shape_ok, _finite, _roots_finite
-from .model import _unpack
-from .parallel import run_chunks
 from .joints import _joint_transform
+from .parallel import run
 from .spatial import add, force_to_parent, inertia_times, inertia_to_parent, load3, load33, store3, store33
 
+
+def mass_matrix(model, q):
+    """The joint-space mass matrix M(q) (CRBA), symmetric positive definite: (nv, nv) or (B, nv, nv)."""
+    try:  # one state: one core call, which checks q itself (anything else takes the general path)
+        M = _core.crba(model.core, q)
+        if M is not None:
+            return M
+    except checks.NOT_A_MODEL:  # the general path says what is wrong
+        pass
+    checks.check_model(model)
+    Q, batched = checks.configurations(model, q)
+    out = run(_core.crba_batch, model, Q, out=np.empty((Q.shape[0], model.nv, model.nv)))
+    return out if batched else out[0]
+
+
+# -- numba kernels that the constrained dynamics still calls (until it moves to the core) ------------------------
 
 @helper
 def _workspace(nb):
@@ -75,9 +91,7 @@ def _crba_into(tree, q, ws, M):
                 j = pj
 
 
-#: a kernel of its own for the constrained dynamics, inlined into the single call and the batch (as the ABA's
-#: passes, dynamics/aba.py)
-_crba_into, _crba_inline = kernel(_crba_into), inline_kernel(_crba_into)
+_crba_into = kernel(_crba_into)
 
 
 @helper
@@ -86,49 +100,3 @@ def _add9(A, B):
             A[7] + B[7], A[8] + B[8])
 
 
-@kernel
-def _crba_batch(tree, Q, out):
-    # the arguments as views with no owner: no reference counts in the loops (dynamics._numba.borrow)
-    tree, Q, out = borrow(tree), borrow(Q), borrow(out)
-    ws = _workspace(tree.parents.shape[0])
-    out[:] = 0.0
-    for b in range(Q.shape[0]):
-        _crba_inline(tree, Q[b], ws, out[b])
-
-
-def _crba_one(packed, q, M):
-    """One state from Python into M (zeroed here: a new array from np.empty is ~70 ns cheaper than from
-    np.zeros), inputs checked in the call (status codes of :mod:`dynamics.checks`)."""
-    tree, gravity, nq = _unpack(packed)
-    nb, nv = tree.parents.shape[0], tree.S.shape[0]
-    if not (_config_shape_ok(tree, nq, q) and _roots_finite(tree, nq, q) and M.shape[0] == nv
-            and M.shape[1] == nv):
-        return GENERAL
-    for r in range(nv):
-        for c in range(nv):
-            M[r, c] = 0.0
-    buf = scratch(_work_at(0, 0, nb)[1])
-    _crba_inline(tree, q, _work_at(address(buf), 0, nb)[0], M)
-    keep_alive(buf)
-    return DONE if _finite(M) else GENERAL
-
-
-
-# -- public entry point ----------------------------------------------------------------------------
-_crba_batch = _crba_batch
-_crba_single = SingleCall(_crba_one, VECTOR, MATRIX)
-
-
-def mass_matrix(model, q):
-    """The joint-space mass matrix M(q) (CRBA), symmetric positive definite: (nv, nv) or (B, nv, nv)."""
-    try:  # one state: one compiled call, which checks q itself (anything else takes the general path)
-        M = np.empty((model.nv, model.nv))
-        if _crba_single.call(model.packed, q, M) == DONE:
-            return M
-    except NOT_ARRAYS:  # not a model, or arrays of other types: the general path says what is wrong or converts
-        pass
-    checks.check_model(model)
-    Q, batched = checks.configurations(model, q)
-    out = np.empty((Q.shape[0], model.nv, model.nv))
-    run_chunks(_crba_batch, model.tree, (Q,), (), out)
-    return out if batched else out[0]

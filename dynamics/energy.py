@@ -6,21 +6,37 @@
 With a fixed base the world is the root link's frame; U is zero when every centre of mass is at height 0
 along g.
 
-:func:`_energy_sums` takes a forward pass already done.  The public functions run the plain forward pass
-(poses, and velocities only for T); a simulation evaluates the energy of every sample as it writes it
-(:func:`sample_energies`, from the run's ``emit``) with the ABA's first pass and workspace, which its run has
-compiled anyway (a kernel of its own cost ~4 s of a first simulate from an empty cache).
+The public functions are the core's (``core/energy.cpp``); a simulation evaluates the energy of every sample
+as it writes it (:func:`sample_energies`, from the run's ``emit``) with the ABA's first pass and workspace.
 """
 
 import numpy as np
 
-from . import checks
-from ._numba import (borrow, address, inline_kernel, keep_alive, kernel)
+from . import _core, checks
+from ._numba import inline_kernel
 from .aba import _rigid_body_terms
-from .parallel import run_chunks
-from .data import _data_at, _forward_pass, _take
+from .parallel import run
 from .spatial import add, dot, inertia_times, load3, load33, matmul, rot, store3, store33
 
+
+def kinetic_energy(model, q, v):
+    """T = 1/2 v^T M(q) v (J): a float, or (B,) for a batch."""
+    checks.check_model(model)
+    Q, (V,), B, batched = checks.state_batch(model, q, (("v", v, model.nv),))
+    out = run(_core.energy_batch, model, Q, V, np.zeros(3), True, False, out=np.empty((B, 2)))
+    return out[:, 0] if batched else float(out[0, 0])
+
+
+def potential_energy(model, q, *, gravity=None):
+    """U = -sum m_i g . c_i (J), zero reference at the world origin: a float, or (B,) for a batch."""
+    checks.check_model(model)
+    Q, bq = checks.configurations(model, q)
+    g = checks.gravity_vector(model, gravity)
+    out = run(_core.energy_batch, model, Q, np.zeros((1, model.nv)), g, False, True, out=np.empty((Q.shape[0], 2)))
+    return out[:, 1] if bq else float(out[0, 1])
+
+
+# -- numba kernels that the simulation still calls (until it moves to the core) --------------------------------
 
 @inline_kernel
 def _energy_sums(tree, d, gravity, kinetic, potential, Rw, pw):
@@ -61,40 +77,3 @@ def sample_energies(tree, q, v, gravity, f_ext, ws, out):
     out[0], out[1] = _energy_sums(tree, ws.d, gravity, True, True, Rw, pw)
 
 
-@kernel
-def _energy_batch(tree, Q, V, gravity, kinetic, potential, out):
-    """out[b] = (T, U) at (Q[b], V[b]), T only if ``kinetic`` (else 0 and V may have one row), U only if
-    ``potential`` (else 0)."""
-    # the arguments as views with no owner: no reference counts in the loops (dynamics._numba.borrow)
-    tree, Q, V = borrow(tree), borrow(Q), borrow(V)
-    gravity, kinetic, potential = borrow(gravity), borrow(kinetic), borrow(potential)
-    out = borrow(out)
-    nb = tree.parents.shape[0]
-    buf = np.empty(_data_at(0, 0, nb)[1] + 12 * nb)
-    d, o = _data_at(address(buf), 0, nb)
-    Rw, o = _take(address(buf), o, (nb, 3, 3))
-    pw, o = _take(address(buf), o, (nb, 3))
-    for b in range(Q.shape[0]):
-        _forward_pass(tree, Q[b], V[b if kinetic else 0], d, kinetic)
-        out[b, 0], out[b, 1] = _energy_sums(tree, d, gravity, kinetic, potential, Rw, pw)
-    keep_alive(buf)
-
-
-# -- public entry points ---------------------------------------------------------------------------
-def kinetic_energy(model, q, v):
-    """T = 1/2 v^T M(q) v (J): a float, or (B,) for a batch."""
-    checks.check_model(model)
-    Q, (V,), B, batched = checks.state_batch(model, q, (("v", v, model.nv),))
-    out = np.empty((B, 2))
-    run_chunks(_energy_batch, model.tree, (Q, V), (np.zeros(3), True, False), out)
-    return out[:, 0] if batched else float(out[0, 0])
-
-
-def potential_energy(model, q, *, gravity=None):
-    """U = -sum m_i g . c_i (J), zero reference at the world origin: a float, or (B,) for a batch."""
-    checks.check_model(model)
-    Q, bq = checks.configurations(model, q)
-    out = np.empty((Q.shape[0], 2))
-    g = checks.gravity_vector(model, gravity)
-    run_chunks(_energy_batch, model.tree, (Q, np.zeros((1, model.nv))), (g, False, True), out)
-    return out[:, 1] if bq else float(out[0, 1])

@@ -10,21 +10,50 @@ then expressed in the reference (:mod:`dynamics.kinematics`): "world" takes x = 
 world origin); "local_world_aligned" takes x = o, the frame origin moved by ``point`` (given in the frame's
 axes: a point fixed on the frame's body); "local" rotates that column into the frame's axes, oR_f^T.
 A point does not change the "world" Jacobian: the spatial velocity of a body is the same at all its points.
+
+The algorithm is the core's (``core/jacobians.cpp``); this module checks the arguments and calls it.
 """
 
 import numpy as np
-from numba import types
 
-from . import checks
-from ._numba import (MATRIX, SingleCall, VECTOR, address, borrow, inline_kernel, keep_alive,
-                     kernel, scratch)
-from .checks import DONE, GENERAL, NOT_ARRAYS, REFERENCES, _config_ok
+from . import _core, checks
+from ._numba import inline_kernel
+from .checks import REFERENCES
 from .kinematics import LOCAL, WORLD, _frame_pose, _support, _world_poses
-from .data import _take, _take_int
-from .model import _unpack, _unpack_frames
-from .parallel import run_chunks
+from .parallel import run
 from .spatial import add, cross, load3, load33, rot, rotT
 
+_ORIGIN = np.zeros(3)
+
+
+def frame_jacobian(model, q, frame, *, reference="local_world_aligned", point=None):
+    """The frame's Jacobian (6, nv), or (B, 6, nv) for a batch of q: rows [linear; angular].
+
+    ``reference``: "local_world_aligned" (the frame origin's velocity and the angular velocity, world axes),
+    "local" (the same in the frame's axes) or "world" (the spatial Jacobian at the world origin): Pinocchio's
+    three, same meaning.  ``point``: (3,) offset of a point fixed on the frame, in the frame's axes; the
+    linear rows are then that point's velocity (the "world" Jacobian does not depend on it).
+    """
+    if point is None:  # at the frame origin: one core call, which checks q, the frame and the reference
+        try:
+            f = model.frame_lookup.get(frame, -1)  # a name; an index only as an int (not True, not 1.0)
+            if f < 0 and type(frame) is int and 0 <= frame < len(model.frames):
+                f = frame
+            J = _core.frame_jacobian(model.core, q, f, REFERENCES.get(reference, -1))
+            if J is not None:
+                return J
+        except checks.NOT_A_MODEL:  # not a model; an unhashable frame or reference: the general path says what
+            pass
+    checks.check_model(model)
+    f = checks.frame(model, frame)
+    ref = checks.reference(reference)
+    pt = _ORIGIN if point is None else checks.vector("point", point, 3)
+    Q, batched = checks.configurations(model, q)
+    out = run(_core.frame_jacobian_batch, model, Q, f, ref, pt, out=np.empty((Q.shape[0], 6, model.nv)))
+    return out if batched else out[0]
+
+
+# -- numba kernels that the operational-space controller still calls (until it moves to the core) --------------
 
 @inline_kernel
 def _jacobian_into(tree, frames, q, f, ref, point, path, oR, op, J):
@@ -50,72 +79,3 @@ def _jacobian_into(tree, frames, q, f, ref, point, path, oR, op, J):
     return Rf, pf
 
 
-@kernel
-def _jacobian_batch(model_tree, Q, model_frames, f, ref, point, out):
-    # borrowed: _jacobian_into takes the arrays out of the tuples per body and per state: no reference counts
-    tree, frames, J = borrow(model_tree), borrow(model_frames), borrow(out)
-    nb = tree.parents.shape[0]
-    path, oR, op = np.empty(nb, np.int64), np.empty((nb, 3, 3)), np.empty((nb, 3))
-    out[:] = 0.0
-    pt = (point[0], point[1], point[2])
-    for b in range(Q.shape[0]):
-        _jacobian_into(tree, frames, Q[b], f, ref, pt, path, oR, op, J[b])
-    keep_alive(model_tree)
-    keep_alive(model_frames)
-    keep_alive(out)
-
-
-def _jacobian_one(packed, q, f, ref, J):
-    """One state from Python at the frame origin into J (6, nv), zeroed here; q, the frame index f (-1: not
-    found) and the reference code are checked in the call (status codes of dynamics.checks)."""
-    tree, gravity, nq = _unpack(packed)
-    frames = _unpack_frames(packed)
-    nb = tree.parents.shape[0]
-    if not (0 <= f < frames.body.shape[0] and 0 <= ref <= 2 and J.shape[1] == tree.S.shape[0]
-            and _config_ok(tree, nq, q)):
-        return GENERAL
-    for r in range(6):
-        for k in range(J.shape[1]):
-            J[r, k] = 0.0
-    buf = scratch(13 * nb)
-    oR, o = _take(address(buf), 0, (nb, 3, 3))
-    op, o = _take(address(buf), o, (nb, 3))
-    path, o = _take_int(address(buf), o, nb)
-    _jacobian_into(tree, frames, q, f, ref, (0.0, 0.0, 0.0), path, oR, op, J)
-    keep_alive(buf)
-    return DONE
-
-
-
-# -- public entry point ----------------------------------------------------------------------------
-_jacobian_batch = _jacobian_batch
-_jacobian_single = SingleCall(_jacobian_one, VECTOR, types.int64, types.int64, MATRIX)
-_ORIGIN = np.zeros(3)
-
-
-def frame_jacobian(model, q, frame, *, reference="local_world_aligned", point=None):
-    """The frame's Jacobian (6, nv), or (B, 6, nv) for a batch of q: rows [linear; angular].
-
-    ``reference``: "local_world_aligned" (the frame origin's velocity and the angular velocity, world axes),
-    "local" (the same in the frame's axes) or "world" (the spatial Jacobian at the world origin): Pinocchio's
-    three, same meaning.  ``point``: (3,) offset of a point fixed on the frame, in the frame's axes; the
-    linear rows are then that point's velocity (the "world" Jacobian does not depend on it).
-    """
-    try:  # at the frame origin: one compiled call, which checks q (a float64 vector...), the frame and the reference
-        if point is None:
-            f = model.frame_lookup.get(frame, -1)  # a name; an index only as an int (not True, not 1.0)
-            if f < 0 and type(frame) is int and 0 <= frame < len(model.frames):
-                f = frame
-            J = np.empty(model.jacobian_shape)
-            if _jacobian_single.call(model.packed, q, f, REFERENCES.get(reference, -1), J) == DONE:
-                return J
-    except NOT_ARRAYS:  # not a model; an unhashable frame or reference: the general path says what is wrong
-        pass
-    checks.check_model(model)
-    f = checks.frame(model, frame)
-    ref = checks.reference(reference)
-    pt = _ORIGIN if point is None else checks.vector("point", point, 3)
-    Q, batched = checks.configurations(model, q)
-    out = np.empty((Q.shape[0], 6, model.nv))
-    run_chunks(_jacobian_batch, model.tree, (Q,), (model.frame_arrays, f, ref, pt), out)
-    return out if batched else out[0]

@@ -30,7 +30,7 @@ One state per call.
 
 import numpy as np
 
-from . import checks
+from . import _core, checks
 from ._numba import address, keep_alive, kernel
 from .kinematics import frame_placement
 from .rnea_derivatives import _forward_step, _work_at
@@ -107,14 +107,6 @@ def _in_reference(reference, T, X, dX=None):
     return np.vstack([lin.T, w.T])
 
 
-def _owners(model):
-    """The body of each velocity coordinate, (nv,)."""
-    owner = np.empty(model.nv, np.int64)
-    for i in range(model.nbodies):
-        owner[model.v_index[i]:model.v_index[i] + model.nv_joint[i]] = i
-    return owner
-
-
 def frame_velocity_derivatives(model, q, v, frame, *, reference="local_world_aligned"):
     """(dv_dq, dv_dv), each (6, nv): the derivatives of frame_velocity(model, q, v, frame, reference=...)
     ([linear; angular]) with respect to q (tangent space) and v (module docstring).  One state."""
@@ -147,18 +139,16 @@ def frame_jacobian_time_variation(model, q, v, frame, *, reference="local_world_
     """dJ/dt (6, nv) of frame_jacobian(model, q, frame, reference=...) moving with velocity v (Pinocchio's
     getFrameJacobianTimeVariation): J a + dJ/dt v = d/dt (J v), which is frame_acceleration(...) in
     "local_world_aligned" (classical) and frame_acceleration(..., classical=False) in "local" and "world".  One
-    state."""
-    f, body, support, d, T = _state(model, q, v, None, frame, reference)
-    J, ov = d["J"] * support[:, None], d["ov"][body]
-    dJ = _cross(d["ov"][_owners(model)], J)  # column k of joint j: ov_j x J_k
-    if reference == "world":
-        return _in_reference("world", T, dJ)
-    if reference == "local":
-        return _in_reference("local", T, dJ - _cross(ov, J))
-    p = T[:3, 3]
-    dp = ov[3:] + np.cross(ov[:3], p)  # the frame origin's velocity
-    lin = dJ[:, 3:] - np.cross(p, dJ[:, :3]) - np.cross(dp, J[:, :3])
-    return np.vstack([lin.T, dJ[:, :3].T])
+    state.  The core's (``core/jacobians.cpp``)."""
+    checks.check_model(model)
+    f = checks.frame(model, frame)
+    if reference not in _REFS:
+        raise checks.InputError(f"reference: expected one of {list(_REFS)}, got {reference!r}")
+    q = checks.vector("q", q, model.nq)
+    v = checks.vector("v", v, model.nv)
+    out = np.empty((6, model.nv))
+    _core.frame_jacobian_time_variation(model.core, q, v, f, checks.reference(reference), out)
+    return out
 
 
 def center_of_mass_derivatives(model, q, v):

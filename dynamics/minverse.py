@@ -20,19 +20,39 @@ forward pass computes the upper triangle (columns c >= i's first coordinate), th
 Cost: O(n d) backward (d the depth) and O(n^2) forward.  A joint whose D_i is not positive (it moves no
 mass or inertia) makes M singular: the kernel returns that body's index.  1-dof joints (nearly all) take
 loops specialised with their 6-vectors in locals; the free joint the generic ones.
+
+The algorithm is the core's (``core/minverse.cpp``); this module checks the arguments and calls it.
 """
 
 import numpy as np
 
-from . import checks
-from ._numba import (borrow, MATRIX, SingleCall, VECTOR, address, helper, inline_kernel, keep_alive, kernel, scratch)
-from .checks import DONE, GENERAL, NOT_ARRAYS, _config_shape_ok, _finite, _roots_finite
-from .kinematics import _world_pose
+from . import _core, checks
+from ._numba import helper, inline_kernel, kernel
 from .data import _take, _take_int
-from .model import _unpack
-from .parallel import run_chunks
+from .kinematics import _world_pose
+from .parallel import run, run_chunks
 from .spatial import add, cross, inertia_to_parent, _joint_gram, load3, load33, rot, _spd_inverse, _store_inertia6
 
+
+def inverse_mass_matrix(model, q):
+    """M(q)^-1, (nv, nv) or (B, nv, nv), computed directly in O(n^2) (not by inverting M; module docstring).
+
+    Raises InputError naming the joint when M is singular (a joint that moves no mass or inertia)."""
+    try:  # one state: one core call, which checks q (anything else takes the general path)
+        Minv = _core.inverse_mass_matrix(model.core, q)
+        if Minv is not None:
+            return Minv
+    except checks.NOT_A_MODEL:
+        pass
+    checks.check_model(model)
+    Q, batched = checks.configurations(model, q)
+    out = run(_core.minverse_batch, model, Q, out=np.empty((Q.shape[0], model.nv, model.nv)),
+              singular="inverse mass matrix")
+    return out if batched else out[0]
+
+
+# -- numba kernels that the derivatives and the operational-space controller still call (until they move to the
+# core) ----------------------------------------------------------------------------------------------------------
 
 @helper
 def _workspace(nb, nv):
@@ -57,20 +77,6 @@ def _work_at(base, o, nb, nv):
     D, o = _take(base, o, (6, 6))
     scratch, o = _take(base, o, (6, 6))
     return (oR, op, IA, Sw, U, UD, Dinv, F, nsub, D, scratch), o
-
-
-def _minverse_one(packed, q, Minv):
-    """One state from Python, q checked in the call (status codes of dynamics.checks; a singular joint takes
-    the general path, which names it)."""
-    tree, gravity, nq = _unpack(packed)
-    nb, nv = tree.parents.shape[0], tree.S.shape[0]
-    if not (_config_shape_ok(tree, nq, q) and _roots_finite(tree, nq, q) and Minv.shape[0] == nv
-            and Minv.shape[1] == nv):
-        return GENERAL
-    buf = scratch(_work_at(0, 0, nb, nv)[1])
-    singular = _minverse_into(tree, q, _work_at(address(buf), 0, nb, nv)[0], Minv)
-    keep_alive(buf)
-    return DONE if singular < 0 and _finite(Minv) else GENERAL
 
 
 @kernel
@@ -265,22 +271,6 @@ def _forward_1dof(Sw, UD, A, Minv, i, k0, ns, par, nv):
             A[i, c, 3], A[i, c, 4], A[i, c, 5] = a3 + s3 * x, a4 + s4 * x, a5 + s5 * x
 
 
-@kernel
-def _minverse_batch(tree, Q, out, status):
-    """out[b] = M^-1 at Q[b]; status[b] = -1 or a body whose joint makes M singular."""
-    # the arguments as views with no owner: no reference counts in the loops (dynamics._numba.borrow)
-    tree, Q, out = borrow(tree), borrow(Q), borrow(out)
-    status = borrow(status)
-    nv = tree.S.shape[0]
-    ws, Minv = _workspace(tree.parents.shape[0], nv), np.empty((nv, nv))
-    for b in range(Q.shape[0]):
-        # into a matrix that stays in cache, then one sequential copy: the kernel's row and column (mirror)
-        # writes straight into a large batch's fresh output memory cost ~10% more
-        status[b] = _minverse_into(tree, Q[b], ws, Minv)
-        out[b] = Minv
-
-
-# -- public entry point ----------------------------------------------------------------------------
 class _SingularJoint(Exception):
     def __init__(self, body):
         self.body = body
@@ -309,22 +299,3 @@ def run_checked(model, kernel, batched, shared, out, what):
         raise checks.singular_joint_error(model, e.body, what) from None
 
 
-_minverse_batch = Checked(_minverse_batch)
-_minverse_single = SingleCall(_minverse_one, VECTOR, MATRIX)
-
-
-def inverse_mass_matrix(model, q):
-    """M(q)^-1, (nv, nv) or (B, nv, nv), computed directly in O(n^2) (not by inverting M; module docstring).
-
-    Raises InputError naming the joint when M is singular (a joint that moves no mass or inertia)."""
-    try:  # one state: one compiled call, which checks q (anything else takes the general path)
-        Minv = np.empty((model.nv, model.nv))
-        if _minverse_single.call(model.packed, q, Minv) == DONE:
-            return Minv
-    except NOT_ARRAYS:
-        pass
-    checks.check_model(model)
-    Q, batched = checks.configurations(model, q)
-    out = np.empty((Q.shape[0], model.nv, model.nv))
-    run_checked(model, _minverse_batch, (Q,), (), out, "inverse mass matrix")
-    return out if batched else out[0]

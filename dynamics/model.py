@@ -42,6 +42,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from . import _core
 from .errors import closest
 from ._numba import address, float_at, inline_kernel, int_at
 from .joints import (JOINT_NQ, JOINT_NV, KINDS, ROTATES_ABOUT_AXIS, URDF_JOINT_CODES, motion_subspace,
@@ -207,6 +208,7 @@ class Model:
             [(k + KINDS[c].unit[0], KINDS[c].unit[1]) for c, k in zip(self.tree.jtype, self.tree.q_idx)
              if KINDS[c].unit], np.int64).reshape(-1, 2), np.int64))
         object.__setattr__(self, "packed", pack(self.tree, self.gravity, self.frame_arrays))
+        object.__setattr__(self, "core", core_model(self))
         # frame name -> index, one dict lookup for the single-call entry points (names only: True and 1.0 must not
         # find frame 1); and the shapes of their results
         object.__setattr__(self, "frame_lookup", {n: k for k, n in enumerate(self.frames)})
@@ -350,6 +352,10 @@ class Model:
         out["warnings"] = list(self.warnings)
         return out
 
+    def __getstate__(self):
+        """Pickling (process pools, Ray): the fields, without the core's model, which unpickling builds again."""
+        return {k: v for k, v in self.__dict__.items() if k != "core"}
+
     def __setstate__(self, state):
         """Unpickling (process pools, Ray) gives writable arrays; the kernels are compiled for read-only ones, so
         a writable copy would compile every kernel again (a minute) in each worker: freeze them again, with numpy's
@@ -366,10 +372,19 @@ class Model:
             elif key == "collision_geometry":
                 value = tuple(g._replace(pose=_frozen(g.pose)) for g in value)
             object.__setattr__(self, key, value)
+        object.__setattr__(self, "core", core_model(self))
 
     def __repr__(self):
         return (f"Model({self.name!r}, nq={self.nq}, nv={self.nv}, bodies={self.nbodies}, "
                 f"floating_base={self.floating_base})")
+
+
+def core_model(model):
+    """The C++ core's model (``dynamics._core.Model``) of ``model``'s arrays: built once with the model, shared by
+    every thread (the core checks every index and size; an inconsistent model is a ValueError here)."""
+    t, fr = model.tree, model.frame_arrays
+    return _core.Model(t.parents, t.jtype, t.q_idx, t.v_idx, t.nv_j, t.Xrot, t.Xpos, t.axis, t.S, t.mass, t.h, t.Io,
+                       t.XK, t.XKK, model.gravity, model.lower, model.upper, fr.body, fr.kind, fr.R, fr.p)
 
 
 @dataclass

@@ -13,6 +13,7 @@ batches itself.
 
 import contextlib
 import contextvars
+import math
 import os
 import threading
 import time
@@ -20,6 +21,7 @@ from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
+from .checks import singular_joint_error
 from .errors import DeadlineExceeded
 
 MIN_PARALLEL_BATCH = 64
@@ -73,6 +75,23 @@ def check_deadline(done, total):
     if t_end is not None and time.monotonic() > t_end:
         raise DeadlineExceeded(f"the batch of {total} states ran past its deadline; {done} were done",
                                done=done, total=total)
+
+
+def run(kernel, model, *args, out, singular=None):
+    """Run the core's batch ``kernel(model.core, *args, out, threads, seconds)`` into ``out`` (B rows) on
+    :func:`num_threads` threads, inside the deadline of the enclosing :func:`deadline` block: the core looks at
+    the clock between states and stops past it (DeadlineExceeded here).  A state whose joint makes M singular
+    (ABA, M^-1) is an InputError naming the joint, ``singular`` naming the computation."""
+    B = out.shape[0]
+    t_end = _deadline.get()
+    seconds = math.inf if t_end is None else t_end - time.monotonic()
+    done, expired, failed, body = kernel(model.core, *args, out, num_threads(), seconds)
+    if expired:
+        raise DeadlineExceeded(f"the batch of {B} states ran past its deadline; {done} were done", done=done,
+                               total=B)
+    if failed >= 0:
+        raise singular_joint_error(model, body, singular)
+    return out
 
 
 def _rows(batched, B, lo, hi):

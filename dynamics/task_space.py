@@ -5,8 +5,8 @@ motion F = Lambda xdd + mu + p has the inertia
 
     Lambda = (J M^-1 J^T)^-1,
 
-the inertia the end effector presents to a force applied at it.  J M^-1 J^T is formed in one compiled pass per
-state (M^-1 by :mod:`dynamics.minverse`, over the frame's support columns only); its inverse is taken by a
+the inertia the end effector presents to a force applied at it.  J M^-1 J^T is formed by the core in one pass
+per state (``core/task_space.cpp``: M^-1 by :mod:`dynamics.minverse`, over the frame's support columns only); its inverse is taken by a
 symmetric eigendecomposition, which also gives the condition number: near a singularity of J (an arm
 stretched out) J M^-1 J^T loses rank and Lambda blows up.  Without damping a condition number above
 :data:`MAX_CONDITION` is an error naming the frame; with ``damping`` = d > 0, Lambda = (J M^-1 J^T + d 1)^-1
@@ -15,53 +15,12 @@ stretched out) J M^-1 J^T loses rank and Lambda blows up.  Without damping a con
 
 import numpy as np
 
-from . import checks
-from ._numba import borrow, keep_alive, kernel
+from . import _core, checks
 from .errors import InputError
-from .jacobians import _jacobian_into
-from .kinematics import _support
-from .minverse import Checked, _minverse_into, run_checked, _workspace
+from .parallel import run
 
 #: J M^-1 J^T with a larger condition number is singular (half of double precision's digits are gone)
 MAX_CONDITION = 1e8
-
-
-@kernel
-def _jmj_batch(model_tree, Q, model_frames, f, ref, rows, out, status):
-    """out[b] = J[rows] M^-1 J[rows]^T at Q[b]; status[b] = -1 or a body whose joint makes M singular."""
-    # borrowed: the kernels below take the arrays out of the tuples per body and per state: no reference counts
-    tree, frames = borrow(model_tree), borrow(model_frames)
-    nb, nv, r = tree.parents.shape[0], tree.S.shape[0], rows.shape[0]
-    path, oR, op = np.empty(nb, np.int64), np.empty((nb, 3, 3)), np.empty((nb, 3))
-    ws = _workspace(nb, nv)
-    J, Minv, JM = np.zeros((6, nv)), np.empty((nv, nv)), np.empty((r, nv))
-    cols = np.empty(nv, np.int64)  # the support's columns: J is zero elsewhere
-    n = 0
-    for t in range(_support(tree.parents, frames.body[f], path)):
-        for k in range(tree.v_idx[path[t]], tree.v_idx[path[t]] + tree.nv_j[path[t]]):
-            cols[n] = k
-            n += 1
-    for b in range(Q.shape[0]):
-        _jacobian_into(tree, frames, Q[b], f, ref, (0.0, 0.0, 0.0), path, oR, op, J)
-        status[b] = _minverse_into(tree, Q[b], ws, Minv)
-        for a in range(r):
-            for c in range(n):
-                x = 0.0
-                for t in range(n):
-                    x += J[rows[a], cols[t]] * Minv[cols[t], cols[c]]
-                JM[a, c] = x
-        for a in range(r):
-            for e in range(r):
-                x = 0.0
-                for t in range(n):
-                    x += JM[a, t] * J[rows[e], cols[t]]
-                out[b, a, e] = x
-    keep_alive(model_tree)
-    keep_alive(model_frames)
-
-
-# -- public entry point ----------------------------------------------------------------------------
-_jmj_batch = Checked(_jmj_batch)
 
 
 def operational_space_inertia(model, q, frame, *, reference="local_world_aligned", rows=None, damping=0.0):
@@ -78,8 +37,8 @@ def operational_space_inertia(model, q, frame, *, reference="local_world_aligned
     rows = checks.rows(rows)
     d = checks.real_number("damping", damping, lo=0.0)
     Q, batched = checks.configurations(model, q)
-    JMJ = np.empty((Q.shape[0], rows.size, rows.size))
-    run_checked(model, _jmj_batch, (Q,), (model.frame_arrays, f, ref, rows), JMJ, "operational space inertia")
+    JMJ = run(_core.jminvjt_batch, model, Q, f, ref, rows, out=np.empty((Q.shape[0], rows.size, rows.size)),
+              singular="operational space inertia")
     ev, vec = np.linalg.eigh(JMJ)
     if d == 0.0:
         with np.errstate(divide="ignore"):

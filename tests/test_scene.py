@@ -5,8 +5,8 @@ import pinocchio as pin
 import pytest
 
 import dynamics
-from dynamics.aba import _aba_batch
-from dynamics.rnea import _rnea_batch, skipped_terms
+from dynamics import _core
+from dynamics.rnea import skipped_terms
 from robots import erd, random_state, random_urdf
 from test_pinocchio import PinMap, compare
 
@@ -105,16 +105,19 @@ def test_skipped_terms_give_the_same_numbers_as_the_full_computation():
     g = np.array(model.gravity)
     F = np.zeros((1, 0, 6))
     full = np.empty_like(V)
+
+    def rnea(V, A):  # the core's RNEA with every term (with_v, with_a), on one thread
+        _core.rnea_batch(model.core, Q, V, A, F, g, True, True, full, 1, np.inf)
+
     # zero velocity and acceleration: gravity torques vs the full RNEA on explicit zeros
-    _rnea_batch(model.tree, Q, Z, Z, F, g, True, True, full)
+    rnea(Z, Z)
     # gravity torques take the subtree-weight shortcut: same numbers up to round-off
     np.testing.assert_allclose(dynamics.gravity_torques(model, Q), full, rtol=0, atol=1e-12 * np.abs(full).max())
-    _rnea_batch(model.tree, Q, V, Z, F, g, True, True, full)
+    rnea(V, Z)
     np.testing.assert_array_equal(dynamics.bias_forces(model, Q, V), full)
-    _rnea_batch(model.tree, Q, Z, A, F, g, True, True, full)
+    rnea(Z, A)
     np.testing.assert_array_equal(dynamics.inverse_dynamics(model, Q, Z, A), full)
-    status = np.empty(len(Q), np.int64)
-    _aba_batch(model.tree, Q, Z, A, F, g, True, full, status)
+    _core.aba_batch(model.core, Q, Z, A, F, g, True, full, 1, np.inf)
     np.testing.assert_array_equal(dynamics.forward_dynamics(model, Q, Z, A), full)
     assert skipped_terms(v=Z, a=A) == ["velocity products"]
     assert skipped_terms(v=V, a=None, gravity=[0, 0, 0]) == ["joint accelerations", "gravity"]

@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 import dynamics
+from dynamics import _core
 from robots import chain_urdf, erd, random_state, random_urdf, refuses
 
 ROBOTS = {
@@ -160,34 +161,28 @@ def test_concurrent_single_calls_agree():
     assert not errors
 
 
-def test_packed_model_survives_pickling():
+def test_model_survives_pickling():
+    """A model from a process pool or a Ray task builds its core model again: the same numbers, on the fast path."""
     model = dynamics.load_urdf(ROBOTS["ur5"][0])
     clone = pickle.loads(pickle.dumps(model))
-    assert not clone.packed.flags.writeable
+    assert not clone.packed.flags.writeable and clone.core is not model.core
     q, v, a = _states(model)[0]
-    np.testing.assert_array_equal(dynamics.inverse_dynamics(clone, q, v, a), dynamics.inverse_dynamics(model, q, v, a))
-    # the clone's arrays have numpy's own dtype objects again, which the single-call entries look for
-    from dynamics.checks import DONE
-    from dynamics.rnea import _rnea_single
-    assert clone.packed.dtype is np.dtype(np.int64)
-    assert _rnea_single.call(clone.packed, q, v, a, np.empty(model.nv)) == DONE
+    fast = _core.rnea(clone.core, q, v, a)
+    assert fast is not None
+    np.testing.assert_array_equal(fast, dynamics.inverse_dynamics(model, q, v, a))
 
 
 def test_states_that_came_by_pickle_take_the_fast_path():
     """An array unpickled (from a process pool or a Ray task) has a dtype object of its own: the entries compare
-    the type number and byte order, so it is still taken by the compiled call, bit for bit."""
-    from dynamics.checks import DONE
-    from dynamics.kinematics import _placements_single
-    from dynamics.rnea import _rnea_single
+    the type number and byte order, so it is still taken by the single call, bit for bit."""
     model = dynamics.load_urdf(ROBOTS["ur5"][0])
     q, v, a = pickle.loads(pickle.dumps(_states(model)[0]))
     assert q.dtype is not np.dtype(np.float64)
-    tau = np.empty(model.nv)
-    assert _rnea_single.call(model.packed, q, v, a, tau) == DONE
+    tau = _core.rnea(model.core, q, v, a)
     np.testing.assert_array_equal(tau, dynamics.inverse_dynamics(model, q.copy(), v.copy(), a.copy()))
-    assert _placements_single.call(model.packed, q, np.empty(model.placements_shape)) == DONE
-    swapped = q.astype(">f8")  # the same type number in the other byte order: not the compiled call's to read
-    assert refuses(_rnea_single.call, model.packed, swapped, v, a, tau)
+    assert _core.placements(model.core, q) is not None
+    swapped = q.astype(">f8")  # the same type number in the other byte order: not the single call's to read
+    assert _core.rnea(model.core, swapped, v, a) is None
 
 
 class _Subclass(np.ndarray):
@@ -218,48 +213,33 @@ def test_unusual_arrays_get_the_general_paths_result(model, name):
             np.testing.assert_array_equal(f(model, *args), f(model, *general), err_msg=f"{label} argument {k}")
 
 
-def test_compiled_entries_refuse_what_they_do_not_take(model):
-    """The entries called directly (as the public functions do) answer GENERAL, never crash, for anything else:
-    wrong arity, a non-array or wrong dtype or rank anywhere, a result of the wrong shape, layout or writeability."""
-    from dynamics.aba import _aba_single
-    from dynamics.checks import DONE
-    from dynamics.crba import _crba_single
-    from dynamics.rnea import _bias_single, _gravity_single, _rnea_single
+def test_core_entries_refuse_what_they_do_not_take(model):
+    """The single-call entries, called directly (as the public functions do), answer None (the general path's
+    turn), never crash, for anything but exact float64 states of the right length: a non-array, another dtype,
+    rank or length, non-finite values; a wrong arity or a model that is not the core's is a TypeError."""
     q, v, a = _states(model)[0]
-    P, nv = model.packed, model.nv
-    tau, M = np.empty(nv), np.empty((nv, nv))
-    frozen = tau.copy()
-    frozen.flags.writeable = False
-    bad_results = [tau[:-1], np.empty(nv + 1), np.empty(2 * nv)[::2], tau.astype(np.int64), tau[None], frozen,
-                   "tau", None]
-    bad_matrices = [M[:-1], M[:, :-1], M.T, np.empty((nv, 2 * nv))[:, ::2], M.astype(np.float32), M.ravel(),
-                    np.empty((1, nv, nv)), "M"]
-    entries = [(_rnea_single.call, (q, v, a), tau, bad_results), (_aba_single.call, (q, v, a), tau, bad_results),
-               (_bias_single.call, (q, v), tau, bad_results), (_gravity_single.call, (q,), tau, bad_results),
-               (_crba_single.call, (q,), M, bad_matrices)]
-    for call, states, out, bad_outs in entries:
-        assert call(P, *states, out) == DONE
-        assert refuses(call, P, *states, out, out) and refuses(call, P, *states) and refuses(call)
-        for bad_packed in (None, q, P.astype(np.int32), P[::2], P[None]):
-            assert refuses(call, bad_packed, *states, out)
+    c = model.core
+    entries = [(_core.rnea, (q, v, a)), (_core.aba, (q, v, a)), (_core.bias_forces, (q, v)),
+               (_core.gravity_torques, (q,)), (_core.crba, (q,)), (_core.inverse_mass_matrix, (q,)),
+               (_core.placements, (q,)), (lambda c, q: _core.center_of_mass(c, q, True), (q,)),
+               (lambda c, q: _core.frame_jacobian(c, q, 0, 0), (q,))]
+    for call, states in entries:
+        assert call(c, *states) is not None
         for k in range(len(states)):
+            nan = states[k].copy()
+            nan[-1] = np.nan
             for bad in (None, 1.0, "q", list(states[k]), states[k].astype(np.float32), states[k][None],
-                        states[k][:-1].copy(), np.append(states[k], 0.0)):
+                        states[k][:-1].copy(), np.append(states[k], 0.0), nan, np.empty(2 * len(states[k]))[::2]):
                 args = list(states)
                 args[k] = bad
-                assert refuses(call, P, *args, out), (call, k, bad)
-        for bad in bad_outs:
-            assert refuses(call, P, *states, bad), (call, bad)
-
-
-def test_other_argument_types_never_compile_another_kernel(model):
-    """Each entry is compiled for one signature only: a float32, strided or list argument gets the general path
-    and never a second specialisation (numba compiles a new one for each new argument type otherwise)."""
-    from dynamics.rnea import _rnea_single
-    q, v, a = _states(model)[0]
-    for x in (q.astype(np.float32), np.repeat(q, 2)[::2], list(q)):
-        dynamics.inverse_dynamics(model, x, v, a)
-    assert len(_rnea_single.dispatcher.signatures) == 1
+                assert call(c, *args) is None, (call, k, bad)
+    for bad_model in (None, model, q, "model"):
+        with pytest.raises(TypeError):
+            _core.rnea(bad_model, q, v, a)
+    with pytest.raises(TypeError):
+        _core.rnea(c, q, v)  # one argument short
+    assert _core.frame_jacobian(c, q, len(model.frame_names), 0) is None  # a frame or reference out of range
+    assert _core.frame_jacobian(c, q, -1, 0) is None and _core.frame_jacobian(c, q, 0, 3) is None
 
 
 def test_constrained_entry_refuses_what_it_does_not_take():
@@ -283,25 +263,3 @@ def test_constrained_entry_refuses_what_it_does_not_take():
                  (P, C, q, v, tau.astype(np.float32), a, lam), (P, C, q[None], v, tau, a, lam),
                  (P, C, q, v, tau, np.empty(2 * nv)[::2], lam), (P, C, "q", v, tau, a, lam)]:
         assert refuses(call, *args)
-
-
-def test_a_first_call_with_wrong_arguments_compiles_nothing():
-    """The first call of a single-state kernel with arguments its signature refuses (a string, a list, float32,
-    int) answers the general path's error before any compilation: the kernel stays uncompiled, and a later call
-    with good arrays compiles it and gives the batch's result."""
-    from dynamics._numba import SingleCall
-    from dynamics.aba import _aba_one
-
-    call = SingleCall(_aba_one, *([dynamics._numba.VECTOR] * 4))
-    arm = dynamics.load_urdf(chain_urdf(2))
-    good = [np.zeros(2), np.zeros(2), np.array([0.3, -0.2]), np.empty(2)]
-    for bad in ("x", [0.0, 0.0], np.zeros(2, np.float32), np.zeros(2, np.int64), np.zeros((1, 2))):
-        with pytest.raises(TypeError):
-            call.call(arm.packed, bad, *good[1:])
-        assert call.dispatcher is None
-    with pytest.raises(TypeError):
-        call.call(arm.packed, *good[:3])  # one argument short
-    assert call.dispatcher is None
-    assert call.call(arm.packed, *good) == dynamics._numba.DONE
-    assert call.dispatcher is not None
-    assert np.array_equal(good[3], dynamics.forward_dynamics(arm, good[0][None], good[1][None], good[2][None])[0])

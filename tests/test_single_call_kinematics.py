@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 import dynamics
-from robots import erd, random_state, random_urdf, refuses
+from robots import erd, random_state, random_urdf
 
 ROBOTS = {
     "panda": (erd("panda_description/urdf/panda.urdf"), False),
@@ -149,20 +149,16 @@ def test_unusual_arrays_get_the_general_paths_result(model, name):
         np.testing.assert_array_equal(f(model, x, *extra), f(model, [float(v) for v in x], *extra), err_msg=label)
 
 
-def test_compiled_entries_refuse_what_they_do_not_take(model):
-    """The entries called directly (as the public functions do) answer GENERAL, never crash, for anything else."""
-    from dynamics.checks import GENERAL
-    from dynamics.jacobians import _jacobian_single
-    from dynamics.kinematics import _placements_single
-    q, out, J = _q(model), np.empty(model.placements_shape), np.empty(model.jacobian_shape)
-    fk, jac = _placements_single.call, _jacobian_single.call
-    assert fk(model.packed, q, out) != GENERAL and jac(model.packed, q, 0, 2, J) != GENERAL
-    for args in [(), (model.packed, q), (model.packed, q, out, out), (None, q, out), (q, q, out),
-                 (model.packed, q.astype(np.float32), out), (model.packed, q, out[:-1]), (model.packed, q, out[..., ::2]),
-                 (model.packed, q, np.empty((len(model.frames), 16))), (model.packed, q, out.astype(np.int64)),
-                 (model.packed, q[None], out), (model.packed, "q", out), (model.packed, 1.0, out)]:
-        assert refuses(fk, *args), args
-    for args in [(model.packed, q, 0, 2), (model.packed, q, 0, None, J),
-                 (model.packed, q, 0, 2, J[:, :-1]), (model.packed, q, 0, 2, J.T),
-                 (model.packed, q, len(model.frames), 2, J), (model.packed, q, 0, 3, J), (model.packed, q, -1, 2, J)]:
-        assert refuses(jac, *args), args
+def test_core_entries_refuse_what_they_do_not_take(model):
+    """The single-call entries called directly (as the public functions do) answer None, never crash, for
+    anything but an exact float64 configuration, a frame index in range and a known reference code."""
+    from dynamics import _core
+    q, c = _q(model), model.core
+    assert _core.placements(c, q) is not None and _core.frame_jacobian(c, q, 0, 2) is not None
+    for bad in (q.astype(np.float32), q[None], "q", 1.0, None, q[:-1].copy(), np.repeat(q, 2)[::2]):
+        assert _core.placements(c, bad) is None and _core.frame_jacobian(c, bad, 0, 2) is None
+    for f, ref in ((len(model.frames), 2), (0, 3), (-1, 2), (0, -1)):
+        assert _core.frame_jacobian(c, q, f, ref) is None
+    for args in [(), (c, q, 0), (None, q, 0, 2), (q, q, 0, 2), (c, q, 0, None), (c, q, "0", 2)]:
+        with pytest.raises(TypeError):
+            _core.frame_jacobian(*args)

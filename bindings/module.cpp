@@ -1,0 +1,19 @@
+// The extension module dynamics._core: the C++ core (core/) bound for the Python package, one file per area.
+#include "arrays.hpp"
+#include "numpy.hpp"
+
+namespace bind {
+void expose_model(nb::module_& m);
+void expose_dynamics(nb::module_& m);
+void expose_kinematics(nb::module_& m);
+void expose_configuration(nb::module_& m);
+}  // namespace bind
+
+NB_MODULE(_core, m) {
+    m.doc() = "The compiled core of dynamics (internal: call the functions of the dynamics package).";
+    bind::import_numpy();
+    bind::expose_model(m);
+    bind::expose_dynamics(m);
+    bind::expose_kinematics(m);
+    bind::expose_configuration(m);
+}

@@ -1,0 +1,75 @@
+// Joint models in one place (Featherstone 2008, sec. 4.4, jcalc): a switch on the joint type per function,
+// so a new joint type is one case in each function of this file (and its record in dynamics/joints.py).
+//
+// The body frame is the joint frame, so the transform parent -> body is the placement (Xrot, Xpos) followed
+// by the joint's motion:
+//   revolute:   R = Xrot Rot(axis, q) = Xrot + sin q XK + (1 - cos q) XKK, p = Xpos          (nq = nv = 1)
+//   prismatic:  R = Xrot, p = Xpos + Xrot axis q                                             (nq = nv = 1)
+//   free:       R = Xrot Rot(quat), p = Xpos + Xrot xyz, q = [x, y, z, qx, qy, qz, qw], v = [linear, angular]
+//               in the body frame (Pinocchio's layout)                                       (nq = 7, nv = 6)
+//   spherical:  R = Xrot Rot(quat), p = Xpos, q = [qx, qy, qz, qw], v = angular velocity      (nq = 4, nv = 3)
+//   planar:     R = Xrot Rot(axis, theta), p = Xpos + Xrot (x u + y w), q = [x, y, cos, sin], v = [vx, vy, wz]
+//               in the body frame, (u, w) the plane's in-plane directions (S's linear rows)  (nq = 4, nv = 3)
+// The motion subspace S is constant in body coordinates, so the joint bias acceleration is zero (c_J = 0) and
+// v_i x (S qd) is the only velocity-product term (eq. 5.8).
+#pragma once
+
+#include "model.hpp"
+
+namespace core {
+
+enum JointType { JOINT_REVOLUTE = 0, JOINT_PRISMATIC = 1, JOINT_FREE = 2, JOINT_SPHERICAL = 3, JOINT_PLANAR = 4 };
+constexpr int JOINT_TYPES = 5;
+
+// Coordinates of a joint type in q and in v; its neutral q (the identity) into q0[0..nq).
+int joint_nq(int type);
+int joint_nv(int type);
+void joint_neutral(int type, double* q0);
+
+// Body i in its parent's frame at q.
+Transform joint_transform(const Model& model, int i, const double* q);
+
+// S_i qd: the joint's motion in the body frame for rates (or accelerations) qd (indexed by v).
+inline Motion joint_motion(const Model& model, int i, const double* qd) {
+    Motion m;
+    for (int k = model.v_idx[i]; k < model.v_idx[i] + model.nv_j[i]; ++k) {
+        const Motion& s = model.S[k];
+        double x = qd[k];
+        m.w.x += s.w.x * x, m.w.y += s.w.y * x, m.w.z += s.w.z * x;
+        m.v.x += s.v.x * x, m.v.y += s.v.y * x, m.v.z += s.v.z * x;
+    }
+    return m;
+}
+
+// tau[dofs of i] = S_i^T f: the generalised force the joint transmits.
+inline void joint_project(const Model& model, int i, const Force& f, double* tau) {
+    for (int k = model.v_idx[i]; k < model.v_idx[i] + model.nv_j[i]; ++k) {
+        const Motion& s = model.S[k];
+        tau[k] = s.w.x * f.n.x + s.w.y * f.n.y + s.w.z * f.n.z + s.v.x * f.f.x + s.v.y * f.f.y + s.v.z * f.f.z;
+    }
+}
+
+// A unit quaternion (or a planar joint's (cos, sin)) whose squared norm is below this is "zero".
+constexpr double ZERO_QUATERNION_SQ = 1e-16;
+
+// Joint i's coordinates in q are a configuration: its quaternion or (cos, sin) is not zero.
+bool joint_config_ok(const Model& model, int i, const double* q);
+
+// Joint i has position limits (1-dof joints; -inf/inf when the URDF gives none).
+inline bool joint_limited(const Model& model, int i) {
+    return model.jtype[i] == JOINT_REVOLUTE || model.jtype[i] == JOINT_PRISMATIC;
+}
+
+// -- the configuration manifold (configuration.hpp loops over the joints) ------------------------------------
+
+// Joint i's chart coordinates after moving with velocity v for dt from q (the exponential of SE(3), SO(3),
+// SE(2) for the free, spherical and planar joints; v dt for 1-dof joints).
+void joint_integrate_delta(const Model& model, int i, const double* q, const double* v, double dt, double* delta);
+// Joint i's part of q = q0 (+) delta in the chart (configuration.hpp).
+void joint_retract(const Model& model, int i, const double* q0, const double* delta, double* q);
+// Joint i's part of the chart tangent d with retract(q0, d) == q1.
+void joint_difference(const Model& model, int i, const double* q0, const double* q1, double* out);
+// Joint i's part of the tangent d with integrate(q0, d, 1) == q1 (Pinocchio's difference: log6, log3, log2).
+void joint_log(const Model& model, int i, const double* q0, const double* q1, double* out);
+
+}  // namespace core

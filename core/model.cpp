@@ -1,0 +1,56 @@
+// The model's consistency check: after it, every index an algorithm reads is in bounds.
+#include "model.hpp"
+
+#include <stdexcept>
+#include <string>
+
+#include "joints.hpp"
+
+namespace core {
+
+static void require(bool ok, const std::string& what) {
+    if (!ok) throw std::invalid_argument("model: " + what);
+}
+
+static void require_size(size_t got, long want, const char* name) {
+    require(got == static_cast<size_t>(want),
+            std::string(name) + " has " + std::to_string(got) + " entries, expected " + std::to_string(want));
+}
+
+void check(Model& m) {
+    require(m.nb >= 0 && m.nq >= 0 && m.nv >= 0, "negative sizes");
+    for (auto* a : {&m.parents, &m.jtype, &m.q_idx, &m.v_idx, &m.nv_j}) require_size(a->size(), m.nb, "a per-body array");
+    require_size(m.Xrot.size(), m.nb, "Xrot");
+    require_size(m.XK.size(), m.nb, "XK");
+    require_size(m.XKK.size(), m.nb, "XKK");
+    require_size(m.Xpos.size(), m.nb, "Xpos");
+    require_size(m.axis.size(), m.nb, "axis");
+    require_size(m.I.size(), m.nb, "inertias");
+    require_size(m.S.size(), m.nv, "S");
+    require_size(m.lower.size(), m.nv, "lower");
+    require_size(m.upper.size(), m.nv, "upper");
+    int nq = 0, nv = 0;
+    m.has_unit_blocks = false;
+    for (int i = 0; i < m.nb; ++i) {
+        require(m.parents[i] >= -1 && m.parents[i] < i, "body " + std::to_string(i) + ": parent must be in [-1, i)");
+        int t = m.jtype[i];
+        require(t >= 0 && t < JOINT_TYPES, "body " + std::to_string(i) + ": unknown joint type " + std::to_string(t));
+        require(m.q_idx[i] == nq && m.v_idx[i] == nv && m.nv_j[i] == joint_nv(t),
+                "body " + std::to_string(i) + ": q_idx, v_idx or nv_j do not follow the joint types");
+        nq += joint_nq(t);
+        nv += joint_nv(t);
+        m.has_unit_blocks = m.has_unit_blocks || joint_nq(t) != joint_nv(t);
+    }
+    require(nq == m.nq && nv == m.nv, "nq or nv is not the sum of the joints'");
+    for (auto* a : {&m.frame_body, &m.frame_kind}) require_size(a->size(), m.nf, "a per-frame array");
+    require_size(m.frame_R.size(), m.nf, "frame_R");
+    require_size(m.frame_p.size(), m.nf, "frame_p");
+    for (int f = 0; f < m.nf; ++f) {
+        require(m.frame_body[f] >= -1 && m.frame_body[f] < m.nb, "frame " + std::to_string(f) + ": body out of range");
+        int kind = m.frame_kind[f];
+        require(kind >= FRAME_BODY && kind <= FRAME_WORLD && (kind == FRAME_WORLD) == (m.frame_body[f] < 0),
+                "frame " + std::to_string(f) + ": kind does not match its body");
+    }
+}
+
+}  // namespace core
