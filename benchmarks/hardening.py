@@ -1,10 +1,18 @@
-"""Issue 11's reproductions, measured: `python -m benchmarks.hardening [--python PY] [--heavy]`. Not in CI.
+"""Issues 11 and 49's reproductions, measured: `python -m benchmarks.hardening [--python PY] [--heavy]
+[--section requests|bodies|all]`. Not in CI.
 
-Starts `PY -m service` (default: this interpreter; pass another checkout's venv to measure it "before") with
-keys k1,k2 and the default limits, uploads a 128-joint chain with k1, then sends each case and prints its
-status, wall time, the server's peak RSS during the case and its RSS 3 s after, over the baseline. The cases
-that took gigabytes before the fix (16,000 and 12,000-state mass matrices, 200,000 int8 states, 99,999
-samples) run only with --heavy.
+Starts `PY -m service` (default: this interpreter; pass another checkout's venv, or set PYTHONPATH to another
+checkout, to measure it "before") with keys k1,k2 and the default limits, uploads a 128-joint chain with k1, then
+sends each case and prints its status, wall time, the server's peak RSS during the case and its RSS 3 s after,
+over the baseline.
+
+Section "requests" (issue 11): hostile or oversize requests to the synchronous routes. The cases that took
+gigabytes before the fix (16,000 and 12,000-state mass matrices, 200,000 int8 states, 99,999 samples) run only
+with --heavy.
+
+Section "bodies" (issue 49, findings 1 and 2): job bodies of puma560 inverse dynamics as JSON and as .npz (64 MiB;
+255 MiB with --heavy), and .npz archives of many empty members: 36,000 sent twice at once to a synchronous route
+while a normal request is sent, and 72,000 (288,000 with --heavy) as a job body.
 """
 
 from __future__ import annotations
@@ -107,6 +115,90 @@ def cases(chain: str, heavy: bool):
     return out
 
 
+# -- issue 49: job bodies and many-member archives --------------------------------------------------------------
+MiB = 1 << 20
+
+
+def job_json(target_bytes: int) -> bytes:
+    """A JSON job body of about ``target_bytes``: inverse dynamics of puma560 (q, v, a rows of 6 numbers of 4
+    decimals, as a client writing them from a log would)."""
+    rng = np.random.default_rng(49)
+    sample = json.dumps(np.round(rng.uniform(-1, 1, (100, 6)), 4).tolist())
+    states = int(target_bytes / (3 * len(sample) / 100))
+    rows = {k: np.round(rng.uniform(-1, 1, (states, 6)), 4).tolist() for k in "qva"}
+    return json.dumps({"robot": "puma560", "kind": "inverse_dynamics", "inputs": rows}).encode()
+
+
+def job_npz(target_bytes: int) -> bytes:
+    """An .npz job body of about ``target_bytes``: the same job, float64 states (3 x 6 x 8 bytes each)."""
+    states = target_bytes // (3 * 6 * 8)
+    rng = np.random.default_rng(49)
+    return npz(robot=np.array("puma560"), kind=np.array("inverse_dynamics"),
+               **{k: rng.uniform(-1, 1, (states, 6)) for k in "qva"})
+
+
+def many_members(n: int, extra: dict | None = None) -> bytes:
+    """An .npz of ``n`` empty float64 members (about 220 bytes each) besides the arrays of ``extra``."""
+    one = io.BytesIO()
+    np.save(one, np.zeros(0))
+    member = one.getvalue()
+    buf = io.BytesIO()
+    with zipfile.ZipFile(buf, "w") as z:
+        for name, value in (extra or {}).items():
+            item = io.BytesIO()
+            np.save(item, value)
+            z.writestr(name + ".npy", item.getvalue())
+        for i in range(n):
+            z.writestr(f"m{i}.npy", member)
+    return buf.getvalue()
+
+
+def body_cases(heavy: bool):
+    x = {"Content-Type": NPZ}
+    sizes = (64, 255) if heavy else (64,)
+    out = []
+    for mib in sizes:
+        out.append((f"job body JSON {mib} MiB (puma560 inverse dynamics)", "/v1/jobs",
+                    {"content": job_json(mib * MiB), "headers": JSON_H}))
+        out.append((f"job body .npz {mib} MiB (puma560 inverse dynamics)", "/v1/jobs",
+                    {"content": job_npz(mib * MiB), "headers": x}))
+    robot = {"robot": np.array("puma560"), "kind": np.array("inverse_dynamics")}
+    for n in (72_000, 288_000) if heavy else (72_000,):
+        out.append((f"job body .npz of {n:,} empty members", "/v1/jobs",
+                    {"content": many_members(n, robot), "headers": x}))
+    return out
+
+
+def members_at_once(url: str, key: str, n: int = 36_000) -> list[tuple[str, object, float]]:
+    """Two .npz bodies of ``n`` empty members sent at once to inverse dynamics (the server's two compute threads),
+    and a normal one-state request sent 0.5 s later: (label, status, seconds) of each."""
+    body = many_members(n)
+    results: list = []
+
+    def send(label, kw):
+        t0 = time.monotonic()
+        try:
+            with httpx.Client(base_url=url, timeout=300, headers={"Authorization": f"Bearer {key}"}) as c:
+                status = c.post("/v1/robots/planar_2r/inverse-dynamics", **kw).status_code
+        except httpx.HTTPError as e:
+            status = type(e).__name__
+        results.append((label, status, time.monotonic() - t0))
+
+    many = {"content": body, "headers": {"Content-Type": NPZ}}
+    normal = {"content": npz(q=np.zeros((4, 2)), v=np.zeros((4, 2)), a=np.zeros((4, 2))),
+              "headers": {"Content-Type": NPZ}}
+    threads = [threading.Thread(target=send, args=(f".npz of {n:,} empty members ({len(body) / 1e6:.0f} MB), "
+                                                   f"#{i + 1} of 2 at once", many)) for i in range(2)]
+    for t in threads:
+        t.start()
+    time.sleep(0.5)
+    threads.append(threading.Thread(target=send, args=("a normal request sent meanwhile", normal)))
+    threads[-1].start()
+    for t in threads:
+        t.join()
+    return results
+
+
 def measure(c: httpx.Client, pid: int, path: str, kw: dict) -> tuple[int, float, float, float]:
     base = rss_mb(pid)
     peak = [base]
@@ -185,11 +277,13 @@ def main(argv=None) -> int:
     p.add_argument("--python", default=sys.executable)
     p.add_argument("--heavy", action="store_true")
     p.add_argument("--slow", action="store_true", help="also 200 half-sent requests held for 35 s")
+    p.add_argument("--section", choices=("requests", "bodies", "all"), default="all")
     args = p.parse_args(argv)
     with tempfile.TemporaryDirectory() as tmp:
         port = free_port()
+        # (the bodies section simulates nothing: no simulation worker, whose warm-up takes minutes on a cold cache)
         env = {**os.environ, "DYNAMICS_API_KEYS": "k1,k2", "DYNAMICS_ROBOTS_DIR": str(REPO / "robots"),
-               "DYNAMICS_SIM_WORKERS": "1", "DYNAMICS_COMPUTE_THREADS": "2"}
+               "DYNAMICS_SIM_WORKERS": "0" if args.section == "bodies" else "1", "DYNAMICS_COMPUTE_THREADS": "2"}
         proc = subprocess.Popen([args.python, "-m", "service", "--port", str(port), "--store", f"{tmp}/store",
                                  "--log-level", "warning"], env=env, cwd=tmp, start_new_session=True)
         url = f"http://127.0.0.1:{port}"
@@ -202,9 +296,19 @@ def main(argv=None) -> int:
                 c.post(f"/v1/robots/{chain}/mass-matrix", json={"q": [0.0] * 128})
                 print(f"server RSS at start {rss_mb(proc.pid):.0f} MB\n")
                 print("| case | status | seconds | peak RSS over baseline, MB | RSS 3 s after, MB |\n|---|---|---|---|---|")
-                for label, path, kw in cases(chain, args.heavy):
+                chosen = (cases(chain, args.heavy) if args.section != "bodies" else []) + \
+                    (body_cases(args.heavy) if args.section != "requests" else [])
+                for label, path, kw in chosen:
                     status, seconds, peak, after = measure(c, proc.pid, path, kw)
                     print(f"| {label} | {status} | {seconds:.2f} | {peak:+.0f} | {after:+.0f} |", flush=True)
+                    if path == "/v1/jobs" and status == 202:  # (the next job body is not refused for the limit)
+                        for job in c.get("/v1/jobs").json()["jobs"]:
+                            c.delete(f"/v1/jobs/{job['id']}")
+                if args.section != "requests":
+                    for label, status, seconds in members_at_once(url, "k1"):
+                        print(f"| {label} | {status} | {seconds:.2f} | | |", flush=True)
+                if args.section == "bodies":
+                    return 0
                 with httpx.Client(base_url=url, headers={"Authorization": "Bearer k2"}) as k2:
                     print(f"| key k2 reads k1's robot | {k2.get(f'/v1/robots/{chain}').status_code} | | | |")
                     print(f"| key k2 computes with k1's robot | "

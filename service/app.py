@@ -23,7 +23,7 @@ from .deps import Deps
 from .derivatives import OPERATIONS as DERIVATIVES
 from .jobs.manager import Jobs
 from .kinematics import OPERATIONS as KINEMATICS
-from .protocol import Options
+from .protocol import Head, Options, SecurityHeaders
 from .routes import constraints, derivatives, dynamics, health, inspect, jobs, kinematics, robots, simulate
 from .settings import Settings, configure_logging
 
@@ -78,7 +78,9 @@ def create_app(settings: Optional[Settings] = None) -> FastAPI:
     app.include_router(inspect.router)  # last: no API request is matched against the page's paths
     app.add_middleware(ApiKeys, keys=settings.api_keys, open_paths=health.OPEN_PATHS, open_prefix=inspect.PREFIX,
                        closed_paths=(inspect.TRAJECTORY,))
+    app.add_middleware(Head)  # (GET's answer without its body, on every path a GET answers)
     app.add_middleware(Options, routes=app.router.routes)  # (before the key check: Allow tells no secret)
-    app.add_middleware(errors.RequestIds)  # added last: outermost, so that it sees every exception
+    app.add_middleware(errors.RequestIds)  # outermost but one, so that it sees every exception
+    app.add_middleware(SecurityHeaders)  # outermost: its headers on every answer, RequestIds' 500s included
     app.openapi = _openapi(app)
     return app

@@ -7,6 +7,7 @@ their compiled models. Every method may parse XML, build a model or fsync a file
 from __future__ import annotations
 
 import difflib
+import unicodedata
 
 import json
 from typing import Any, Optional
@@ -57,6 +58,37 @@ def check_xml(data: bytes, *, max_bytes: int, max_depth: int, max_links: int = 1
         parser.close()
     except etree.XMLSyntaxError as e:
         raise InvalidInput(f"urdf: not well-formed XML ({e})", "urdf") from None
+
+
+#: Unicode categories no robot name may hold: control characters (Cc); format characters (Cf: the bidirectional
+#: overrides and isolates U+202A-U+202E and U+2066-U+2069, the marks U+200E and U+200F, zero-width characters);
+#: line and paragraph separators. They make a listing show another text than the name a request must send.
+REFUSED_CATEGORIES = frozenset({"Cc", "Cf", "Zl", "Zp"})
+
+
+def check_name(name: str, given: bool) -> None:
+    """A robot's name as a listing shows it and a path addresses it (``/v1/robots/{name}/...``): not empty, no
+    leading or trailing space, no '/', '\\' or '..' (files are stored by id, so nothing is traversed, but such a
+    name reads as a path) and no character of :data:`REFUSED_CATEGORIES`; 422 naming ``name`` otherwise.
+    ``given``: the caller's (?name= or the JSON body's), else the URDF's robot name."""
+    whose = "" if given else "the URDF's robot name "
+    fix = "choose another name" if given else "give the robot a name (?name=...)"
+    if not name.strip():
+        empty = "empty; give a name, or leave it out to use the URDF's robot name" if given else \
+            "the URDF's robot name is empty; give the robot a name (?name=...)"
+        raise InvalidInput(f"name: {empty}", "name")
+    if name != name.strip():
+        raise InvalidInput(f"name: {whose}{echo(name)} starts or ends with a space; {fix}", "name")
+    for part in ("/", "\\", ".."):
+        if part in name:
+            raise InvalidInput(f"name: {whose}{echo(name)} contains {part!r}; a name is one segment of a path "
+                               f"(/v1/robots/{{name}}): {fix}", "name")
+    for c in name:
+        if unicodedata.category(c) in REFUSED_CATEGORIES:
+            raise InvalidInput(f"name: {whose}{echo(name)} contains U+{ord(c):04X} "
+                               f"({unicodedata.name(c, 'a control character')}): control and formatting characters "
+                               f"(bidirectional overrides among them) would show another name than the robot's; "
+                               f"{fix}", "name")
 
 
 def model_summary(model) -> dict[str, Any]:
@@ -123,6 +155,9 @@ class Catalog:
         (same key, document, name and options) is the same robot: (description, False). ``constraints``
         (schemas.ConstraintSpec) and ``mimic`` are written into the stored document (service.constraints.declare)."""
         s = self.settings
+        explicit = name is not None  # (an empty ?name= is given, and refused: not the URDF's name in disguise)
+        if explicit:
+            check_name(name, True)  # (before the URDF is parsed)
         check_xml(urdf, max_bytes=s.max_urdf_bytes, max_depth=s.max_xml_depth, max_links=s.max_links)
         urdf = declare(urdf, floating_base, constraints, mimic)
         try:
@@ -134,8 +169,9 @@ class Catalog:
             raise InvalidInput(f"urdf: {model.nv} degrees of freedom is over the limit of {s.max_dof} "
                                f"(DYNAMICS_MAX_DOF)", "urdf")
         check_closed(model)
-        explicit = name is not None
-        name = name or model.name[:MAX_NAME]  # (a URDF's name is capped like a given one)
+        if not explicit:
+            name = model.name[:MAX_NAME]  # (a URDF's name is capped like a given one)
+            check_name(name, False)
         rid = robot_id(text, name=name, floating_base=floating_base, owner=owner)
         if self.store.lookup(rid) is None:
             self._check_new(name, explicit, owner)

@@ -1,9 +1,10 @@
 """Bytes in, arrays out, and back: request bodies (JSON or ``.npz``) and answers (JSON or ``.npz``).
 
-Arrays are never walked in Python: JSON lists go to ``np.asarray`` in one call, ``.npz`` members are read with
-``allow_pickle=False`` after their uncompressed sizes were checked (a tiny compressed archive can claim
-gigabytes). The body is read in chunks and refused with 413 as soon as it passes the limit, so a 64 MiB body
-costs at most the limit in memory.
+Arrays are never walked in Python: JSON lists go to ``np.asarray`` in one call, ``.npz`` members are read by
+:mod:`service.npz` (no pickles) after their count, names and uncompressed sizes were checked (a tiny compressed
+archive can claim gigabytes, or hold 36,000 members). The body is read in chunks and refused with 413 as soon as
+it passes the limit, so a 64 MiB body costs at most the limit in memory; a job's ``.npz`` body goes to a file as
+it arrives (:func:`spool_body`), not to memory.
 """
 
 from __future__ import annotations
@@ -12,9 +13,7 @@ import asyncio
 import io
 import json
 import math
-import zipfile
-import zlib
-from typing import Any, Mapping
+from typing import Any, BinaryIO, Callable, Collection, Mapping, Optional, Union
 
 import numpy as np
 import orjson
@@ -23,7 +22,8 @@ from starlette.requests import Request
 from starlette.responses import Response
 
 from . import memory
-from .errors import BadRequest, InvalidInput, RequestTimeout, TooLarge, UnsupportedMediaType, figure
+from .errors import BadRequest, InvalidInput, RequestTimeout, TooLarge, UnsupportedMediaType
+from .npz import open_npz
 
 JSON = "application/json"
 NPZ = "application/x-npz"
@@ -36,23 +36,71 @@ def media_type(header: str | None) -> str:
 
 #: the slowest upload rate allowed beyond DYNAMICS_READ_TIMEOUT (see read_body)
 BODY_BYTES_PER_SECOND = 1 << 20
+#: bytes of a spooled body gathered before they are written to its file, in a thread (see spool_body)
+SPOOL_BLOCK = 1 << 20
+#: what a refused body is told to do instead, by default
+SMALLER = ("send smaller batches (the Python client splits them) or submit a job (POST /v1/jobs, client.submit)")
 
 
-async def read_body(request: Request, limit: int) -> bytes:
-    """The request body, refused with 413 as soon as it is known to exceed ``limit`` bytes."""
+def declared_length(request: Request) -> Optional[int]:
+    """The body's size as its Content-Length header declares it (None without one); 400 if it is no number."""
     declared = request.headers.get("content-length")
-    if declared is not None:
-        try:
-            n = int(declared)
-        except ValueError:
-            raise BadRequest("Content-Length: not a number", "Content-Length") from None
-        if n > limit:
-            raise _too_large(limit)
+    if declared is None:
+        return None
+    try:
+        n = int(declared)
+    except ValueError:
+        raise BadRequest("Content-Length: not a number", "Content-Length") from None
+    if n < 0:
+        raise BadRequest("Content-Length: negative", "Content-Length")
+    return n
+
+
+async def read_body(request: Request, limit: int, *, setting: str = "DYNAMICS_MAX_BODY_BYTES",
+                    hint: str = SMALLER) -> bytes:
+    """The request body, refused with 413 as soon as it is known to exceed ``limit`` bytes (the message names
+    ``setting``, and says what to do instead: ``hint``)."""
+    chunks: list[bytes] = []
+
+    async def keep(chunk: bytes) -> None:
+        chunks.append(chunk)
+
+    await _receive(request, limit, setting, hint, keep)
+    return b"".join(chunks)
+
+
+async def spool_body(request: Request, limit: int, file: BinaryIO, *, setting: str = "DYNAMICS_MAX_BODY_BYTES",
+                     hint: str = SMALLER) -> int:
+    """The request body written to ``file`` as it arrives (the server holds at most :data:`SPOOL_BLOCK` of it),
+    with :func:`read_body`'s limits; its size. The writes run in a thread: a disk may block, the event loop may
+    not."""
+    loop = asyncio.get_running_loop()
+    block = bytearray()
+
+    async def write(chunk: bytes) -> None:
+        block.extend(chunk)
+        if len(block) >= SPOOL_BLOCK:
+            await loop.run_in_executor(None, file.write, bytes(block))
+            block.clear()
+
+    total = await _receive(request, limit, setting, hint, write)
+    if block:
+        await loop.run_in_executor(None, file.write, bytes(block))
+    await loop.run_in_executor(None, file.flush)
+    file.seek(0)
+    return total
+
+
+async def _receive(request: Request, limit: int, setting: str, hint: str, take: Callable[[bytes], Any]) -> int:
+    """Hand each piece of the body to ``take`` (a coroutine function); its size. 413 as soon as it is known to
+    be over ``limit`` (from Content-Length, before a byte is read), 408 past the read timeout."""
+    declared = declared_length(request)
+    if declared is not None and declared > limit:
+        raise too_large(limit, setting, hint)
     deps = getattr(request.app.state, "deps", None)
     timeout = deps.settings.read_timeout if deps is not None else None
     loop = asyncio.get_running_loop()
     started = loop.time()
-    chunks: list[bytes] = []
     total = 0
     stream = request.stream().__aiter__()
     while True:
@@ -70,27 +118,34 @@ async def read_body(request: Request, limit: int) -> bytes:
                                  "body", headers={"Connection": "close"}) from None
         total += len(chunk)
         if total > limit:
-            raise _too_large(limit)
-        chunks.append(chunk)
-    return b"".join(chunks)
+            raise too_large(limit, setting, hint)
+        if chunk:
+            await take(chunk)
+    return total
 
 
-def _too_large(limit: int) -> TooLarge:
-    return TooLarge(f"body: larger than the limit of {limit} bytes (DYNAMICS_MAX_BODY_BYTES); send smaller batches "
-                    f"(the Python client splits them) or submit a job (POST /v1/jobs, client.submit)", "body",
+def too_large(limit: int, setting: str, hint: str = SMALLER) -> TooLarge:
+    """413 for a body over ``limit`` bytes (``setting``), saying what to do instead; the connection is closed (the
+    rest of the body is not read)."""
+    return TooLarge(f"body: larger than the limit of {limit} bytes ({setting}); {hint}", "body",
                     headers={"Connection": "close"})
 
 
-def decode(body: bytes, content_type: str | None, *, max_unpacked: int) -> dict[str, Any]:
-    """A JSON object or an ``.npz`` archive -> dict of plain values and arrays.
+def decode(body: Union[bytes, BinaryIO], content_type: str | None, *, max_unpacked: int,
+           names: Optional[Collection[str]] = None, check: Optional[Callable[[], None]] = None) -> dict[str, Any]:
+    """A JSON object or an ``.npz`` archive (bytes, or a file) -> dict of plain values and arrays.
 
+    ``names``: the fields the request takes; an ``.npz`` holding more members, or another one, is refused before
+    any member is read. ``check()`` is called between the pieces of an ``.npz`` (the request's clock).
     No Content-Type means JSON; a header that names no media type (``;;;;``) is refused, not guessed."""
     kind = media_type(content_type) if content_type is not None else JSON
     if kind == NPZ:
-        return decode_npz(body, max_unpacked=max_unpacked)
+        return decode_npz(body, max_unpacked=max_unpacked, names=names, check=check)
     if kind != JSON and not kind.endswith("+json"):
         raise UnsupportedMediaType(f"Content-Type: {kind or content_type!r:.64} is not accepted here; send {JSON} "
                                    f"or {NPZ}", "Content-Type")
+    if not isinstance(body, bytes):
+        body = body.read()
     if not body:
         raise InvalidInput("body: empty; expected a JSON object", "body")
     try:
@@ -111,69 +166,24 @@ def _parse_int(text: str) -> int | float:
     return int(text) if len(text) <= 18 else float(text)
 
 
-def _member_header(zf: zipfile.ZipFile, info: zipfile.ZipInfo) -> tuple[tuple[int, ...], np.dtype]:
-    """The shape and dtype an .npy member declares, checked against the bytes it holds, before it is read."""
-    name = info.filename.removesuffix(".npy")
-    with zf.open(info) as f:
-        try:
-            version = np.lib.format.read_magic(f)
-            read_header = np.lib.format.read_array_header_1_0 if version == (1, 0) else \
-                np.lib.format.read_array_header_2_0
-            shape, _, dtype = read_header(f, max_header_size=10_000)
-        except (ValueError, EOFError, SyntaxError, TypeError) as e:
-            raise InvalidInput(f"{name}: .npz member is not in .npy format ({str(e)[:200]})", name) from None
-        header = f.tell()
-    if dtype.hasobject:
-        raise InvalidInput(f"{name}: .npz member holds Python objects; only numeric arrays are accepted", name)
-    claimed = math.prod(shape) * dtype.itemsize
-    if claimed != info.file_size - header:
-        raise InvalidInput(f"{name}: .npz member declares {len(shape)} dimensions of {dtype} ({figure(claimed)} "
-                           f"bytes) but holds {info.file_size - header} bytes", name)
-    return shape, dtype
-
-
-def decode_npz(body: bytes, *, max_unpacked: int) -> dict[str, Any]:
-    """An .npz archive -> its members; ``max_unpacked`` bounds what they occupy once read and made float64
-    (a few KB of compressed int8 can claim gigabytes of float64 states)."""
-    buf = io.BytesIO(body)
-    try:
-        with zipfile.ZipFile(buf) as zf:
-            infos = zf.infolist()
-            if sum(i.file_size for i in infos) > max_unpacked:
-                raise _unpacks_too_large(sum(i.file_size for i in infos), max_unpacked)
-            total = 0
-            for info in infos:
-                shape, dtype = _member_header(zf, info)
-                total += math.prod(shape) * max(8, dtype.itemsize)
-            if total > max_unpacked:
-                raise _unpacks_too_large(total, max_unpacked)
-    except (zipfile.BadZipFile, zipfile.LargeZipFile, NotImplementedError, OSError, EOFError, ValueError,
-            RuntimeError, zlib.error) as e:  # (zipfile: ValueError, zlib.error, RuntimeError for "encrypted")
-        raise InvalidInput(f"body: not a valid .npz archive ({str(e)[:200]})", "body") from None
+def decode_npz(body: Union[bytes, BinaryIO], *, max_unpacked: int, names: Optional[Collection[str]] = None,
+               check: Optional[Callable[[], None]] = None) -> dict[str, Any]:
+    """An .npz archive -> its members (:func:`service.npz.open_npz` checks them first); ``max_unpacked`` bounds
+    what they occupy once read and made float64 (a few KB of compressed int8 can claim gigabytes of float64
+    states). 0-d members are plain values: strings (an integrator, a JSON-encoded torque spec) and numbers."""
     out: dict[str, Any] = {}
-    buf.seek(0)  # (np.load reads the magic from where the headers were last read)
-    try:
-        with np.load(buf, allow_pickle=False) as npz:
-            for name in npz.files:
-                arr = npz[name]
-                if arr.ndim == 0 and arr.dtype.kind == "U":
-                    out[name] = str(arr)  # strings (integrator, a JSON-encoded torque spec) as 0-d arrays
-                elif arr.ndim == 0 and arr.dtype.kind in "fiub":
-                    out[name] = arr.item()
-                else:
-                    out[name] = arr
-    except ValueError as e:  # object arrays (pickles) and malformed members
-        raise InvalidInput(f"body: .npz member refused ({str(e)[:200]}); only numeric arrays are accepted",
-                           "body") from None
-    except (OSError, EOFError, zipfile.BadZipFile, NotImplementedError, RuntimeError, zlib.error) as e:
-        raise InvalidInput(f"body: unreadable .npz archive ({str(e)[:200]})", "body") from None
+    with open_npz(body, names=names, max_unpacked=max_unpacked) as archive:
+        for name in archive.members:
+            if check is not None:
+                check()
+            arr = archive.read(name, check)
+            if arr.ndim == 0 and arr.dtype.kind == "U":
+                out[name] = str(arr)
+            elif arr.ndim == 0 and arr.dtype.kind in "fiub":
+                out[name] = arr.item()
+            else:
+                out[name] = arr
     return out
-
-
-def _unpacks_too_large(total: int, limit: int) -> TooLarge:
-    return TooLarge(f"body: the .npz archive unpacks to {figure(total)} bytes (as float64), over the limit of "
-                    f"{limit}; "
-                    f"send smaller batches", "body")
 
 
 def to_array(value: Any, name: str) -> np.ndarray:

@@ -232,7 +232,8 @@ def internal_error(scope: dict, exc: BaseException) -> Response:
 
 
 class RequestIds:
-    """Pure ASGI middleware, outermost: every answer carries ``X-Request-ID`` (the caller's if it sent a short
+    """Pure ASGI middleware, outermost but for the headers every answer carries (service.protocol.SecurityHeaders,
+    which raises nothing): every answer carries ``X-Request-ID`` (the caller's if it sent a short
     plain one, else a fresh one), and an exception escaping a route is answered here, 500 quoting that id, and
     logged once. A client that hangs up mid-body (:class:`ClientDisconnect`) is not an error: nothing is logged."""
 

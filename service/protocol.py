@@ -1,4 +1,5 @@
-"""HTTP details: a deadline on request headers (:class:`HeaderTimeoutProtocol`), and OPTIONS (:class:`Options`).
+"""HTTP details: a deadline on request headers (:class:`HeaderTimeoutProtocol`), OPTIONS (:class:`Options`), HEAD
+(:class:`Head`) and the headers every answer carries (:class:`SecurityHeaders`).
 
 uvicorn's h11 protocol gets a deadline on request headers, so that half-sent requests do not pile up.
 
@@ -81,3 +82,59 @@ def _leaves(routes):
             yield from _leaves(inner.routes)
         else:
             yield route
+
+
+class Head:
+    """Pure ASGI middleware: ``HEAD`` is ``GET`` without the body (RFC 9110, 9.3.2) on every path a GET answers,
+    as :class:`Options` advertises. FastAPI's routes take only the methods they declare (Starlette's own add HEAD
+    to GET), so HEAD was a 405 there. The GET's headers are sent as they are (Content-Length included: what the
+    GET would send) and its body dropped; a path without GET answers 405 as for any other method."""
+
+    def __init__(self, app):
+        self.app = app
+
+    async def __call__(self, scope, receive, send):
+        if scope["type"] != "http" or scope["method"] != "HEAD":
+            return await self.app(scope, receive, send)
+
+        async def headers_only(message):
+            if message["type"] == "http.response.body":
+                if message.get("more_body", False):
+                    return
+                message = {"type": "http.response.body", "body": b"", "more_body": False}
+            await send(message)
+
+        await self.app({**scope, "method": "GET"}, receive, headers_only)
+
+
+#: on every answer: a browser takes a resource for the type it is served as, never for what its bytes look like
+#: (an error's JSON quoting a caller's text is never run as a script or drawn as a page)
+NOSNIFF = (b"x-content-type-options", b"nosniff")
+#: on a page (text/html) that sets no policy of its own (Swagger UI, ReDoc, the guide): not to be framed by
+#: another site (clickjacking: /docs has a field for the API key). The inspector sets a full policy.
+NOT_FRAMED = ((b"content-security-policy", b"frame-ancestors 'none'"), (b"x-frame-options", b"DENY"))
+
+
+class SecurityHeaders:
+    """Pure ASGI middleware, outermost: adds :data:`NOSNIFF` to every answer, errors and 500s included, and
+    :data:`NOT_FRAMED` to pages without a Content-Security-Policy of their own."""
+
+    def __init__(self, app):
+        self.app = app
+
+    async def __call__(self, scope, receive, send):
+        if scope["type"] != "http":
+            return await self.app(scope, receive, send)
+
+        async def send_with_headers(message):
+            if message["type"] == "http.response.start":
+                headers = list(message.get("headers", []))
+                names = {k.lower() for k, _ in headers}
+                added = [NOSNIFF] if NOSNIFF[0] not in names else []
+                html = any(k.lower() == b"content-type" and v.lower().startswith(b"text/html") for k, v in headers)
+                if html and b"content-security-policy" not in names:
+                    added += [h for h in NOT_FRAMED if h[0] not in names]
+                message = {**message, "headers": headers + added}
+            await send(message)
+
+        await self.app(scope, receive, send_with_headers)

@@ -424,3 +424,52 @@ def test_a_server_stopped_mid_job_leaks_no_semaphore(tmp_path):
     assert server.proc.returncode == 0 or server.proc.returncode is not None
     log = server.log.read_text()
     assert "leaked semaphore" not in log and "Traceback" not in log, log[-3000:]
+
+
+def test_non_finite_inputs_are_refused_at_submission(alice, server):
+    """Issue 49, finding 7: a job whose inputs held NaN was accepted (202) and failed once it ran, while the same
+    input to the synchronous route is a 422. Now a 422 at submission, naming the input and its row, JSON or
+    .npz, states or a torque's arrays; nothing is stored."""
+    before = set((server.store / "jobs" / "inputs").iterdir())
+    headers = {"Authorization": "Bearer alice-key"}
+    body = ('{"robot": "planar_2r", "kind": "inverse_dynamics", "inputs": {"q": [[0, 0], [0, NaN]], '
+            '"v": [[0, 0], [0, 0]], "a": [[0, 0], [0, 0]]}}')
+    r = httpx.post(server.url + "/v1/jobs", content=body, headers={**headers, "Content-Type": "application/json"})
+    assert r.status_code == 422 and r.json()["field"] == "inputs.q", r.text
+    assert "non-finite" in r.json()["detail"] and "row 1" in r.json()["detail"]
+    q = np.zeros((3, 3))
+    q[2, 1] = np.inf
+    cases = [({"q": np.zeros((3, 2)), "v": np.zeros((3, 2)), "a": q[:, :2]}, "inverse_dynamics", None, "inputs.a"),
+             ({"q0": np.zeros((2, 3)), "v0": np.array([0.0, np.nan, 0.0])}, "simulate_many", {"duration": 0.1},
+              "inputs.v0"),
+             ({"q0": np.zeros((3, 3)), "v0": np.zeros(3), "torque": {"type": "pd", "q_target": q, "kp": 1.0,
+                                                                      "kd": 1.0}},
+              "simulate_many", {"duration": 0.1}, "inputs.torque.q_target")]
+    for inputs, kind, options, field in cases:
+        robot = "planar_2r" if kind == "inverse_dynamics" else "planar_3r"
+        with pytest.raises(ServiceError) as e:
+            alice.submit(robot, kind, inputs, options)
+        assert (e.value.status, e.value.field) == (422, field), e.value.message
+    assert set((server.store / "jobs" / "inputs").iterdir()) <= before
+
+
+def test_the_job_database_is_private(tmp_path):
+    """Issue 49, finding 8: jobs.db and its WAL and SHM files were created 0644 (readable by every user) while the
+    robot files are 0600. Created 0600, and an older store's files are tightened when a server opens them."""
+    old = os.umask(0o022)
+    try:
+        files = JobFiles.under(tmp_path)
+        db = JobDB(files.db)
+        db.create("a", "", "planar_2r", "mass_matrix", {"options": {}}, 1, 10)
+        paths = [files.db, files.db.with_name("jobs.db-wal"), files.db.with_name("jobs.db-shm")]
+        assert all(p.exists() for p in paths)
+        assert {p.name: oct(p.stat().st_mode & 0o777) for p in paths} == {p.name: "0o600" for p in paths}
+        db.close()
+        for p in paths:
+            if p.exists():
+                p.chmod(0o644)  # (a store written by an older version)
+        JobDB(files.db).close()
+        assert {p.name: oct(p.stat().st_mode & 0o777) for p in paths if p.exists()} == \
+            {p.name: "0o600" for p in paths if p.exists()}
+    finally:
+        os.umask(old)

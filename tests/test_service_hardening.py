@@ -382,3 +382,70 @@ def test_a_body_trickled_one_byte_at_a_time_is_timed_out(server):
                 break
     assert answer.startswith(b"HTTP/1.1 408"), answer[:300]
     assert b"DYNAMICS_READ_TIMEOUT" in answer or b"\r\n\r\n" in answer
+
+
+# -- issue 49, findings 4 to 6: HEAD, the headers of every answer, names ---------------------------------------
+@pytest.mark.parametrize("path", ["/v1/health", "/v1/robots", "/v1/robots/planar_2r", "/inspect", "/inspect/planar_2r",
+                                  "/inspect/static/inspector.js", "/openapi.json"])
+def test_head_is_get_without_the_body(http, path):
+    """OPTIONS advertises HEAD wherever GET is (Allow: GET, HEAD, OPTIONS); HEAD answered 405 on every route."""
+    get, head = http.get(path), http.head(path)
+    assert get.status_code == 200 and head.status_code == 200, (path, head.status_code)
+    assert head.content == b"" and head.headers["content-type"] == get.headers["content-type"]
+    assert head.headers["content-length"] == str(len(get.content))
+    assert "HEAD" in http.options(path).headers["allow"].split(", ")
+
+
+def test_head_where_there_is_no_get(http):
+    r = http.head("/v1/robots/planar_2r/inverse-dynamics")
+    assert r.status_code == 405 and r.content == b"" and "HEAD" not in http.options(
+        "/v1/robots/planar_2r/inverse-dynamics").headers["allow"]
+
+
+def test_the_inspector_cannot_be_framed_and_runs_only_its_own_scripts(http):
+    """/inspect, where users type their API key: a Content-Security-Policy (scripts from this server only, never
+    framed) and X-Frame-Options; the page holds no inline script the policy would block."""
+    import re
+    for path in ("/inspect", "/inspect/planar_2r"):
+        r = http.get(path)
+        policy = dict(p.strip().split(" ", 1) for p in r.headers["content-security-policy"].split(";"))
+        assert policy["frame-ancestors"] == "'none'" and r.headers["x-frame-options"] == "DENY"
+        assert policy["script-src"] == "'self'" and policy["object-src"] == "'none'"
+        page = r.text
+        assert not re.search(r"<script(?![^>]*\bsrc=)[^>]*>", page), "an inline script"
+        assert not re.search(r"\son[a-z]+\s*=", page), "an inline event handler"
+    docs = http.get("/docs")  # (Swagger UI has a field for the key too: not framed either)
+    assert "frame-ancestors 'none'" in docs.headers["content-security-policy"]
+
+
+def test_every_answer_says_nosniff(server, http):
+    answers = [http.get("/v1/health"), http.get("/v1/robots"), http.get("/v1/robots/nope"), http.get("/inspect"),
+               http.get("/inspect/static/inspector.js"), http.options("/v1/robots"), http.delete("/v1/health"),
+               http.post("/v1/robots/planar_2r/gravity-torques", json={"q": [0.0]}), http.head("/v1/health")]
+    with httpx.Client(base_url=server.url) as anonymous:
+        answers.append(anonymous.get("/v1/robots"))  # 401, from the key check
+    assert [r.status_code for r in answers] == [200, 200, 404, 200, 200, 204, 405, 422, 200, 401]
+    for r in answers:
+        assert r.headers.get("x-content-type-options") == "nosniff", (r.request.url, r.status_code)
+
+
+@pytest.mark.parametrize("name", ["", " ", "a/b", "..", "../chain128", "x\\y", "admin\u202egnp.exe", "pla\u200bnar",
+                                  "tab\there", " padded"])
+def test_names_that_are_empty_or_spoof_listings_are_refused(http, name):
+    """An empty ?name= fell back to the URDF's name yet counted as given (a 409 about another robot); names with
+    '/', '..' or bidirectional overrides were stored and listed. All are a 422 naming name, in both forms of upload."""
+    r = http.post("/v1/robots", params={"name": name}, content=chain_urdf(2, name="fresh"),
+                  headers={"Content-Type": "application/xml"})
+    refused(r, 422, "name")
+    r = http.post("/v1/robots", json={"urdf": chain_urdf(2, name="fresh"), "name": name})
+    refused(r, 422, "name")
+    assert "fresh" not in [x["name"] for x in http.get("/v1/robots").json()["robots"]]
+
+
+def test_a_urdf_s_own_name_is_checked_too_and_ordinary_names_pass(http):
+    r = http.post("/v1/robots", content=chain_urdf(2, name="a/b"), headers={"Content-Type": "application/xml"})
+    assert "?name=" in refused(r, 422, "name")["detail"]
+    r = http.post("/v1/robots?name=my arm (v2.1)", content=chain_urdf(2, name="a/b"),
+                  headers={"Content-Type": "application/xml"})
+    assert r.status_code == 201 and r.json()["name"] == "my arm (v2.1)", r.text
+    assert http.delete(f"/v1/robots/{r.json()['id']}").status_code == 204

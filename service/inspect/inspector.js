@@ -586,6 +586,9 @@
   async function start() {
     initTabs();
     initUpload();
+    // (Enter in the key's field submits its form: kept on the page. Here, not in an inline onsubmit: the page's
+    // Content-Security-Policy runs no inline script.)
+    $("key-form").addEventListener("submit", (e) => e.preventDefault());
     $("api-key").addEventListener("change", async (e) => {
       state.key = e.target.value;
       try { await listRobots(); if (!state.info) await selectRobot(initialRobot()); } catch (err) { say(err.message, true); }

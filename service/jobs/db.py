@@ -15,12 +15,16 @@ Arrays never go into the database: inputs, the parts done so far and the result 
 from __future__ import annotations
 
 import json
+import logging
+import os
 import sqlite3
 import threading
 import time
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Optional
+
+log = logging.getLogger("service.jobs")
 
 STATES = ("queued", "running", "done", "failed", "cancelled")
 ACTIVE = ("queued", "running")
@@ -48,6 +52,27 @@ CREATE TABLE IF NOT EXISTS jobs (
 CREATE INDEX IF NOT EXISTS jobs_status ON jobs (status, created);
 CREATE INDEX IF NOT EXISTS jobs_owner ON jobs (owner, status);
 """
+
+
+#: the files SQLite keeps beside the database (write-ahead log, shared-memory index)
+SIDE_FILES = ("-wal", "-shm")
+
+
+def private(path: Path) -> None:
+    """The database and its side files readable and writable by the server's user only (0600), as the robot
+    store's files and the job arrays are (they hold job specs, owners' key hashes and errors).
+
+    The database is created here with mode 0600 before SQLite opens it: SQLite creates the WAL and SHM files with
+    the database's own mode, so they follow. Files an older version left 0644 are tightened."""
+    os.close(os.open(path, os.O_RDWR | os.O_CREAT, 0o600))
+    for p in (path, *(path.with_name(path.name + suffix) for suffix in SIDE_FILES)):
+        try:
+            if p.stat().st_mode & 0o077:
+                os.chmod(p, 0o600)
+        except FileNotFoundError:
+            pass
+        except PermissionError:  # another user's file (a volume shared on purpose): said, not fatal
+            log.warning("jobs: %s is readable by other users and not ours to change (chmod 600 it)", p)
 
 
 @dataclass(frozen=True)
@@ -83,6 +108,7 @@ class JobDB:
     def __init__(self, path: Path):
         self.path = Path(path)
         self.path.parent.mkdir(parents=True, exist_ok=True)
+        private(self.path)
         self._local = threading.local()
         self._conn().executescript(_SCHEMA)  # (executescript commits by itself)
 
@@ -145,11 +171,17 @@ class JobDB:
 
     # -- writing ---------------------------------------------------------------------------------------------
     def create(self, job_id: str, owner: str, robot: str, kind: str, spec: dict[str, Any], total: int,
-               input_bytes: int) -> None:
+               input_bytes: int, max_active: Optional[int] = None) -> bool:
+        """Queue a job; False (nothing written) when ``owner`` already has ``max_active`` jobs queued or running:
+        counted in the insert's transaction, so that two submissions at once cannot both take the last place."""
         with self._tx() as c:
+            if max_active is not None and c.execute(f"SELECT count(*) FROM jobs WHERE owner = ? AND status IN "
+                                                    f"{ACTIVE}", (owner,)).fetchone()[0] >= max_active:
+                return False
             c.execute("INSERT INTO jobs (id, owner, robot, kind, spec, status, total, created, input_bytes) "
                       "VALUES (?, ?, ?, ?, ?, 'queued', ?, ?, ?)",
                       (job_id, owner, robot, kind, json.dumps(spec), total, time.time(), input_bytes))
+        return True
 
     def claim(self, boot: str) -> Optional[JobRecord]:
         """The oldest queued job, now running under ``boot`` (one transaction: two servers never take one job)."""

@@ -9,8 +9,9 @@
 Every .npz is written to a temporary name in the same directory, flushed and fsync'ed, renamed over its final
 name and the directory fsync'ed (:func:`write_npz`): after a crash a file is wholly there or not at all. A
 result is streamed from its parts member by member (:class:`Stacked`), so stacking it takes one part's memory.
-Archives are plain ``np.savez`` (no pickles: read back with ``allow_pickle=False``); a non-array member (a
-report) is a 0-d string array holding JSON, as in the service's .npz answers.
+Archives are plain ``np.savez`` (no pickles), read back by :mod:`service.npz` (their headers parsed under its
+lock: the server reads results on its compute threads); a non-array member (a report) is a 0-d string array
+holding JSON, as in the service's .npz answers.
 """
 
 from __future__ import annotations
@@ -24,6 +25,7 @@ from typing import Any, Iterable, Mapping, NamedTuple
 import numpy as np
 from numpy.lib import format as npformat
 
+from .. import npz
 from ..store import atomic_file
 
 
@@ -34,13 +36,18 @@ class JobFiles:
     @classmethod
     def under(cls, store_dir: Path) -> "JobFiles":
         files = cls(Path(store_dir).resolve() / "jobs")
-        for sub in ("inputs", "parts", "results", "boots"):
+        for sub in ("inputs", "parts", "results", "boots", "incoming"):
             (files.root / sub).mkdir(parents=True, exist_ok=True)
         return files
 
     @property
     def db(self) -> Path:
         return self.root / "jobs.db"
+
+    @property
+    def incoming(self) -> Path:
+        """Where .npz bodies are received (anonymous files: nothing is left there after a crash)."""
+        return self.root / "incoming"
 
     def inputs(self, job_id: str) -> Path:
         return self.root / "inputs" / f"{job_id}.npz"
@@ -73,12 +80,26 @@ class Stacked(NamedTuple):
     chunks: Iterable[np.ndarray]
 
 
+#: bytes of an array written at once (an array is written in blocks of rows, each from its own memory)
+WRITE_BLOCK = 4 << 20
+
+
+def _blocks(a: np.ndarray) -> Stacked:
+    """An array as blocks of rows of about :data:`WRITE_BLOCK` bytes: written without a copy of the whole (a job's
+    inputs are as large as its body: numpy's writer would copy each array once more)."""
+    rows = max(1, WRITE_BLOCK // max(1, a[:1].nbytes))
+    return Stacked(a.shape, a.dtype, (a[i:i + rows] for i in range(0, a.shape[0], rows)))
+
+
 def write_npz(path: Path, arrays: Mapping[str, Any]) -> int:
     """An .npz archive (uncompressed, as ``np.savez``) at ``path``, atomically and durably; its size in bytes.
-    A :class:`Stacked` member is streamed from its chunks; any other value is written as ``np.asarray``."""
+    A :class:`Stacked` member is streamed from its chunks, an array of numbers in blocks of rows; any other value
+    is written as ``np.asarray``."""
     path = Path(path)
     with atomic_file(path) as f, zipfile.ZipFile(f, "w", compression=zipfile.ZIP_STORED, allowZip64=True) as zf:
         for name, value in arrays.items():
+            if isinstance(value, np.ndarray) and value.ndim >= 1 and value.dtype.kind in "biufc":
+                value = _blocks(value)
             with zf.open(name + ".npy", "w", force_zip64=True) as member:
                 if isinstance(value, Stacked):
                     header = {"descr": npformat.dtype_to_descr(np.dtype(value.dtype)), "fortran_order": False,
@@ -87,7 +108,7 @@ def write_npz(path: Path, arrays: Mapping[str, Any]) -> int:
                     written = 0
                     for chunk in value.chunks:
                         data = np.ascontiguousarray(chunk, dtype=value.dtype)
-                        member.write(data.tobytes())
+                        member.write(memoryview(data.reshape(-1).view(np.uint8)))  # (its bytes, not a copy)
                         written += data.size
                     if written != int(np.prod(value.shape)):
                         raise ValueError(f"{name}: {written} numbers written for a shape {value.shape}")
@@ -97,23 +118,14 @@ def write_npz(path: Path, arrays: Mapping[str, Any]) -> int:
 
 
 def read_member(path: Path, name: str) -> np.ndarray:
-    with np.load(path, allow_pickle=False) as npz:
-        return npz[name]
+    with npz.open_npz(path) as archive:
+        return archive.read(name)
 
 
 def member_shapes(path: Path) -> dict[str, tuple[tuple, np.dtype]]:
     """Every member's (shape, dtype), read from the .npy headers only (no array is loaded)."""
-    out = {}
-    with zipfile.ZipFile(path) as zf:
-        for info in zf.infolist():
-            with zf.open(info) as f:
-                version = npformat.read_magic(f)
-                read = npformat.read_array_header_1_0 if version == (1, 0) else npformat.read_array_header_2_0
-                shape, _, dtype = read(f)
-            out[info.filename.removesuffix(".npy")] = (tuple(shape), np.dtype(dtype))
-    return out
+    return npz.shapes(path)
 
 
 def read_npz(path: Path) -> dict[str, np.ndarray]:
-    with np.load(path, allow_pickle=False) as npz:
-        return {name: npz[name] for name in npz.files}
+    return npz.load(path)

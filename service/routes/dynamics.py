@@ -26,6 +26,8 @@ router = APIRouter(prefix="/v1")
 
 
 def _route(op: Operation, schema: type[BaseModel]):
+    names = frozenset(schema.model_fields)  # (an .npz body holding other members is refused before any is read)
+
     async def route(robot_id: str, request: Request) -> Response:
         d: Deps = request.app.state.deps  # (not Depends: it costs ~50 us on the hottest path)
         time_budget = budget(request)
@@ -37,17 +39,19 @@ def _route(op: Operation, schema: type[BaseModel]):
             if d.compute.can_inline(op, robot_id, args):
                 return encode(d.compute.dynamics(op, robot_id, args, time_budget, accept), accept)
             return await d.compute.run_within(time_budget, _compute, d, op, robot_id, args, accept, time_budget)
-        return await d.compute.run_within(time_budget, _answer, d, op, schema, robot_id, body, content_type, accept,
-                                          time_budget)
+        return await d.compute.run_within(time_budget, _answer, d, op, schema, names, robot_id, body, content_type,
+                                          accept, time_budget)
 
     route.__name__ = op.function
     return route
 
 
-def _answer(d: Deps, op: Operation, schema: type[BaseModel], robot_id: str, body: bytes,
+def _answer(d: Deps, op: Operation, schema: type[BaseModel], names: frozenset[str], robot_id: str, body: bytes,
             content_type: Optional[str], accept: Optional[str], time_budget: Budget) -> Response:
-    """In a compute thread: decode, compute (within the budget), encode."""
-    args = dict(schemas.validate(schema, decode(body, content_type, max_unpacked=8 * d.settings.max_body_bytes)))
+    """In a compute thread: decode (within the budget), compute (within the budget), encode."""
+    payload = decode(body, content_type, max_unpacked=8 * d.settings.max_body_bytes, names=names,
+                     check=lambda: check_time(time_budget, f"{op.name} (decoding the body)"))
+    args = dict(schemas.validate(schema, payload))
     del body
     return _compute(d, op, robot_id, args, accept, time_budget)
 

@@ -45,9 +45,20 @@ def viewer_file() -> Optional[Path]:
     return path if path.is_file() else None
 
 
+#: the page's Content-Security-Policy: users type their API key here. Scripts only from this server (no inline
+#: script, no eval: the page and meshcat's bundle need neither), never framed by another site (clickjacking),
+#: requests only to this server, no plugins, no <base>, no form sent anywhere (the page's forms are handled by
+#: its script). Styles may be inline (meshcat's dat.gui and the plots insert <style> elements and style
+#: attributes), images and workers may come from data: and blob: URLs (three.js makes textures and workers so).
+PAGE_POLICY = ("default-src 'self'; script-src 'self'; style-src 'self' 'unsafe-inline'; img-src 'self' data: blob:; "
+               "worker-src 'self' blob:; connect-src 'self'; object-src 'none'; base-uri 'none'; form-action 'none'; "
+               "frame-ancestors 'none'")
+PAGE_HEADERS = {"Cache-Control": "no-cache", "Referrer-Policy": "no-referrer", "Content-Security-Policy": PAGE_POLICY,
+                "X-Frame-Options": "DENY"}  # (X-Frame-Options: browsers older than frame-ancestors)
+
+
 def _page() -> FileResponse:
-    return FileResponse(PAGE_DIR / "index.html", media_type="text/html",
-                        headers={"Cache-Control": "no-cache", "Referrer-Policy": "no-referrer"})
+    return FileResponse(PAGE_DIR / "index.html", media_type="text/html", headers=PAGE_HEADERS)
 
 
 @router.get(PREFIX)

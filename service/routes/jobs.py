@@ -2,12 +2,16 @@
 ``DELETE /v1/jobs/{id}`` (the work is :class:`service.jobs.manager.Jobs`'; the jobs run in
 :mod:`service.jobs.executor`'s worker processes, never in the request).
 
-The body (JSON or .npz, up to ``DYNAMICS_MAX_JOB_INPUT_BYTES``) is read with its limit enforced while reading;
-checking and storing it happen in a compute thread. The result is streamed from its file.
+What needs no body is checked before a byte of it is read (the media type, the declared size, the key's jobs and
+quota: :meth:`~service.jobs.manager.Jobs.admit`). A JSON body (up to ``DYNAMICS_MAX_BODY_BYTES``) is read into
+memory, an .npz body (up to ``DYNAMICS_MAX_JOB_INPUT_BYTES``) into a file as it arrives; decoding, checking and
+storing it happen in a compute thread, the decoding within the request's time budget (which starts once the body
+is in). The result is streamed from its file.
 """
 
 from __future__ import annotations
 
+import contextlib
 import json
 from typing import Optional
 
@@ -17,9 +21,10 @@ from starlette.responses import FileResponse, Response
 
 from .. import schemas
 from ..auth import caller
-from ..codec import JSON, NPZ, encode, read_body, wants_npz
-from ..deps import Deps, deps
-from ..errors import NotOffered, TooLarge
+from ..codec import JSON, NPZ, declared_length, encode, read_body, spool_body, wants_npz
+from ..compute import Budget
+from ..deps import Deps, budget, deps
+from ..errors import NotOffered
 from ..jobs.files import read_npz
 from ..jobs.manager import Jobs
 from . import ERRORS, body_doc
@@ -44,13 +49,17 @@ def _json(doc, status: int = 200, headers: Optional[dict[str, str]] = None) -> R
              summary="submit a job (simulate_many, or a dynamics batch of any size); answers at once with its id")
 async def submit(request: Request, d: Deps = Depends(deps), owner: Optional[str] = Depends(caller)) -> Response:
     jobs = _jobs(request)
-    limit = jobs.settings.max_job_input_bytes
-    try:
-        body = await read_body(request, limit)
-    except TooLarge:
-        raise TooLarge(f"body: larger than the jobs' limit of {limit} bytes (DYNAMICS_MAX_JOB_INPUT_BYTES); split "
-                       f"the job", "body", headers={"Connection": "close"}) from None
-    status = await d.compute.run(jobs.submit, owner, body, request.headers.get("content-type"))
+    content_type = request.headers.get("content-type")
+    seconds = budget(request).seconds  # (a bad X-Time-Budget is refused now, before the body)
+    body = await d.compute.run(jobs.admit, owner, content_type, declared_length(request))
+    with contextlib.ExitStack() as stack:
+        if body.spooled:
+            data = stack.enter_context(jobs.spool())
+            await spool_body(request, body.limit, data, setting=body.setting, hint=body.hint)
+        else:
+            data = await read_body(request, body.limit, setting=body.setting, hint=body.hint)
+        time_budget = Budget.starting_now(seconds)  # (the upload's time is the client's, not the budget's)
+        status = await d.compute.run_within(time_budget, jobs.submit, owner, data, content_type, time_budget)
     return _json(status, 202, {"Location": status["status_url"]})
 
 

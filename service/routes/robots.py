@@ -42,7 +42,7 @@ async def upload(request: Request, name: Optional[str] = Query(None, max_length=
         urdf = body
     elif kind == JSON or header is None:  # (no Content-Type is JSON; one naming no type, ";;;;", is refused)
         req = schemas.validate(schemas.UploadRequest, decode(body, JSON, max_unpacked=0))
-        urdf, name, floating_base = _utf8(req.urdf), req.name or name, req.floating_base
+        urdf, name, floating_base = _utf8(req.urdf), req.name if req.name is not None else name, req.floating_base
         constraints, mimic = req.constraints, req.mimic or mimic
     else:
         raise UnsupportedMediaType(f"Content-Type: {kind or header!r:.64} is not accepted; send the URDF as application/xml, or "

@@ -19,6 +19,8 @@ from ..sim.job import Job
 from . import ERRORS, body_doc
 
 router = APIRouter(prefix="/v1")
+#: the members an .npz simulate body may hold (one per field; others are refused before any is read)
+SIMULATE_FIELDS = frozenset(schemas.SimulateRequest.model_fields)
 
 
 @router.post("/robots/{robot_id}/simulate", response_model=schemas.TrajectoryAnswer,
@@ -55,7 +57,7 @@ def _job(d: Deps, robot_id: str, body: bytes, content_type: Optional[str],
 
 def _request(d: Deps, body: bytes, content_type: Optional[str]) -> schemas.SimulateRequest:
     """The body -> the validated request."""
-    payload = decode(body, content_type, max_unpacked=8 * d.settings.max_body_bytes)
+    payload = decode(body, content_type, max_unpacked=8 * d.settings.max_body_bytes, names=SIMULATE_FIELDS)
     for name, kind in (("torque", "object"), ("outputs", "list"), ("contact", "object"),
                        ("sensitivities", "list")):  # in .npz these travel as JSON strings
         if isinstance(payload.get(name), str) and payload[name].lstrip()[:1] in ("{", "["):
