@@ -1,10 +1,13 @@
 """What the inspector page draws of a robot, beyond its description (``GET /v1/robots/{id}/inspect``).
 
-Per body: its joint (type, axis in the joint frame, placement in the parent body at q = 0) and the check of its
-mass properties (:func:`dynamics.check_inertias`: principal moments and axes, positive definiteness, the
-triangle inequality, the inertia box a viewer draws when the body has no collision geometry); the model's
-collision geometry (``model.collision_geometry``, :func:`service.models.collision_geometry`). Numbers come from the library;
-this module only lays them out as JSON. Called from a compute thread (the model may have to be built).
+The model's neutral configuration (:meth:`dynamics.Model.neutral`: identity quaternions, a planar joint's
+(cos, sin) = (1, 0), 1-dof joints within their limits), where the page's pose tab starts: the page reads it here
+rather than rebuilding the library's rule. Per body: its joint (type, axis in the joint frame, placement in the
+parent body at q = 0) and the check of its mass properties (:func:`dynamics.check_inertias`: principal moments
+and axes, positive definiteness, the triangle inequality, the inertia box a viewer draws when the body has no
+collision geometry); the model's collision geometry (``model.collision_geometry``,
+:func:`service.models.collision_geometry`). Numbers come from the library; this module only lays them out as
+JSON. Called from a compute thread (the model may have to be built).
 """
 
 from __future__ import annotations
@@ -38,8 +41,9 @@ def _geometry(model, g) -> dict[str, Any]:
 
 
 def inspection(model, geometry: tuple = ()) -> dict[str, Any]:
-    """The per-body layout of the page and ``geometry``, the model's collision primitives (records of
-    ``dynamics.CollisionGeometry``: name, body, frame, kind, size, pose)."""
+    """The model's neutral configuration, the per-body layout of the page and ``geometry``, the model's collision
+    primitives (records of ``dynamics.CollisionGeometry``: name, body, frame, kind, size, pose)."""
     checks = lib().check_inertias(model)
-    return {"bodies_inspected": [_body(model, i, c) for i, c in enumerate(checks)],
+    return {"neutral": model.neutral().tolist(),
+            "bodies_inspected": [_body(model, i, c) for i, c in enumerate(checks)],
             "collision_geometry": [_geometry(model, g) for g in geometry]}

@@ -672,6 +672,8 @@ class RobotInspection(RobotInfo):
     bodies_inspected: list[BodyInspection] = Field(description="per body, in the order of bodies")
     collision_geometry: list[InspectedGeometry] = Field(description="the URDF's collision primitives (meshes are "
                                                                     "left out); empty when it has none")
+    neutral: list[float] = Field(description="(nq,) the model's neutral configuration (dynamics.Model.neutral), "
+                                             "where the inspector's pose tab starts")
 
 
 class RobotList(BaseModel):

@@ -14,6 +14,7 @@ import pytest
 
 import dynamics
 from dynamics import cli
+from robots import ALL_TYPES, random_urdf
 from service.routes import inspect as inspect_routes
 from service_fixtures import in_process_app
 
@@ -52,6 +53,30 @@ def test_the_data_route_is_the_library_s(keyed):
         np.testing.assert_array_equal(b["placement"], X)
         assert b["verdict"] == "ok"
     assert doc["collision_geometry"] == [] and doc["joint_names"] == list(model.joint_names)
+
+
+def test_the_data_route_carries_the_model_s_neutral_configuration(keyed):
+    """Random trees with every joint type, on a fixed and on a floating base: the description the page reads
+    carries the model's own neutral configuration (identity quaternions, a planar joint's (cos, sin) = (1, 0),
+    1-dof joints within their limits), and forward kinematics is answered there, as the library computes it."""
+    auth = {"Authorization": f"Bearer {KEY}"}
+    rng = np.random.default_rng(48)
+    types = set()
+    for n, floating in enumerate((False, True, False, True)):
+        text = random_urdf(rng, n_links=7, types=ALL_TYPES, name=f"neutral{n}")
+        model = dynamics.load_urdf(text, floating_base=floating)
+        types.update(model.joint_types)
+        r = keyed.post("/v1/robots", params={"floating_base": str(floating).lower()}, content=text,
+                       headers={**auth, "Content-Type": "application/xml"})
+        assert r.status_code in (200, 201), r.text
+        rid = r.json()["id"]
+        doc = keyed.get(f"/v1/robots/{rid}/inspect", headers=auth).json()
+        np.testing.assert_array_equal(doc["neutral"], model.neutral())
+        fk = keyed.post(f"/v1/robots/{rid}/kinematics", json={"q": doc["neutral"]}, headers=auth)
+        assert fk.status_code == 200, fk.text
+        np.testing.assert_allclose(fk.json()["placements"], dynamics.forward_kinematics(model, model.neutral()),
+                                   atol=1e-12)
+    assert {"spherical", "planar", "floating"} <= types  # (the trees drawn hold the joints the issue was about)
 
 
 def test_the_api_routes_come_first_and_nothing_is_loaded_before_use():

@@ -238,7 +238,8 @@
       li.appendChild(el("span", `${j.name}`, "joint-name"));
       const lim = j.lower.length === 1 ? ` [${fmt(j.lower[0], 3)}, ${fmt(j.upper[0], 3)}]` : "";
       li.appendChild(el("span", ` ${j.type}, axis (${b.axis.map((x) => fmt(x, 2)).join(", ")})${lim} → ${j.body}`));
-      if (state.locked.has(j.name)) jointTag(li, `locked at ${fmt(state.q[j.q_index], 3)}`, "locked");
+      if (state.locked.has(j.name)) jointTag(li, `locked at ${block(state.q, j).map((x) => fmt(x, 3)).join(", ")}`,
+                                             "locked");
       li.appendChild(el("ul"));
       nodes[j.body] = li;
       (j.parent === null ? tree : nodes[j.parent].lastChild).appendChild(li);
@@ -291,60 +292,115 @@
   }
 
   // -- the pose tab: sliders through the service's forward kinematics ----------------------------------------
-  function neutral(info) {  // dynamics.Model.neutral: 0 within the limits, else the middle (or the finite bound)
-    const q = new Array(info.nq).fill(0);
-    for (const j of info.joints) {
-      if (j.type === "floating" || j.nq === 7) { q[j.q_index + 6] = 1; continue; }
-      if (j.nq !== 1) continue;
-      const lo = j.lower[0] ?? -Infinity, hi = j.upper[0] ?? Infinity;
-      if (!(lo <= 0 && 0 <= hi)) q[j.q_index] = isFinite(lo) && isFinite(hi) ? (lo + hi) / 2 : (isFinite(lo) ? lo : hi);
-    }
-    return q;
+  // The robot opens at the model's own neutral configuration (the description's `neutral`, dynamics.Model.neutral):
+  // the page never rebuilds it. A joint's sliders are a chart of its coordinates in q, one slider per velocity
+  // coordinate, picked by the joint's type (the layouts of q are the library's, dynamics.joints.KINDS):
+  //   revolute, continuous, prismatic: q itself, within the joint's limits;
+  //   spherical: roll, pitch, yaw, the URDF's convention R = Rz(yaw) Ry(pitch) Rx(roll) -> q = [qx, qy, qz, qw];
+  //   planar: x, y in its plane and the angle theta about its normal -> q = [x, y, cos theta, sin theta];
+  //   floating: x, y, z, then roll, pitch, yaw -> q = [x, y, z, qx, qy, qz, qw].
+  // toQ maps a joint's slider values to its block of q, fromQ its block of q to slider values (to place the
+  // sliders at the neutral configuration). The service checks every q it is sent, so a wrong chart shows at once.
+  const ANGLE = [-Math.PI, Math.PI], TILT = [-Math.PI / 2, Math.PI / 2];  // (pitch within +-pi/2: fromQ is unique)
+  const REACH = [-1, 1], BASE_REACH = [-2, 2];  // m: an unlimited translation's slider range
+  const RPY = [["roll", ANGLE], ["pitch", TILT], ["yaw", ANGLE]];
+
+  function rpyToQuat(r, p, y) {  // the quaternion (x, y, z, w) of Rz(y) Ry(p) Rx(r): qz(y) qy(p) qx(r)
+    const cr = Math.cos(r / 2), sr = Math.sin(r / 2), cp = Math.cos(p / 2), sp = Math.sin(p / 2);
+    const cy = Math.cos(y / 2), sy = Math.sin(y / 2);
+    return [sr * cp * cy - cr * sp * sy, cr * sp * cy + sr * cp * sy, cr * cp * sy - sr * sp * cy,
+            cr * cp * cy + sr * sp * sy];
   }
 
-  function sliderRange(j) {
-    const lo = j.lower[0], hi = j.upper[0], wide = j.type === "prismatic" ? 1 : Math.PI;
-    return [lo ?? -wide, hi ?? wide];
+  function quatToRpy(x, y, z, w) {  // its inverse, pitch in [-pi/2, pi/2] (any norm: the library normalises too)
+    const n = Math.hypot(x, y, z, w);
+    [x, y, z, w] = [x / n, y / n, z / n, w / n];
+    return [Math.atan2(2 * (w * x + y * z), 1 - 2 * (x * x + y * y)),
+            Math.asin(Math.max(-1, Math.min(1, 2 * (w * y - z * x)))),
+            Math.atan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))];
   }
+
+  const one = (wide) => ({  // a 1-dof joint: its slider is its q, within its limits (else within `wide`)
+    coords: (j) => [[null, [j.lower[0] ?? wide[0], j.upper[0] ?? wide[1]]]], toQ: (a) => a, fromQ: (q) => q});
+  const CHARTS = {
+    revolute: one(ANGLE), continuous: one(ANGLE), prismatic: one(REACH),
+    spherical: {coords: () => RPY, toQ: (a) => rpyToQuat(...a), fromQ: (q) => quatToRpy(...q)},
+    planar: {coords: () => [["x", REACH], ["y", REACH], ["theta", ANGLE]],
+             toQ: ([x, y, t]) => [x, y, Math.cos(t), Math.sin(t)], fromQ: ([x, y, c, s]) => [x, y, Math.atan2(s, c)]},
+    floating: {coords: () => [["x", BASE_REACH], ["y", BASE_REACH], ["z", BASE_REACH], ...RPY],
+               toQ: (a) => [...a.slice(0, 3), ...rpyToQuat(...a.slice(3))],
+               fromQ: (q) => [...q.slice(0, 3), ...quatToRpy(...q.slice(3))]},
+  };
+
+  const block = (q, j) => q.slice(j.q_index, j.q_index + j.nq);  // a joint's coordinates in q
 
   function renderSliders(info) {
     const body = $("sliders").tBodies[0];
     body.innerHTML = "";
     for (const j of info.joints) {
-      const coords = j.nq === 1 ? [[j.q_index, j.name, sliderRange(j)]] :
-        (j.nq === 7 ? ["x", "y", "z"].map((c, k) => [j.q_index + k, `${j.name}.${c}`, [-2, 2]]) : []);
-      coords.forEach(([k, label, [lo, hi]], n) => {
+      const chart = CHARTS[j.type];
+      if (!chart) {  // a joint type this page has no chart for: held at the model's neutral
+        const tr = el("tr"), note = el("td", `held at neutral (no sliders for a ${j.type} joint)`, "hint");
+        note.colSpan = 4;
+        tr.appendChild(el("td", j.name));
+        tr.appendChild(note);
+        body.appendChild(tr);
+        continue;
+      }
+      const values = chart.fromQ(block(state.q, j)), inputs = [];
+      chart.coords(j).forEach(([coord, [lo, hi]], n) => {
         const tr = el("tr"), input = el("input");
-        input.type = "range"; input.min = lo; input.max = hi; input.step = "any"; input.value = state.q[k];
-        input.dataset.joint = label;
-        input.dataset.index = k;
-        input.addEventListener("input", () => { state.q[k] = Number(input.value); update(); });
-        tr.appendChild(el("td", label));
+        input.type = "range"; input.min = lo; input.max = hi; input.step = "any"; input.value = values[n];
+        input.dataset.joint = coord === null ? j.name : `${j.name}.${coord}`;
+        inputs.push(input);
+        // the joint's whole block of q from all its sliders: one angle of three never round-trips through q
+        input.addEventListener("input", () => {
+          state.q.splice(j.q_index, j.nq, ...chart.toQ(inputs.map((x) => Number(x.value))));
+          update();
+        });
+        tr.appendChild(el("td", input.dataset.joint));
         const td = el("td"); td.appendChild(input); tr.appendChild(td);
-        tr.appendChild(el("td", fmt(state.q[k], 3), "num value"));
+        tr.appendChild(el("td", fmt(values[n], 3), "num value"));
         tr.appendChild(el("td", "", "num tau"));
-        if (j.nq === 1) {
+        const td2 = el("td");
+        if (n === 0) {
           const lock = el("input");
           lock.type = "checkbox"; lock.title = "lock: hold this joint still (the API's locked)";
           lock.dataset.lock = j.name;
           lock.checked = state.locked.has(j.name);
           lock.addEventListener("change", () => { setLocked(j.name, lock.checked); });
-          const td2 = el("td"); td2.appendChild(lock); tr.appendChild(td2);
+          td2.appendChild(lock);
         }
-        tr.dataset.v = n === 0 && j.nv === 1 ? j.v_index : (j.nq === 7 ? j.v_index + n : "");
+        tr.appendChild(td2);
+        tr.dataset.v = j.v_index + n;  // g(q) of the slider's velocity coordinate (a multi-dof joint's: body frame)
         body.appendChild(tr);
       });
     }
+  }
+
+  function showPose() {  // the sliders' values (in their charts) and g(q) beside them
+    for (const tr of $("sliders").tBodies[0].rows) {
+      if (tr.dataset.v === undefined) continue;
+      const input = tr.querySelector("input[type=range]");
+      tr.querySelector(".value").textContent = fmt(Number(input.value), 3);
+      const tau = state.tau[Number(tr.dataset.v)];
+      tr.querySelector(".tau").textContent = tau === null ? "locked" : fmt(tau, 4);
+    }
+  }
+
+  function toNeutral() {
+    state.q = state.info.neutral.slice();
+    renderSliders(state.info);
   }
 
   // Locked joints: held at their slider's value, the requests then name a reduced model (the API's `locked`):
   // its q, v and tau leave the locked joints' coordinates out, in the order of the joints kept.
   const free = () => state.info.joints.filter((j) => !state.locked.has(j.name));
   const reduce = (x, index, n) => free().flatMap((j) => x.slice(j[index], j[index] + j[n]));
-  function withLocked(body) {
+  function withLocked(body) {  // (the API takes any joint's block of q as a list, a 1-dof joint's too)
     if (!state.locked.size) return body;
     const locked = {};
-    for (const j of state.info.joints) if (state.locked.has(j.name)) locked[j.name] = state.q[j.q_index];
+    for (const j of state.info.joints) if (state.locked.has(j.name)) locked[j.name] = block(state.q, j);
     return {...body, locked};
   }
   function expandTau(tau) {  // the reduced model's tau -> one entry per coordinate of the full model (null: locked)
@@ -386,12 +442,7 @@
     g.tau = expandTau(g.tau);
     state.tau = g.tau;
     pose(fk.placements);
-    for (const tr of $("sliders").tBodies[0].rows) {
-      const input = tr.querySelector("input");
-      tr.querySelector(".value").textContent = fmt(q[Number(input.dataset.index)], 3);
-      const tau = tr.dataset.v === "" ? null : g.tau[Number(tr.dataset.v)];
-      tr.querySelector(".tau").textContent = tau === null ? (tr.dataset.v === "" ? "" : "locked") : fmt(tau, 4);
-    }
+    showPose();
     state.posed = (state.posed || 0) + 1;
   }
 
@@ -548,8 +599,8 @@
     state.info = info;
     state.traj = null;
     state.playing = false;
-    state.q = neutral(info);
     state.locked = new Set();
+    state.q = info.neutral.slice();
     $("robot-select").value = info.id;
     if (!$("robot-select").value) {
       const o = el("option", info.name);
@@ -594,7 +645,7 @@
       try { await listRobots(); if (!state.info) await selectRobot(initialRobot()); } catch (err) { say(err.message, true); }
     });
     $("robot-select").addEventListener("change", (e) => selectRobot(e.target.value).catch((err) => say(err.message, true)));
-    $("pose-neutral").addEventListener("click", () => { state.q = neutral(state.info); renderSliders(state.info); update(); });
+    $("pose-neutral").addEventListener("click", () => { toNeutral(); update(); });
     $("sim-form").addEventListener("submit", simulate);
     $("job-form").addEventListener("submit", openJob);
     $("play").addEventListener("click", () => play(!state.playing));
@@ -624,6 +675,7 @@
     scene,
     get ready() { return !!state.ready && state.busy === 0; },
     jointNames: () => Array.from(document.querySelectorAll("#tree li[data-joint]")).map((li) => li.dataset.joint),
+    jointTypes: () => Object.keys(CHARTS),  // the joint types the pose tab has sliders for
     linkPose(name) {  // a body's world matrix as rendered, in the robot's z-up world (column-major, three.js order)
       const g = scene.bodies[name];
       if (!g) return null;
