@@ -22,5 +22,11 @@ void difference(const Model& model, const double* q0, const double* q1, double* 
 void retract(const Model& model, const double* q0, const double* delta, double* q);
 // out (nv): the chart tangent d with retract(q0, d) == q1.
 void chart_difference(const Model& model, const double* q0, const double* q1, double* out);
+// out (nv) = d(delta)/dt for velocity v at q = retract(q0, delta).
+void chart_rate(const Model& model, const double* q, const double* delta, const double* v, double* out);
+// delta (nv): the chart coordinates of integrate(q, v, dt) around q.
+void integrate_delta(const Model& model, const double* q, const double* v, double dt, double* delta);
+// mag (nv): the magnitudes of q's coordinates for the simulation's relative tolerance (joint_magnitudes).
+void magnitudes(const Model& model, const double* q, double* mag);
 
 }  // namespace core

@@ -225,4 +225,43 @@ void joint_log(const Model& model, int i, const double* q0, const double* q1, do
     out[k] = y.x, out[k + 1] = y.y, out[k + 2] = y.z;
 }
 
+// out[0..3) = Jr(delta_theta)^-1 omega.
+static void chart_rate_rotation(const double* delta, const double* w, double* out) {
+    const Vec3 t = {delta[0], delta[1], delta[2]};
+    const Vec3 r = skew_poly(0.5, so3_jr_inv(t), t, {w[0], w[1], w[2]});
+    out[0] = r.x, out[1] = r.y, out[2] = r.z;
+}
+
+void joint_chart_rate(const Model& model, int i, const double* q, const double* delta, const double* v, double* out) {
+    const int k = model.v_idx[i], kq = model.q_idx[i];
+    switch (model.jtype[i]) {
+        case JOINT_REVOLUTE:
+        case JOINT_PRISMATIC: out[k] = v[k]; return;
+        case JOINT_SPHERICAL: chart_rate_rotation(delta + k, v + k, out + k); return;
+        case JOINT_PLANAR: {
+            double c, s;
+            unit2(q + kq + 2, c, s);
+            out[k] = c * v[k] - s * v[k + 1], out[k + 1] = s * v[k] + c * v[k + 1], out[k + 2] = v[k + 2];
+            return;
+        }
+        default: {
+            const Vec3 p = quaternion_rotate(quaternion_at(q + kq + 3), {v[k], v[k + 1], v[k + 2]});
+            out[k] = p.x, out[k + 1] = p.y, out[k + 2] = p.z;
+            chart_rate_rotation(delta + k + 3, v + k + 3, out + k + 3);
+        }
+    }
+}
+
+void joint_magnitudes(const Model& model, int i, const double* q, double* mag) {
+    const int k = model.v_idx[i], kq = model.q_idx[i], code = model.jtype[i];
+    if (code == JOINT_FREE || code == JOINT_PLANAR) {
+        const int n = code == JOINT_FREE ? 3 : 2;
+        for (int r = 0; r < model.nv_j[i]; ++r) mag[k + r] = r < n ? std::abs(q[kq + r]) : 0.0;
+    } else if (code == JOINT_SPHERICAL) {
+        mag[k] = mag[k + 1] = mag[k + 2] = 0.0;
+    } else {
+        mag[k] = std::abs(q[kq]);
+    }
+}
+
 }  // namespace core

@@ -71,5 +71,12 @@ void joint_retract(const Model& model, int i, const double* q0, const double* de
 void joint_difference(const Model& model, int i, const double* q0, const double* q1, double* out);
 // Joint i's part of the tangent d with integrate(q0, d, 1) == q1 (Pinocchio's difference: log6, log3, log2).
 void joint_log(const Model& model, int i, const double* q0, const double* q1, double* out);
+// Joint i's part of d(delta)/dt for velocity v at q = retract(q0, delta): v for 1-dof joints; (R(q) v_lin,
+// Jr(delta_theta)^-1 omega) for the free joint (the second part alone for the spherical joint); (R(theta) (vx, vy),
+// wz) for the planar joint.
+void joint_chart_rate(const Model& model, int i, const double* q, const double* delta, const double* v, double* out);
+// mag[dofs of i] = |the coordinate of q that moves alone with each velocity coordinate in the chart| (an angle, a
+// position), 0 for a quaternion's or a planar joint's angle: the scale of the simulation's relative tolerance.
+void joint_magnitudes(const Model& model, int i, const double* q, double* mag);
 
 }  // namespace core

@@ -68,6 +68,13 @@ def deadline(t):
         _deadline.reset(token)
 
 
+def seconds_left():
+    """Seconds until the deadline of the enclosing :func:`deadline` block (may be negative), inf outside one: what
+    a long computation in the core (a simulation) is given to stop by."""
+    t_end = _deadline.get()
+    return math.inf if t_end is None else t_end - time.monotonic()
+
+
 def check_deadline(done, total):
     """For a Python loop over a batch (:func:`dynamics.assemble`): raise DeadlineExceeded once the deadline of
     the enclosing :func:`deadline` block has passed, ``done`` of ``total`` states being done."""

@@ -14,6 +14,7 @@ from warnings import warn
 
 import numpy as np
 
+from .. import _core
 from ..aba import _workspace as aba_workspace
 from ..checks import check_model, real_number, singular_joint_error, vector
 from ..configuration import _retract
@@ -250,6 +251,8 @@ def _why_nonfinite(model, s, src, main):
 def _one_run(model, s, ps, src, dt, out_t, rtol, atol, max_steps, outputs, h0=0.0, watch=None, probe=False):
     """One compiled run of s.integrator from (q0, v0); samples kept at out_t (``outputs`` of q, v, tau)."""
     nv = model.nv
+    if s.contact is None and not s.constrained and not _NUMBA_SIM:
+        return _native_run(model, s, ps, src, dt, out_t, rtol, atol, max_steps, outputs, h0, watch, probe)
     cm = None
     if s.contact is not None:  # the contact modules are imported by a run with contact only
         from ..contact.resolve import contact_model
@@ -281,6 +284,40 @@ def _one_run(model, s, ps, src, dt, out_t, rtol, atol, max_steps, outputs, h0=0.
         return RunResult(p, st, sw, wall, qf, z[nv:2 * nv].copy())
     return RunResult(inner, st, sw, wall, qf, z[nv:2 * nv].copy(), p.out_S,
                      final_sensitivities(p, z))
+
+
+import os  # noqa: E402  (transitional: DYNAMICS_SIM_NUMBA=1 runs the numba simulation, to compare the two)
+_NUMBA_SIM = os.environ.get("DYNAMICS_SIM_NUMBA") == "1"
+
+
+def _native_run(model, s, ps, src, dt, out_t, rtol, atol, max_steps, outputs, h0, watch, probe):
+    """:func:`_one_run` in the C++ core."""
+    import time
+    from . import native
+    nv = model.nv
+    z = np.zeros(2 * nv + NQUAD)
+    z[nv:2 * nv] = s.v0
+    ne, sens, out_S, Sf = 2 * nv, None, None, None
+    if s.sens is not None:
+        ncol = len(s.sens.columns)
+        T = out_t.shape[0] if out_t is s.out_t else 0  # (not in the rerun)
+        out_S, Sf = np.zeros((T, 2 * nv, ncol)), np.zeros((2 * nv, ncol))
+        sens = (bool(s.sens.x0), np.ascontiguousarray(s.sens.params, np.int64).reshape(-1, 3), out_S, Sf)
+        z = native.initial_state(model, s.q0, s.v0, s.sens.x0, ncol)
+        ne = 2 * nv * (1 + ncol)
+    nsteps = max(1, math.ceil(s.duration / dt * (1 - 1e-12))) if s.fixed and s.duration > 0 else 0
+    opt = Options(nc=nv, nvel=nv, ne=ne, max_steps=int(max_steps), nsteps=nsteps, dt=float(dt or 0.0),
+                  rtol=float(rtol), atol=float(atol), h0=float(h0 or 0.0), hmax=np.inf, blowup=_blowup(s.v0),
+                  probe=int(probe and s.fixed and s.duration > 0))
+    tic = time.perf_counter()
+    p, st, sw = native.run(s.integrator, model, native.core_passive(model, ps), native.core_source(model, src), s.q0,
+                           z, s.duration, out_t, outputs, opt, watch=watch, sens=sens)
+    wall = time.perf_counter() - tic
+    qf = np.empty(model.nq)
+    _core.retract(model.core, p.base, z[:nv], qf)
+    if sens is None:
+        return RunResult(p, st, sw, wall, qf, z[nv:2 * nv].copy())
+    return RunResult(p, st, sw, wall, qf, z[nv:2 * nv].copy(), out_S, Sf)
 
 
 def _blowup(v0):

@@ -1,0 +1,239 @@
+// The simulation's run: the passive torques, the torque source (a Python callable called back with the GIL taken)
+// and one run of a method over the robot problem, writing into arrays the Python side owns (the samples, the
+// statistics record, the switch log), the GIL released for the whole loop.
+#include <nanobind/stl/string.h>
+
+#include <cstring>
+#include <memory>
+
+#include "arrays.hpp"
+#include "control/passive.hpp"
+#include "control/sources.hpp"
+#include "numpy.hpp"
+#include "simulation/robot_problem.hpp"
+#include "simulation/sensitivities.hpp"
+
+namespace bind {
+
+using core::Model;
+
+namespace {
+
+template <class A>
+std::vector<double> copy_of(const A& a) {
+    return std::vector<double>(a.data(), a.data() + a.size());
+}
+
+// A Python callable f(t, q, v) -> (nv,) as a torque source: called with the GIL taken; an exception (or a result of
+// another shape) is kept and the run stops (it is raised after the run).
+class PyTorque : public core::control::TorqueCallback {
+public:
+    PyTorque(nb::object fn, int nq, int nv) : fn_(std::move(fn)), nq_(nq), nv_(nv) {}
+    bool torques(double t, const double* q, const double* v, double* tau) override {
+        if (failed_) return false;
+        nb::gil_scoped_acquire gil;
+        try {
+            double *pq, *pv;
+            nb::object Q = new_array(nq_, &pq), V = new_array(nv_, &pv);
+            std::copy(q, q + nq_, pq);
+            std::copy(v, v + nv_, pv);
+            nb::object out = check_(fn_(t, Q, V));
+            const double* r = vector_of(out, nv_);
+            std::copy(r, r + nv_, tau);
+            return true;
+        } catch (nb::python_error& e) {
+            error_ = std::make_unique<nb::python_error>(std::move(e));
+        }
+        failed_ = true;
+        return false;
+    }
+    bool failed() const override { return failed_; }
+    void set_check(nb::object check) { check_ = std::move(check); }
+    // raise the kept exception, if any
+    void raise_if_failed() {
+        if (error_) {
+            auto e = std::move(error_);
+            e->restore();
+            throw nb::python_error();
+        }
+    }
+
+private:
+    nb::object fn_, check_;
+    int nq_, nv_;
+    bool failed_ = false;
+    std::unique_ptr<nb::python_error> error_;
+};
+
+// The source and its callback, kept together (the source points at the callback).
+struct SourceHolder {
+    core::control::Source source;
+    std::unique_ptr<PyTorque> callback;
+};
+
+// A (1,) int64 array: the count of samples, read by the progress bar while the run goes.
+int64_t* int_output(nb::handle x, const char* name) {
+    nb::ndarray<int64_t, nb::shape<1>, nb::c_contig, nb::device::cpu> a;
+    if (!nb::try_cast(x, a, false)) throw nb::type_error((std::string(name) + ": expected a (1,) int64 array").c_str());
+    return a.data();
+}
+
+}  // namespace
+
+void expose_simulation(nb::module_& m) {
+    using namespace nb::literals;
+    namespace control = core::control;
+
+    nb::class_<control::Passive>(m, "Passive")
+        .def("__init__", [](control::Passive* self, const Model& model, In<1> damping, In<1> friction,
+                            double friction_eps, bool limits, In<1> lower, In<1> upper, Ints qpos, double k_limit,
+                            double b_limit, In<1> gravity) {
+            const long nv = model.nv;
+            for (auto* a : {&damping, &friction, &lower, &upper}) require(length(*a) == nv, "passive: (nv,) arrays");
+            require(length(qpos) == nv, "passive: qpos (nv,)");
+            control::Passive p;
+            p.damping = copy_of(damping), p.friction = copy_of(friction), p.friction_eps = friction_eps;
+            p.limits = limits, p.lower = copy_of(lower), p.upper = copy_of(upper);
+            for (long k = 0; k < nv; ++k) {
+                require(qpos(k) >= -1 && qpos(k) < model.nq, "passive: qpos out of range");
+                p.qpos.push_back(static_cast<int>(qpos(k)));
+            }
+            p.k_limit = k_limit, p.b_limit = b_limit, p.gravity = vec3(gravity, "gravity");
+            require(friction_eps > 0, "passive: friction_eps > 0");
+            new (self) control::Passive(std::move(p));
+        });
+
+    nb::class_<SourceHolder>(m, "Source")
+        .def("__init__", [](SourceHolder* self, const Model& model, int kind, In<1> times, In<2> table, In<2> gains,
+                            In<1> qref, long frame, Ints rows, In<2> task_gains, In<2> orientation, double damping,
+                            nb::object callback, nb::object check) {
+            new (self) SourceHolder();
+            control::Source& s = self->source;
+            require(kind >= control::ZERO && kind <= control::OPERATIONAL_SPACE, "source: unknown kind");
+            const long N = length(times), nv = model.nv;
+            require(N >= 1 && static_cast<long>(table.shape(0)) == N, "source: times and table rows");
+            require(gains.shape(0) == 4 && static_cast<long>(gains.shape(1)) == nv, "source: gains (4, nv)");
+            require(length(qref) == model.nq, "source: qref (nq,)");
+            const long cols = static_cast<long>(table.shape(1));
+            if (kind == control::TABLE_LINEAR || kind == control::TABLE_ZOH) require(cols == nv, "source: table (N, nv)");
+            if (kind == control::COMPUTED_TORQUE) require(cols == 3 * nv && model.nq == nv, "source: reference (N, 3 nv)");
+            s.kind = kind, s.times = copy_of(times), s.table = copy_of(table), s.table_cols = static_cast<int>(cols);
+            s.gains = copy_of(gains), s.qref = copy_of(qref);
+            if (kind == control::OPERATIONAL_SPACE) {
+                require(frame >= 0 && frame < model.nf, "source: frame out of range");
+                require(cols == 9, "source: task reference (N, 9)");
+                require(task_gains.shape(0) == 2 && task_gains.shape(1) == 6, "source: task gains (2, 6)");
+                require(static_cast<long>(orientation.shape(0)) == N && orientation.shape(1) == 12, "source: orientation (N, 12)");
+                require(length(rows) >= 1 && length(rows) <= 6, "source: 1 to 6 task rows");
+                s.frame = static_cast<int>(frame);
+                for (size_t k = 0; k < rows.shape(0); ++k) {
+                    require(rows(k) >= 0 && rows(k) < 6, "source: rows in [0, 6)");
+                    s.rows.push_back(static_cast<int>(rows(k)));
+                }
+                for (int r = 0; r < 2; ++r)
+                    for (int c = 0; c < 6; ++c) s.task_gains[r][c] = task_gains(r, c);
+                s.orientation = copy_of(orientation), s.damping = damping;
+            }
+            if (kind == control::CALLABLE) {
+                require(!callback.is_none(), "source: a callable");
+                self->callback = std::make_unique<PyTorque>(callback, model.nq, model.nv);
+                self->callback->set_check(check);
+                s.callback = self->callback.get();
+            }
+        }, "model"_a, "kind"_a, "times"_a, "table"_a, "gains"_a, "qref"_a, "frame"_a, "rows"_a, "task_gains"_a,
+           "orientation"_a, "damping"_a, "callback"_a.none(), "check"_a.none());
+
+    // One run of `method` from (t0, z) to t_end (z advanced in place); the samples at out_t into the outputs (rows
+    // 0 for what is not kept); the statistics into `stats` (a (1,) STATS record array) and the switches into `sw`
+    // (a SWITCH record array of MAX_SWITCHES rows).  Raises a Python callable's exception after the run.
+    m.def("run", [](const std::string& method, const Model& model, const control::Passive& passive, SourceHolder& src,
+                    In<1> q0, nb::handle z_, double t0, double t_end, nb::handle out_t_, nb::handle out_q_,
+                    nb::handle out_v_, nb::handle out_tau_, nb::handle out_w_, nb::handle out_e_, nb::handle count_,
+                    nb::dict opt_, nb::handle stats_, nb::handle sw_, nb::object sens) {
+        const Output z = output_of(z_, 1), out_t = output_of(out_t_, 1), oq = output_of(out_q_, 2);
+        const Output ov = output_of(out_v_, 2), otau = output_of(out_tau_, 2), ow = output_of(out_w_, 2);
+        const Output oe = output_of(out_e_, 2);
+        const long T = length(out_t), nq = model.nq, nv = model.nv, n = length(z);
+        require(length(q0) == nq, "q0: (nq,)");
+        require(oq.shape(1) == nq && (length(oq) == T || length(oq) == 0), "out_q: (T or 0, nq)");
+        require(ov.shape(1) == nv && (length(ov) == T || length(ov) == 0), "out_v: (T or 0, nv)");
+        require(otau.shape(1) == nv && (length(otau) == T || length(otau) == 0), "out_tau: (T or 0, nv)");
+        require(length(ow) == T && ow.shape(1) == 2 && length(oe) == T && oe.shape(1) == 2, "out_w, out_e: (T, 2)");
+        // sensitivities: (x0, params (P, 3) int64, out_S (T or 0, 2 nv, ncol), Sf (2 nv, ncol)), or None
+        bool x0 = false;
+        std::vector<int> params;
+        Output oS, Sf;
+        long ncol = 0;
+        if (!sens.is_none()) {
+            nb::tuple t = nb::cast<nb::tuple>(sens);
+            require(t.size() == 4, "sensitivities: (x0, params, out_S, Sf)");
+            x0 = nb::cast<bool>(t[0]);
+            nb::ndarray<const int64_t, nb::ndim<2>, nb::c_contig, nb::device::cpu> P;
+            if (!nb::try_cast(t[1], P, false) || (P.shape(0) > 0 && P.shape(1) != 3))
+                throw nb::type_error("sensitivities: params (P, 3) int64");
+            oS = output_of(t[2], 3), Sf = output_of(t[3], 2);
+            ncol = (x0 ? 2 * nv : 0) + static_cast<long>(P.shape(0));
+            for (size_t j = 0; j < P.shape(0); ++j) {
+                const long place = P(j, 0), row = P(j, 1), col = P(j, 2);
+                const auto& sc = src.source;
+                bool ok = (place == core::sim::GAINS && row >= 0 && row < 4 && col >= 0 && col < nv) ||
+                          (place == core::sim::QREF && col >= 0 && col < nq) ||
+                          (place == core::sim::TABLE && row >= 0 && row < sc.samples() && col >= 0 && col < sc.table_cols);
+                require(ok, "sensitivities: a parameter out of the source's range");
+                params.insert(params.end(), {static_cast<int>(place), static_cast<int>(row), static_cast<int>(col)});
+            }
+            require(oS.shape(1) == 2 * nv && oS.shape(2) == ncol && (length(oS) == T || length(oS) == 0),
+                    "out_S: (T or 0, 2 nv, ncol)");
+            require(length(Sf) == 2 * nv && Sf.shape(1) == ncol, "Sf: (2 nv, ncol)");
+        }
+        require(n == 2 * nv + 2 + 2 * nv * ncol, "z: (2 nv (1 + ncol) + 2,)");
+        core::sim::Outputs out;
+        out.t = out_t.data(), out.T = T, out.q = oq.data(), out.v = ov.data(), out.tau = otau.data();
+        out.keep_q = length(oq) == T && T > 0, out.keep_v = length(ov) == T && T > 0, out.keep_tau = length(otau) == T && T > 0;
+        out.w = ow.data(), out.e = oe.data(), out.count = int_output(count_, "count");
+        auto record = [](nb::handle x, size_t size, const char* name) {
+            nb::object raw = x.attr("view")(nb::module_::import_("numpy").attr("uint8"));
+            nb::ndarray<uint8_t, nb::ndim<1>, nb::c_contig, nb::device::cpu> a;
+            if (!nb::try_cast(raw, a, false) || a.shape(0) < size)
+                throw nb::type_error((std::string(name) + ": a record array of the right dtype").c_str());
+            return std::make_pair(raw, a.data());
+        };
+        auto [stats_raw, stats_ptr] = record(stats_, sizeof(core::sim::Stats), "stats");
+        auto [sw_raw, sw_ptr] = record(sw_, sizeof(core::sim::Switch) * core::sim::MAX_SWITCHES, "switches");
+        core::sim::Options opt;
+        opt.nc = nb::cast<int>(opt_["nc"]), opt.nvel = nb::cast<int>(opt_["nvel"]), opt.ne = nb::cast<int>(opt_["ne"]);
+        opt.max_steps = nb::cast<int64_t>(opt_["max_steps"]), opt.nsteps = nb::cast<int64_t>(opt_["nsteps"]);
+        opt.dt = nb::cast<double>(opt_["dt"]), opt.rtol = nb::cast<double>(opt_["rtol"]);
+        opt.atol = nb::cast<double>(opt_["atol"]), opt.h0 = nb::cast<double>(opt_["h0"]);
+        opt.hmax = nb::cast<double>(opt_["hmax"]), opt.blowup = nb::cast<double>(opt_["blowup"]);
+        opt.probe = nb::cast<bool>(opt_["probe"]);
+        if (opt_.contains("deadline")) opt.deadline = nb::cast<double>(opt_["deadline"]);
+        require(opt.nc == nv && opt.nvel == nv && opt.ne >= 0 && opt.ne <= n, "options: sizes");
+        core::sim::Stats st;
+        std::vector<core::sim::Switch> sw;
+        std::memcpy(&st, stats_ptr, sizeof st);  // a resumed run goes on from its statistics
+        core::sim::RobotProblem p(model, passive, src.source, q0.data(), out, nullptr);
+        std::unique_ptr<core::sim::SensitivityProblem> ps;
+        if (!sens.is_none())
+            ps = std::make_unique<core::sim::SensitivityProblem>(p, x0, params, length(oS) ? oS.data() : nullptr, Sf.data());
+        {
+            nb::gil_scoped_release unlocked;
+            core::sim::Problem& run_p = ps ? static_cast<core::sim::Problem&>(*ps) : p;
+            core::sim::run_method(method.c_str(), run_p, z.data(), static_cast<int>(n), t0, t_end, out_t.data(), T,
+                                  opt, st, sw);
+            if (ps) ps->final(z.data(), Sf.data());
+        }
+        std::memcpy(stats_ptr, &st, sizeof st);
+        std::memcpy(sw_ptr, sw.data(), sizeof(core::sim::Switch) * std::min<size_t>(sw.size(), core::sim::MAX_SWITCHES));
+        if (src.callback) src.callback->raise_if_failed();
+        std::vector<double> base(p.base(), p.base() + nq);
+        double* qb;
+        nb::object qbase = new_array(nq, &qb);
+        std::copy(base.begin(), base.end(), qb);
+        return qbase;  // the chart's base at the end: the final q is retract(base, z[:nv])
+    }, "method"_a, "model"_a, "passive"_a, "source"_a, "q0"_a, "z"_a, "t0"_a, "t_end"_a, "out_t"_a, "out_q"_a,
+       "out_v"_a, "out_tau"_a, "out_w"_a, "out_e"_a, "count"_a, "options"_a, "stats"_a, "switches"_a,
+       "sensitivities"_a.none());
+}
+
+}  // namespace bind

@@ -1,0 +1,68 @@
+// The fixed-step driver (euler, rk4): steps of size dt from t0 to t_end, the last one shortened to land on t_end
+// exactly, samples from the stepper's interpolant.  The slope at the end of a step serves the interpolant of that
+// step and, re-expressed in the new chart by rebase, the first stage of the next one.
+#include <chrono>
+#include <cmath>
+#include <vector>
+
+#include "linalg.hpp"
+
+namespace core::sim {
+
+Status solve_fixed(Problem& p, FixedStepper& m, double* z, int n, double t0, double t_end, const double* out_t,
+                   int64_t T, const Options& opt, Stats& st) {
+    using clock = std::chrono::steady_clock;
+    const auto start = clock::now();
+    std::vector<double> buf(4 * static_cast<size_t>(n));
+    double *mag = buf.data(), *f0 = mag + n, *f1 = f0 + n, *z0 = f1 + n;
+    std::vector<double> zi(n);
+    p.rhs(t0, z, f0);
+    st.rhs_evals += 1;
+    Status status = state_status(f0, n, 0, 0, opt.blowup) == OK ? OK : NONFINITE;
+    if (opt.probe && status == OK) st.rho0 = jacobian_spectral_radius(p, t0, z, f0, n, opt.ne);
+    int64_t j = 0;
+    for (; j < T && out_t[j] <= t0; ++j) p.emit(j, t0, z);  // the initial state, also when f(t0, z0) is not finite
+    double t = t0;
+    for (int64_t i = 0; i < (status == OK ? opt.nsteps : 0); ++i) {
+        const double ta = t;  // this step: from ta to t
+        t = i == opt.nsteps - 1 ? t_end : std::min(t0 + (i + 1) * opt.dt, t_end);
+        const double h = t - ta;
+        std::copy(z, z + n, z0);
+        m.step(p, ta, h, z, f0, st);
+        st.steps += 1;
+        if (p.aborted()) {
+            status = ABORTED;
+            break;
+        }
+        status = state_status(z, n, opt.nc, opt.nvel, opt.blowup);
+        if (status != OK) break;
+        p.rhs(t, z, f1);
+        st.rhs_evals += 1;
+        if (state_status(f1, n, 0, 0, opt.blowup) != OK) {
+            status = p.aborted() ? ABORTED : NONFINITE;
+            break;
+        }
+        for (; j < T && out_t[j] <= t; ++j) {  // samples in (ta, t]
+            if (out_t[j] >= t) {
+                p.emit(j, t, z);
+            } else {
+                m.dense((out_t[j] - ta) / h, h, z0, f0, z, f1, zi.data());
+                p.emit(j, out_t[j], zi.data());
+            }
+        }
+        p.rebase(t, z, f1, mag);
+        std::copy(f1, f1 + n, f0);
+        if ((i & 63) == 63 && std::chrono::duration<double>(clock::now() - start).count() > opt.deadline) {
+            status = DEADLINE;
+            break;
+        }
+    }
+    st.status = status;
+    st.t = t;
+    st.h = opt.dt;
+    st.local_error = std::nan("");  // fixed-step methods have no embedded error estimate
+    st.samples = j;
+    return status;
+}
+
+}  // namespace core::sim

@@ -1,0 +1,87 @@
+// The robot as an ODE for the solvers: the state, the right-hand side, and what is kept per sample (the C++ side
+// of dynamics/simulation/problem.py).
+//
+// The equations of motion (Featherstone 2008, eq. 1.1, solved by the ABA):
+//     M(q) v' + C(q, v) v + g(q) = tau_source(t, q, v) + tau_passive(q, v) (+ J_c^T f_c),   q' = v (on the manifold)
+// The integrated state is z = [delta (nv), v (nv), W_source, W_passive (, W_contact)]: delta is the chart coordinate
+// of q around `base`, the configuration at the start of the current step (configuration.hpp; re-centred after every
+// step by rebase so quaternions stay unit length), and the quadratures integrate the power of the source, of the
+// passive torques and, with contact, of the contact forces, for the energy balance.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "control/sources.hpp"
+#include "data.hpp"
+#include "solver.hpp"
+
+namespace core::sim {
+
+// What a run writes per sample, into arrays its caller owns (numpy's, from the bindings); an output with zero rows
+// is neither kept nor, for the torques, computed.
+struct Outputs {
+    double* t = nullptr;  // (T,) sample times (given: where to sample; rewritten with the time reached)
+    int64_t T = 0;
+    double *q = nullptr, *v = nullptr, *tau = nullptr;  // (T or 0, nq / nv / nv)
+    bool keep_q = false, keep_v = false, keep_tau = false;
+    double* w = nullptr;  // (T, nquad): the work of the source, the passive torques (and the contact)
+    double* e = nullptr;  // (T, 2): kinetic and potential energy (the report's energy balance)
+    int64_t* count = nullptr;  // (1,): samples written, read by the progress bar while the run goes
+};
+
+// Contact in the right-hand side: the hooks a contact model gives the simulation (contact/ implements them).
+class ContactHooks {
+public:
+    virtual ~ContactHooks() = default;
+    // After the ABA's first pass (data.X, data.v): the contact forces subtracted from data.pA as external body
+    // forces; returns their power.  delta: the chart coordinates of q (the clearance's bound follows them).
+    virtual double bias(const Model& model, Data& data, const double* q, const double* v, const double* delta) = 0;
+    // tau += J_c^T f_c at (q, v); returns the power (the constrained right-hand side's way in).
+    virtual double torques(const Model& model, const double* q, const double* v, double* tau, const double* delta) = 0;
+    virtual void emit(int64_t j, const double* q, const double* v) = 0;      // the active contacts of sample j
+    virtual void track(double t, const double* base, const double* v, const double* delta) = 0;  // after a step
+    virtual void rebased() {}                                                // a projection moved the base
+    virtual bool touchdown() = 0;  // the last accepted state touches something after touching nothing (once)
+};
+
+class RobotProblem : public Problem {
+public:
+    RobotProblem(const Model& model, const control::Passive& passive, control::Source& source, const double* q0,
+                 const Outputs& out, ContactHooks* contact);
+    void rhs(double t, const double* z, double* dz) override;
+    void rebase(double t, double* z, double* dz, double* mag) override;
+    void euler_config(double* z, double h) override;
+    void emit(int64_t j, double t, const double* z) override;
+    bool touchdown() override { return contact_ && contact_->touchdown(); }
+    bool aborted() const override { return aborted_; }
+
+    const Model& model() const { return model_; }
+    const double* base() const { return base_.data(); }
+    double* base() { return base_.data(); }
+    control::Source& source() { return source_; }
+    const control::Passive& passive() const { return passive_; }
+    const Outputs& outputs() const { return out_; }
+    int nquad() const { return nquad_; }
+
+protected:
+    // qbuf = the configuration of z around base; dz's chart part = the chart rate of v.  Returns q.
+    const double* chart_and_velocity(const double* z, double* dz);
+    // tau_p = source + passive torques at (t, q, v) (tau_s the source's); the powers through power_s, power_p.
+    void source_and_passive(double t, const double* q, const double* v, double& power_s, double& power_p);
+    void quadratures(double* dz, double power_s, double power_p, double power_c) const;
+    void abort_if_failed();
+
+    const Model& model_;
+    const control::Passive& passive_;
+    control::Source& source_;
+    control::SourceWorkspace ws_source_;
+    ContactHooks* contact_;
+    Outputs out_;
+    int nv_, nquad_;
+    std::vector<double> base_, qbuf_, tau_s_, tau_p_;
+    Data data_;  // the ABA's workspace
+    bool aborted_ = false;
+};
+
+}  // namespace core::sim

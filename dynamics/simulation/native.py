@@ -1,0 +1,113 @@
+"""One run of the simulation in the C++ core (``core/simulation/``): the passive torques, the torque source and the
+samples as the core reads and writes them.  (Transitional: runs with contact, closed loops or sensitivities still
+take the numba path of :mod:`.run` until they move to the core.)"""
+
+from typing import NamedTuple
+
+import numpy as np
+
+from .. import _core
+from ..control.registry import _REGISTRY
+from ..errors import DeadlineExceeded, InputError
+from ..parallel import seconds_left
+from . import solvers
+
+
+class Samples(NamedTuple):
+    """What a run wrote per sample (the report and the Trajectory read these by the names of the numba problem)."""
+
+    out_t: np.ndarray
+    out_q: np.ndarray
+    out_v: np.ndarray
+    out_tau: np.ndarray
+    out_w: np.ndarray
+    out_e: np.ndarray
+    count: np.ndarray
+    base: np.ndarray
+
+
+def core_passive(model, ps):
+    """The core's passive torques for :class:`dynamics.control.passive.Passive`."""
+    return _core.Passive(model.core, ps.damping, ps.friction, float(ps.friction_eps), ps.limits == 1, ps.lower,
+                         ps.upper, ps.qpos, float(ps.k_limit), float(ps.b_limit), ps.gravity)
+
+
+def _torque_check(nv):
+    def check(tau):
+        tau = np.asarray(tau, dtype=np.float64)
+        if tau.shape != (nv,):
+            raise InputError(f"torque: the callable must return shape ({nv},), got {tau.shape}")
+        return np.ascontiguousarray(tau)
+    return check
+
+
+def core_source(model, src):
+    """The core's torque source for :class:`dynamics.control.sources.Source`."""
+    fn = _REGISTRY[src.slot][0] if src.slot >= 0 else None
+    orientation = np.asarray(src.orientation, float).reshape(-1, 12)
+    if orientation.shape[0] != src.times.shape[0]:
+        orientation = np.zeros((src.times.shape[0], 12))
+    return _core.Source(model.core, int(src.kind), src.times, np.asarray(src.table, float), src.gains, src.qref,
+                        int(src.frame), np.asarray(src.rows, np.int64), np.asarray(src.task_gains, float),
+                        orientation, float(src.damping), fn, _torque_check(model.nv))
+
+
+def chart_matrix(model, q, delta):
+    """C = d delta / d e (nv, nv) for the tangent displacement e at q = retract(base, delta): column k is the chart
+    rate of e_k (:mod:`.sensitivities`)."""
+    nv = model.nv
+    C, e, col = np.empty((nv, nv)), np.zeros(nv), np.empty(nv)
+    for k in range(nv):
+        e[k] = 1.0
+        _core.chart_rate(model.core, q, delta, e, col)
+        e[k] = 0.0
+        C[:, k] = col
+    return C
+
+
+def initial_state(model, q0, v0, x0, ncol):
+    """z0 of a run with sensitivities: [0, v0, S0 column by column, 0, 0], S0 = [C(q0, 0) | 0] on the q0 columns'
+    q-rows (the identity for 1-dof joints) and the identity on the v0 columns."""
+    nv = model.nv
+    n2, nx = 2 * nv, 2 * nv if x0 else 0
+    z = np.zeros(n2 + n2 * ncol + 2)
+    z[nv:n2] = v0
+    S0 = np.zeros((n2, ncol))
+    S0[:, :nx] = np.eye(n2)[:, :nx]
+    if nx and model.nq != nv:
+        S0[:nv, :nv] = chart_matrix(model, q0, np.zeros(nv))
+    z[n2:n2 + n2 * ncol] = S0.T.ravel()
+    return z
+
+
+def run(method, model, passive, source, q0, z, t_end, out_t, outputs, opt, watch=None, t0=0.0, sens=None):
+    """Run ``method`` from (t0, z) to t_end (z advanced in place), samples at out_t keeping ``outputs``; returns
+    (Samples, stats record, switch log's used rows).  ``sens``: None, or (x0, params (P, 3), out_S, Sf) for a run
+    with sensitivities (:mod:`.sensitivities`), S written into out_S per sample and Sf at the end."""
+    nv, nq, T = model.nv, model.nq, out_t.shape[0]
+    p = Samples(out_t, np.zeros((T if "q" in outputs else 0, nq)), np.zeros((T if "v" in outputs else 0, nv)),
+                np.zeros((T if "tau" in outputs else 0, nv)), np.zeros((T, 2)), np.zeros((T, 2)),
+                np.zeros(1, np.int64), None)
+    stats, sw = solvers.new_stats(), solvers.new_switch_log()
+    options = {k: getattr(opt, k) for k in opt._fields}
+    options["probe"] = bool(opt.probe)
+    options["deadline"] = seconds_left()  # the core stops past it (status DEADLINE)
+
+    def call():
+        return _core.run(method, model.core, passive, source, q0, z, float(t0), float(t_end), p.out_t, p.out_q,
+                         p.out_v, p.out_tau, p.out_w, p.out_e, p.count, options, stats, sw, sens)
+    if watch is None:
+        base = call()
+    else:
+        with watch(p):
+            base = call()
+    st = stats[0]
+    if st["status"] == DEADLINE:
+        raise DeadlineExceeded(f"simulate ran past its deadline at t={float(st['t']):.6g} s of {float(t_end):g} s",
+                               done=int(st["samples"]), total=out_t.shape[0])
+    return p._replace(base=base), st, sw[:st["switches"]]
+
+
+#: the core's statuses beyond the solvers' (core/simulation/solver.hpp): a Python torque raised (its exception is
+#: raised by the core's run), the deadline passed
+ABORTED, DEADLINE = 6, 7
