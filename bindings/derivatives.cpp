@@ -1,0 +1,71 @@
+// The analytical derivatives: one state (exact float64 arrays, lengths and values checked here; None sends the
+// caller to its general path) and batches into (B, 3, nv, nv) (shapes checked again; the GIL released around the
+// threads, one derivatives workspace per thread).
+#include "arrays.hpp"
+#include "checks.hpp"
+#include "numpy.hpp"
+#include "rnea_derivatives.hpp"
+
+namespace bind {
+
+using core::all_finite;
+using core::configuration_ok;
+
+namespace {
+
+// The batch's output: (B, 3, nv, nv), the three matrices of state b at out[b].
+void require_matrices(const Output& out, long nv, const char* name) {
+    require(out.shape(1) == 3 && out.shape(2) == nv && out.shape(3) == nv,
+            std::string(name) + ": expected an output of shape (B, 3, " + std::to_string(nv) + ", " +
+                std::to_string(nv) + ")");
+}
+
+// Three new (nv, nv) arrays and their data.
+nb::tuple three_matrices(long nv, double** x, double** y, double** z) {
+    nb::object a = new_array(nv, nv, x), b = new_array(nv, nv, y), c = new_array(nv, nv, z);
+    return nb::make_tuple(a, b, c);
+}
+
+}  // namespace
+
+void expose_derivatives(nb::module_& m) {
+    using namespace nb::literals;
+    using core::Data;
+    using core::Model;
+
+    // one state: (dtau_dq, dtau_dv, M), or None when an input is not an exact float64 state of the right length
+    // with finite values
+    m.def("rnea_derivatives", [](const Model& model, nb::handle q, nb::handle v, nb::handle a) -> nb::object {
+        const double *pq = vector_of(q, model.nq), *pv = vector_of(v, model.nv), *pa = vector_of(a, model.nv);
+        if (!pq || !pv || !pa || !configuration_ok(model, pq) || !all_finite(pv, model.nv) || !all_finite(pa, model.nv))
+            return nb::none();
+        double *dq, *dv, *M;
+        nb::tuple out = three_matrices(model.nv, &dq, &dv, &M);
+        core::rnea_derivatives(model, core::thread_derivatives_data(model), pq, pv, pa, model.gravity, nullptr, dq,
+                               dv, M);
+        return out;
+    }, "model"_a, "q"_a.none(), "v"_a.none(), "a"_a.none());
+
+    m.def("rnea_derivatives_batch", [](const Model& model, In<2> Q, In<2> V, In<2> A, In<3> F, In<1> gravity,
+                                       nb::handle out_, int nthreads, double seconds) {
+        const Output out = output_of(out_, 4);
+        const long B = length(out), nv = model.nv;
+        require_rows(Q, B, model.nq, "q"), require_rows(V, B, nv, "v"), require_rows(A, B, nv, "a");
+        require_forces(F, B, model.nb), require_matrices(out, nv, "rnea_derivatives");
+        const core::Vec3 g = vec3(gravity, "gravity");
+        core::DerivativesPool pool(model, B, nthreads);
+        core::BatchStatus s;
+        {
+            nb::gil_scoped_release unlocked;
+            s = core::run_batch(model, B, nthreads, seconds, [&](long b, Data& d) {
+                double* x = out.data() + b * 3 * nv * nv;
+                core::rnea_derivatives(model, pool.of(d), row(Q, b), row(V, b), row(A, b), g, forces(F, b), x,
+                                       x + nv * nv, x + 2 * nv * nv);
+                return -1;
+            });
+        }
+        return status(s);
+    });
+}
+
+}  // namespace bind
