@@ -1,6 +1,7 @@
 // The analytical derivatives: one state (exact float64 arrays, lengths and values checked here; None sends the
 // caller to its general path) and batches into (B, 3, nv, nv) (shapes checked again; the GIL released around the
 // threads, one derivatives workspace per thread).
+#include "aba_derivatives.hpp"
 #include "arrays.hpp"
 #include "checks.hpp"
 #include "numpy.hpp"
@@ -46,6 +47,19 @@ void expose_derivatives(nb::module_& m) {
         return out;
     }, "model"_a, "q"_a.none(), "v"_a.none(), "a"_a.none());
 
+    // one state: (da_dq, da_dv, Minv); None also for a singular joint (the general path names it)
+    m.def("aba_derivatives", [](const Model& model, nb::handle q, nb::handle v, nb::handle tau) -> nb::object {
+        const double *pq = vector_of(q, model.nq), *pv = vector_of(v, model.nv), *pt = vector_of(tau, model.nv);
+        if (!pq || !pv || !pt || !configuration_ok(model, pq) || !all_finite(pv, model.nv) || !all_finite(pt, model.nv))
+            return nb::none();
+        double *dq, *dv, *Minv;
+        nb::tuple out = three_matrices(model.nv, &dq, &dv, &Minv);
+        if (core::aba_derivatives(model, core::thread_data(model), core::thread_derivatives_data(model), pq, pv, pt,
+                                  model.gravity, nullptr, dq, dv, Minv) >= 0)
+            return nb::none();
+        return out;
+    }, "model"_a, "q"_a.none(), "v"_a.none(), "tau"_a.none());
+
     m.def("rnea_derivatives_batch", [](const Model& model, In<2> Q, In<2> V, In<2> A, In<3> F, In<1> gravity,
                                        nb::handle out_, int nthreads, double seconds) {
         const Output out = output_of(out_, 4);
@@ -62,6 +76,26 @@ void expose_derivatives(nb::module_& m) {
                 core::rnea_derivatives(model, pool.of(d), row(Q, b), row(V, b), row(A, b), g, forces(F, b), x,
                                        x + nv * nv, x + 2 * nv * nv);
                 return -1;
+            });
+        }
+        return status(s);
+    });
+
+    m.def("aba_derivatives_batch", [](const Model& model, In<2> Q, In<2> V, In<2> T, In<3> F, In<1> gravity,
+                                      nb::handle out_, int nthreads, double seconds) {
+        const Output out = output_of(out_, 4);
+        const long B = length(out), nv = model.nv;
+        require_rows(Q, B, model.nq, "q"), require_rows(V, B, nv, "v"), require_rows(T, B, nv, "tau");
+        require_forces(F, B, model.nb), require_matrices(out, nv, "aba_derivatives");
+        const core::Vec3 g = vec3(gravity, "gravity");
+        core::DerivativesPool pool(model, B, nthreads);
+        core::BatchStatus s;
+        {
+            nb::gil_scoped_release unlocked;
+            s = core::run_batch(model, B, nthreads, seconds, [&](long b, Data& d) {
+                double* x = out.data() + b * 3 * nv * nv;
+                return core::aba_derivatives(model, d, pool.of(d), row(Q, b), row(V, b), row(T, b), g, forces(F, b),
+                                             x, x + nv * nv, x + 2 * nv * nv);
             });
         }
         return status(s);
