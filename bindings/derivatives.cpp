@@ -1,9 +1,10 @@
 // The analytical derivatives: one state (exact float64 arrays, lengths and values checked here; None sends the
 // caller to its general path) and batches into (B, 3, nv, nv) (shapes checked again; the GIL released around the
-// threads, one derivatives workspace per thread).
+// threads, one derivatives workspace per thread); the Jacobians of integrate and difference, one state.
 #include "aba_derivatives.hpp"
 #include "arrays.hpp"
 #include "checks.hpp"
+#include "configuration_jacobians.hpp"
 #include "numpy.hpp"
 #include "rnea_derivatives.hpp"
 
@@ -19,6 +20,12 @@ void require_matrices(const Output& out, long nv, const char* name) {
     require(out.shape(1) == 3 && out.shape(2) == nv && out.shape(3) == nv,
             std::string(name) + ": expected an output of shape (B, 3, " + std::to_string(nv) + ", " +
                 std::to_string(nv) + ")");
+}
+
+// Two (nv, nv) outputs of one state.
+void require_square(const Output& A, const Output& B, long nv, const char* name) {
+    require(A.shape(0) == nv && A.shape(1) == nv && B.shape(0) == nv && B.shape(1) == nv,
+            std::string(name) + ": expected outputs of shape (" + std::to_string(nv) + ", " + std::to_string(nv) + ")");
 }
 
 // Three new (nv, nv) arrays and their data.
@@ -99,6 +106,22 @@ void expose_derivatives(nb::module_& m) {
             });
         }
         return status(s);
+    });
+
+    // the configuration Jacobians of one state (dynamics/configuration_jacobians.py checked it), into two (nv, nv)
+    // outputs: (d/dq, d/dv) of integrate(q, v), which depend on v only; (d/dq0, d/dq1) of difference(q0, q1) at
+    // its value d (false: a singular block, which no difference gives)
+    m.def("integrate_jacobians", [](const Model& model, In<1> v, nb::handle Jq_, nb::handle Jv_) {
+        const Output Jq = output_of(Jq_, 2), Jv = output_of(Jv_, 2);
+        require(length(v) == model.nv, "v: expected " + std::to_string(model.nv) + " numbers");
+        require_square(Jq, Jv, model.nv, "integrate_jacobians");
+        core::integrate_jacobians(model, v.data(), Jq.data(), Jv.data());
+    });
+    m.def("difference_jacobians", [](const Model& model, In<1> d, nb::handle J0_, nb::handle J1_) {
+        const Output J0 = output_of(J0_, 2), J1 = output_of(J1_, 2);
+        require(length(d) == model.nv, "d: expected " + std::to_string(model.nv) + " numbers");
+        require_square(J0, J1, model.nv, "difference_jacobians");
+        return core::difference_jacobians(model, d.data(), J0.data(), J1.data());
     });
 }
 

@@ -213,3 +213,49 @@ def test_a_singular_joint_is_named():
     dq, dv, M = dynamics.inverse_dynamics_derivatives(model, q, zero, zero)  # RNEA's derivatives are defined
     assert M[1, 1] == 0.0
 
+
+def test_configuration_jacobians_are_those_of_integrate_and_difference(model):
+    rng = np.random.default_rng(7)
+    q0, v, _ = random_state(model, rng)
+    q1, _, _ = random_state(model, rng)
+    Jq, Jv = dynamics.integrate_jacobians(model, q0, v)
+    base = dynamics.integrate(model, q0, v)
+    assert rel(Jq, tangent_fd(lambda x: dynamics.difference(model, base, dynamics.integrate(model, x, v)), model,
+                              q0)) < FD_RTOL
+    assert rel(Jv, vector_fd(lambda x: dynamics.difference(model, base, dynamics.integrate(model, q0, x)), v)) < FD_RTOL
+    J0, J1 = dynamics.difference_jacobians(model, q0, q1)
+    assert rel(J1, tangent_fd(lambda x: dynamics.difference(model, q0, x), model, q1)) < FD_RTOL
+    assert rel(J0, tangent_fd(lambda x: dynamics.difference(model, x, q1), model, q0)) < FD_RTOL
+    J0, J1 = dynamics.difference_jacobians(model, q0, q0)  # at d = 0: -1 and 1
+    np.testing.assert_allclose(J1, np.eye(model.nv), atol=1e-15)
+    np.testing.assert_allclose(J0, -np.eye(model.nv), atol=1e-15)
+
+
+def test_configuration_jacobians_refuse_wrong_shapes(model):
+    c, nv = model.core, model.nv
+    d, A, B = np.zeros(nv), np.empty((nv, nv)), np.empty((nv, nv))
+    _core.integrate_jacobians(c, d, A, B)
+    np.testing.assert_array_equal(A, np.eye(nv))
+    assert _core.difference_jacobians(c, d, A, B)
+    np.testing.assert_array_equal(A, -np.eye(nv))
+    for entry in (_core.integrate_jacobians, _core.difference_jacobians):
+        bad_calls = [
+            lambda: entry(c, d[:-1], A, B),
+            lambda: entry(c, np.zeros(nv + 1), A, B),
+            lambda: entry(c, d[None], A, B),
+            lambda: entry(c, d, A[:-1], B),
+            lambda: entry(c, d, A, np.empty((nv, nv + 1))),
+            lambda: entry(c, d, np.empty(nv * nv), B),
+            lambda: entry(c, d, A, np.empty((nv, nv), np.float32)),
+            lambda: entry(c, d, np.empty((nv, 2 * nv))[:, ::2], B),
+            lambda: entry(c, d, A, B.tolist()),
+            lambda: entry("not a model", d, A, B),
+        ]
+        for call in bad_calls:
+            with pytest.raises((ValueError, TypeError)):
+                call()
+    q, v, _ = random_state(model, np.random.default_rng(8))
+    with pytest.raises(dynamics.InputError, match="v"):
+        dynamics.integrate_jacobians(model, q, np.full(nv, np.nan))
+    with pytest.raises(dynamics.InputError, match="q1"):
+        dynamics.difference_jacobians(model, q, q[:-1])
