@@ -1,10 +1,12 @@
 // The analytical derivatives: one state (exact float64 arrays, lengths and values checked here; None sends the
 // caller to its general path) and batches into (B, 3, nv, nv) (shapes checked again; the GIL released around the
-// threads, one derivatives workspace per thread); the Jacobians of integrate and difference, one state.
+// threads, one derivatives workspace per thread); the Jacobians of integrate and difference and the kinematics
+// derivatives, one state.
 #include "aba_derivatives.hpp"
 #include "arrays.hpp"
 #include "checks.hpp"
 #include "configuration_jacobians.hpp"
+#include "kinematics_derivatives.hpp"
 #include "numpy.hpp"
 #include "rnea_derivatives.hpp"
 
@@ -26,6 +28,13 @@ void require_matrices(const Output& out, long nv, const char* name) {
 void require_square(const Output& A, const Output& B, long nv, const char* name) {
     require(A.shape(0) == nv && A.shape(1) == nv && B.shape(0) == nv && B.shape(1) == nv,
             std::string(name) + ": expected outputs of shape (" + std::to_string(nv) + ", " + std::to_string(nv) + ")");
+}
+
+// n outputs of shape (rows, nv) of one state.
+void require_rows_nv(const Output* outs, int n, long rows, long nv, const char* name) {
+    for (int k = 0; k < n; ++k)
+        require(outs[k].shape(0) == rows && outs[k].shape(1) == nv, std::string(name) + ": expected outputs of shape (" +
+                                                                        std::to_string(rows) + ", " + std::to_string(nv) + ")");
 }
 
 // Three new (nv, nv) arrays and their data.
@@ -122,6 +131,35 @@ void expose_derivatives(nb::module_& m) {
         require(length(d) == model.nv, "d: expected " + std::to_string(model.nv) + " numbers");
         require_square(J0, J1, model.nv, "difference_jacobians");
         return core::difference_jacobians(model, d.data(), J0.data(), J1.data());
+    });
+
+    // the kinematics derivatives of one state (dynamics/kinematics_derivatives.py checked it): frame f in reference
+    // ref (kinematics.hpp), into (6, nv) outputs; the centre of mass's into (3, nv) outputs
+    m.def("frame_velocity_derivatives", [](const Model& model, In<1> q, In<1> v, int f, int ref, nb::handle dq_,
+                                           nb::handle dv_) {
+        const Output outs[2] = {output_of(dq_, 2), output_of(dv_, 2)};
+        require(length(q) == model.nq && length(v) == model.nv, "q, v: lengths");
+        require(f >= 0 && f < model.nf && ref >= 0 && ref <= 2, "frame or reference out of range");
+        require_rows_nv(outs, 2, 6, model.nv, "frame_velocity_derivatives");
+        core::frame_velocity_derivatives(model, core::thread_data(model), core::thread_derivatives_data(model),
+                                         q.data(), v.data(), f, ref, outs[0].data(), outs[1].data());
+    });
+    m.def("frame_acceleration_derivatives", [](const Model& model, In<1> q, In<1> v, In<1> a, int f, int ref,
+                                               nb::handle o0, nb::handle o1, nb::handle o2, nb::handle o3) {
+        const Output outs[4] = {output_of(o0, 2), output_of(o1, 2), output_of(o2, 2), output_of(o3, 2)};
+        require(length(q) == model.nq && length(v) == model.nv && length(a) == model.nv, "q, v, a: lengths");
+        require(f >= 0 && f < model.nf && ref >= 0 && ref <= 2, "frame or reference out of range");
+        require_rows_nv(outs, 4, 6, model.nv, "frame_acceleration_derivatives");
+        core::frame_acceleration_derivatives(model, core::thread_data(model), core::thread_derivatives_data(model),
+                                             q.data(), v.data(), a.data(), f, ref, outs[0].data(), outs[1].data(),
+                                             outs[2].data(), outs[3].data());
+    });
+    m.def("center_of_mass_derivatives", [](const Model& model, In<1> q, In<1> v, nb::handle o0, nb::handle o1) {
+        const Output outs[2] = {output_of(o0, 2), output_of(o1, 2)};
+        require(length(q) == model.nq && length(v) == model.nv, "q, v: lengths");
+        require_rows_nv(outs, 2, 3, model.nv, "center_of_mass_derivatives");
+        core::center_of_mass_derivatives(model, core::thread_data(model), core::thread_derivatives_data(model),
+                                         q.data(), v.data(), outs[0].data(), outs[1].data());
     });
 }
 

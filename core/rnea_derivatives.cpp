@@ -27,13 +27,10 @@ Force dY_times(const Mat3& B, const Vec3& hf, const Vec3& w) { return {rot(B, w)
 
 }  // namespace
 
-void rnea_derivatives(const Model& model, DerivativesData& d, const double* q, const double* v, const double* a,
-                      const Vec3& gravity, const double* f_ext, double* dtau_dq, double* dtau_dv, double* M) {
-    const int nb = model.nb, nv = model.nv;
-    const long nn = static_cast<long>(nv) * nv;
-    std::fill(dtau_dq, dtau_dq + nn, 0.0), std::fill(dtau_dv, dtau_dv + nn, 0.0), std::fill(M, M + nn, 0.0);
+void derivatives_forward_pass(const Model& model, DerivativesData& d, const double* q, const double* v,
+                              const double* a, const Vec3& gravity, const double* f_ext) {
     const Motion a0 = {{}, -gravity};  // the world accelerates up
-    for (int i = 0; i < nb; ++i) {  // forward: poses, axes, velocities, accelerations, their variations, f_i
+    for (int i = 0; i < model.nb; ++i) {  // poses, axes, velocities, accelerations, their variations, f_i
         const int par = model.parents[i], k0 = model.v_idx[i], k1 = k0 + model.nv_j[i];
         const Transform X = joint_transform(model, i, q);
         const Transform& oM = d.oM[i] = par < 0 ? X : compose(d.oM[par], X);
@@ -59,6 +56,14 @@ void rnea_derivatives(const Model& model, DerivativesData& d, const double* q, c
         d.B[i] = velocity_variation(Y, ov, h.n);
         d.hf[i] = h.f;
     }
+}
+
+void rnea_derivatives(const Model& model, DerivativesData& d, const double* q, const double* v, const double* a,
+                      const Vec3& gravity, const double* f_ext, double* dtau_dq, double* dtau_dv, double* M) {
+    const int nb = model.nb, nv = model.nv;
+    const long nn = static_cast<long>(nv) * nv;
+    std::fill(dtau_dq, dtau_dq + nn, 0.0), std::fill(dtau_dv, dtau_dv + nn, 0.0), std::fill(M, M + nn, 0.0);
+    derivatives_forward_pass(model, d, q, v, a, gravity, f_ext);
     for (int i = nb - 1; i >= 0; --i) {  // backward: i's rows and columns against itself and its ancestors
         const int par = model.parents[i], k0 = model.v_idx[i], k1 = k0 + model.nv_j[i];
         const Inertia& Y = d.Y[i];

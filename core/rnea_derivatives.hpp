@@ -36,4 +36,9 @@ namespace core {
 void rnea_derivatives(const Model& model, DerivativesData& data, const double* q, const double* v, const double* a,
                       const Vec3& gravity, const double* f_ext, double* dtau_dq, double* dtau_dv, double* M);
 
+// The forward pass alone: every per-body field of the workspace but the composites, and J, dV, dAq, dAv (the
+// kinematics derivatives read them; kinematics_derivatives.hpp).
+void derivatives_forward_pass(const Model& model, DerivativesData& data, const double* q, const double* v,
+                              const double* a, const Vec3& gravity, const double* f_ext);
+
 }  // namespace core

@@ -259,3 +259,60 @@ def test_configuration_jacobians_refuse_wrong_shapes(model):
         dynamics.integrate_jacobians(model, q, np.full(nv, np.nan))
     with pytest.raises(dynamics.InputError, match="q1"):
         dynamics.difference_jacobians(model, q, q[:-1])
+
+
+def test_kinematics_derivatives_are_those_of_the_frame_motions(model):
+    rng = np.random.default_rng(9)
+    q, v, a = random_state(model, rng)
+    frame = model.frame_names[-1]
+    for ref in ("world", "local", "local_world_aligned"):
+        dv_dq, da_dq, da_dv, da_da = dynamics.frame_acceleration_derivatives(model, q, v, a, frame, reference=ref)
+
+        def acc(q_, v_=v, a_=a):
+            return dynamics.frame_acceleration(model, q_, v_, a_, frame, reference=ref, classical=False)
+
+        assert rel(dv_dq, tangent_fd(lambda x: dynamics.frame_velocity(model, x, v, frame, reference=ref), model,
+                                     q)) < FD_RTOL
+        assert rel(da_dq, tangent_fd(acc, model, q)) < FD_RTOL
+        assert rel(da_dv, vector_fd(lambda x: acc(q, x), v)) < FD_RTOL
+        assert rel(da_da, vector_fd(lambda x: acc(q, v, x), a)) < FD_RTOL
+        for x, y in zip(dynamics.frame_velocity_derivatives(model, q, v, frame, reference=ref), (dv_dq, da_da)):
+            np.testing.assert_array_equal(x, y)
+    dcom, dvcom = dynamics.center_of_mass_derivatives(model, q, v)
+    np.testing.assert_allclose(dcom, dynamics.com_jacobian(model, q), atol=1e-12)
+    assert rel(dvcom, tangent_fd(lambda x: dynamics.center_of_mass_velocity(model, x, v), model, q)) < FD_RTOL
+
+
+def test_kinematics_derivatives_refuse_wrong_shapes(model):
+    c, nq, nv, nf = model.core, model.nq, model.nv, model.core.nf
+    q, v = model.neutral(), np.zeros(nv)
+    six, three = [np.empty((6, nv)) for _ in range(4)], [np.empty((3, nv)) for _ in range(2)]
+    _core.frame_velocity_derivatives(c, q, v, nf - 1, 0, *six[:2])
+    _core.frame_acceleration_derivatives(c, q, v, v, nf - 1, 2, *six)
+    _core.center_of_mass_derivatives(c, q, v, *three)
+    bad_calls = [
+        lambda: _core.frame_velocity_derivatives(c, q[:-1], v, 0, 0, *six[:2]),
+        lambda: _core.frame_velocity_derivatives(c, q, np.zeros(nv + 1), 0, 0, *six[:2]),
+        lambda: _core.frame_velocity_derivatives(c, q, v, nf, 0, *six[:2]),
+        lambda: _core.frame_velocity_derivatives(c, q, v, -1, 0, *six[:2]),
+        lambda: _core.frame_velocity_derivatives(c, q, v, 0, 3, *six[:2]),
+        lambda: _core.frame_velocity_derivatives(c, q, v, 0, -1, *six[:2]),
+        lambda: _core.frame_velocity_derivatives(c, q, v, 0, 0, six[0], np.empty((6, nv + 1))),
+        lambda: _core.frame_velocity_derivatives(c, q, v, 0, 0, six[0], np.empty((5, nv))),
+        lambda: _core.frame_velocity_derivatives(c, q, v, 0, 0, six[0], np.empty((6, 2 * nv))[:, ::2]),
+        lambda: _core.frame_acceleration_derivatives(c, q, v, v[:-1], 0, 0, *six),
+        lambda: _core.frame_acceleration_derivatives(c, q, v, v, 0, 0, *six[:3], np.empty((6, nv), np.float32)),
+        lambda: _core.frame_acceleration_derivatives(c, q, v, v, 0, 0, *six[:3], np.empty(6 * nv)),
+        lambda: _core.center_of_mass_derivatives(c, q, v, three[0], np.empty((6, nv))),
+        lambda: _core.center_of_mass_derivatives(c, q[None], v, *three),
+        lambda: _core.center_of_mass_derivatives("not a model", q, v, *three),
+    ]
+    for call in bad_calls:
+        with pytest.raises((ValueError, TypeError)):
+            call()
+    with pytest.raises(dynamics.InputError, match="reference"):
+        dynamics.frame_velocity_derivatives(model, q, v, model.frame_names[0], reference="body")
+    with pytest.raises(dynamics.InputError, match="a"):
+        dynamics.frame_acceleration_derivatives(model, q, v, np.full(nv, np.nan), model.frame_names[0])
+    with pytest.raises(dynamics.InputError):
+        dynamics.frame_velocity_derivatives(model, q, v, "no such frame")
