@@ -11,7 +11,12 @@ with dtau/dq, dtau/dv the RNEA derivatives (:mod:`dynamics.rnea_derivatives`) ev
 acceleration.  q derivatives are in the tangent space (nv columns, along q (+) dq with dq in each joint's
 frame), as Pinocchio's.
 
-One state takes four passes over the tree, all in the world frame, sharing what each computes:
+The public function is the core's (``core/aba_derivatives.cpp``): the ABA, M^-1 and the RNEA derivatives at
+the ABA's acceleration, then the two products; this module checks the arguments and calls it.
+
+The numba kernel below stays for the compiled callers that link it (the simulation's Radau Jacobian, the torque
+sources' and the closed loop's derivatives) until they move to the core.  It takes four passes over the tree, all
+in the world frame, sharing what each computes:
 
 1. forward: the RNEA derivatives' velocity part (world poses, axes J, ov, dV, dAv, world inertias, dY) and
    the ABA's bias forces pA_i = ov_i x* I_i ov_i - f_ext_i and velocity products c_i = ov_i x (J_i qd_i);
@@ -21,26 +26,20 @@ One state takes four passes over the tree, all in the world frame, sharing what 
    oa_i and the RNEA derivatives' acceleration part at it;
 4. backward: the RNEA derivatives' composites and their blocks;
 
-then the products -M^-1 dtau/dq, -M^-1 dtau/dv.  (Three separate kernels, ABA, M^-1 and the RNEA
-derivatives, took 6.8 us per Panda call from Python, against 4.5 us for the four passes.)
-
-Every caller (one state from Python, a batch, an implicit integrator's Jacobian, a closed loop's derivatives)
-calls the one kernel :func:`_aba_derivatives_into` with the address of a workspace buffer of
-:func:`_work_size` floats (one per thread).
+then the products -M^-1 dtau/dq, -M^-1 dtau/dv.  Every compiled caller calls the one kernel
+:func:`_aba_derivatives_into` with the address of a workspace buffer of :func:`_work_size` floats (one per
+thread).
 """
 
 from typing import NamedTuple
 
 import numpy as np
 
-from . import checks, minverse, rnea_derivatives
-from ._numba import (MATRIX, SingleCall, VECTOR, address, borrow, helper, inline_kernel, keep_alive, kernel,
-                     scratch, view)
-from .checks import DONE, GENERAL, NOT_ARRAYS, _config_shape_ok, _finite
+from . import _core, checks, minverse, rnea_derivatives
+from ._numba import helper, inline_kernel, kernel
 from .data import _take, _take_int
 from .errors import InputError
-from .model import _unpack
-from .minverse import Checked, run_checked
+from .parallel import run
 from .spatial import _store_inertia6, add, dot6, get6, load3, load33, scale, set6
 
 
@@ -241,39 +240,6 @@ def _acceleration(UD, Dinv, c, u, oa, gravity, a, i, k0, nj, par):
                              + UD[k, 5] * x5))
 
 
-@kernel
-def _aba_derivatives_batch(tree, Q, V, T, F, gravity, out, status):
-    """out[b] = (da/dq, da/dv, M^-1) at the rows of Q, V, T (V, T, F may have one row); status[b] = -1 or a
-    singular body."""
-    tree, Q, V, T, F, out = borrow(tree), borrow(Q), borrow(V), borrow(T), borrow(F), borrow(out)
-    status = borrow(status)
-    nb, nv = tree.parents.shape[0], tree.S.shape[0]
-    buf = np.empty(_work_size(nb, nv))
-    lf, lv, lt = F.shape[0] - 1, V.shape[0] - 1, T.shape[0] - 1
-    for b in range(Q.shape[0]):
-        status[b] = _aba_derivatives_into(tree, Q[b], V[min(b, lv)], T[min(b, lt)], gravity, F[min(b, lf)],
-                                           address(buf), out[b, 0], out[b, 1], out[b, 2])
-    keep_alive(buf)
-
-
-def _aba_derivatives_one(packed, q, v, tau, da_dq, da_dv, Minv):
-    """One state from Python, inputs checked in the call (a singular joint takes the general path, which names
-    it)."""
-    tree, gravity, nq = _unpack(packed)
-    nb, nv = tree.parents.shape[0], tree.S.shape[0]
-    if not (_config_shape_ok(tree, nq, q) and v.shape[0] == nv and tau.shape[0] == nv):
-        return GENERAL
-    buf = scratch(_work_size(nb, nv))
-    singular = _aba_derivatives_into(tree, q, v, tau, gravity, view(buf, 0, (0, 6)), address(buf), da_dq, da_dv,
-                                     Minv)
-    keep_alive(buf)
-    return DONE if singular < 0 and _finite(da_dq) and _finite(da_dv) else GENERAL
-
-
-_aba_derivatives_single = SingleCall(_aba_derivatives_one, VECTOR, VECTOR, VECTOR, MATRIX, MATRIX, MATRIX)
-_aba_derivatives_checked = Checked(_aba_derivatives_batch)
-
-
 def forward_dynamics_derivatives(model, q, v, tau, *, gravity=None, f_ext=None):
     """(da_dq, da_dv, Minv): the partial derivatives of a = forward_dynamics(model, q, v, tau) (analytical,
     module docstring); da/dtau = Minv = M(q)^-1.
@@ -287,20 +253,19 @@ def forward_dynamics_derivatives(model, q, v, tau, *, gravity=None, f_ext=None):
         raise InputError("model: forward_dynamics_derivatives differentiates the unconstrained dynamics; this "
                          "model has constraints (differentiate the model without them, or its constrained "
                          "dynamics with constrained_forward_dynamics_derivatives)")
-    try:  # one state: one compiled call, which checks q, v and tau itself (anything else takes the general path)
-        if gravity is None and f_ext is None:
-            nv = model.nv
-            dq, dv, Minv = np.empty((nv, nv)), np.empty((nv, nv)), np.empty((nv, nv))
-            if _aba_derivatives_single.call(model.packed, q, v, tau, dq, dv, Minv) == DONE:
-                return dq, dv, Minv
-    except NOT_ARRAYS:  # not a model, or arrays of other types: the general path says what is wrong or converts
-        pass
+    if gravity is None and f_ext is None:  # one state: one core call, which checks q, v and tau itself
+        try:
+            out = _core.aba_derivatives(model.core, q, v, tau)
+            if out is not None:
+                return out
+        except checks.NOT_A_MODEL:  # the general path says what is wrong
+            pass
     checks.check_model(model)
     Q, (V, T), B, batched = checks.state_batch(model, q, (("v", v, model.nv), ("tau", tau, model.nv)))
     F = checks.external_forces(model, f_ext, B)
     g = checks.gravity_vector(model, gravity)
-    out = np.empty((B, 3, model.nv, model.nv))
-    run_checked(model, _aba_derivatives_checked, (Q, V, T, F), (g,), out, "forward dynamics derivatives")
+    out = run(_core.aba_derivatives_batch, model, Q, V, T, F, g, out=np.empty((B, 3, model.nv, model.nv)),
+              singular="forward dynamics derivatives")
     if batched:
         return out[:, 0], out[:, 1], out[:, 2]
     return out[0, 0], out[0, 1], out[0, 2]

@@ -30,20 +30,21 @@ Backward pass (leaves in), with composites Y_i = sum of I over the subtree of i,
         dtau_k/dq_c = (Y_i J_k)^T dAq_c + (dY_i^T J_k)^T dV_c
 
 Cost: O(n d) for n coordinates at tree depth d (the ancestor walk), as Pinocchio.
+
+The public function is the core's (``core/rnea_derivatives.cpp``); this module checks the arguments and calls it.
+The numba kernels below stay for the compiled callers that link them (the constrained dynamics' derivatives,
+the torque sources', the kinematics derivatives) until those move to the core.
 """
 
 from typing import NamedTuple
 
 import numpy as np
 
-from . import checks
-from ._numba import (MATRIX, SingleCall, VECTOR, address, borrow, helper, inline_kernel, keep_alive, kernel, scratch,
-                     view)
-from .checks import DONE, GENERAL, NOT_ARRAYS, _config_shape_ok, _finite
+from . import _core, checks
+from ._numba import address, helper, inline_kernel, keep_alive, kernel
 from .data import _take
 from .joints import _joint_transform
-from .model import _unpack
-from .parallel import run_chunks
+from .parallel import run
 from .spatial import (add, cross, cross_force, cross_motion, dot, dot6, force_to_parent, get6, inertia_times,
                       inertia_to_parent, load3, load33, matmul, motion_to_parent, rot, rotT, scale, set6, store3,
                       store33)
@@ -328,36 +329,6 @@ def rnea_derivatives_at(tree, q, v, a, gravity, f_ext, dtau_dq, dtau_dv, M):
     keep_alive(buf)
 
 
-@kernel
-def _rnea_derivatives_batch(tree, Q, V, A, F, gravity, out):
-    """out[b] = (dtau/dq, dtau/dv, M) at the rows of Q, V, A (V, A, F may have one row, shared)."""
-    tree, Q, V, A, F, out = borrow(tree), borrow(Q), borrow(V), borrow(A), borrow(F), borrow(out)
-    nb, nv = tree.parents.shape[0], tree.S.shape[0]
-    buf = np.empty(_work_at(0, 0, nb, nv)[1])
-    ws = _work_at(address(buf), 0, nb, nv)[0]
-    lf, lv, la = F.shape[0] - 1, V.shape[0] - 1, A.shape[0] - 1
-    for b in range(Q.shape[0]):
-        _rnea_derivatives_terms(tree, Q[b], V[min(b, lv)], A[min(b, la)], gravity, F[min(b, lf)], ws, out[b, 0],
-                                out[b, 1], out[b, 2])
-    keep_alive(buf)
-
-
-def _rnea_derivatives_one(packed, q, v, a, dq, dv, M):
-    """One state from Python, inputs checked in the call (status codes of :mod:`dynamics.checks`)."""
-    tree, gravity, nq = _unpack(packed)
-    nb, nv = tree.parents.shape[0], tree.S.shape[0]
-    if not (_config_shape_ok(tree, nq, q) and v.shape[0] == nv and a.shape[0] == nv):
-        return GENERAL
-    buf = scratch(_work_at(0, 0, nb, nv)[1])
-    _rnea_derivatives_terms(tree, q, v, a, gravity, view(buf, 0, (0, 6)), _work_at(address(buf), 0, nb, nv)[0],
-                            dq, dv, M)
-    keep_alive(buf)
-    return DONE if _finite(dq) and _finite(dv) else GENERAL
-
-
-_rnea_derivatives_single = SingleCall(_rnea_derivatives_one, VECTOR, VECTOR, VECTOR, MATRIX, MATRIX, MATRIX)
-
-
 def inverse_dynamics_derivatives(model, q, v, a, *, gravity=None, f_ext=None):
     """(dtau_dq, dtau_dv, M): the partial derivatives of tau = inverse_dynamics(model, q, v, a) (analytical,
     Carpentier and Mansard 2018; module docstring).
@@ -366,20 +337,18 @@ def inverse_dynamics_derivatives(model, q, v, a, *, gravity=None, f_ext=None):
     frame, as :func:`dynamics.integrate` and Pinocchio); dtau_da = M(q).  Inputs as
     :func:`dynamics.inverse_dynamics`; each result is (nv, nv), or (B, nv, nv) for a batch.
     """
-    try:  # one state: one compiled call, which checks q, v and a itself (anything else takes the general path)
-        if gravity is None and f_ext is None:
-            nv = model.nv
-            dq, dv, M = np.empty((nv, nv)), np.empty((nv, nv)), np.empty((nv, nv))
-            if _rnea_derivatives_single.call(model.packed, q, v, a, dq, dv, M) == DONE:
-                return dq, dv, M
-    except NOT_ARRAYS:  # not a model, or arrays of other types: the general path says what is wrong or converts
-        pass
+    if gravity is None and f_ext is None:  # one state: one core call, which checks q, v and a itself
+        try:
+            out = _core.rnea_derivatives(model.core, q, v, a)
+            if out is not None:
+                return out
+        except checks.NOT_A_MODEL:  # the general path says what is wrong
+            pass
     checks.check_model(model)
     Q, (V, A), B, batched = checks.state_batch(model, q, (("v", v, model.nv), ("a", a, model.nv)))
     F = checks.external_forces(model, f_ext, B)
     g = checks.gravity_vector(model, gravity)
-    out = np.empty((B, 3, model.nv, model.nv))
-    run_chunks(_rnea_derivatives_batch, model.tree, (Q, V, A, F), (g,), out)
+    out = run(_core.rnea_derivatives_batch, model, Q, V, A, F, g, out=np.empty((B, 3, model.nv, model.nv)))
     if batched:
         return out[:, 0], out[:, 1], out[:, 2]
     return out[0, 0], out[0, 1], out[0, 2]
