@@ -8,6 +8,7 @@ void expose_dynamics(nb::module_& m);
 void expose_kinematics(nb::module_& m);
 void expose_configuration(nb::module_& m);
 void expose_simulation(nb::module_& m);
+void expose_constraints(nb::module_& m);
 }  // namespace bind
 
 NB_MODULE(_core, m) {
@@ -18,4 +19,5 @@ NB_MODULE(_core, m) {
     bind::expose_kinematics(m);
     bind::expose_configuration(m);
     bind::expose_simulation(m);
+    bind::expose_constraints(m);
 }
