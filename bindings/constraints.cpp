@@ -148,6 +148,18 @@ void expose_constraints(nb::module_& m) {
         return status(s);
     });
 
+    // q_out (nq): q moved onto phi = 0 by Gauss-Newton (at most max_iter steps); returns max |phi(q_out)|
+    m.def("project_position", [](const Model& model, const Constraints& c, In<1> q, double tol, int max_iter,
+                                 nb::handle out_) {
+        require_model(c, model);
+        const Output out = output_of(out_, 1);
+        require(length(q) == model.nq && length(out) == model.nq, "q, q_out: expected (nq,)");
+        require(core::configuration_ok(model, q.data()), "q: expected a finite configuration");
+        require(max_iter >= 0 && max_iter <= 10000, "max_iter: expected 0 to 10000");
+        core::ConstrainedData& cd = thread_constrained_data(model, c);
+        return core::project_position(model, c, core::thread_data(model), cd, q.data(), tol, max_iter, out.data());
+    }, "model"_a, "constraints"_a, "q"_a, "tol"_a, "max_iter"_a, "q_out"_a);
+
     // out (B, nv): the velocity nearest v with Phi_q v = 0 (kinetic-energy metric)
     m.def("project_velocity_batch", [](const Model& model, const Constraints& c, In<2> Q, In<2> V,
                                        nb::handle out_, int nthreads, double seconds) {

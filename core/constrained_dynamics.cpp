@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "configuration.hpp"
 #include "crba.hpp"
 #include "rnea.hpp"
 
@@ -14,6 +15,7 @@ void ConstrainedData::resize(const Model& model, const Constraints& con) {
     w.resize(model);
     L.resize(nv * nv), lam.resize(nv), J.resize(m * nv), Y.resize(m * nv), phi.resize(m), gamma.resize(m);
     f.resize(nv), K.resize(m * m), LK.resize(m * m), rhs.resize(m), t.resize(m), mu.resize(m), piv.resize(m);
+    dq.resize(nv), delta.resize(nv), qn.resize(model.nq);
 }
 
 namespace {
@@ -244,6 +246,36 @@ int project_velocity(const Model& model, const Constraints& con, Data& data, Con
     ltl_solve(cd.L.data(), cd.lam.data(), nv, f);
     for (int k = 0; k < nv; ++k) v_out[k] = v[k] + f[k];
     return -1;
+}
+
+double project_position(const Model& model, const Constraints& con, Data& data, ConstrainedData& cd, const double* q,
+                        double tol, int max_iter, double* q_out) {
+    const int nv = model.nv, m = con.m;
+    std::copy(q, q + model.nq, q_out);
+    double err = 0.0;
+    for (int it = 0; it <= max_iter; ++it) {
+        constraint_terms(model, con, data, cd.w, q_out, nullptr, cd.phi.data(), cd.J.data(), nullptr);
+        err = 0.0;
+        for (int r = 0; r < m; ++r) err = std::max(err, std::abs(cd.phi[r]));
+        if (err <= tol || it == max_iter) break;
+        const double* J = cd.J.data();
+        for (int r = 0; r < m; ++r)  // K = J J^T
+            for (int s = r; s < m; ++s) {
+                double x = 0.0;
+                for (int k = 0; k < nv; ++k) x += J[r * nv + k] * J[s * nv + k];
+                cd.K[r * m + s] = x;
+                cd.K[s * m + r] = x;
+            }
+        pinv_solve(cd.K.data(), m, cd.phi.data(), RANK_RTOL, cd.mu.data(), cd.LK.data(), cd.piv.data(), cd.t.data());
+        for (int k = 0; k < nv; ++k) {  // dq = J^T mu
+            double x = 0.0;
+            for (int r = 0; r < m; ++r) x += J[r * nv + k] * cd.mu[r];
+            cd.dq[k] = x;
+        }
+        integrate(model, q_out, cd.dq.data(), -1.0, cd.delta.data(), cd.qn.data());
+        std::copy(cd.qn.begin(), cd.qn.end(), q_out);
+    }
+    return err;
 }
 
 }  // namespace core

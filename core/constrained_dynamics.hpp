@@ -37,6 +37,7 @@ struct ConstrainedData {
     std::vector<double> K, LK;          // m x m: the Delassus matrix and its factor
     std::vector<double> rhs, t, mu;     // m
     std::vector<int> piv;               // m: K's pivot order
+    std::vector<double> dq, delta, qn;  // nv, nv, nq: a projection's step
     void resize(const Model& model, const Constraints& con);
 };
 
@@ -54,5 +55,12 @@ void constraint_drift(const Model& model, const Constraints& con, Data& data, Co
 // or the body whose joint makes M singular.
 int project_velocity(const Model& model, const Constraints& con, Data& data, ConstrainedData& cd, const double* q,
                      const double* v, double* v_out);
+
+// q_out = q moved onto phi = 0 by Gauss-Newton with minimum-norm steps, q_{k+1} = q_k (+) (-J^+ phi), J^+ phi =
+// J^T (J J^T)^+ phi (the pseudo-inverse of K = J J^T as pinv_solve takes it), at most max_iter steps (near the
+// manifold, after an accepted step, it converges quadratically).  Returns max |phi(q_out)|; above tol the
+// projection failed.  q_out may not alias q.
+double project_position(const Model& model, const Constraints& con, Data& data, ConstrainedData& cd, const double* q,
+                        double tol, int max_iter, double* q_out);
 
 }  // namespace core

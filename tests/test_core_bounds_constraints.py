@@ -136,6 +136,23 @@ def test_batches_with_shapes_no_public_function_passes_are_refused(model):
     np.testing.assert_array_equal(out, ref)
 
 
+def test_projection_refuses_what_it_does_not_take(model):
+    c, con, nq = model.core, core_constraints(model), model.nq
+    rng = np.random.default_rng(3)
+    q = dynamics.assemble(model, model.neutral() + 0.05 * rng.normal(size=nq))
+    out = np.empty(nq)
+    assert _core.project_position(c, con, q + 1e-6, 1e-12, 50, out) <= 1e-12
+    assert np.abs(dynamics.constraint_residual(model, out)).max() <= 1e-12
+    nan = q.copy()
+    nan[0] = np.nan
+    for args in [(q[:-1], out), (q, out[:-1]), (nan, out), (q, out.astype(np.float32)), (q, np.empty(2 * nq)[::2]),
+                 (q[None], out), (q, list(out))]:
+        with pytest.raises((ValueError, TypeError)):
+            _core.project_position(c, con, args[0], 1e-12, 10, args[1])
+    with pytest.raises(ValueError):
+        _core.project_position(c, con, q, 1e-12, -1, out)
+
+
 def test_public_functions_name_the_bad_argument(model):
     q, v = model.neutral(), np.zeros(model.nv)
     nan = v.copy()
