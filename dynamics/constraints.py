@@ -42,11 +42,10 @@ from . import _core, checks
 from ._numba import address, float_at, helper, inline_kernel, int_at, kernel
 from .data import _take
 from .configuration import _integrate_q
-from .errors import InputError
+from .errors import DeadlineExceeded, InputError
 from .kinematics import frame_placement, _world_pose
 from .model import _frozen
 from .parallel import num_threads, seconds_left
-from .errors import DeadlineExceeded
 from .spatial import add, cross, cross_motion, dot, load3, load33, matmul, rot, _rotation_log, scale, transpose
 
 POINT, WELD, REVOLUTE, COUPLING = 0, 1, 2, 3
