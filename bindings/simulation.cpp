@@ -221,13 +221,18 @@ void expose_simulation(nb::module_& m) {
         if (constrained.is_none()) {
             robot = std::make_unique<core::sim::RobotProblem>(model, passive, src.source, q0.data(), out, nullptr);
         } else {
-            nb::tuple c = nb::cast<nb::tuple>(constrained);
-            require(c.size() == 6, "constrained: (constraints, alpha, beta, project, out_lam, drift)");
-            const core::Constraints& con = nb::cast<const core::Constraints&>(c[0]);
+            const char* what = "constrained: (constraints, alpha, beta, project, out_lam, drift)";
+            nb::tuple c;
+            if (!nb::try_cast(constrained, c) || c.size() != 6) throw nb::type_error(what);
+            const core::Constraints* pcon = nullptr;
+            double alpha = 0.0, beta = 0.0;
+            bool project = false;
+            if (!nb::try_cast(c[0], pcon) || !pcon || !nb::try_cast(c[1], alpha, false) ||
+                !nb::try_cast(c[2], beta, false) || !nb::try_cast(c[3], project, false))
+                throw nb::type_error(what);
+            const core::Constraints& con = *pcon;
             require_model(con, model);
-            const double alpha = nb::cast<double>(c[1]), beta = nb::cast<double>(c[2]);
             require(std::isfinite(alpha) && std::isfinite(beta), "constrained: finite Baumgarte gains");
-            const bool project = nb::cast<bool>(c[3]);
             const Output lam = output_of(c[4], 2), drift = output_of(c[5], 1);
             require(lam.shape(1) == con.m && (length(lam) == T || length(lam) == 0), "out_lam: (T or 0, m)");
             require(length(drift) == 3, "drift: (3,)");

@@ -179,3 +179,30 @@ def test_a_batch_is_the_single_calls(model):
         a1, lam1 = dynamics.constrained_forward_dynamics(model, Q[b], V[b], T[b], baumgarte=(5.0, 7.0))
         np.testing.assert_array_equal(a1, a[b])
         np.testing.assert_array_equal(lam1, lam[b])
+
+
+def test_the_simulation_refuses_a_bad_constrained_problem(model, monkeypatch):
+    """simulate's call of the core's run, repeated with what no caller passes as its constrained problem."""
+    captured = {}
+    real = _core.run
+
+    def spy(*args):
+        captured["args"] = args
+        return real(*args)
+
+    monkeypatch.setattr(_core, "run", spy)
+    rng = np.random.default_rng(5)
+    q0 = dynamics.assemble(model, model.neutral() + 0.05 * rng.normal(size=model.nq))
+    dynamics.simulate(model, q0, np.zeros(model.nv), 0.01, integrator="rk4", dt=0.005, error_estimate="none",
+                      progress=False)
+    *args, constrained = captured["args"]
+    con, alpha, beta, project, lam, drift = constrained
+    T, other = args[8].shape[0], core_constraints(dynamics.load_urdf(os.path.join(OUR_ROBOTS, "cassie_like_leg.urdf")))
+    for bad in [(con, alpha, beta, project, lam), (con, np.nan, beta, project, lam, drift),
+                (con, alpha, beta, project, np.empty((T + 1, con.m)), drift),
+                (con, alpha, beta, project, np.empty((T, con.m + 1)), drift),
+                (con, alpha, beta, project, lam, np.zeros(2)), (con, alpha, beta, project, lam, np.zeros(3, np.float32)),
+                (con, alpha, beta, project, lam, np.zeros(6)[::2]), (other, alpha, beta, project, lam, drift),
+                (None, alpha, beta, project, lam, drift), (con, "alpha", beta, project, lam, drift), "constraints"]:
+        with pytest.raises((ValueError, TypeError)):
+            real(*args, bad)
