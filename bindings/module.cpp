@@ -9,6 +9,7 @@ void expose_kinematics(nb::module_& m);
 void expose_configuration(nb::module_& m);
 void expose_simulation(nb::module_& m);
 void expose_derivatives(nb::module_& m);
+void expose_constraints(nb::module_& m);
 }  // namespace bind
 
 NB_MODULE(_core, m) {
@@ -20,4 +21,5 @@ NB_MODULE(_core, m) {
     bind::expose_configuration(m);
     bind::expose_simulation(m);
     bind::expose_derivatives(m);
+    bind::expose_constraints(m);
 }

@@ -10,12 +10,15 @@
 #include "control/passive.hpp"
 #include "control/sources.hpp"
 #include "numpy.hpp"
+#include "simulation/constrained_problem.hpp"
 #include "simulation/robot_problem.hpp"
 #include "simulation/sensitivities.hpp"
 
 namespace bind {
 
 using core::Model;
+
+void require_model(const core::Constraints& c, const Model& model);  // bindings/constraints.cpp
 
 namespace {
 
@@ -149,7 +152,7 @@ void expose_simulation(nb::module_& m) {
     m.def("run", [](const std::string& method, const Model& model, const control::Passive& passive, SourceHolder& src,
                     In<1> q0, nb::handle z_, double t0, double t_end, nb::handle out_t_, nb::handle out_q_,
                     nb::handle out_v_, nb::handle out_tau_, nb::handle out_w_, nb::handle out_e_, nb::handle count_,
-                    nb::dict opt_, nb::handle stats_, nb::handle sw_, nb::object sens) {
+                    nb::dict opt_, nb::handle stats_, nb::handle sw_, nb::object sens, nb::object constrained) {
         const Output z = output_of(z_, 1), out_t = output_of(out_t_, 1), oq = output_of(out_q_, 2);
         const Output ov = output_of(out_v_, 2), otau = output_of(out_tau_, 2), ow = output_of(out_w_, 2);
         const Output oe = output_of(out_e_, 2);
@@ -212,7 +215,33 @@ void expose_simulation(nb::module_& m) {
         core::sim::Stats st;
         std::vector<core::sim::Switch> sw;
         std::memcpy(&st, stats_ptr, sizeof st);  // a resumed run goes on from its statistics
-        core::sim::RobotProblem p(model, passive, src.source, q0.data(), out, nullptr);
+        // a constrained model: (constraints, alpha, beta, project, out_lam (T or 0, m), drift (3,): max |phi|,
+        // max |Phi_q v|, failed projections), or None
+        std::unique_ptr<core::sim::RobotProblem> robot;
+        if (constrained.is_none()) {
+            robot = std::make_unique<core::sim::RobotProblem>(model, passive, src.source, q0.data(), out, nullptr);
+        } else {
+            const char* what = "constrained: (constraints, alpha, beta, project, out_lam, drift)";
+            nb::tuple c;
+            if (!nb::try_cast(constrained, c) || c.size() != 6) throw nb::type_error(what);
+            const core::Constraints* pcon = nullptr;
+            double alpha = 0.0, beta = 0.0;
+            bool project = false;
+            if (!nb::try_cast(c[0], pcon) || !pcon || !nb::try_cast(c[1], alpha, false) ||
+                !nb::try_cast(c[2], beta, false) || !nb::try_cast(c[3], project, false))
+                throw nb::type_error(what);
+            const core::Constraints& con = *pcon;
+            require_model(con, model);
+            require(std::isfinite(alpha) && std::isfinite(beta), "constrained: finite Baumgarte gains");
+            const Output lam = output_of(c[4], 2), drift = output_of(c[5], 1);
+            require(lam.shape(1) == con.m && (length(lam) == T || length(lam) == 0), "out_lam: (T or 0, m)");
+            require(length(drift) == 3, "drift: (3,)");
+            robot = std::make_unique<core::sim::ConstrainedProblem>(model, con, passive, src.source, q0.data(), out,
+                                                                    alpha, beta, project,
+                                                                    length(lam) && T ? lam.data() : nullptr,
+                                                                    drift.data());
+        }
+        core::sim::RobotProblem& p = *robot;
         std::unique_ptr<core::sim::SensitivityProblem> ps;
         if (!sens.is_none())
             ps = std::make_unique<core::sim::SensitivityProblem>(p, x0, params, length(oS) ? oS.data() : nullptr, Sf.data());
@@ -233,7 +262,7 @@ void expose_simulation(nb::module_& m) {
         return qbase;  // the chart's base at the end: the final q is retract(base, z[:nv])
     }, "method"_a, "model"_a, "passive"_a, "source"_a, "q0"_a, "z"_a, "t0"_a, "t_end"_a, "out_t"_a, "out_q"_a,
        "out_v"_a, "out_tau"_a, "out_w"_a, "out_e"_a, "count"_a, "options"_a, "stats"_a, "switches"_a,
-       "sensitivities"_a.none());
+       "sensitivities"_a.none(), "constrained"_a.none() = nb::none());
 }
 
 }  // namespace bind

@@ -48,16 +48,16 @@ with the model) and one ``ws = _workspace(model.nbodies, model.nv, m)`` per thre
 import numpy as np
 from numba import types
 
-from . import checks
+from . import _core, checks
 from ._numba import (PACKED, SingleCall, VECTOR, address, borrow, copy_into, helper, inline_kernel, keep_alive,
                      kernel, scratch, view)
 from .configuration import _integrate_q
 from .data import _take
-from .constraints import arrays, _constraint_terms, packed
+from .constraints import arrays, _constraint_terms, core_constraints, packed, run_core
 from .constraints import _unpack as unpack_constraints
 from .constraints import _workspace as terms_workspace
 from .constraints import _work_at as terms_work_at
-from .checks import NOT_ARRAYS, DONE, GENERAL, _config_ok, _vector_ok
+from .checks import DONE, GENERAL, _config_ok, _vector_ok
 from .errors import InputError
 from .model import _unpack
 from .crba import _crba_into
@@ -354,28 +354,6 @@ def _constrained_accel_kernel(tree, C, gravity, q, v, tau, alpha, beta, ws, a_ou
     return -1
 
 
-@kernel
-def _constrained_fd_batch(tree, Q, V, T, C, gravity, alpha, beta, out, status):
-    """out[b] = [a; lambda] of state b (V and T may have one row)."""
-    nb, nv, m = tree.parents.shape[0], tree.S.shape[0], out.shape[1] - tree.S.shape[0]
-    ws_owned = _workspace(nb, nv, m)
-    # borrowed (no reference counts): every array of tree, C and ws, and each row view, would otherwise cost an
-    # atomic increment and decrement per call of every sub-kernel, per state (about a microsecond)
-    t, c, ws, q, v, tau, o = borrow(tree), borrow(C), borrow(ws_owned), borrow(Q), borrow(V), \
-        borrow(T), borrow(out)
-    lv, lt = V.shape[0] - 1, T.shape[0] - 1
-    for b in range(Q.shape[0]):
-        status[b] = _constrained_accel_kernel(t, c, gravity, q[b], v[min(b, lv)], tau[min(b, lt)], alpha, beta,
-                                             ws, o[b, :nv], o[b, nv:])
-    keep_alive(tree)
-    keep_alive(C)
-    keep_alive(ws_owned)
-    keep_alive(Q)
-    keep_alive(V)
-    keep_alive(T)
-    keep_alive(out)
-
-
 def _constrained_fd_one(packed, packed_C, q, v, tau, alpha, beta, a, lam):
     """One state from Python into a (nv,) and lam (m,), inputs checked in the same compiled call: DONE, or
     GENERAL for a non-finite input, a zero quaternion or a singular M (the general path then says which).  The
@@ -458,18 +436,6 @@ def _project_position_kernel(tree, C, q, ws, tol, max_iter, q_out):
         dq = np.linalg.lstsq(J, phi, rcond=1e-12)[0]
         copy_into(q_out, _integrate_q(tree, q_out, dq, -1.0))
     return err
-
-
-@kernel
-def _project_batch(tree, Q, V, C, out, status):
-    # the arguments as views with no owner: no reference counts in the loops (dynamics._numba.borrow)
-    tree, Q, V = borrow(tree), borrow(Q), borrow(V)
-    C, out, status = borrow(C), borrow(out), borrow(status)
-    nb, nv = tree.parents.shape[0], tree.S.shape[0]
-    ws = _workspace(nb, nv, _C_rows(C))
-    lv = V.shape[0] - 1
-    for b in range(Q.shape[0]):
-        status[b] = _project_velocity_kernel(tree, C, Q[b], V[min(b, lv)], ws, out[b])
 
 
 @kernel
@@ -564,10 +530,8 @@ class _Checked:
             raise _Failed(int(bad[0]), int(status[bad[0]]))
 
 
-_fd_batch = _Checked(_constrained_fd_batch, -1)
 _fd_single = SingleCall(_constrained_fd_one, PACKED, VECTOR, VECTOR, VECTOR, types.float64, types.float64, VECTOR,
                         VECTOR)
-_project_batch = _Checked(_project_batch, -1)
 _id_batch = _Checked(_constrained_id_batch, 0)
 
 
@@ -594,23 +558,24 @@ def constrained_forward_dynamics(model, q, v, tau, *, baumgarte=None, gravity=No
     (``baumgarte=(alpha, beta)`` in 1/s; None: no stabilisation).  lam: minimum-norm multipliers in physical
     units, the rows and frames of :mod:`dynamics.constraints` (world axes; force on frame_a's body at its
     anchor [N], torques [N m], coupling generalised forces).  A model without constraints gives the ABA's a.
+    The solve is the core's (``core/constrained_dynamics.cpp``).
     """
     alpha, beta = baumgarte_gains(baumgarte)
-    try:  # one state: one compiled call that checks q, v and tau itself
-        if gravity is None:
-            a, lam = np.empty(model.nv), np.empty(arrays(model)[1])
-            if _fd_single.call(model.packed, packed(model), q, v, tau, alpha, beta, a, lam) == DONE:
-                return a, lam
-    except NOT_ARRAYS:  # not a model, or arrays of other types: the general path says what is wrong or converts
-        pass
+    if gravity is None:  # one state: one core call, which checks q, v and tau itself
+        try:
+            out = _core.constrained_forward_dynamics(model.core, core_constraints(model), q, v, tau, alpha, beta)
+            if out is not None:
+                return out
+        except checks.NOT_A_MODEL:  # the general path says what is wrong
+            pass
     checks.check_model(model)
     Q, (V, T), B, batched = checks.state_batch(model, q, (("v", v, model.nv), ("tau", tau, model.nv)))
-    C, m = arrays(model)
+    m = arrays(model)[1]
     out = np.empty((B, model.nv + m))
-    try:
-        run_chunks(_fd_batch, model.tree, (Q, V, T), (C, checks.gravity_vector(model, gravity), alpha, beta), out)
-    except _Failed as e:
-        raise _singular(model, "constrained forward dynamics", e) from None
+    failed, body = run_core(_core.constrained_forward_dynamics_batch, model, Q, V, T,
+                            checks.gravity_vector(model, gravity), alpha, beta, out=out)
+    if failed >= 0:
+        raise _singular(model, "constrained forward dynamics", _Failed(failed, body))
     a, lam = out[:, :model.nv], out[:, model.nv:]
     return (a, lam) if batched else (a[0], lam[0])
 
@@ -619,12 +584,10 @@ def project_velocity(model, q, v):
     """The velocity closest to v (kinetic-energy metric) that satisfies Phi_q v = 0: (nv,) or (B, nv)."""
     checks.check_model(model)
     Q, (V,), B, batched = checks.state_batch(model, q, (("v", v, model.nv),))
-    C, _ = arrays(model)
     out = np.empty((B, model.nv))
-    try:
-        run_chunks(_project_batch, model.tree, (Q, V), (C,), out)
-    except _Failed as e:
-        raise _singular(model, "project_velocity", e) from None
+    failed, body = run_core(_core.project_velocity_batch, model, Q, V, out=out)
+    if failed >= 0:
+        raise _singular(model, "project_velocity", _Failed(failed, body))
     return out if batched else out[0]
 
 

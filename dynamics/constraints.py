@@ -32,19 +32,20 @@ op_i x oR_i S_w) at the world origin, V_i = V_p + oS_i qd_i, bias acceleration A
 """
 
 import warnings as _warnings
+import weakref
 from dataclasses import dataclass, replace
 from typing import NamedTuple
 
 import numpy as np
 
-from . import checks
-from ._numba import borrow, address, float_at, helper, inline_kernel, int_at, kernel
+from . import _core, checks
+from ._numba import address, float_at, helper, inline_kernel, int_at, kernel
 from .data import _take
 from .configuration import _integrate_q
-from .errors import InputError
+from .errors import DeadlineExceeded, InputError
 from .kinematics import frame_placement, _world_pose
 from .model import _frozen
-from .parallel import run_chunks
+from .parallel import num_threads, seconds_left
 from .spatial import add, cross, cross_motion, dot, load3, load33, matmul, rot, _rotation_log, scale, transpose
 
 POINT, WELD, REVOLUTE, COUPLING = 0, 1, 2, 3
@@ -244,6 +245,35 @@ def arrays(model):
     return resolve(model, model.constraints, [getattr(c, "placement", None) for c in model.constraints])
 
 
+#: the core's Constraints of each resolved ConstraintArrays, by id of its ``kind`` array (dropped with it)
+_CORE = {}
+
+
+def core_constraints(model):
+    """The C++ core's constraints (``dynamics._core.Constraints``) of ``model``: built once from the resolved
+    :class:`ConstraintArrays` (kept with the model by :func:`with_constraints`) and kept as long as they live."""
+    C, m = arrays(model)
+    key = id(C.kind)
+    hit = _CORE.get(key)
+    if hit is not None and hit[0]() is C.kind:
+        return hit[1]
+    core = _core.Constraints(model.core, C.kind, C.row, C.body, np.ascontiguousarray(C.R, float),
+                             np.ascontiguousarray(C.p, float), C.idx, np.ascontiguousarray(C.coef, float), m)
+    _CORE[key] = (weakref.ref(C.kind), core)
+    weakref.finalize(C.kind, _CORE.pop, key, None)
+    return core
+
+
+def run_core(kernel, model, *args, out):
+    """``kernel(model.core, core_constraints(model), *args, out, threads, seconds)`` into ``out``, inside the
+    deadline of :func:`dynamics.parallel.deadline`; returns the failed state and its body, or (-1, -1)."""
+    B = out.shape[0]
+    done, expired, failed, body = kernel(model.core, core_constraints(model), *args, out, num_threads(), seconds_left())
+    if expired:
+        raise DeadlineExceeded(f"the batch of {B} states ran past its deadline; {done} were done", done=done, total=B)
+    return failed, body
+
+
 def pack(C):
     """:class:`ConstraintArrays` as one read-only int64 array, for a single-state entry point (one argument to
     unbox instead of seven): [nc, kind, row, body, idx, then the float64 bits of R, p, coef]; :func:`_unpack`
@@ -356,20 +386,20 @@ def coupling_rows(C, m, nv):
 def close_loops(model, C, m, q, free, tol, max_iter):
     """Gauss-Newton on phi from q over the coordinates where ``free`` is 1 (see :mod:`dynamics.assemble`):
     returns (q, max |phi(q)|), stopping at tol, after max_iter steps, or where no step reduces |phi|."""
-    tree = model.tree
+    tree, core, con = model.tree, model.core, core_constraints(model)
     V = np.zeros((1, model.nv))
     phi, J = np.empty((1, m)), np.empty((1, m, model.nv))
-    _residual_batch(tree, q[None], V, C, phi)
+    _core.constraint_terms_batch(core, con, q[None], V, 0, phi, 1, np.inf)
     err = np.abs(phi[0]).max()
     for _ in range(max_iter):
         if err <= tol:
             break
-        _jacobian_batch(tree, q[None], V, C, J)
+        _core.constraint_terms_batch(core, con, q[None], V, 1, J, 1, np.inf)
         dq = -np.linalg.lstsq(J[0] * free, phi[0], rcond=1e-12)[0] * free
         step = 1.0
         while step > 1e-6:
             q_new = _integrate_q(tree, q, dq, step)
-            _residual_batch(tree, q_new[None], V, C, phi)
+            _core.constraint_terms_batch(core, con, q_new[None], V, 0, phi, 1, np.inf)
             if np.abs(phi[0]).max() < err:
                 break
             step *= 0.5
@@ -689,45 +719,7 @@ def _constraint_terms(tree, C, q, v, with_J, with_v, ws, phi, J, gamma):
                 gamma[r + 4] = dot(cross(wa, t2), dw) + dot(t2, dal)
 
 
-@kernel
-def _residual_batch(tree, Q, V, C, out):
-    """out[b] = phi(Q[b]) (V unused)."""
-    # the arguments as views with no owner: no reference counts in the loops (dynamics._numba.borrow)
-    tree, Q, V = borrow(tree), borrow(Q), borrow(V)
-    C, out = borrow(C), borrow(out)
-    nb, nv, m = tree.parents.shape[0], tree.S.shape[0], out.shape[1]
-    ws, J, gamma = _workspace(nb, nv), np.empty((m, nv)), np.empty(m)
-    for b in range(Q.shape[0]):
-        _constraint_terms(tree, C, Q[b], V[0], False, False, ws, out[b], J, gamma)
-
-
-@kernel
-def _jacobian_batch(tree, Q, V, C, out):
-    """out[b] = Phi_q(Q[b]) (V unused)."""
-    # the arguments as views with no owner: no reference counts in the loops (dynamics._numba.borrow)
-    tree, Q, V = borrow(tree), borrow(Q), borrow(V)
-    C, out = borrow(C), borrow(out)
-    nb, nv, m = tree.parents.shape[0], tree.S.shape[0], out.shape[1]
-    ws, phi, gamma = _workspace(nb, nv), np.empty(m), np.empty(m)
-    for b in range(Q.shape[0]):
-        _constraint_terms(tree, C, Q[b], V[0], True, False, ws, phi, out[b], gamma)
-
-
-@kernel
-def _bias_batch(tree, Q, V, C, out):
-    """out[b] = Phi_q_dot v at (Q[b], V[b]) (V may have one row)."""
-    # the arguments as views with no owner: no reference counts in the loops (dynamics._numba.borrow)
-    tree, Q, V = borrow(tree), borrow(Q), borrow(V)
-    C, out = borrow(C), borrow(out)
-    nb, nv, m = tree.parents.shape[0], tree.S.shape[0], out.shape[1]
-    ws, phi, J = _workspace(nb, nv), np.empty(m), np.empty((m, nv))
-    lv = V.shape[0] - 1
-    for b in range(Q.shape[0]):
-        _constraint_terms(tree, C, Q[b], V[min(b, lv)], False, True, ws, phi, J, out[b])
-
-
-# -- public entry points -------------------------------------------------------------------------------------
-_BATCH = {0: _residual_batch, 1: _jacobian_batch, 2: _bias_batch}
+# -- public entry points (the core's constraint_terms_batch) ---------------------------------------------------
 
 
 def _terms(model, q, v, what):
@@ -739,7 +731,7 @@ def _terms(model, q, v, what):
     else:
         Q, (V,), B, batched = checks.state_batch(model, q, (("v", v, model.nv),))
     out = np.empty((B, m, model.nv) if what == 1 else (B, m))
-    run_chunks(_BATCH[what], model.tree, (Q, V), (C,), out)
+    run_core(_core.constraint_terms_batch, model, Q, V, what, out=out)
     return out if batched else out[0]
 
 

@@ -11,6 +11,10 @@ and re-evaluates f there, so the next step starts on the manifold.  It also trac
 velocity residuals (max |phi|, max |Phi_q v|) at every accepted step (after projection) and at every sample:
 ``constraint_drift`` of the report.
 
+Runs without contact take the C++ core's ConstrainedProblem instead (``core/simulation/constrained_problem.hpp``:
+the same right-hand side, projection, drift and multipliers; :mod:`.native`); this numba problem serves runs with
+contact until those move to the core too.
+
 This module is imported by :func:`dynamics.simulate` only when the model has constraints, and its kernels
 compile (with the solvers' specialisation for :class:`ConstrainedProblem`) only then: an unconstrained run
 neither pays for nor sees it.

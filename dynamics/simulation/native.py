@@ -1,12 +1,14 @@
 """One run of the simulation in the C++ core (``core/simulation/``): the passive torques, the torque source and the
-samples as the core reads and writes them.  (Transitional: runs with contact, closed loops or sensitivities still
-take the numba path of :mod:`.run` until they move to the core.)"""
+samples as the core reads and writes them; a constrained model's run is the core's ConstrainedProblem
+(``core/simulation/constrained_problem.hpp``).  (Transitional: runs with contact still take the numba path of
+:mod:`.run` until they move to the core.)"""
 
 from typing import NamedTuple
 
 import numpy as np
 
 from .. import _core
+from ..constraints import core_constraints
 from ..control.registry import _REGISTRY
 from ..errors import DeadlineExceeded, InputError
 from ..parallel import seconds_left
@@ -24,6 +26,11 @@ class Samples(NamedTuple):
     out_e: np.ndarray
     count: np.ndarray
     base: np.ndarray
+    #: a constrained model's: multipliers per sample (T or 0, m), the largest (max |phi|, max |Phi_q v|) seen, and
+    #: the number of position projections that failed
+    out_lam: np.ndarray = None
+    drift: np.ndarray = None
+    project_failures: np.ndarray = None
 
 
 def core_passive(model, ps):
@@ -80,14 +87,24 @@ def initial_state(model, q0, v0, x0, ncol):
     return z
 
 
-def run(method, model, passive, source, q0, z, t_end, out_t, outputs, opt, watch=None, t0=0.0, sens=None):
+def run(method, model, passive, source, q0, z, t_end, out_t, outputs, opt, watch=None, t0=0.0, sens=None,
+        baumgarte=None, project=False):
     """Run ``method`` from (t0, z) to t_end (z advanced in place), samples at out_t keeping ``outputs``; returns
     (Samples, stats record, switch log's used rows).  ``sens``: None, or (x0, params (P, 3), out_S, Sf) for a run
-    with sensitivities (:mod:`.sensitivities`), S written into out_S per sample and Sf at the end."""
+    with sensitivities (:mod:`.sensitivities`), S written into out_S per sample and Sf at the end.  ``baumgarte``:
+    None, or the gains (alpha, beta) of a constrained model's run (its multipliers kept when ``outputs`` has
+    "lambda"), ``project`` whether its steps are projected onto the constraints."""
     nv, nq, T = model.nv, model.nq, out_t.shape[0]
     p = Samples(out_t, np.zeros((T if "q" in outputs else 0, nq)), np.zeros((T if "v" in outputs else 0, nv)),
                 np.zeros((T if "tau" in outputs else 0, nv)), np.zeros((T, 2)), np.zeros((T, 2)),
                 np.zeros(1, np.int64), None)
+    constrained = None
+    if baumgarte is not None:
+        con = core_constraints(model)
+        drift = np.zeros(3)  # max |phi|, max |Phi_q v|, failed projections (the core's one array)
+        p = p._replace(out_lam=np.zeros((T if "lambda" in outputs else 0, con.m)), drift=drift[:2],
+                       project_failures=drift[2:])
+        constrained = (con, float(baumgarte[0]), float(baumgarte[1]), bool(project), p.out_lam, drift)
     stats, sw = solvers.new_stats(), solvers.new_switch_log()
     options = {k: getattr(opt, k) for k in opt._fields}
     options["probe"] = bool(opt.probe)
@@ -95,7 +112,7 @@ def run(method, model, passive, source, q0, z, t_end, out_t, outputs, opt, watch
 
     def call():
         return _core.run(method, model.core, passive, source, q0, z, float(t0), float(t_end), p.out_t, p.out_q,
-                         p.out_v, p.out_tau, p.out_w, p.out_e, p.count, options, stats, sw, sens)
+                         p.out_v, p.out_tau, p.out_w, p.out_e, p.count, options, stats, sw, sens, constrained)
     if watch is None:
         base = call()
     else:

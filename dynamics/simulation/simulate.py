@@ -27,10 +27,8 @@ from ..control.registry import release_callable
 from ..control.sources import OPERATIONAL_SPACE
 from ..control.validation import make_source
 from . import report as R
-from ..constrained_dynamics import (DEFAULT_BAUMGARTE, baumgarte_gains, _project_position_kernel,
-                                    _project_velocity_kernel)
-from ..constrained_dynamics import _workspace as constrained_workspace
-from ..constraints import arrays, warn_drift, warn_off_manifold
+from ..constrained_dynamics import DEFAULT_BAUMGARTE, baumgarte_gains, project_velocity
+from ..constraints import core_constraints, warn_drift, warn_off_manifold
 from .constrained_problem import PROJECT_TOL, constrained_problem
 from .problem import NQUAD, robot_problem, singular_body
 from .progress import check as check_progress
@@ -251,7 +249,7 @@ def _why_nonfinite(model, s, src, main):
 def _one_run(model, s, ps, src, dt, out_t, rtol, atol, max_steps, outputs, h0=0.0, watch=None, probe=False):
     """One compiled run of s.integrator from (q0, v0); samples kept at out_t (``outputs`` of q, v, tau)."""
     nv = model.nv
-    if s.contact is None and not s.constrained and not _NUMBA_SIM:
+    if s.contact is None and not _NUMBA_SIM:
         return _native_run(model, s, ps, src, dt, out_t, rtol, atol, max_steps, outputs, h0, watch, probe)
     cm = None
     if s.contact is not None:  # the contact modules are imported by a run with contact only
@@ -311,7 +309,8 @@ def _native_run(model, s, ps, src, dt, out_t, rtol, atol, max_steps, outputs, h0
                   probe=int(probe and s.fixed and s.duration > 0))
     tic = time.perf_counter()
     p, st, sw = native.run(s.integrator, model, native.core_passive(model, ps), native.core_source(model, src), s.q0,
-                           z, s.duration, out_t, outputs, opt, watch=watch, sens=sens)
+                           z, s.duration, out_t, outputs, opt, watch=watch, sens=sens,
+                           baumgarte=s.baumgarte if s.constrained else None, project=s.project)
     wall = time.perf_counter() - tic
     qf = np.empty(model.nq)
     _core.retract(model.core, p.base, z[:nv], qf)
@@ -388,14 +387,12 @@ def _settings(model, q0, v0, duration, integrator, rtol, atol, dt, sample_dt, gr
 
 def _project_initial(model, q0, v0, warnings):
     """project=True: start on the constraint manifold (the steps then stay on it); say how far (q0, v0) moved."""
-    C, m = arrays(model)
-    ws = constrained_workspace(model.tree.parents.shape[0], model.nv, m)
-    q, v = np.empty(model.nq), np.empty(model.nv)
-    err = _project_position_kernel(model.tree, C, q0, ws, PROJECT_TOL, 50, q)
+    q = np.empty(model.nq)
+    err = _core.project_position(model.core, core_constraints(model), q0, PROJECT_TOL, 50, q)
     if not err <= PROJECT_TOL:
         raise InputError(f"q0: the constraints cannot be closed near q0 (max |phi| = {err:.3g} after projection); "
                          "start from dynamics.assemble(model, q0)")
-    _project_velocity_kernel(model.tree, C, q, v0, ws, v)
+    v = project_velocity(model, q, v0)
     moved = max(float(np.max(np.abs(q - q0), initial=0.0)), float(np.max(np.abs(v - v0), initial=0.0)))
     if moved > 1e-9:
         warnings.append(f"project: (q0, v0) moved onto the constraints by up to {moved:.3g}")
