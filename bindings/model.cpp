@@ -3,6 +3,7 @@
 #include <nanobind/stl/vector.h>
 
 #include "arrays.hpp"
+#include "checks.hpp"
 #include "joints.hpp"
 
 namespace bind {
@@ -106,6 +107,34 @@ void expose_model(nb::module_& mod) {
         }
         return out;
     });
+
+    // the general path's input checks (dynamics/checks.py): the first row of X holding a nan or an inf, or -1
+    mod.def("first_nonfinite", [](const In<2>& X) -> long {
+        const long B = static_cast<long>(X.shape(0)), n = static_cast<long>(X.shape(1));
+        for (long b = 0; b < B; ++b)
+            if (!core::all_finite(X.data() + b * n, n)) return b;
+        return -1;
+    }, nb::arg("X"));
+
+    // the row r of blocks (start, size in q) of the first zero unit block (a quaternion, a planar joint's
+    // (cos, sin)) in any row of Q, or -1
+    mod.def("first_zero_unit", [](const In<2>& Q, const nb::ndarray<const int64_t, nb::ndim<2>, nb::c_contig,
+                                                                      nb::device::cpu>& blocks) -> long {
+        const long B = static_cast<long>(Q.shape(0)), n = static_cast<long>(Q.shape(1));
+        const long R = static_cast<long>(blocks.shape(0));
+        require(blocks.shape(1) == 2, "blocks: expected (R, 2) rows (start, size)");
+        for (long r = 0; r < R; ++r)
+            require(blocks(r, 0) >= 0 && blocks(r, 1) >= 0 && blocks(r, 0) + blocks(r, 1) <= n,
+                    "blocks: a block outside the configuration");
+        for (long b = 0; b < B; ++b)
+            for (long r = 0; r < R; ++r) {
+                const double* x = Q.data() + b * n + blocks(r, 0);
+                double s = 0.0;
+                for (long j = 0; j < blocks(r, 1); ++j) s += x[j] * x[j];
+                if (s < core::ZERO_QUATERNION_SQ) return r;
+            }
+        return -1;
+    }, nb::arg("Q"), nb::arg("blocks"));
 }
 
 }  // namespace bind

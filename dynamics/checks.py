@@ -15,6 +15,7 @@ import math
 
 import numpy as np
 
+from . import _core
 # DONE and GENERAL are re-exported: this module is the status codes' home for the algorithms
 from ._numba import DONE, GENERAL, NumbaError, address, float_at, inline_kernel, kernel  # noqa: F401
 from .errors import InputError
@@ -23,33 +24,10 @@ from .model import Model
 
 
 
-@kernel
-def _first_nonfinite(X):
-    """Index of the first row of X holding a nan or inf, or -1."""
-    for b in range(X.shape[0]):
-        for k in range(X.shape[1]):
-            if not np.isfinite(X[b, k]):
-                return b
-    return -1
-
-
-@kernel
-def _first_zero_unit(Q, blocks):
-    """The row of ``blocks`` (start, size) of the first zero unit block (a quaternion, a planar joint's (cos,
-    sin)) in any row of Q, or -1."""
-    for b in range(Q.shape[0]):
-        for r in range(blocks.shape[0]):
-            k, n = blocks[r, 0], blocks[r, 1]
-            x = 0.0
-            for j in range(k, k + n):
-                x += Q[b, j] * Q[b, j]
-            if x < ZERO_QUATERNION_SQ:
-                return r
-    return -1
-
-
-_first_nonfinite_k = _first_nonfinite
-_first_zero_unit_k = _first_zero_unit
+# the first row of a checked 2-D float64 array holding a nan or inf (-1: none), and the first zero unit block
+# (a quaternion, a planar joint's (cos, sin)) of model.unit_blocks in any row of Q: the core's loops, no copy
+_first_nonfinite_k = _core.first_nonfinite
+_first_zero_unit_k = _core.first_zero_unit
 
 
 #: float64, the dtype the general path's fast checks compare with; NOT_ARRAYS: what a non-array raises there
