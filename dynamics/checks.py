@@ -17,9 +17,9 @@ import numpy as np
 
 from . import _core
 # DONE and GENERAL are re-exported: this module is the status codes' home for the algorithms
-from ._numba import DONE, GENERAL, NumbaError, address, float_at, inline_kernel, kernel  # noqa: F401
+from ._numba import DONE, GENERAL, NumbaError, address, float_at, inline_kernel  # noqa: F401
 from .errors import InputError
-from .joints import JOINT_FREE, KINDS, ZERO_QUATERNION_SQ, _joint_config_ok
+from .joints import JOINT_FREE, KINDS, _joint_config_ok
 from .model import Model
 
 
@@ -50,36 +50,6 @@ def _vector_ok(x, n):
     for k in range(n):
         if not np.isfinite(x[k]):
             return False
-    return True
-
-
-@inline_kernel
-def _config_shape_ok(tree, nq, q):
-    """q has length nq and, on a model with a free, spherical or planar joint (the joints with nq != nv),
-    non-zero quaternions and (cos, sin) pairs.
-    Its values' finiteness is checked on the result (:func:`_finite`)."""
-    if q.shape[0] != nq:
-        return False
-    if nq != tree.S.shape[0]:
-        for i in range(tree.jtype.shape[0]):
-            if not _joint_config_ok(tree, i, q):
-                return False
-    return True
-
-
-@inline_kernel
-def _roots_finite(tree, nq, q):
-    """The coordinates of the joints attached to the world are finite: the ones a result may not depend on (M,
-    M^-1 and g(q) are the same for every angle of the first joint about gravity's axis, or every position of a
-    floating base), checked first where the others are checked on the result (:func:`_finite`)."""
-    parents, q_idx = tree.parents, tree.q_idx
-    nb = parents.shape[0]
-    for i in range(nb):
-        if parents[i] < 0:
-            end = q_idx[i + 1] if i + 1 < nb else nq
-            for k in range(q_idx[i], end):
-                if not np.isfinite(q[k]):
-                    return False
     return True
 
 

@@ -95,11 +95,3 @@ def _forward_body(tree, i, q, v, d, with_v):
     store3(d.cw, i, cw)
     store3(d.cv, i, cv)
     return R, p, w, vl, cw, cv
-
-
-@inline_kernel
-def _forward_pass(tree, q, v, d, with_v):
-    """Fill ``d`` (:class:`Data`) at (q, v): poses always; velocities and c_i when ``with_v`` (v is not zero),
-    else c_i = 0 and the velocities are not written."""
-    for i in range(tree.parents.shape[0]):
-        _forward_body(tree, i, q, v, d, with_v)

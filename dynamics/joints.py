@@ -255,12 +255,6 @@ def _joint_config_ok(tree, i, q):
 
 
 @inline_kernel
-def _joint_limited(tree, i):
-    """Joint i's coordinates have position limits (1-dof joints; -inf/inf when the URDF gives none)."""
-    return tree.jtype[i] == JOINT_REVOLUTE or tree.jtype[i] == JOINT_PRISMATIC
-
-
-@inline_kernel
 def _joint_magnitudes(tree, i, q, mag):
     """mag[dofs of i] = |the coordinate of q that moves alone with each velocity coordinate in the chart| (an
     angle, a position), 0 for a quaternion's or a planar joint's angle: the scale of the simulation's relative

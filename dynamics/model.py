@@ -124,17 +124,6 @@ def _unpack(packed):
     return tree, float_at(base, f, 3), nq
 
 
-@inline_kernel
-def _unpack_frames(packed):
-    """The frames (:class:`Frames`) from the packed model, as :func:`_unpack`."""
-    base = address(packed)
-    nb, nv = packed[0], packed[2]
-    e = 6 + 51 * nb + 6 * nv  # after the tree
-    nf = packed[e]
-    return Frames(int_at(base, e + 1, nf), int_at(base, e + 1 + nf, nf), float_at(base, e + 1 + 2 * nf, (nf, 3, 3)),
-                  float_at(base, e + 1 + 11 * nf, (nf, 3)))
-
-
 def _frozen(a, dtype=np.float64):
     a = np.ascontiguousarray(a, dtype=dtype)
     a.flags.writeable = False
