@@ -253,7 +253,8 @@ void expose_simulation(nb::module_& m) {
             if (ps) ps->final(z.data(), Sf.data());
         }
         std::memcpy(stats_ptr, &st, sizeof st);
-        std::memcpy(sw_ptr, sw.data(), sizeof(core::sim::Switch) * std::min<size_t>(sw.size(), core::sim::MAX_SWITCHES));
+        if (!sw.empty())  // (memcpy from an empty vector's null data() is undefined even for 0 bytes)
+            std::memcpy(sw_ptr, sw.data(), sizeof(core::sim::Switch) * std::min<size_t>(sw.size(), core::sim::MAX_SWITCHES));
         if (src.callback) src.callback->raise_if_failed();
         std::vector<double> base(p.base(), p.base() + nq);
         double* qb;
