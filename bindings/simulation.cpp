@@ -146,6 +146,24 @@ void expose_simulation(nb::module_& m) {
         }, "model"_a, "kind"_a, "times"_a, "table"_a, "gains"_a, "qref"_a, "frame"_a, "rows"_a, "task_gains"_a,
            "orientation"_a, "damping"_a, "callback"_a.none(), "check"_a.none());
 
+    // f(t, z) into dz and the robot problem's analytical Jacobian df/dz into J ((n, n), n = 2 nv + 2; z = [delta,
+    // v, W_source, W_passive] in the chart around q0): a test's window onto the core's Jacobian
+    // (tests/test_simulation_jacobian_core.py).  Returns False when the problem has none (J untouched).
+    m.def("problem_jacobian", [](const Model& model, const control::Passive& passive, SourceHolder& src, In<1> q0,
+                                 In<1> z, double t, nb::handle dz_, nb::handle J_) {
+        const long nv = model.nv, n = 2 * nv + 2;
+        const Output dz = output_of(dz_, 1), J = output_of(J_, 2);
+        require(length(q0) == model.nq, "q0: (nq,)");
+        require(length(z) == n && length(dz) == n, "z, dz: (2 nv + 2,)");
+        require(length(J) == n && static_cast<long>(J.shape(1)) == n, "J: (2 nv + 2, 2 nv + 2)");
+        core::sim::RobotProblem p(model, passive, src.source, q0.data(), core::sim::Outputs{}, nullptr);
+        core::sim::Stats st;
+        p.rhs(t, z.data(), dz.data());
+        const bool analytical = p.jacobian(t, z.data(), dz.data(), nullptr, static_cast<int>(n), J.data(), st);
+        if (src.callback) src.callback->raise_if_failed();
+        return analytical;
+    }, "model"_a, "passive"_a, "source"_a, "q0"_a, "z"_a, "t"_a, "dz"_a, "J"_a);
+
     // One run of `method` from (t0, z) to t_end (z advanced in place); the samples at out_t into the outputs (rows
     // 0 for what is not kept); the statistics into `stats` (a (1,) STATS record array) and the switches into `sw`
     // (a SWITCH record array of MAX_SWITCHES rows).  Raises a Python callable's exception after the run.

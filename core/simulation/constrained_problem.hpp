@@ -31,6 +31,10 @@ public:
     void rhs(double t, const double* z, double* dz) override;
     void rebase(double t, double* z, double* dz, double* mag) override;
     void emit(int64_t j, double t, const double* z) override;
+    // No analytical Jacobian (the numba ConstrainedProblem has none either): the solvers difference f.
+    bool jacobian(double, const double*, const double*, const double*, int, double*, Stats&) override {
+        return false;
+    }
 
 private:
     void track_drift(const double* q, const double* v);

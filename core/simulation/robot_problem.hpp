@@ -10,10 +10,12 @@
 #pragma once
 
 #include <cstdint>
+#include <memory>
 #include <vector>
 
 #include "control/sources.hpp"
 #include "data.hpp"
+#include "derivatives_data.hpp"
 #include "solver.hpp"
 
 namespace core::sim {
@@ -54,6 +56,9 @@ public:
     void euler_config(double* z, double h) override;
     void emit(int64_t j, double t, const double* z) override;
     bool touchdown() override { return contact_ && contact_->touchdown(); }
+    // J = df/dz assembled from the parts' derivatives (robot_jacobian.cpp); false with contact (differenced).
+    bool jacobian(double t, const double* z, const double* f0, const double* mag, int ne, double* J,
+                  Stats& st) override;
     bool aborted() const override { return aborted_; }
 
     const Model& model() const { return model_; }
@@ -72,6 +77,22 @@ protected:
     void quadratures(double* dz, double power_s, double power_p, double power_c) const;
     void abort_if_failed();
 
+    // The Jacobian's pieces (robot_jacobian.cpp) and its workspace, made at the first Jacobian (the explicit
+    // methods never need it): nv x nv row-major matrices and nv (or nq) vectors.
+    struct JacobianWork {
+        DerivativesData dd;
+        std::vector<double> da_dq, da_dv, Minv, dts_dd, dts_dv, Ti;  // nv x nv
+        std::vector<double> dtp_dq, dtp_dv, tau_p, e, dt, vt, tp, tm, cp, cm, row, sub;  // nv
+        std::vector<double> q, qt;                                                      // nq
+        std::vector<int> piv;                                                           // nv
+        explicit JacobianWork(const Model& model);
+    };
+    void source_derivatives_chart(double t, const double* q, const double* delta, const double* v, double* dd,
+                                  double* dv);
+    void source_differences(double t, const double* delta, const double* v, double* dd, double* dv);
+    void chart_derivatives(const double* q, const double* delta, const double* v, double* J, int n);
+    void tangent_to_chart(const double* q, double* A);
+
     const Model& model_;
     const control::Passive& passive_;
     control::Source& source_;
@@ -81,6 +102,7 @@ protected:
     int nv_, nquad_;
     std::vector<double> base_, qbuf_, tau_s_, tau_p_;
     Data data_;  // the ABA's workspace
+    std::unique_ptr<JacobianWork> jw_;
     bool aborted_ = false;
 };
 

@@ -129,8 +129,10 @@ void SensitivityProblem::rhs(double t, const double* z, double* dz) {
 bool SensitivityProblem::jacobian(double t, const double* z, const double*, const double*, int, double* J, Stats& st) {
     split(z);
     const int ni = static_cast<int>(zi_.size()), N = size();
-    inner_.rhs(t, zi_.data(), fi_.data());
-    problem_jacobian(inner_, t, zi_.data(), fi_.data(), magi_.data(), ni, n2_, J_.data(), st);
+    if (!inner_.jacobian(t, zi_.data(), nullptr, magi_.data(), n2_, J_.data(), st)) {  // differenced: f first
+        inner_.rhs(t, zi_.data(), fi_.data());
+        fd_jacobian(inner_, t, zi_.data(), fi_.data(), magi_.data(), ni, n2_, J_.data(), st);
+    }
     std::fill(J, J + static_cast<size_t>(N) * N, 0.0);
     for (int b = 0; b <= ncol_; ++b) {
         const int o = b * n2_;

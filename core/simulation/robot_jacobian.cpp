@@ -1,0 +1,182 @@
+// The Jacobian df/dz of the robot's right-hand side (robot_problem.hpp), assembled from the derivatives of its parts
+// rather than by differencing the whole (the C++ side of dynamics/simulation/jacobian.py, whose order of operations
+// it follows): Radau's Newton matrix and the variational equations (sensitivities.hpp) use it.
+//
+// With z = [delta, v, W_source, W_passive] and f = [c(delta, v), a, v . tau_s, v . tau_p] (c: the chart rate of v at
+// q = retract(base, delta), configuration.hpp; a: the ABA's accelerations under tau = tau_s + tau_p):
+//
+//     dc/d delta  central differences of the chart rate alone (no dynamics; zero for 1-dof joints)
+//     dc/dv       = c(delta, e_k) column by column (c is linear in v)
+//     da/d delta  = (da/dq + M^-1 dtau/dq) T,   T = d(tangent at q)/d delta (identity for 1-dof joints)
+//     da/dv       = da/dv + M^-1 dtau/dv
+//     d(v . tau)/dz = v^T dtau/dz (+ tau in the v columns)
+//
+// da/dq (tangent space, Pinocchio's convention), da/dv and M^-1 from aba_derivatives (Carpentier & Mansard 2018);
+// dtau_p/dq, dtau_p/dv (diagonal) from passive_derivatives; the source's analytically where control/derivatives.hpp
+// has it (then times T), else by central differences of the source alone in the chart coordinates (Python
+// callables, computed torque, operational space).  T from T^-1 = d delta/d e, central differences of the chart's
+// inverse along integrate.  The W columns are zero (f does not depend on the quadratures).  With contact: false
+// (the solvers difference f).
+#include <algorithm>
+#include <cmath>
+
+#include "aba_derivatives.hpp"
+#include "configuration.hpp"
+#include "control/derivatives.hpp"
+#include "control/passive.hpp"
+#include "linalg.hpp"
+#include "robot_problem.hpp"
+
+namespace core::sim {
+
+namespace {
+constexpr double FD_STEP = 6e-6;  // central differences (relative, ~ eps^(1/3)), as jacobian.py's
+}
+
+RobotProblem::JacobianWork::JacobianWork(const Model& model)
+    : dd(model), da_dq(static_cast<size_t>(model.nv) * model.nv), da_dv(da_dq.size()), Minv(da_dq.size()),
+      dts_dd(da_dq.size()), dts_dv(da_dq.size()), Ti(da_dq.size()), dtp_dq(model.nv), dtp_dv(model.nv),
+      tau_p(model.nv), e(model.nv, 0.0), dt(model.nv), vt(model.nv), tp(model.nv), tm(model.nv), cp(model.nv),
+      cm(model.nv), row(model.nv), sub(model.nv), q(model.nq), qt(model.nq), piv(model.nv) {}
+
+// A (nv x nv, tangent columns at q) <- A T, T = d(tangent)/d delta, from T^-1 = d delta/d e by central differences
+// of chart_difference from base along integrate; X T^-1 = A solved as T^-T X^T = A^T, one row of A at a time.
+void RobotProblem::tangent_to_chart(const double* q, double* A) {
+    JacobianWork& w = *jw_;
+    const int nv = nv_;
+    double* Ti = w.Ti.data();  // stored transposed: Ti[k, r] = (T^-1)[r, k]
+    for (int k = 0; k < nv; ++k) {
+        w.e[k] = 1.0;
+        integrate(model_, q, w.e.data(), FD_STEP, w.sub.data(), w.qt.data());
+        chart_difference(model_, base_.data(), w.qt.data(), w.cp.data());
+        integrate(model_, q, w.e.data(), -FD_STEP, w.sub.data(), w.qt.data());
+        chart_difference(model_, base_.data(), w.qt.data(), w.cm.data());
+        w.e[k] = 0.0;
+        for (int r = 0; r < nv; ++r) Ti[k * nv + r] = (w.cp[r] - w.cm[r]) / (2 * FD_STEP);
+    }
+    lu_factor(Ti, nv, w.piv.data());
+    for (int r = 0; r < nv; ++r) {
+        std::copy(A + r * nv, A + (r + 1) * nv, w.row.begin());
+        lu_solve(Ti, nv, w.piv.data(), w.row.data());
+        std::copy(w.row.begin(), w.row.end(), A + r * nv);
+    }
+}
+
+// dd = d tau_s/d delta (chart coordinates), dv = d tau_s/dv by central differences of the source alone.
+void RobotProblem::source_differences(double t, const double* delta, const double* v, double* dd, double* dv) {
+    JacobianWork& w = *jw_;
+    const int nv = nv_;
+    double *q = w.qt.data(), *tp = w.tp.data(), *tm = w.tm.data();
+    std::copy(delta, delta + nv, w.dt.begin());
+    std::copy(v, v + nv, w.vt.begin());
+    for (int k = 0; k < nv; ++k) {
+        const double h = FD_STEP * std::max(1.0, std::abs(delta[k]));
+        w.dt[k] = delta[k] + h;
+        retract(model_, base_.data(), w.dt.data(), q);
+        control::source_torques(model_, source_, passive_, ws_source_, t, q, v, tp);
+        w.dt[k] = delta[k] - h;
+        retract(model_, base_.data(), w.dt.data(), q);
+        control::source_torques(model_, source_, passive_, ws_source_, t, q, v, tm);
+        w.dt[k] = delta[k];
+        for (int r = 0; r < nv; ++r) dd[r * nv + k] = (tp[r] - tm[r]) / (2 * h);
+    }
+    retract(model_, base_.data(), delta, q);
+    for (int k = 0; k < nv; ++k) {
+        const double h = FD_STEP * std::max(1.0, std::abs(v[k]));
+        w.vt[k] = v[k] + h;
+        control::source_torques(model_, source_, passive_, ws_source_, t, q, w.vt.data(), tp);
+        w.vt[k] = v[k] - h;
+        control::source_torques(model_, source_, passive_, ws_source_, t, q, w.vt.data(), tm);
+        w.vt[k] = v[k];
+        for (int r = 0; r < nv; ++r) dv[r * nv + k] = (tp[r] - tm[r]) / (2 * h);
+    }
+}
+
+// dd = d tau_s/d delta (chart coordinates), dv = d tau_s/dv at q = retract(base, delta): analytical where the kind has it (tangent columns,
+// then times T), else differenced.
+void RobotProblem::source_derivatives_chart(double t, const double* q, const double* delta, const double* v,
+                                            double* dd, double* dv) {
+    if (control::source_derivatives(model_, source_, passive_, ws_source_, t, q, v, dd, dv)) {
+        if (model_.nq != nv_) tangent_to_chart(q, dd);
+        return;
+    }
+    source_differences(t, delta, v, dd, dv);
+}
+
+// Rows 0..nv of the n x n J: dc/d delta (central differences) and dc/dv (c linear in v).
+void RobotProblem::chart_derivatives(const double* q, const double* delta, const double* v, double* J, int n) {
+    JacobianWork& w = *jw_;
+    const int nv = nv_;
+    for (int k = 0; k < nv; ++k) {
+        w.e[k] = 1.0;
+        chart_rate(model_, q, delta, w.e.data(), w.cp.data());
+        w.e[k] = 0.0;
+        for (int r = 0; r < nv; ++r) J[r * n + nv + k] = w.cp[r];
+    }
+    if (model_.nq == nv) {  // 1-dof joints only: c = v
+        for (int r = 0; r < nv; ++r) std::fill(J + r * n, J + r * n + nv, 0.0);
+        return;
+    }
+    std::copy(delta, delta + nv, w.dt.begin());
+    for (int k = 0; k < nv; ++k) {
+        const double h = FD_STEP;
+        w.dt[k] = delta[k] + h;
+        retract(model_, base_.data(), w.dt.data(), w.qt.data());
+        chart_rate(model_, w.qt.data(), w.dt.data(), v, w.cp.data());
+        w.dt[k] = delta[k] - h;
+        retract(model_, base_.data(), w.dt.data(), w.qt.data());
+        chart_rate(model_, w.qt.data(), w.dt.data(), v, w.cm.data());
+        w.dt[k] = delta[k];
+        for (int r = 0; r < nv; ++r) J[r * n + k] = (w.cp[r] - w.cm[r]) / (2 * h);
+    }
+}
+
+// J = df/dz at (t, z) (the top comment's table, block by block; f0, mag and ne unused: the whole matrix is written).
+bool RobotProblem::jacobian(double t, const double* z, const double*, const double*, int, double* J, Stats& st) {
+    if (contact_) return false;
+    if (!jw_) jw_ = std::make_unique<JacobianWork>(model_);
+    JacobianWork& w = *jw_;
+    const int nv = nv_, n = 2 * nv + nquad_;
+    const double *delta = z, *v = z + nv;
+    double* q = w.q.data();
+    retract(model_, base_.data(), delta, q);
+    control::source_torques(model_, source_, passive_, ws_source_, t, q, v, tau_s_.data());
+    control::passive_torques(passive_, q, v, nv, w.tau_p.data());
+    for (int k = 0; k < nv; ++k) tau_p_[k] = w.tau_p[k] + tau_s_[k];  // tau = passive + source
+    const int singular = aba_derivatives(model_, data_, w.dd, q, v, tau_p_.data(), passive_.gravity, nullptr,
+                                         w.da_dq.data(), w.da_dv.data(), w.Minv.data());
+    source_derivatives_chart(t, q, delta, v, w.dts_dd.data(), w.dts_dv.data());
+    control::passive_derivatives(passive_, q, v, nv, w.dtp_dq.data(), w.dtp_dv.data());
+    if (model_.nq != nv) tangent_to_chart(q, w.da_dq.data());
+    chart_derivatives(q, delta, v, J, n);
+    const double *Minv = w.Minv.data(), *dts_dd = w.dts_dd.data(), *dts_dv = w.dts_dv.data();
+    for (int r = 0; r < nv; ++r)  // da/d delta, da/dv
+        for (int k = 0; k < nv; ++k) {
+            double sd = 0.0, sv = 0.0;
+            for (int m = 0; m < nv; ++m) {
+                sd += Minv[r * nv + m] * dts_dd[m * nv + k];
+                sv += Minv[r * nv + m] * dts_dv[m * nv + k];
+            }
+            J[(nv + r) * n + k] = w.da_dq[r * nv + k] + sd + Minv[r * nv + k] * w.dtp_dq[k];
+            J[(nv + r) * n + nv + k] = w.da_dv[r * nv + k] + sv + Minv[r * nv + k] * w.dtp_dv[k];
+        }
+    if (singular >= 0)  // M singular: as the right-hand side's accelerations, NaN (the step is rejected)
+        for (int r = nv; r < 2 * nv; ++r) std::fill(J + r * n, J + r * n + 2 * nv, std::nan(""));
+    for (int k = 0; k < nv; ++k) {  // the powers v . tau_s and v . tau_p
+        double ps_d = 0.0, ps_v = tau_s_[k];
+        for (int m = 0; m < nv; ++m) {
+            ps_d += v[m] * dts_dd[m * nv + k];
+            ps_v += v[m] * dts_dv[m * nv + k];
+        }
+        J[2 * nv * n + k] = ps_d;
+        J[2 * nv * n + nv + k] = ps_v;
+        J[(2 * nv + 1) * n + k] = v[k] * w.dtp_dq[k];
+        J[(2 * nv + 1) * n + nv + k] = w.tau_p[k] + v[k] * w.dtp_dv[k];
+    }
+    for (int r = 0; r < n; ++r) std::fill(J + r * n + 2 * nv, J + (r + 1) * n, 0.0);
+    abort_if_failed();
+    st.jacobian_evals += 1;
+    return true;
+}
+
+}  // namespace core::sim
