@@ -249,10 +249,9 @@ def _why_nonfinite(model, s, src, main):
 def _one_run(model, s, ps, src, dt, out_t, rtol, atol, max_steps, outputs, h0=0.0, watch=None, probe=False):
     """One compiled run of s.integrator from (q0, v0); samples kept at out_t (``outputs`` of q, v, tau)."""
     nv = model.nv
-    # the core's problem has no analytical Jacobian yet (its finite differences serve Radau's Newton matrix, not
-    # the variational equations, whose J S they would blur at ~1e-8 and slow ~40x at tight tolerances): runs
-    # with sensitivities stay on the numba problem, whose Jacobian is assembled from the parts' derivatives
-    if s.contact is None and s.sens is None and not _NUMBA_SIM:
+    # runs with sensitivities too: the core's Jacobian is assembled from the parts' derivatives, as numba's
+    # (core/simulation/robot_jacobian.cpp), so the variational equations' J S is not blurred by differences
+    if s.contact is None and not _NUMBA_SIM:
         return _native_run(model, s, ps, src, dt, out_t, rtol, atol, max_steps, outputs, h0, watch, probe)
     cm = None
     if s.contact is not None:  # the contact modules are imported by a run with contact only
