@@ -45,6 +45,30 @@ nb::tuple three_matrices(long nv, double** x, double** y, double** z) {
 
 }  // namespace
 
+// A batch of RNEA or ABA derivatives: the shapes checked, one derivatives workspace per thread (allocated before
+// the threads start), kernel(d, ws, q, v, a or tau, g, f_ext, out) -> -1 or a singular joint's body per state,
+// writing the state's three (nv, nv) matrices at out; the GIL released around the threads.
+template <class Kernel>
+static nb::object derivatives_batch(const core::Model& model, const In<2>& Q, const In<2>& V, const In<2>& X,
+                                    const char* x_name, const In<3>& F, const In<1>& gravity, nb::handle out_,
+                                    int nthreads, double seconds, const char* name, Kernel kernel) {
+    const Output out = output_of(out_, 4);
+    const long B = length(out), nv = model.nv;
+    require_rows(Q, B, model.nq, "q"), require_rows(V, B, nv, "v"), require_rows(X, B, nv, x_name);
+    require_forces(F, B, model.nb), require_matrices(out, nv, name);
+    const core::Vec3 g = vec3(gravity, "gravity");
+    core::DerivativesPool pool(model, B, nthreads);
+    core::BatchStatus s;
+    {
+        nb::gil_scoped_release unlocked;
+        s = core::run_batch(model, B, nthreads, seconds, [&](long b, core::Data& d) {
+            return kernel(d, pool.of(d), row(Q, b), row(V, b), row(X, b), g, forces(F, b),
+                          out.data() + b * 3 * nv * nv);
+        });
+    }
+    return status(s);
+}
+
 void expose_derivatives(nb::module_& m) {
     using namespace nb::literals;
     using core::Data;
@@ -78,43 +102,24 @@ void expose_derivatives(nb::module_& m) {
 
     m.def("rnea_derivatives_batch", [](const Model& model, In<2> Q, In<2> V, In<2> A, In<3> F, In<1> gravity,
                                        nb::handle out_, int nthreads, double seconds) {
-        const Output out = output_of(out_, 4);
-        const long B = length(out), nv = model.nv;
-        require_rows(Q, B, model.nq, "q"), require_rows(V, B, nv, "v"), require_rows(A, B, nv, "a");
-        require_forces(F, B, model.nb), require_matrices(out, nv, "rnea_derivatives");
-        const core::Vec3 g = vec3(gravity, "gravity");
-        core::DerivativesPool pool(model, B, nthreads);
-        core::BatchStatus s;
-        {
-            nb::gil_scoped_release unlocked;
-            s = core::run_batch(model, B, nthreads, seconds, [&](long b, Data& d) {
-                double* x = out.data() + b * 3 * nv * nv;
-                core::rnea_derivatives(model, pool.of(d), row(Q, b), row(V, b), row(A, b), g, forces(F, b), x,
-                                       x + nv * nv, x + 2 * nv * nv);
-                return -1;
-            });
-        }
-        return status(s);
+        return derivatives_batch(model, Q, V, A, "a", F, gravity, out_, nthreads, seconds, "rnea_derivatives",
+                                 [&](Data&, core::DerivativesData& ws, const double* q, const double* v,
+                                     const double* a, const core::Vec3& g, const double* f, double* x) {
+                                     const long n = model.nv;
+                                     core::rnea_derivatives(model, ws, q, v, a, g, f, x, x + n * n, x + 2 * n * n);
+                                     return -1;
+                                 });
     });
 
     m.def("aba_derivatives_batch", [](const Model& model, In<2> Q, In<2> V, In<2> T, In<3> F, In<1> gravity,
                                       nb::handle out_, int nthreads, double seconds) {
-        const Output out = output_of(out_, 4);
-        const long B = length(out), nv = model.nv;
-        require_rows(Q, B, model.nq, "q"), require_rows(V, B, nv, "v"), require_rows(T, B, nv, "tau");
-        require_forces(F, B, model.nb), require_matrices(out, nv, "aba_derivatives");
-        const core::Vec3 g = vec3(gravity, "gravity");
-        core::DerivativesPool pool(model, B, nthreads);
-        core::BatchStatus s;
-        {
-            nb::gil_scoped_release unlocked;
-            s = core::run_batch(model, B, nthreads, seconds, [&](long b, Data& d) {
-                double* x = out.data() + b * 3 * nv * nv;
-                return core::aba_derivatives(model, d, pool.of(d), row(Q, b), row(V, b), row(T, b), g, forces(F, b),
-                                             x, x + nv * nv, x + 2 * nv * nv);
-            });
-        }
-        return status(s);
+        return derivatives_batch(model, Q, V, T, "tau", F, gravity, out_, nthreads, seconds, "aba_derivatives",
+                                 [&](Data& d, core::DerivativesData& ws, const double* q, const double* v,
+                                     const double* tau, const core::Vec3& g, const double* f, double* x) {
+                                     const long n = model.nv;
+                                     return core::aba_derivatives(model, d, ws, q, v, tau, g, f, x, x + n * n,
+                                                                  x + 2 * n * n);
+                                 });
     });
 
     // the configuration Jacobians of one state (dynamics/configuration_jacobians.py checked it), into two (nv, nv)
