@@ -7,6 +7,7 @@
 #include <memory>
 
 #include "arrays.hpp"
+#include "contact/contact_model.hpp"
 #include "control/passive.hpp"
 #include "control/sources.hpp"
 #include "numpy.hpp"
@@ -19,6 +20,7 @@ namespace bind {
 using core::Model;
 
 void require_model(const core::Constraints& c, const Model& model);  // bindings/constraints.cpp
+core::contact::ContactModel& contact_of(nb::handle x, const Model& model);  // bindings/contact_model.cpp
 
 namespace {
 
@@ -170,7 +172,10 @@ void expose_simulation(nb::module_& m) {
     m.def("run", [](const std::string& method, const Model& model, const control::Passive& passive, SourceHolder& src,
                     In<1> q0, nb::handle z_, double t0, double t_end, nb::handle out_t_, nb::handle out_q_,
                     nb::handle out_v_, nb::handle out_tau_, nb::handle out_w_, nb::handle out_e_, nb::handle count_,
-                    nb::dict opt_, nb::handle stats_, nb::handle sw_, nb::object sens, nb::object constrained) {
+                    nb::dict opt_, nb::handle stats_, nb::handle sw_, nb::object sens, nb::object constrained,
+                    nb::object contact_) {
+        core::contact::ContactModel* contact = contact_.is_none() ? nullptr : &contact_of(contact_, model);
+        const long nquad = contact ? 3 : 2;  // W_source, W_passive (, W_contact)
         const Output z = output_of(z_, 1), out_t = output_of(out_t_, 1), oq = output_of(out_q_, 2);
         const Output ov = output_of(out_v_, 2), otau = output_of(out_tau_, 2), ow = output_of(out_w_, 2);
         const Output oe = output_of(out_e_, 2);
@@ -179,7 +184,8 @@ void expose_simulation(nb::module_& m) {
         require(oq.shape(1) == nq && (length(oq) == T || length(oq) == 0), "out_q: (T or 0, nq)");
         require(ov.shape(1) == nv && (length(ov) == T || length(ov) == 0), "out_v: (T or 0, nv)");
         require(otau.shape(1) == nv && (length(otau) == T || length(otau) == 0), "out_tau: (T or 0, nv)");
-        require(length(ow) == T && ow.shape(1) == 2 && length(oe) == T && oe.shape(1) == 2, "out_w, out_e: (T, 2)");
+        require(length(ow) == T && ow.shape(1) == nquad && length(oe) == T && oe.shape(1) == 2,
+                "out_w: (T, 2, or 3 with contact), out_e: (T, 2)");
         // sensitivities: (x0, params (P, 3) int64, out_S (T or 0, 2 nv, ncol), Sf (2 nv, ncol)), or None
         bool x0 = false;
         std::vector<int> params;
@@ -207,7 +213,7 @@ void expose_simulation(nb::module_& m) {
                     "out_S: (T or 0, 2 nv, ncol)");
             require(length(Sf) == 2 * nv && Sf.shape(1) == ncol, "Sf: (2 nv, ncol)");
         }
-        require(n == 2 * nv + 2 + 2 * nv * ncol, "z: (2 nv (1 + ncol) + 2,)");
+        require(n == 2 * nv + nquad + 2 * nv * ncol, "z: (2 nv (1 + ncol) + 2, or + 3 with contact)");
         core::sim::Outputs out;
         out.t = out_t.data(), out.T = T, out.q = oq.data(), out.v = ov.data(), out.tau = otau.data();
         out.keep_q = length(oq) == T && T > 0, out.keep_v = length(ov) == T && T > 0, out.keep_tau = length(otau) == T && T > 0;
@@ -237,7 +243,7 @@ void expose_simulation(nb::module_& m) {
         // max |Phi_q v|, failed projections), or None
         std::unique_ptr<core::sim::RobotProblem> robot;
         if (constrained.is_none()) {
-            robot = std::make_unique<core::sim::RobotProblem>(model, passive, src.source, q0.data(), out, nullptr);
+            robot = std::make_unique<core::sim::RobotProblem>(model, passive, src.source, q0.data(), out, contact);
         } else {
             const char* what = "constrained: (constraints, alpha, beta, project, out_lam, drift)";
             nb::tuple c;
@@ -257,7 +263,7 @@ void expose_simulation(nb::module_& m) {
             robot = std::make_unique<core::sim::ConstrainedProblem>(model, con, passive, src.source, q0.data(), out,
                                                                     alpha, beta, project,
                                                                     length(lam) && T ? lam.data() : nullptr,
-                                                                    drift.data());
+                                                                    drift.data(), contact);
         }
         core::sim::RobotProblem& p = *robot;
         std::unique_ptr<core::sim::SensitivityProblem> ps;
@@ -281,7 +287,7 @@ void expose_simulation(nb::module_& m) {
         return qbase;  // the chart's base at the end: the final q is retract(base, z[:nv])
     }, "method"_a, "model"_a, "passive"_a, "source"_a, "q0"_a, "z"_a, "t0"_a, "t_end"_a, "out_t"_a, "out_q"_a,
        "out_v"_a, "out_tau"_a, "out_w"_a, "out_e"_a, "count"_a, "options"_a, "stats"_a, "switches"_a,
-       "sensitivities"_a.none(), "constrained"_a.none() = nb::none());
+       "sensitivities"_a.none(), "constrained"_a.none() = nb::none(), "contact"_a.none() = nb::none());
 }
 
 }  // namespace bind

@@ -10,23 +10,30 @@ namespace core::sim {
 
 ConstrainedProblem::ConstrainedProblem(const Model& model, const Constraints& con, const control::Passive& passive,
                                        control::Source& source, const double* q0, const Outputs& out, double alpha,
-                                       double beta, bool project, double* out_lam, double* drift)
-    : RobotProblem(model, passive, source, q0, out, nullptr), con_(con), alpha_(alpha), beta_(beta),
+                                       double beta, bool project, double* out_lam, double* drift,
+                                       ContactHooks* contact)
+    : RobotProblem(model, passive, source, q0, out, contact), con_(con), alpha_(alpha), beta_(beta),
       project_(project), out_lam_(out_lam), drift_(drift), lam_(con.m), abuf_(model.nv), vbuf_(model.nv),
       qproj_(model.nq) {
     cd_.resize(model, con);
+}
+
+void ConstrainedProblem::applied(double t, const double* q, const double* v, const double* delta, double& power_s,
+                                 double& power_p, double& power_c) {
+    source_and_passive(t, q, v, power_s, power_p);
+    power_c = contact_ ? contact_->torques(model_, q, v, tau_p_.data(), delta) : 0.0;
 }
 
 // dz = f(t, z): chart rate, the constrained accelerations (NaN when M is singular), powers.
 void ConstrainedProblem::rhs(double t, const double* z, double* dz) {
     const double* q = chart_and_velocity(z, dz);
     const double* v = z + nv_;
-    double power_s, power_p;
-    source_and_passive(t, q, v, power_s, power_p);
+    double power_s, power_p, power_c;
+    applied(t, q, v, z, power_s, power_p, power_c);
     if (constrained_forward_dynamics(model_, con_, data_, cd_, q, v, tau_p_.data(), passive_.gravity, alpha_, beta_,
                                      dz + nv_, lam_.data()) >= 0)
         std::fill(dz + nv_, dz + 2 * nv_, std::nan(""));
-    quadratures(dz, power_s, power_p, 0.0);
+    quadratures(dz, power_s, power_p, power_c);
 }
 
 void ConstrainedProblem::track_drift(const double* q, const double* v) {
@@ -44,10 +51,12 @@ void ConstrainedProblem::rebase(double t, double* z, double* dz, double* mag) {
     if (project_) {
         const double err = project_position(model_, con_, data_, cd_, base_.data(), PROJECT_TOL, PROJECT_ITER,
                                             qproj_.data());
-        if (err <= PROJECT_TOL)
+        if (err <= PROJECT_TOL) {
             std::copy(qproj_.begin(), qproj_.end(), base_.begin());
-        else  // keep the step's configuration; the drift and the report say how far off it is
+            if (contact_) contact_->rebased();  // (the clearance's bound follows chart steps, not projections)
+        } else {  // keep the step's configuration; the drift and the report say how far off it is
             drift_[2] += 1.0;
+        }
         if (project_velocity(model_, con_, data_, cd_, base_.data(), v, vbuf_.data()) < 0)
             std::copy(vbuf_.begin(), vbuf_.end(), v);
         rhs(t, z, dz);
@@ -64,8 +73,8 @@ void ConstrainedProblem::emit(int64_t j, double t, const double* z) {
     const double* v = z + nv_;
     track_drift(q, v);
     if (!out_lam_) return;
-    double power_s, power_p;
-    source_and_passive(t, q, v, power_s, power_p);
+    double power_s, power_p, power_c;
+    applied(t, q, v, z, power_s, power_p, power_c);
     constrained_forward_dynamics(model_, con_, data_, cd_, q, v, tau_p_.data(), passive_.gravity, alpha_, beta_,
                                  abuf_.data(), out_lam_ + j * con_.m);
 }

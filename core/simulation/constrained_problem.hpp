@@ -27,7 +27,7 @@ public:
     // and the count of position projections that failed (accumulated into: a resumed run goes on from them).
     ConstrainedProblem(const Model& model, const Constraints& con, const control::Passive& passive,
                        control::Source& source, const double* q0, const Outputs& out, double alpha, double beta,
-                       bool project, double* out_lam, double* drift);
+                       bool project, double* out_lam, double* drift, ContactHooks* contact = nullptr);
     void rhs(double t, const double* z, double* dz) override;
     void rebase(double t, double* z, double* dz, double* mag) override;
     void emit(int64_t j, double t, const double* z) override;
@@ -37,6 +37,9 @@ public:
     }
 
 private:
+    // tau_p = source + passive (+ contact) torques at (t, q, v); their powers.  delta: q's chart coordinate.
+    void applied(double t, const double* q, const double* v, const double* delta, double& power_s, double& power_p,
+                 double& power_c);
     void track_drift(const double* q, const double* v);
 
     const Constraints& con_;

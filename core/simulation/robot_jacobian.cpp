@@ -15,8 +15,14 @@
 // dtau_p/dq, dtau_p/dv (diagonal) from passive_derivatives; the source's analytically where control/derivatives.hpp
 // has it (then times T), else by central differences of the source alone in the chart coordinates (Python
 // callables, computed torque, operational space).  T from T^-1 = d delta/d e, central differences of the chart's
-// inverse along integrate.  The W columns are zero (f does not depend on the quadratures).  With contact: false
-// (the solvers difference f).
+// inverse along integrate.  The W columns are zero (f does not depend on the quadratures).
+//
+// Contact: after an evaluation that found a contact (since the last Jacobian), tau also holds the generalised contact
+// force tau_c, and its derivatives enter as the source's do (da/d delta += M^-1 dtau_c/d delta, da/dv += M^-1
+// dtau_c/dv) with the contact power's row d(v . tau_c)/dz.  d tau_c/dv is analytical and exact
+// (contact/force_derivatives.hpp); d tau_c/d delta its stiffness part for Radau's Newton matrix, or, in a run with
+// sensitivities (which need it exact), central differences of the contact force alone.  A robot touching nothing
+// skips them.
 #include <algorithm>
 #include <cmath>
 
@@ -38,6 +44,48 @@ RobotProblem::JacobianWork::JacobianWork(const Model& model)
       dts_dd(da_dq.size()), dts_dv(da_dq.size()), Ti(da_dq.size()), dtp_dq(model.nv), dtp_dv(model.nv),
       tau_p(model.nv), e(model.nv, 0.0), dt(model.nv), vt(model.nv), tp(model.nv), tm(model.nv), cp(model.nv),
       cm(model.nv), row(model.nv), sub(model.nv), q(model.nq), qt(model.nq), piv(model.nv) {}
+
+RobotProblem::ContactWork::ContactWork(const Model& model)
+    : tau_c(model.nv), dtc_dd(static_cast<size_t>(model.nv) * model.nv), dtc_dv(dtc_dd.size()) {}
+
+// tau_c = the generalised contact force at (q, v) (zeroed first); returns its power.
+double RobotProblem::contact_at(const double* q, const double* v, double* tau_c) {
+    std::fill(tau_c, tau_c + nv_, 0.0);
+    return contact_->torques(model_, q, v, tau_c, nullptr);
+}
+
+// If an evaluation since the last Jacobian touched something: tau_c at (delta, v), d tau_c/dv and d tau_c/d delta
+// (the stiffness part, or differenced when the run needs it exact).  Otherwise all zero.
+void RobotProblem::contact_terms(const double* delta, const double* v) {
+    ContactWork& c = *cw_;
+    std::fill(c.tau_c.begin(), c.tau_c.end(), 0.0);
+    std::fill(c.dtc_dd.begin(), c.dtc_dd.end(), 0.0);
+    std::fill(c.dtc_dv.begin(), c.dtc_dv.end(), 0.0);
+    if (!contact_->touched()) return;
+    JacobianWork& w = *jw_;
+    const int nv = nv_;
+    double* q = w.q.data();  // (not qt: tangent_to_chart's scratch)
+    retract(model_, base_.data(), delta, q);
+    if (contact_->jacobian(model_, q, v, c.dtc_dd.data(), c.dtc_dv.data())) {  // exact d tau_c/d delta: differenced
+        std::copy(delta, delta + nv, w.dt.begin());
+        for (int k = 0; k < nv; ++k) {
+            const double h = FD_STEP * std::max(1.0, std::abs(delta[k]));
+            w.dt[k] = delta[k] + h;
+            retract(model_, base_.data(), w.dt.data(), q);
+            contact_at(q, v, w.tp.data());
+            w.dt[k] = delta[k] - h;
+            retract(model_, base_.data(), w.dt.data(), q);
+            contact_at(q, v, w.tm.data());
+            w.dt[k] = delta[k];
+            for (int r = 0; r < nv; ++r) c.dtc_dd[r * nv + k] = (w.tp[r] - w.tm[r]) / (2 * h);
+        }
+        retract(model_, base_.data(), delta, q);
+    } else if (model_.nq != nv) {
+        tangent_to_chart(q, c.dtc_dd.data());
+    }
+    contact_at(q, v, c.tau_c.data());
+    contact_->touched();  // forget the differences' own contacts
+}
 
 // A (nv x nv, tangent columns at q) <- A T, T = d(tangent)/d delta, from T^-1 = d delta/d e by central differences
 // of chart_difference from base along integrate; X T^-1 = A solved as T^-T X^T = A^T, one row of A at a time.
@@ -133,16 +181,22 @@ void RobotProblem::chart_derivatives(const double* q, const double* delta, const
 
 // J = df/dz at (t, z) (the top comment's table, block by block; f0, mag and ne unused: the whole matrix is written).
 bool RobotProblem::jacobian(double t, const double* z, const double*, const double*, int, double* J, Stats& st) {
-    if (contact_) return false;
     if (!jw_) jw_ = std::make_unique<JacobianWork>(model_);
+    if (contact_ && !cw_) cw_ = std::make_unique<ContactWork>(model_);
     JacobianWork& w = *jw_;
     const int nv = nv_, n = 2 * nv + nquad_;
     const double *delta = z, *v = z + nv;
+    if (contact_) contact_terms(delta, v);
+    // (without contact no zeros are added: the sums keep the bits of the problem that never had any)
+    const double* tau_c = contact_ ? cw_->tau_c.data() : nullptr;
+    const double* dtc_dd = contact_ ? cw_->dtc_dd.data() : nullptr;
+    const double* dtc_dv = contact_ ? cw_->dtc_dv.data() : nullptr;
     double* q = w.q.data();
     retract(model_, base_.data(), delta, q);
     control::source_torques(model_, source_, passive_, ws_source_, t, q, v, tau_s_.data());
     control::passive_torques(passive_, q, v, nv, w.tau_p.data());
-    for (int k = 0; k < nv; ++k) tau_p_[k] = w.tau_p[k] + tau_s_[k];  // tau = passive + source
+    for (int k = 0; k < nv; ++k)  // tau = passive + source (+ contact)
+        tau_p_[k] = w.tau_p[k] + (tau_c ? tau_s_[k] + tau_c[k] : tau_s_[k]);
     const int singular = aba_derivatives(model_, data_, w.dd, q, v, tau_p_.data(), passive_.gravity, nullptr,
                                          w.da_dq.data(), w.da_dv.data(), w.Minv.data());
     source_derivatives_chart(t, q, delta, v, w.dts_dd.data(), w.dts_dv.data());
@@ -154,8 +208,9 @@ bool RobotProblem::jacobian(double t, const double* z, const double*, const doub
         for (int k = 0; k < nv; ++k) {
             double sd = 0.0, sv = 0.0;
             for (int m = 0; m < nv; ++m) {
-                sd += Minv[r * nv + m] * dts_dd[m * nv + k];
-                sv += Minv[r * nv + m] * dts_dv[m * nv + k];
+                const int mk = m * nv + k;
+                sd += Minv[r * nv + m] * (dtc_dd ? dts_dd[mk] + dtc_dd[mk] : dts_dd[mk]);
+                sv += Minv[r * nv + m] * (dtc_dv ? dts_dv[mk] + dtc_dv[mk] : dts_dv[mk]);
             }
             J[(nv + r) * n + k] = w.da_dq[r * nv + k] + sd + Minv[r * nv + k] * w.dtp_dq[k];
             J[(nv + r) * n + nv + k] = w.da_dv[r * nv + k] + sv + Minv[r * nv + k] * w.dtp_dv[k];
@@ -174,6 +229,16 @@ bool RobotProblem::jacobian(double t, const double* z, const double*, const doub
         J[(2 * nv + 1) * n + nv + k] = w.tau_p[k] + v[k] * w.dtp_dv[k];
     }
     for (int r = 0; r < n; ++r) std::fill(J + r * n + 2 * nv, J + (r + 1) * n, 0.0);
+    for (int r = 2 * nv + 2; r < n; ++r)  // the contact power v . tau_c (zero while nothing touches)
+        for (int k = 0; k < nv; ++k) {
+            double pc_d = 0.0, pc_v = tau_c[k];
+            for (int m = 0; m < nv; ++m) {
+                pc_d += v[m] * dtc_dd[m * nv + k];
+                pc_v += v[m] * dtc_dv[m * nv + k];
+            }
+            J[r * n + k] = pc_d;
+            J[r * n + nv + k] = pc_v;
+        }
     abort_if_failed();
     st.jacobian_evals += 1;
     return true;

@@ -39,12 +39,17 @@ public:
     // After the ABA's first pass (data.X, data.v): the contact forces subtracted from data.pA as external body
     // forces; returns their power.  delta: the chart coordinates of q (the clearance's bound follows them).
     virtual double bias(const Model& model, Data& data, const double* q, const double* v, const double* delta) = 0;
-    // tau += J_c^T f_c at (q, v); returns the power (the constrained right-hand side's way in).
+    // tau += J_c^T f_c at (q, v); returns the power (the constrained right-hand side's way in).  delta: null where q
+    // is not on the step's chart (never skipped).
     virtual double torques(const Model& model, const double* q, const double* v, double* tau, const double* delta) = 0;
     virtual void emit(int64_t j, const double* q, const double* v) = 0;      // the active contacts of sample j
     virtual void track(double t, const double* base, const double* v, const double* delta) = 0;  // after a step
     virtual void rebased() {}                                                // a projection moved the base
     virtual bool touchdown() = 0;  // the last accepted state touches something after touching nothing (once)
+    virtual bool touched() = 0;    // an evaluation found a contact since the last call (the Jacobian's test)
+    // dv = d tau_c/dv, dq = the stiffness part of d tau_c/dq at (q, v) (nv x nv, tangent space); returns whether the
+    // run needs d tau_c/dq exact (then the caller differences it: a run with sensitivities).
+    virtual bool jacobian(const Model& model, const double* q, const double* v, double* dq, double* dv) = 0;
 };
 
 class RobotProblem : public Problem {
@@ -56,7 +61,7 @@ public:
     void euler_config(double* z, double h) override;
     void emit(int64_t j, double t, const double* z) override;
     bool touchdown() override { return contact_ && contact_->touchdown(); }
-    // J = df/dz assembled from the parts' derivatives (robot_jacobian.cpp); false with contact (differenced).
+    // J = df/dz assembled from the parts' derivatives (robot_jacobian.cpp).
     bool jacobian(double t, const double* z, const double* f0, const double* mag, int ne, double* J,
                   Stats& st) override;
     bool aborted() const override { return aborted_; }
@@ -87,6 +92,13 @@ protected:
         std::vector<int> piv;                                                           // nv
         explicit JacobianWork(const Model& model);
     };
+    // The contact's part (robot_jacobian.cpp): tau_c and its derivatives in the chart coordinates.
+    struct ContactWork {
+        std::vector<double> tau_c, dtc_dd, dtc_dv;  // nv, nv x nv, nv x nv
+        explicit ContactWork(const Model& model);
+    };
+    double contact_at(const double* q, const double* v, double* tau_c);
+    void contact_terms(const double* delta, const double* v);
     void source_derivatives_chart(double t, const double* q, const double* delta, const double* v, double* dd,
                                   double* dv);
     void source_differences(double t, const double* delta, const double* v, double* dd, double* dv);
@@ -103,6 +115,7 @@ protected:
     std::vector<double> base_, qbuf_, tau_s_, tau_p_;
     Data data_;  // the ABA's workspace
     std::unique_ptr<JacobianWork> jw_;
+    std::unique_ptr<ContactWork> cw_;
     bool aborted_ = false;
 };
 

@@ -35,31 +35,29 @@ def contact_forces(model, contact, q, v, *, details=False):
     origin] (:func:`dynamics.inverse_dynamics`'s convention), so that ``forward_dynamics(model, q, v, tau,
     f_ext=f_ext)`` is the acceleration a simulation with ``contact`` has.  contact: a :class:`dynamics.Contact`.
     With ``details=True`` returns (f_ext, :class:`ContactDetails`)."""
-    from .resolve import Resolved, contact_record, evaluate_kernel, resolve  # the narrow phase: on first use
+    from .resolve import Resolved, core_contact, resolve
     check_model(model)
     r = contact if isinstance(contact, Resolved) else resolve(contact, model)
     Q, batched = configurations(model, q)
     if batched:
         raise InputError(f"q: expected one state of shape ({model.nq},), got {np.shape(q)}")
     v = vector("v", v, model.nv)
-    c = contact_record(r, model)
     f_ext = np.zeros((model.tree.parents.shape[0], 6))
     tau = np.zeros(model.nv)
-    power, n = evaluate_kernel(c, model.tree, Q[0].copy(), v, f_ext, tau)
+    power, pair, point, normal, depth, d = core_contact(r, model).core.evaluate(Q[0], v, f_ext, tau)
     if not details:
         return f_ext
-    b, d, scene = c.buf, c.detail, r.scene
-    pairs = [(scene.names[scene.pair_a[j]], scene.names[scene.pair_b[j]]) for j in b.pair[:n]]
-    return f_ext, ContactDetails(pairs, b.point[:n].copy(), b.normal[:n].copy(), d[:n, D_FN].copy(),
-                                 d[:n, D_FT:D_FT + 3].copy(), b.depth[:n].copy(), d[:n, D_SLIP:D_SLIP + 3].copy(),
-                                 tau, float(power), float(np.sum(d[:n, D_ELASTIC])))
+    scene = r.scene
+    pairs = [(scene.names[scene.pair_a[j]], scene.names[scene.pair_b[j]]) for j in pair]
+    return f_ext, ContactDetails(pairs, point, normal, d[:, D_FN].copy(), d[:, D_FT:D_FT + 3].copy(), depth,
+                                 d[:, D_SLIP:D_SLIP + 3].copy(), tau, float(power), float(np.sum(d[:, D_ELASTIC])))
 
 
 def elastic_energy_at(model, resolved, q, v):
     """sum 1/2 k x^2 over the contacts of the state (q, v) (J)."""
-    from .resolve import contact_record, evaluate_kernel
-    c = contact_record(resolved, model)
+    from .resolve import core_contact
     q = np.ascontiguousarray(q, float)
     v = np.ascontiguousarray(v, float)
-    _, n = evaluate_kernel(c, model.tree, q, v, np.zeros((model.tree.parents.shape[0], 6)), np.zeros(model.nv))
-    return float(np.sum(c.detail[:n, D_ELASTIC]))
+    d = core_contact(resolved, model).core.evaluate(q, v, np.zeros((model.tree.parents.shape[0], 6)),
+                                                    np.zeros(model.nv))[-1]
+    return float(np.sum(d[:, D_ELASTIC]))

@@ -182,9 +182,34 @@ def contact_model(r, model, T=0, exact=False):
     return LAYOUT.pack(contact_record(r, model, T, exact))
 
 
+class CoreContact(NamedTuple):
+    """A run's contact in the C++ core (``core/contact/contact_model.hpp``): the core's object and the arrays it
+    writes, which the report and the outputs read (the :class:`ContactModel` fields of those names)."""
+
+    core: object  # dynamics._core.ContactModel
+    track: np.ndarray  # (3,) largest penetration, time in contact, last step's t
+    out: np.ndarray  # (T, K, NOUT) contacts kept per sample
+    out_n: np.ndarray  # (T,) int64
+
+
+def core_contact(r, model, T=0, exact=False):
+    """A :class:`CoreContact` of the resolved contact ``r`` for one run (T samples kept when the contact asked for
+    "contacts"; ``exact``: the run's Jacobian differences d tau_c/dq, as sensitivities need), or for a single
+    evaluation (T = 0)."""
+    from .. import _core
+    K = int(r.scene.max_contacts)
+    T = T if "contacts" in r.contact.outputs else 0
+    track, out, out_n = np.zeros(3), np.zeros((T, K, NOUT)), np.zeros(T, np.int64)
+    S = r.scene
+    core = _core.ContactModel(model.core, S.body, S.kind, S.size, S.R, S.p, S.radius, S.pair_a, S.pair_b,
+                              r.pair_body, r.mat, K, track, out, out_n, bool(exact))
+    return CoreContact(core, track, out, out_n)
+
+
 def contact_views(c):
-    """The :class:`ContactModel` of a :class:`PackedContact` as numpy views (a run's results, in Python)."""
-    return LAYOUT.views(c)
+    """The :class:`ContactModel` of a :class:`PackedContact` as numpy views (a run's results, in Python); a
+    :class:`CoreContact` is its own."""
+    return c if isinstance(c, CoreContact) else LAYOUT.views(c)
 
 
 @inline_kernel

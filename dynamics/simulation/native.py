@@ -1,7 +1,7 @@
 """One run of the simulation in the C++ core (``core/simulation/``): the passive torques, the torque source and the
 samples as the core reads and writes them; a constrained model's run is the core's ConstrainedProblem
-(``core/simulation/constrained_problem.hpp``).  (Transitional: runs with contact still take the numba path of
-:mod:`.run` until they move to the core.)"""
+(``core/simulation/constrained_problem.hpp``).  (Transitional: DYNAMICS_SIM_NUMBA=1 still takes the numba path of
+:mod:`.run`, to compare the two.)"""
 
 from typing import NamedTuple
 
@@ -31,6 +31,8 @@ class Samples(NamedTuple):
     out_lam: np.ndarray = None
     drift: np.ndarray = None
     project_failures: np.ndarray = None
+    #: a run with contact: its :class:`dynamics.contact.resolve.CoreContact` (the tracking, the kept contacts)
+    contact: object = None
 
 
 def core_passive(model, ps):
@@ -72,12 +74,12 @@ def chart_matrix(model, q, delta):
     return C
 
 
-def initial_state(model, q0, v0, x0, ncol):
-    """z0 of a run with sensitivities: [0, v0, S0 column by column, 0, 0], S0 = [C(q0, 0) | 0] on the q0 columns'
+def initial_state(model, q0, v0, x0, ncol, nquad=2):
+    """z0 of a run with sensitivities: [0, v0, S0 column by column, 0 (nquad quadratures)], S0 = [C(q0, 0) | 0] on the q0 columns'
     q-rows (the identity for 1-dof joints) and the identity on the v0 columns."""
     nv = model.nv
     n2, nx = 2 * nv, 2 * nv if x0 else 0
-    z = np.zeros(n2 + n2 * ncol + 2)
+    z = np.zeros(n2 + n2 * ncol + nquad)
     z[nv:n2] = v0
     S0 = np.zeros((n2, ncol))
     S0[:, :nx] = np.eye(n2)[:, :nx]
@@ -88,16 +90,17 @@ def initial_state(model, q0, v0, x0, ncol):
 
 
 def run(method, model, passive, source, q0, z, t_end, out_t, outputs, opt, watch=None, t0=0.0, sens=None,
-        baumgarte=None, project=False):
+        baumgarte=None, project=False, contact=None):
     """Run ``method`` from (t0, z) to t_end (z advanced in place), samples at out_t keeping ``outputs``; returns
     (Samples, stats record, switch log's used rows).  ``sens``: None, or (x0, params (P, 3), out_S, Sf) for a run
     with sensitivities (:mod:`.sensitivities`), S written into out_S per sample and Sf at the end.  ``baumgarte``:
     None, or the gains (alpha, beta) of a constrained model's run (its multipliers kept when ``outputs`` has
-    "lambda"), ``project`` whether its steps are projected onto the constraints."""
+    "lambda"), ``project`` whether its steps are projected onto the constraints.  ``contact``: None, or the run's
+    :class:`dynamics.contact.resolve.CoreContact`."""
     nv, nq, T = model.nv, model.nq, out_t.shape[0]
     p = Samples(out_t, np.zeros((T if "q" in outputs else 0, nq)), np.zeros((T if "v" in outputs else 0, nv)),
-                np.zeros((T if "tau" in outputs else 0, nv)), np.zeros((T, 2)), np.zeros((T, 2)),
-                np.zeros(1, np.int64), None)
+                np.zeros((T if "tau" in outputs else 0, nv)), np.zeros((T, 2 + (contact is not None))),
+                np.zeros((T, 2)), np.zeros(1, np.int64), None, contact=contact)
     constrained = None
     if baumgarte is not None:
         con = core_constraints(model)
@@ -112,7 +115,8 @@ def run(method, model, passive, source, q0, z, t_end, out_t, outputs, opt, watch
 
     def call():
         return _core.run(method, model.core, passive, source, q0, z, float(t0), float(t_end), p.out_t, p.out_q,
-                         p.out_v, p.out_tau, p.out_w, p.out_e, p.count, options, stats, sw, sens, constrained)
+                         p.out_v, p.out_tau, p.out_w, p.out_e, p.count, options, stats, sw, sens, constrained,
+                         None if contact is None else contact.core)
     if watch is None:
         base = call()
     else:

@@ -251,7 +251,7 @@ def _one_run(model, s, ps, src, dt, out_t, rtol, atol, max_steps, outputs, h0=0.
     nv = model.nv
     # runs with sensitivities too: the core's Jacobian is assembled from the parts' derivatives, as numba's
     # (core/simulation/robot_jacobian.cpp), so the variational equations' J S is not blurred by differences
-    if s.contact is None and not _NUMBA_SIM:
+    if not _NUMBA_SIM:
         return _native_run(model, s, ps, src, dt, out_t, rtol, atol, max_steps, outputs, h0, watch, probe)
     cm = None
     if s.contact is not None:  # the contact modules are imported by a run with contact only
@@ -295,7 +295,12 @@ def _native_run(model, s, ps, src, dt, out_t, rtol, atol, max_steps, outputs, h0
     import time
     from . import native
     nv = model.nv
-    z = np.zeros(2 * nv + NQUAD)
+    contact = None
+    if s.contact is not None:
+        from ..contact.resolve import core_contact
+        contact = core_contact(s.contact, model, out_t.shape[0], exact=s.sens is not None)
+    nquad = NQUAD + (contact is not None)
+    z = np.zeros(2 * nv + nquad)
     z[nv:2 * nv] = s.v0
     ne, sens, out_S, Sf = 2 * nv, None, None, None
     if s.sens is not None:
@@ -303,7 +308,7 @@ def _native_run(model, s, ps, src, dt, out_t, rtol, atol, max_steps, outputs, h0
         T = out_t.shape[0] if out_t is s.out_t else 0  # (not in the rerun)
         out_S, Sf = np.zeros((T, 2 * nv, ncol)), np.zeros((2 * nv, ncol))
         sens = (bool(s.sens.x0), np.ascontiguousarray(s.sens.params, np.int64).reshape(-1, 3), out_S, Sf)
-        z = native.initial_state(model, s.q0, s.v0, s.sens.x0, ncol)
+        z = native.initial_state(model, s.q0, s.v0, s.sens.x0, ncol, nquad)
         ne = 2 * nv * (1 + ncol)
     nsteps = max(1, math.ceil(s.duration / dt * (1 - 1e-12))) if s.fixed and s.duration > 0 else 0
     opt = Options(nc=nv, nvel=nv, ne=ne, max_steps=int(max_steps), nsteps=nsteps, dt=float(dt or 0.0),
@@ -312,7 +317,7 @@ def _native_run(model, s, ps, src, dt, out_t, rtol, atol, max_steps, outputs, h0
     tic = time.perf_counter()
     p, st, sw = native.run(s.integrator, model, native.core_passive(model, ps), native.core_source(model, src), s.q0,
                            z, s.duration, out_t, outputs, opt, watch=watch, sens=sens,
-                           baumgarte=s.baumgarte if s.constrained else None, project=s.project)
+                           baumgarte=s.baumgarte if s.constrained else None, project=s.project, contact=contact)
     wall = time.perf_counter() - tic
     qf = np.empty(model.nq)
     _core.retract(model.core, p.base, z[:nv], qf)

@@ -1,0 +1,160 @@
+// A run's contact (core/contact/contact_model.hpp) as the Python object _core.ContactModel: made from a scene's
+// arrays, each pair's bodies and material, and the arrays a run writes (the tracking, the kept contacts), all
+// checked here before the core reads them; it evaluates one state (dynamics.contact_forces) and is what
+// _core.run takes as a simulation's contact (bindings/simulation.cpp).
+#include <string>
+
+#include "arrays.hpp"
+#include "contact/contact_model.hpp"
+#include "numpy.hpp"
+
+namespace bind {
+
+using core::Model;
+namespace ct = core::contact;
+
+namespace {
+
+template <class T, size_t N>
+using CIn = nb::ndarray<const T, nb::ndim<N>, nb::c_contig, nb::device::cpu>;
+template <class T, size_t N>
+using COut = nb::ndarray<T, nb::ndim<N>, nb::c_contig, nb::device::cpu>;
+
+// An array the core writes into: exactly that dtype and rank, C-contiguous, writable (never a converted copy,
+// which would be written and lost).
+template <class T, size_t N>
+COut<T, N> writable(nb::handle x, const char* name) {
+    COut<T, N> a;
+    if (!nb::try_cast(x, a, false))
+        throw nb::type_error((std::string(name) + ": expected a writable C-contiguous " + std::to_string(N) + "-d " +
+                              (sizeof(T) == 8 && T(0.5) != 0 ? "float64" : "int64") + " array").c_str());
+    return a;
+}
+
+}  // namespace
+
+// The arrays, kept alive with the model (the core holds pointers into them).
+struct ContactHolder {
+    CIn<int64_t, 1> body, kind, pair_a, pair_b;
+    CIn<double, 2> size, p, mat;
+    CIn<double, 3> R;
+    CIn<double, 1> radius;
+    CIn<int64_t, 2> pair_body;
+    COut<double, 1> track;
+    COut<double, 3> out;
+    COut<int64_t, 1> out_n;
+    nb::object model_owner;
+    std::unique_ptr<ct::ContactModel> model;
+};
+
+namespace {
+
+// The scene's arrays checked against each other and the model: shapes, index ranges, pair order.
+ct::Scene checked_scene(const ContactHolder& h, const Model& model) {
+    const long ng = length(h.body), np = length(h.pair_a);
+    require(length(h.kind) == ng && length(h.radius) == ng, "scene: kind and radius (ng,)");
+    require(length(h.size) == ng && h.size.shape(1) == 3 && length(h.p) == ng && h.p.shape(1) == 3,
+            "scene: size and p (ng, 3)");
+    require(length(h.R) == ng && h.R.shape(1) == 3 && h.R.shape(2) == 3, "scene: R (ng, 3, 3)");
+    require(length(h.pair_b) == np, "scene: pair_a and pair_b of one length");
+    require(length(h.pair_body) == np && h.pair_body.shape(1) == 2, "pair_body: (npairs, 2)");
+    require(length(h.mat) == np && h.mat.shape(1) == ct::NMAT, "mat: (npairs, 5)");
+    for (long g = 0; g < ng; ++g) {
+        require(h.body(g) >= -1 && h.body(g) < model.nb, "scene: a geometry's body out of the model's range");
+        require(h.kind(g) >= ct::SPHERE && h.kind(g) <= ct::PLANE, "scene: an unknown geometry kind");
+    }
+    for (long k = 0; k < np; ++k) {
+        const int64_t a = h.pair_a(k), b = h.pair_b(k);
+        require(a >= 0 && a < ng && b >= 0 && b < ng, "scene: a pair's geometry out of range");
+        require(h.kind(a) <= h.kind(b) && h.kind(a) != ct::PLANE, "scene: pairs ordered by kind, no plane-plane");
+        for (int s = 0; s < 2; ++s)
+            require(h.pair_body(k, s) == h.body(s ? b : a), "pair_body: the bodies of each pair's geometries");
+        require(h.mat(k, ct::K_VS) > 0 && h.mat(k, ct::K_STIFF) >= 0, "mat: positive stiction velocity, stiffness");
+    }
+    ct::Scene S;
+    S.ng = ng, S.npairs = np, S.body = h.body.data(), S.kind = h.kind.data(), S.size = h.size.data();
+    S.R = h.R.data(), S.p = h.p.data(), S.radius = h.radius.data(), S.pair_a = h.pair_a.data();
+    S.pair_b = h.pair_b.data();
+    return S;
+}
+
+nb::object int_array(const int64_t* x, long n) {
+    auto* copy = new int64_t[n > 0 ? n : 1];
+    std::copy(x, x + n, copy);
+    nb::capsule owner(copy, [](void* p) noexcept { delete[] static_cast<int64_t*>(p); });
+    return nb::cast(nb::ndarray<nb::numpy, int64_t, nb::ndim<1>>(copy, {static_cast<size_t>(n)}, owner));
+}
+
+// The first n contacts of the last evaluation: (pair, point, normal, depth, detail) as new arrays.
+nb::tuple contacts_of(const ct::ContactModel& c, int64_t n) {
+    const ct::ContactBuffer& b = c.buffer();
+    double *point, *normal, *depth, *detail;
+    nb::object P = new_array(n, 3, &point), N = new_array(n, 3, &normal), D = new_array(n, &depth);
+    nb::object E = new_array(n, ct::NDETAIL, &detail);
+    for (int64_t k = 0; k < n; ++k) {
+        for (int r = 0; r < 3; ++r) point[3 * k + r] = b.point[k][r], normal[3 * k + r] = b.normal[k][r];
+        depth[k] = b.depth[k];
+    }
+    std::copy(c.detail(), c.detail() + n * ct::NDETAIL, detail);
+    return nb::make_tuple(int_array(b.pair.data(), n), P, N, D, E);
+}
+
+}  // namespace
+
+// The holder's core model (bindings/simulation.cpp's run takes it), checked to be made for `model`.
+ct::ContactModel& contact_of(nb::handle x, const Model& model) {
+    ContactHolder* h = nullptr;
+    if (!nb::try_cast(x, h) || !h || !h->model) throw nb::type_error("contact: expected a _core.ContactModel or None");
+    require(&h->model->model() == &model, "contact: made for another model");
+    return *h->model;
+}
+
+void expose_contact_model(nb::module_& m) {
+    using namespace nb::literals;
+    nb::class_<ContactHolder>(m, "ContactModel", "A run's contact (core/contact/contact_model.hpp).")
+        .def("__init__", [](ContactHolder* self, nb::handle model_, CIn<int64_t, 1> body, CIn<int64_t, 1> kind,
+                            CIn<double, 2> size, CIn<double, 3> R, CIn<double, 2> p, CIn<double, 1> radius,
+                            CIn<int64_t, 1> pair_a, CIn<int64_t, 1> pair_b, CIn<int64_t, 2> pair_body,
+                            CIn<double, 2> mat, long K, nb::handle track, nb::handle out, nb::handle out_n,
+                            bool exact) {
+            const Model& model = nb::cast<const Model&>(model_);
+            auto* h = new (self) ContactHolder{body, kind, pair_a, pair_b, size, p, mat, R, radius, pair_body,
+                                               writable<double, 1>(track, "track"), writable<double, 3>(out, "out"),
+                                               writable<int64_t, 1>(out_n, "out_n"), nb::borrow(model_), nullptr};
+            ct::ContactArrays a;
+            a.scene = checked_scene(*h, model);
+            require(K >= 0 && K <= 8 * a.scene.npairs, "K: the scene's max_contacts, at most 8 per pair");
+            require(length(h->track) == 3, "track: (3,)");
+            const long T = length(h->out);
+            require(length(h->out_n) == T && (T == 0 || (h->out.shape(1) == size_t(K) && h->out.shape(2) == ct::NOUT)),
+                    "out: (T, K, 15) and out_n (T,)");
+            a.pair_body = h->pair_body.data(), a.mat = h->mat.data(), a.K = K, a.track = h->track.data();
+            a.out = T ? h->out.data() : nullptr, a.out_n = h->out_n.data(), a.T = T;
+            h->model = std::make_unique<ct::ContactModel>(model, a, exact);
+        }, "model"_a, "body"_a, "kind"_a, "size"_a, "R"_a, "p"_a, "radius"_a, "pair_a"_a, "pair_b"_a, "pair_body"_a,
+           "mat"_a, "K"_a, "track"_a, "out"_a, "out_n"_a, "exact"_a)
+        // One state: f_ext (nb, 6) = the body wrenches, tau += J_c^T f_c; returns (power, pair, point, normal, depth,
+        // detail) of its contacts.
+        .def("evaluate", [](ContactHolder& h, In<1> q, In<1> v, nb::handle f_ext_, nb::handle tau_) {
+            const Model& model = h.model->model();
+            require(length(q) == model.nq && length(v) == model.nv, "q, v: (nq,), (nv,)");
+            const Output f_ext = output_of(f_ext_, 2), tau = output_of(tau_, 1);
+            require(length(f_ext) == model.nb && f_ext.shape(1) == 6 && length(tau) == model.nv,
+                    "f_ext (nbodies, 6), tau (nv,)");
+            int64_t n;
+            const double power = h.model->evaluate(q.data(), v.data(), tau.data(), f_ext.data(), n);
+            return nb::make_tuple(power) + contacts_of(*h.model, n);
+        }, "q"_a, "v"_a, "f_ext"_a, "tau"_a)
+        // dv = d tau_c/dv, dq = its stiffness part of d tau_c/dq at (q, v) (nv x nv): the simulation Jacobian's
+        // contact terms, for the tests.
+        .def("force_derivatives", [](ContactHolder& h, In<1> q, In<1> v, nb::handle dq_, nb::handle dv_) {
+            const Model& model = h.model->model();
+            require(length(q) == model.nq && length(v) == model.nv, "q, v: (nq,), (nv,)");
+            const Output dq = output_of(dq_, 2), dv = output_of(dv_, 2);
+            for (const Output* a : {&dq, &dv})
+                require(length(*a) == model.nv && a->shape(1) == model.nv, "dq, dv: (nv, nv)");
+            h.model->jacobian(model, q.data(), v.data(), dq.data(), dv.data());
+        }, "q"_a, "v"_a, "dq"_a, "dv"_a);
+}
+
+}  // namespace bind
