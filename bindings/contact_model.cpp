@@ -99,6 +99,32 @@ nb::tuple contacts_of(const ct::ContactModel& c, int64_t n) {
     return nb::make_tuple(int_array(b.pair.data(), n), P, N, D, E);
 }
 
+// A hand-made contact list (K contacts, contact k of "pair" k: pair_body (K, 2), mat (K, 5), point (K, 3), normal
+// (K, 3), depth (K,)), checked against the model, as a buffer.
+ct::ContactBuffer contact_list(const Model& model, const CIn<int64_t, 2>& pair_body, const CIn<double, 2>& mat,
+                               const CIn<double, 2>& point, const CIn<double, 2>& normal, const CIn<double, 1>& depth) {
+    const long K = length(depth);
+    require(length(pair_body) == K && pair_body.shape(1) == 2 && length(mat) == K && mat.shape(1) == ct::NMAT &&
+                length(point) == K && point.shape(1) == 3 && length(normal) == K && normal.shape(1) == 3,
+            "contacts: pair_body (K, 2), mat (K, 5), point and normal (K, 3), depth (K,)");
+    ct::ContactBuffer buf(K);
+    for (long k = 0; k < K; ++k) {
+        for (int s = 0; s < 2; ++s)
+            require(pair_body(k, s) >= -1 && pair_body(k, s) < model.nb, "pair_body: a body out of the model's range");
+        require(mat(k, ct::K_VS) > 0, "mat: a positive stiction velocity");
+        buf.pair[k] = k;
+        buf.point[k] = {point(k, 0), point(k, 1), point(k, 2)};
+        buf.normal[k] = {normal(k, 0), normal(k, 1), normal(k, 2)};
+        buf.depth[k] = depth(k);
+    }
+    return buf;
+}
+
+const double* step(ContactHolder& h, const In<1>& delta) {
+    require(length(delta) == h.model->model().nv, "delta: (nv,)");
+    return delta.data();
+}
+
 }  // namespace
 
 // The holder's core model (bindings/simulation.cpp's run takes it), checked to be made for `model`.
@@ -111,6 +137,40 @@ ct::ContactModel& contact_of(nb::handle x, const Model& model) {
 
 void expose_contact_model(nb::module_& m) {
     using namespace nb::literals;
+    // The force law on a hand-made contact list at (q, v): f_ext (nb, 6) = the body wrenches, tau += J_c^T f_c,
+    // detail (K, 8) each contact's row; returns the contact power.
+    m.def("contact_wrenches", [](const Model& model, In<1> q, In<1> v, CIn<int64_t, 2> pair_body, CIn<double, 2> mat,
+                                 CIn<double, 2> point, CIn<double, 2> normal, CIn<double, 1> depth, nb::handle f_ext_,
+                                 nb::handle tau_, nb::handle detail_) {
+        require(length(q) == model.nq && length(v) == model.nv, "q, v: (nq,), (nv,)");
+        const ct::ContactBuffer buf = contact_list(model, pair_body, mat, point, normal, depth);
+        const long K = buf.capacity();
+        const Output f_ext = output_of(f_ext_, 2), tau = output_of(tau_, 1), detail = output_of(detail_, 2);
+        require(length(f_ext) == model.nb && f_ext.shape(1) == 6 && length(tau) == model.nv, "f_ext (nbodies, 6), tau (nv,)");
+        require(length(detail) == K && detail.shape(1) == ct::NDETAIL, "detail: (K, 8)");
+        std::vector<core::Transform> oMi(model.nb);
+        std::vector<core::Force> fb(model.nb);
+        return ct::contact_wrenches(model, core::thread_data(model), q.data(), v.data(), K, buf, pair_body.data(),
+                                    mat.data(), oMi.data(), fb.data(), detail.data(), f_ext.data(), tau.data());
+    }, "model"_a, "q"_a, "v"_a, "pair_body"_a, "mat"_a, "point"_a, "normal"_a, "depth"_a, "f_ext"_a, "tau"_a,
+       "detail"_a);
+    // dv = d tau_c/dv and dq = its stiffness part of d tau_c/dq (nv x nv) of a hand-made contact list at (q, v).
+    m.def("contact_force_derivatives", [](const Model& model, In<1> q, In<1> v, CIn<int64_t, 2> pair_body,
+                                          CIn<double, 2> mat, CIn<double, 2> point, CIn<double, 2> normal,
+                                          CIn<double, 1> depth, nb::handle dq_, nb::handle dv_) {
+        require(length(q) == model.nq && length(v) == model.nv, "q, v: (nq,), (nv,)");
+        const ct::ContactBuffer buf = contact_list(model, pair_body, mat, point, normal, depth);
+        const Output dq = output_of(dq_, 2), dv = output_of(dv_, 2);
+        for (const Output* a : {&dq, &dv}) require(length(*a) == model.nv && a->shape(1) == model.nv, "dq, dv: (nv, nv)");
+        core::Data& data = core::thread_data(model);
+        std::vector<core::Transform> oMi(model.nb);
+        core::forward_pass(model, data, q.data(), nullptr, false);
+        ct::world_poses(model, data.X.data(), oMi.data());
+        ct::ForceDerivativesWork w(model.nv);
+        ct::contact_force_derivatives(model, buf.capacity(), buf, pair_body.data(), mat.data(), oMi.data(), v.data(),
+                                      dq.data(), dv.data(), w);
+    }, "model"_a, "q"_a, "v"_a, "pair_body"_a, "mat"_a, "point"_a, "normal"_a, "depth"_a, "dq"_a, "dv"_a);
+
     nb::class_<ContactHolder>(m, "ContactModel", "A run's contact (core/contact/contact_model.hpp).")
         .def("__init__", [](ContactHolder* self, nb::handle model_, CIn<int64_t, 1> body, CIn<int64_t, 1> kind,
                             CIn<double, 2> size, CIn<double, 3> R, CIn<double, 2> p, CIn<double, 1> radius,
@@ -154,7 +214,20 @@ void expose_contact_model(nb::module_& m) {
             for (const Output* a : {&dq, &dv})
                 require(length(*a) == model.nv && a->shape(1) == model.nv, "dq, dv: (nv, nv)");
             h.model->jacobian(model, q.data(), v.data(), dq.data(), dv.data());
-        }, "q"_a, "v"_a, "dq"_a, "dv"_a);
+        }, "q"_a, "v"_a, "dq"_a, "dv"_a)
+        // The clearance (core/contact/clearance.hpp), for the tests: measured at q, then its bound along a step's
+        // chart coordinate delta; `clearance` is (g, D0, referenced).
+        .def("set_reference", [](ContactHolder& h, In<1> q) {
+            require(length(q) == h.model->model().nq, "q: (nq,)");
+            h.model->measure(q.data());
+        }, "q"_a)
+        .def("moved", [](ContactHolder& h, In<1> delta) { return h.model->clearance().moved(step(h, delta)); })
+        .def("apart", [](ContactHolder& h, In<1> delta) { return h.model->clearance().apart(step(h, delta)); })
+        .def("advance", [](ContactHolder& h, In<1> delta) { return h.model->clearance().advance(step(h, delta)); })
+        .def_prop_ro("clearance", [](ContactHolder& h) {
+            const ct::Clearance& c = h.model->clearance();
+            return nb::make_tuple(c.separation(), c.bound(), c.referenced());
+        });
 }
 
 }  // namespace bind

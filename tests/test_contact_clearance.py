@@ -9,10 +9,9 @@ import numpy as np
 import pytest
 
 import dynamics
-from dynamics.configuration import _retract
-from dynamics.contact.clearance import advance, apart, clearance, moved, set_reference
-from dynamics.contact.narrow_phase import _world_arrays, scene_poses
-from dynamics.contact.resolve import resolve
+from dynamics import _core
+from dynamics.contact.narrow_phase import scene_poses
+from dynamics.contact.resolve import core_contact, resolve
 from dynamics.contact.scene import PLANE
 from robots import ALL_TYPES, random_state, random_urdf
 
@@ -22,12 +21,12 @@ def _scene(model, rng):
     geoms = [dynamics.Sphere(name, float(rng.uniform(0.02, 0.1)), tuple(rng.uniform(-0.4, 0.4, 3)))
              for name in model.body_names[::2]]
     return resolve(dynamics.Contact(ground=dynamics.Ground(height=-3.0), geometries=geoms, self_collision=True),
-                   model).scene
+                   model)
 
 
 def _points(model, scene, q):
     """Every body origin and geometry centre in the world at q."""
-    _, op = _world_arrays(model, scene, q)
+    op = np.array([dynamics.frame_placement(model, q, name)[:3, 3] for name in model.body_names])
     return np.vstack([op, scene_poses(model, scene, q)[scene.body >= 0, :3, 3]])
 
 
@@ -45,16 +44,16 @@ def _separation(model, scene, q):
     return g
 
 
-def _reference(model, scene, q):
-    cl = clearance(model)
-    oR, op = _world_arrays(model, scene, q)
-    set_reference(cl, scene.arrays, model.tree, oR, op)
+def _reference(model, resolved, q):
+    """The core's clearance (a run's contact, core/contact/clearance.hpp) with q as its reference."""
+    cl = core_contact(resolved, model).core
+    cl.set_reference(q)
     return cl
 
 
 def _retracted(model, q0, delta):
     q = np.empty(model.nq)
-    _retract(model.tree, q0, delta, q)
+    _core.retract(model.core, q0, delta, q)
     return q
 
 
@@ -65,11 +64,12 @@ def test_bound_holds_over_one_step_and_many(seed):
     reference."""
     rng = np.random.default_rng(seed)
     model = dynamics.load_urdf(random_urdf(rng, 7, types=ALL_TYPES, floating_joint=seed % 2 == 0))
-    scene = _scene(model, rng)
+    resolved = _scene(model, rng)
+    scene = resolved.scene
     q0, _, _ = random_state(model, rng)
     x0 = _points(model, scene, q0)
-    cl = _reference(model, scene, q0)
-    assert cl.state[0] == pytest.approx(_separation(model, scene, q0), rel=1e-12, abs=1e-12)
+    cl = _reference(model, resolved, q0)
+    assert cl.clearance[0] == pytest.approx(_separation(model, scene, q0), rel=1e-12, abs=1e-12)
     worst = 0.0
     for trial in range(100):
         delta = np.zeros(model.nv)
@@ -79,7 +79,7 @@ def test_bound_holds_over_one_step_and_many(seed):
             delta = rng.normal(size=model.nv)
         delta *= 10.0 ** rng.uniform(-4, 0) / np.linalg.norm(delta)
         true = np.linalg.norm(_points(model, scene, _retracted(model, q0, delta)) - x0, axis=1).max()
-        D = moved(cl, delta)
+        D = cl.moved(delta)
         assert true <= D * (1 + 1e-9) + 1e-12  # (apart's own margins for the round-off of the points)
         if D > 0:
             worst = max(worst, true / D)
@@ -88,10 +88,10 @@ def test_bound_holds_over_one_step_and_many(seed):
     q = q0.copy()
     for _ in range(10):
         delta = rng.normal(size=model.nv) * 0.03
-        advance(cl, delta)
+        cl.advance(delta)
         q = _retracted(model, q, delta)
         true = np.linalg.norm(_points(model, scene, q) - x0, axis=1).max()
-        assert true <= cl.state[1] * (1 + 1e-9) + 1e-12
+        assert true <= cl.clearance[1] * (1 + 1e-9) + 1e-12
 
 
 def test_apart_means_the_broad_phase_finds_nothing():
@@ -101,18 +101,19 @@ def test_apart_means_the_broad_phase_finds_nothing():
     said = 0
     for _ in range(5):
         model = dynamics.load_urdf(random_urdf(rng, 6, types=ALL_TYPES, floating_joint=True))
-        scene = _scene(model, rng)
+        resolved = _scene(model, rng)
+        scene = resolved.scene
         q0, _, _ = random_state(model, rng)
-        cl = _reference(model, scene, q0)
+        cl = _reference(model, resolved, q0)
         for _ in range(40):
             delta = rng.normal(size=model.nv)
             delta *= 10.0 ** rng.uniform(-5, 0) / np.linalg.norm(delta)
-            if apart(cl, delta):
+            if cl.apart(delta):
                 said += 1
                 assert _separation(model, scene, _retracted(model, q0, delta)) > 0
     assert said > 20
     # a non-finite step is never apart
-    assert not apart(cl, np.full(model.nv, np.nan))
+    assert not cl.apart(np.full(model.nv, np.nan))
 
 
 LEVER = """<robot name="lever">
@@ -131,13 +132,13 @@ def test_bound_is_tight_on_a_lever():
     and the bound is 2 theta / (1 - 2 theta), within 3 % at theta = 0.01; the slide adds its length
     exactly."""
     model = dynamics.load_urdf(LEVER)
-    scene = resolve(dynamics.Contact(ground=dynamics.Ground(height=-0.2),
-                                     geometries=[dynamics.Sphere("tip", 0.1, (0.5, 0.0, 0.0))]), model).scene
+    resolved = resolve(dynamics.Contact(ground=dynamics.Ground(height=-0.2),
+                                        geometries=[dynamics.Sphere("tip", 0.1, (0.5, 0.0, 0.0))]), model)
     q0 = np.zeros(model.nq)
-    cl = _reference(model, scene, q0)
-    assert cl.state[0] == pytest.approx(0.1, abs=1e-12)  # the ball's height above the ground minus its radius
+    cl = _reference(model, resolved, q0)
+    assert cl.clearance[0] == pytest.approx(0.1, abs=1e-12)  # the ball's height above the ground minus its radius
     theta = 0.01
     true = 2 * np.sin(theta / 2) * 2.0
-    assert true <= moved(cl, np.array([theta, 0.0])) <= 1.03 * true
-    assert moved(cl, np.array([0.0, 0.02])) == pytest.approx(0.02, rel=1e-12)
-    assert apart(cl, np.array([0.0, 0.04])) and not apart(cl, np.array([0.0, 0.06]))
+    assert true <= cl.moved(np.array([theta, 0.0])) <= 1.03 * true
+    assert cl.moved(np.array([0.0, 0.02])) == pytest.approx(0.02, rel=1e-12)
+    assert cl.apart(np.array([0.0, 0.04])) and not cl.apart(np.array([0.0, 0.06]))

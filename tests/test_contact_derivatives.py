@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 import dynamics
-from dynamics.contact.force_derivatives import contact_force_derivatives, point_jacobian
-from dynamics.contact.forces import NDETAIL, _contacts_kernel, contact_work
+from dynamics.contact.force_derivatives import force_derivatives_of
+from dynamics.contact.forces import contact_wrenches
 from robots import ALL_TYPES, random_state, random_urdf
 from test_derivatives import vector_fd
 
@@ -18,12 +18,20 @@ MAT = np.array([1e4, 2.0, 0.8, 0.5, 1e-2])
 
 
 def _tau_c(model, q, v, pair_body, point, normal, depth, mat):
-    """tau_c for a fixed contact list, and the work (world poses) it leaves."""
-    K = len(depth)
-    ws, tau = contact_work(model.tree.parents.shape[0]), np.zeros(model.nv)
-    _contacts_kernel(model.tree, q, v, K, np.arange(K, dtype=np.int64), point, normal, depth, pair_body, mat, ws,
-                     np.zeros((K, NDETAIL)), np.zeros((model.tree.parents.shape[0], 6)), tau)
-    return tau, ws
+    """tau_c for a fixed contact list."""
+    return contact_wrenches(model, q, v, pair_body, point, normal, depth, mat)[1]
+
+
+def _point_jacobian(model, q, body, P):
+    """(3, nv): the world velocity of body's material point at the world point P per unit of each velocity
+    (zero for the world, body -1), from the public frame Jacobian at the body's origin o: v_P = v_o + w x (P - o)."""
+    if body < 0:
+        return np.zeros((3, model.nv))
+    name = model.body_names[body]
+    J = dynamics.frame_jacobian(model, q, name)
+    r = P - dynamics.frame_placement(model, q, name)[:3, 3]
+    rx = np.array([[0, -r[2], r[1]], [r[2], 0, -r[0]], [-r[1], r[0], 0]])
+    return J[:3] - rx @ J[3:]
 
 
 @pytest.mark.parametrize("s", [1e-3, 0.5, 2.0, 5.0], ids=["near-rest", "stiction", "stribeck", "sliding"])
@@ -43,11 +51,8 @@ def test_velocity_derivative_is_exact(s):
     normal /= np.linalg.norm(normal, axis=1)[:, None]
     point, depth = rng.normal(size=(K, 3)), rng.uniform(1e-4, 1e-2, K)
     mat = np.tile(MAT, (K, 1))
-    _, ws = _tau_c(model, q, v, pair_body, point, normal, depth, mat)
     for k in range(K):
-        Ak = np.zeros((3, model.nv))
-        point_jacobian.py_func(model.tree, ws.oR, ws.op, pair_body[k, 0], point[k], 1.0, Ak)
-        point_jacobian.py_func(model.tree, ws.oR, ws.op, pair_body[k, 1], point[k], -1.0, Ak)
+        Ak = _point_jacobian(model, q, pair_body[k, 0], point[k]) - _point_jacobian(model, q, pair_body[k, 1], point[k])
         vrel = Ak @ v
         vn = normal[k] @ vrel
         if k % 3 and vn < 0:  # separating ones: flip the normal
@@ -56,10 +61,8 @@ def test_velocity_derivative_is_exact(s):
             normal[k], vn = -normal[k], -vn
         mat[k, 4] = np.linalg.norm(vrel - vn * normal[k]) / s  # v_s
         mat[k, 1] = (0.5, 0.5, 2.0)[k % 3] / abs(vn)  # d v_n: -0.5 (approaching), 0.5, 2 (clamped)
-    dq, dv = np.empty((model.nv, model.nv)), np.empty((model.nv, model.nv))
-    contact_force_derivatives(model.tree, K, np.arange(K, dtype=np.int64), point, normal, depth, pair_body, mat,
-                              ws.oR, ws.op, v, dq, dv)
-    fd = vector_fd(lambda x: _tau_c(model, q, x, pair_body, point, normal, depth, mat)[0], v, 1e-7)
+    dq, dv = force_derivatives_of(model, q, v, pair_body, point, normal, depth, mat)
+    fd = vector_fd(lambda x: _tau_c(model, q, x, pair_body, point, normal, depth, mat), v, 1e-7)
     assert np.abs(dv - fd).max() <= 1e-6 * np.abs(fd).max()
 
 
@@ -83,7 +86,7 @@ def test_configuration_derivative_where_exact(normal, speed):
     """A sphere on Cartesian joints against a ground or an incline: the contact Jacobian is constant, so the
     stiffness part is all of d tau_c/dq; both derivatives against central differences of the whole evaluation
     (narrow phase, force law, backward pass), relative 1e-6."""
-    from dynamics.contact.resolve import contact_record, jacobian_kernel, resolve
+    from dynamics.contact.resolve import core_contact, resolve
     model = dynamics.load_urdf(CARTESIAN)
     n = np.array(normal) / np.linalg.norm(normal)
     contact = dynamics.Contact(ground=dynamics.Ground(normal=tuple(n), height=0.0),
@@ -102,9 +105,8 @@ def test_configuration_derivative_where_exact(normal, speed):
         return det.generalized_force
 
     r = resolve(contact, model)
-    c = contact_record(r, model)
     dq, dv = np.empty((3, 3)), np.empty((3, 3))
-    jacobian_kernel(c, model.tree, q, v, dq, dv)
+    core_contact(r, model).core.force_derivatives(q, v, dq, dv)
     fd_q = vector_fd(lambda x: tau(x, v), q, 1e-7)
     fd_v = vector_fd(lambda x: tau(q, x), v, 1e-7)
     assert np.abs(dq - fd_q).max() <= 1e-6 * np.abs(fd_q).max()

@@ -9,8 +9,8 @@ import pytest
 
 import dynamics
 from dynamics.contact.config import Material
-from dynamics.contact.forces import (D_ELASTIC, D_FN, D_FT, D_SLIP, K_DISS, K_MU_D, K_MU_S, K_STIFF, K_VS, NDETAIL,
-                                     NMAT, _contacts_kernel, contact_work)
+from dynamics.contact.forces import (D_ELASTIC, D_FN, D_FT, D_SLIP, K_DISS, K_MU_D, K_MU_S, K_STIFF, K_VS, NMAT,
+                                     contact_wrenches)
 from robots import random_state, random_urdf
 
 MAT = np.array([1e4, 2.0, 0.8, 0.5, 1e-2])  # k, d, mu_s, mu_d, v_s
@@ -23,14 +23,7 @@ def floating():
 
 
 def _evaluate(model, q, v, pair_body, point, normal, depth, mat):
-    K = len(depth)
-    nb = model.tree.parents.shape[0]
-    ws, detail = contact_work(nb), np.zeros((K, NDETAIL))
-    f_ext, tau = np.zeros((nb, 6)), np.zeros(model.nv)
-    power = _contacts_kernel(model.tree, q, v, K, np.arange(K, dtype=np.int64), np.ascontiguousarray(point),
-                             np.ascontiguousarray(normal), np.ascontiguousarray(depth), pair_body,
-                             np.ascontiguousarray(mat), ws, detail, f_ext, tau)
-    return f_ext, tau, power, detail
+    return contact_wrenches(model, q, v, pair_body, point, normal, depth, mat)
 
 
 def test_wrenches_are_the_rnea_external_forces_and_power_is_v_dot_tau(floating):

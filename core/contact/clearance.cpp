@@ -43,7 +43,7 @@ bool Clearance::advance(const double* delta) {
 
 void Clearance::set_reference(const Scene& S, const Transform* oMi) {
     double g = std::numeric_limits<double>::infinity();
-    for (int64_t k = 0; k < S.npairs; ++k) g = std::min(g, separation(S, S.pair_a[k], S.pair_b[k], oMi));
+    for (int64_t k = 0; k < S.npairs; ++k) g = std::min(g, contact::separation(S, S.pair_a[k], S.pair_b[k], oMi));
     std::fill(lever_.begin(), lever_.end(), 0.0);
     for (int j = 0; j < model_.nb; ++j) reach(j, oMi[j].p, oMi);  // body origins
     for (int64_t m = 0; m < S.ng; ++m)                            // geometry centres

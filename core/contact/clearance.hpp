@@ -30,6 +30,9 @@ public:
     void set_reference(const Scene& S, const Transform* oMi);
     // No reference: the next accepted state is measured (a projection moved the base).
     void forget() { referenced_ = false; }
+    double separation() const { return g_; }  // g at the reference
+    double bound() const { return d0_; }      // D0: the motion since the reference, as last advanced
+    bool referenced() const { return referenced_; }
 
 private:
     void reach(int j, const Vec3& x, const Transform* oMi);

@@ -10,36 +10,19 @@ ContactModel::ContactModel(const Model& model, const ContactArrays& arrays, bool
     : model_(model), a_(arrays), exact_(exact), buf_(arrays.K), detail_(arrays.K * NDETAIL), data_(model),
       oMi_(model.nb), fb_(model.nb), clear_(model), fdw_(model.nv), scratch_(model.nv) {}
 
-void ContactModel::world_poses(const Transform* X) {
-    for (int i = 0; i < model_.nb; ++i) {
-        const int par = model_.parents[i];
-        oMi_[i] = par < 0 ? X[i] : compose(oMi_[par], X[i]);
-    }
-}
-
 int64_t ContactModel::found(const double* q) {
     for (int i = 0; i < model_.nb; ++i) forward_body(model_, data_, i, q, nullptr, false);
-    world_poses(data_.X.data());
+    world_poses(model_, data_.X.data(), oMi_.data());
     return collide(a_.scene, oMi_.data(), buf_);
-}
-
-double ContactModel::forces(const double* q, const double* v, int64_t n) {
-    found_since_ = true;
-    forward_pass(model_, data_, q, v, true);
-    std::fill(fb_.begin(), fb_.end(), Force{});
-    return apply_contacts(n, buf_, a_.pair_body, a_.mat, oMi_.data(), data_.v.data(), fb_.data(), detail_.data());
 }
 
 double ContactModel::evaluate(const double* q, const double* v, double* tau, double* f_ext, int64_t& n) {
     n = found(q);
     if (f_ext) std::fill(f_ext, f_ext + 6 * model_.nb, 0.0);
     if (n == 0) return 0.0;  // touching nothing: no velocities, no forces
-    const double power = forces(q, v, n);
-    if (f_ext)
-        for (int i = 0; i < model_.nb; ++i)
-            for (int r = 0; r < 3; ++r) f_ext[6 * i + r] = fb_[i].f[r], f_ext[6 * i + 3 + r] = fb_[i].n[r];
-    generalized_forces(model_, data_.X.data(), fb_.data(), tau);
-    return power;
+    found_since_ = true;
+    return contact_wrenches(model_, data_, q, v, n, buf_, a_.pair_body, a_.mat, oMi_.data(), fb_.data(),
+                            detail_.data(), f_ext, tau);
 }
 
 double ContactModel::torques(const Model&, const double* q, const double* v, double* tau, const double* delta) {
@@ -52,7 +35,7 @@ double ContactModel::torques(const Model&, const double* q, const double* v, dou
 // external forces), from that pass's poses and velocities; nothing at all while the robot is clear of everything.
 double ContactModel::bias(const Model&, Data& data, const double*, const double*, const double* delta) {
     if (clear_.apart(delta)) return 0.0;
-    world_poses(data.X.data());
+    world_poses(model_, data.X.data(), oMi_.data());
     const int64_t n = collide(a_.scene, oMi_.data(), buf_);
     if (n == 0) return 0.0;
     found_since_ = true;

@@ -41,6 +41,9 @@ public:
     double evaluate(const double* q, const double* v, double* tau, double* f_ext, int64_t& n);
     const ContactBuffer& buffer() const { return buf_; }
     const Model& model() const { return model_; }
+    // The clearance (the tests' window): measured at q, the state whose poses it takes as its reference.
+    Clearance& clearance() { return clear_; }
+    void measure(const double* q) { found(q), clear_.set_reference(a_.scene, oMi_.data()); }
     const double* detail() const { return detail_.data(); }
 
     // The simulation's hooks (robot_problem.hpp).
@@ -55,8 +58,6 @@ public:
 
 private:
     int64_t found(const double* q);  // the poses (data_.X, oMi_) and the narrow phase; the number of contacts
-    double forces(const double* q, const double* v, int64_t n);  // fb_, detail_ once something touches
-    void world_poses(const Transform* X);
 
     const Model& model_;
     ContactArrays a_;

@@ -85,4 +85,25 @@ void generalized_forces(const Model& model, const Transform* X, Force* fb, doubl
     }
 }
 
+void world_poses(const Model& model, const Transform* X, Transform* oMi) {
+    for (int i = 0; i < model.nb; ++i) {
+        const int par = model.parents[i];
+        oMi[i] = par < 0 ? X[i] : compose(oMi[par], X[i]);
+    }
+}
+
+double contact_wrenches(const Model& model, Data& data, const double* q, const double* v, int64_t n,
+                        const ContactBuffer& buf, const int64_t* pair_body, const double* mat, Transform* oMi,
+                        Force* fb, double* detail, double* f_ext, double* tau) {
+    forward_pass(model, data, q, v, true);
+    world_poses(model, data.X.data(), oMi);
+    std::fill(fb, fb + model.nb, Force{});
+    const double power = apply_contacts(n, buf, pair_body, mat, oMi, data.v.data(), fb, detail);
+    if (f_ext)
+        for (int i = 0; i < model.nb; ++i)
+            for (int r = 0; r < 3; ++r) f_ext[6 * i + r] = fb[i].f[r], f_ext[6 * i + 3 + r] = fb[i].n[r];
+    generalized_forces(model, data.X.data(), fb, tau);
+    return power;
+}
+
 }  // namespace core::contact

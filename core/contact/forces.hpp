@@ -14,6 +14,7 @@
 #include <cstdint>
 
 #include "contact/narrow_phase.hpp"
+#include "data.hpp"
 #include "model.hpp"
 #include "spatial.hpp"
 
@@ -47,5 +48,15 @@ double apply_contacts(int64_t n, const ContactBuffer& buf, const int64_t* pair_b
 // tau += sum_i J_i^T fb_i (one backward pass over the joint transforms X; fb is consumed: it ends as the
 // subtrees' wrenches).
 void generalized_forces(const Model& model, const Transform* X, Force* fb, double* tau);
+
+// oMi = every body's world pose from the joint transforms X.
+void world_poses(const Model& model, const Transform* X, Transform* oMi);
+
+// The contacts 0..n-1 of buf at (q, v): tau += J_c^T f_c, f_ext (nb x 6, body frame, [force, torque]; may be null)
+// = the body wrenches, detail their rows; data gets the forward pass, oMi the world poses, fb the subtrees'
+// wrenches.  Returns the contact power.
+double contact_wrenches(const Model& model, Data& data, const double* q, const double* v, int64_t n,
+                        const ContactBuffer& buf, const int64_t* pair_body, const double* mat, Transform* oMi,
+                        Force* fb, double* detail, double* f_ext, double* tau);
 
 }  // namespace core::contact

@@ -125,3 +125,15 @@ def contact_force_derivatives(tree, n, pair, point, normal, depth, pair_body, ma
             for c in range(nv):
                 dv[r, c] += a0 * GA[0, c] + a1 * GA[1, c] + a2 * GA[2, c]
                 dq[r, c] -= ax * nA[c]
+
+
+def force_derivatives_of(model, q, v, pair_body, point, normal, depth, mat):
+    """(d tau_c/dq's stiffness part, d tau_c/dv) (nv x nv each) of a hand-made contact list at (q, v)
+    (:func:`dynamics.contact.forces.contact_wrenches`'s arguments), in the C++ core."""
+    from .. import _core
+    dq, dv = np.empty((model.nv, model.nv)), np.empty((model.nv, model.nv))
+    _core.contact_force_derivatives(model.core, np.ascontiguousarray(q, float), np.ascontiguousarray(v, float),
+                                    np.ascontiguousarray(pair_body, np.int64), np.ascontiguousarray(mat, float),
+                                    np.ascontiguousarray(point, float), np.ascontiguousarray(normal, float),
+                                    np.ascontiguousarray(depth, float), dq, dv)
+    return dq, dv

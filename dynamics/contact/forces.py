@@ -215,3 +215,18 @@ def _contacts_kernel(tree, q, v, n, pair, point, normal, depth, pair_body, mat, 
             f_ext[i, r] = ws.fb[i, r]
     generalized_forces(tree, ws, tau)
     return power
+
+
+def contact_wrenches(model, q, v, pair_body, point, normal, depth, mat):
+    """The law on a hand-made contact list at (q, v), in the C++ core (``core/contact/forces.hpp``): contact k
+    between the bodies ``pair_body[k]`` (-1: the world) at the world point ``point[k]`` with the unit normal
+    ``normal[k]`` (from b towards a), penetration ``depth[k]`` and material row ``mat[k]``.  Returns (f_ext (nb, 6),
+    tau_c (nv,), contact power, detail (K, NDETAIL))."""
+    from .. import _core
+    nb, K = model.tree.parents.shape[0], len(depth)
+    f_ext, tau, detail = np.zeros((nb, 6)), np.zeros(model.nv), np.zeros((K, NDETAIL))
+    power = _core.contact_wrenches(model.core, np.ascontiguousarray(q, float), np.ascontiguousarray(v, float),
+                                   np.ascontiguousarray(pair_body, np.int64), np.ascontiguousarray(mat, float),
+                                   np.ascontiguousarray(point, float), np.ascontiguousarray(normal, float),
+                                   np.ascontiguousarray(depth, float), f_ext, tau, detail)
+    return f_ext, tau, power, detail
