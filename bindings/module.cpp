@@ -10,6 +10,7 @@ void expose_configuration(nb::module_& m);
 void expose_simulation(nb::module_& m);
 void expose_derivatives(nb::module_& m);
 void expose_constraints(nb::module_& m);
+void expose_contact(nb::module_& m);
 }  // namespace bind
 
 NB_MODULE(_core, m) {
@@ -22,4 +23,5 @@ NB_MODULE(_core, m) {
     bind::expose_simulation(m);
     bind::expose_derivatives(m);
     bind::expose_constraints(m);
+    bind::expose_contact(m);
 }
