@@ -134,7 +134,7 @@ def assert_bit_identical(model, scene, q):
         assert g.dtype == w.dtype and g.shape == w.shape, name
         differ = g.view(np.int64) != w.view(np.int64)
         bad = np.flatnonzero(differ.any(axis=1) if differ.ndim == 2 else differ)
-        assert bad.size == 0, f"{name} of contact {bad[0]}: core {g[bad[0]]!r}, numba {w[bad[0]]!r}"
+        assert bad.size == 0, f"{name} of contact {bad[0]}: core {g[bad[0]].tolist()}, numba {w[bad[0]].tolist()}"
     return len(want[0])
 
 
