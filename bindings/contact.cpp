@@ -3,6 +3,7 @@
 // C API, numpy.hpp) after every one is checked here -- dtype, layout, shapes against each other, every index in
 // range -- before any C++ reads it: a scene from a pickle, a test or another model never reaches the core with an
 // index it would follow out of its arrays.
+#include <algorithm>
 #include <chrono>
 #include <string>
 
@@ -17,9 +18,10 @@ namespace bind {
 using core::Model;
 using core::contact::Scene;
 
-// The most contacts one pair writes (box-plane's 8 vertices, box-box's clipped manifold): a buffer larger than 8
-// per pair is a mistake, not a scene.
+// The most contacts one pair writes (box-plane's 8 vertices, box-box's manifold, clipped to 8): a larger buffer is
+// never filled, so it is not allocated either.  A K beyond MAX_K is a mistake, not a scene.
 constexpr long MAX_PER_PAIR = 8;
+constexpr long MAX_K = 1L << 31;
 
 static std::string got(long n) { return ", got " + std::to_string(n); }
 
@@ -88,10 +90,10 @@ static Scene scene_of(const Model& model, nb::handle body, nb::handle kind, nb::
     return S;
 }
 
-static void require_capacity(const Scene& S, long K) {
-    require(K >= 0 && K <= MAX_PER_PAIR * S.npairs,
-            "K: expected a buffer of 0 to " + std::to_string(MAX_PER_PAIR * S.npairs) + " contacts (8 per pair)" +
-                got(K));
+// The buffer of K contacts (the scene's max_contacts, or more) collide writes at most.
+static long capacity(const Scene& S, long K) {
+    require(K >= 0 && K < MAX_K, "K: expected a buffer of 0 to 2^31 contacts (the scene's max_contacts)" + got(K));
+    return std::min(K, MAX_PER_PAIR * S.npairs);
 }
 
 // (pair (n,) int64, point (n, 3), normal (n, 3), depth (n,)): the first n contacts of the buffer, copied.
@@ -114,9 +116,9 @@ void expose_contact(nb::module_& m) {
                               nb::handle p, nb::handle radius, nb::handle pair_a, nb::handle pair_b, nb::handle q,
                               long K) {
         const Scene S = scene_of(model, body, kind, size, R, p, radius, pair_a, pair_b);
-        require_capacity(S, K);
+        const long room = capacity(S, K);
         const core::Transform* oMi = world_poses(model, q);
-        core::contact::ContactBuffer out(K);
+        core::contact::ContactBuffer out(room);
         const long n = core::contact::collide(S, oMi, out);
         return contacts(out, n);
     }, "model"_a, "body"_a, "kind"_a, "size"_a, "R"_a, "p"_a, "radius"_a, "pair_a"_a, "pair_b"_a, "q"_a, "K"_a);
@@ -137,10 +139,10 @@ void expose_contact(nb::module_& m) {
                               nb::handle p, nb::handle radius, nb::handle pair_a, nb::handle pair_b, nb::handle q,
                               long K, long repeats) {
         const Scene S = scene_of(model, body, kind, size, R, p, radius, pair_a, pair_b);
-        require_capacity(S, K);
+        const long room = capacity(S, K);
         require(repeats >= 1 && repeats <= 100000000, "repeats: expected 1 to 10^8" + got(repeats));
         const core::Transform* oMi = world_poses(model, q);
-        core::contact::ContactBuffer out(K);
+        core::contact::ContactBuffer out(room);
         long n = 0;
         const auto t0 = std::chrono::steady_clock::now();
         for (long r = 0; r < repeats; ++r) n = core::contact::collide(S, oMi, out);

@@ -335,3 +335,15 @@ def test_empty_scene(model):
     pair, point, normal, depth = core_contacts(model, scene, model.neutral())
     assert pair.shape == (0,) and point.shape == (0, 3) and normal.shape == (0, 3) and depth.shape == (0,)
     assert _core.scene_poses(model.core, scene.body, scene.R, scene.p, model.neutral()).shape == (0, 4, 4)
+
+
+def test_a_buffer_bigger_than_needed(free_bodies):
+    """K beyond the scene's max_contacts (up to 2^31) gives the same contacts; only the room a scene can fill (8
+    per pair) is allocated."""
+    model, scene = free_bodies
+    q = random_configuration(model, np.random.default_rng(3))
+    a = arguments(model, scene, q)
+    want = _core.find_contacts(*a.values())
+    a["K"] = 2 ** 31 - 1
+    for w, g in zip(want, _core.find_contacts(*a.values())):
+        assert np.array_equal(w, g)
