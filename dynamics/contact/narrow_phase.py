@@ -5,6 +5,10 @@ Given the world pose (oR_i, op_i) of each body (:func:`_body_world_poses`), geom
 
     oR_g = oR_b R_g,    op_g = oR_b p_g + op_b        (R_g, p_g as stored for body -1: already in the world).
 
+:func:`find_contacts` and :func:`scene_poses` run on the C++ core (core/contact/narrow_phase.cpp, a port of the
+kernels below that keeps their order of operations: the same contacts, bit for bit; tests/test_narrow_phase_core.py);
+the simulation still calls the numba kernels here until it moves to the core.
+
 For each pair (a, b) (ordered so that kind[a] <= kind[b]), :func:`_collide` first runs the broad phase --
 bounding spheres |op_a - op_b| < r_a + r_b, and for a plane (half-space n . x <= h) the test n . op_a - h <
 r_a -- then the pair's function from the table below, which writes each penetrating contact into a
