@@ -347,3 +347,22 @@ def test_a_buffer_bigger_than_needed(free_bodies):
     a["K"] = 2 ** 31 - 1
     for w, g in zip(want, _core.find_contacts(*a.values())):
         assert np.array_equal(w, g)
+
+
+@pytest.mark.parametrize("rel", ["go1_description/urdf/go1.urdf", "panda_description/urdf/panda_collision.urdf"])
+def test_robot_self_collision_bit_identical(rel):
+    """A robot's URDF primitives with self-collision and the ground, at 100 random configurations (revolute joints
+    and a floating base through both kinematics): the same contacts, bit for bit."""
+    from tests.robots import erd, random_state
+
+    model = dynamics.load_urdf(erd(rel), collision=True, floating_base="go1" in rel, strict_inertia=False,
+                               mimic="independent")
+    scene = build_scene(model, self_collision=True)
+    rng = np.random.default_rng(13)
+    total = 0
+    for _ in range(100):
+        q = random_state(model, rng)[0]
+        if "go1" in rel:
+            q[2] = rng.uniform(0.0, 0.4)  # the base near the ground
+        total += assert_bit_identical(model, scene, q)
+    assert total > 100
