@@ -366,3 +366,22 @@ def test_robot_self_collision_bit_identical(rel):
             q[2] = rng.uniform(0.0, 0.4)  # the base near the ground
         total += assert_bit_identical(model, scene, q)
     assert total > 100
+
+
+def test_non_finite_scenes_do_not_crash(model):
+    """Scenes of nan, inf, huge and tiny numbers (which build_scene never makes: its sizes and poses are checked
+    finite) still give a bounded answer: at most K contacts, each of a pair of the scene."""
+    rng = np.random.default_rng(17)
+    values = np.array([np.nan, np.inf, -np.inf, 0.0, -0.0, 1e308, -1e308, 1e-308, 1.0, -1.0, 0.5])
+    for _ in range(200):
+        ng, npairs = rng.integers(1, 6), rng.integers(0, 12)
+        kind = rng.integers(0, 6, ng)
+        pa, pb = rng.integers(0, ng, npairs), rng.integers(0, ng, npairs)
+        swap = kind[pa] > kind[pb]
+        pa[swap], pb[swap] = pb[swap], pa[swap]
+        size, R, p, radius = (rng.choice(values, shape) for shape in ((ng, 3), (ng, 3, 3), (ng, 3), (ng,)))
+        K = int(rng.integers(0, 8 * npairs + 1))
+        pair, point, normal, depth = _core.find_contacts(model.core, np.full(ng, -1), kind, size, R, p, radius,
+                                                         pa, pb, model.neutral(), K)
+        assert len(pair) <= K and point.shape == normal.shape == (len(pair), 3) and depth.shape == (len(pair),)
+        assert np.all((pair >= 0) & (pair < npairs))
