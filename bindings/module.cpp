@@ -11,6 +11,7 @@ void expose_simulation(nb::module_& m);
 void expose_derivatives(nb::module_& m);
 void expose_constraints(nb::module_& m);
 void expose_contact_model(nb::module_& m);
+void expose_contact(nb::module_& m);
 }  // namespace bind
 
 NB_MODULE(_core, m) {
@@ -24,4 +25,5 @@ NB_MODULE(_core, m) {
     bind::expose_derivatives(m);
     bind::expose_constraints(m);
     bind::expose_contact_model(m);
+    bind::expose_contact(m);
 }

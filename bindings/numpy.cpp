@@ -5,6 +5,9 @@
 
 #include "numpy.hpp"
 
+#include <stdexcept>
+#include <string>
+
 namespace bind {
 
 void import_numpy() {
@@ -31,6 +34,33 @@ Output output_of(nb::handle x, int ndim) {
     out.ptr = static_cast<double*>(PyArray_DATA(a));
     for (int k = 0; k < ndim; ++k) out.dims[k] = PyArray_DIM(a, k);
     return out;
+}
+
+Input input_of(nb::handle x, char type, int ndim, const char* name) {
+    PyObject* o = x.ptr();
+    auto* a = reinterpret_cast<PyArrayObject*>(o);
+    const char* dtype = type == 'd' ? "float64" : "int64";
+    const int typenum = type == 'd' ? NPY_DOUBLE : NPY_INT64;
+    auto fail = [&](const char* what) {
+        throw std::invalid_argument(std::string(name) + ": expected a C-contiguous " + dtype + " numpy array of " +
+                                    std::to_string(ndim) + " dimension(s)" + what);
+    };
+    if (!PyArray_Check(o)) fail(", got another type");
+    if (!PyArray_EquivTypenums(PyArray_TYPE(a), typenum) || !PyArray_ISNOTSWAPPED(a)) fail(", got another dtype");
+    if (PyArray_NDIM(a) != ndim || ndim > 4) fail(", got another number of dimensions");
+    if (!PyArray_ISCARRAY_RO(a)) fail(", got a non-contiguous or unaligned one");
+    Input in;
+    in.ptr = PyArray_DATA(a);
+    for (int k = 0; k < ndim; ++k) in.dims[k] = PyArray_DIM(a, k);
+    return in;
+}
+
+nb::object new_int_array(long n, int64_t** data) {
+    npy_intp dims[1] = {n};
+    PyObject* o = PyArray_SimpleNew(1, dims, NPY_INT64);
+    if (!o) throw nb::python_error();
+    *data = static_cast<int64_t*>(PyArray_DATA(reinterpret_cast<PyArrayObject*>(o)));
+    return nb::steal(o);
 }
 
 static nb::object make(int nd, npy_intp* dims, double** data) {

@@ -5,6 +5,8 @@
 
 #include <nanobind/nanobind.h>
 
+#include <cstdint>
+
 namespace bind {
 
 namespace nb = nanobind;
@@ -27,6 +29,22 @@ struct Output {
 };
 Output output_of(nb::handle x, int ndim);
 inline long length(const Output& x) { return x.dims[0]; }
+
+// An input array the bindings check themselves (the narrow phase's scene, which nanobind would silently convert):
+// exactly what `type` says ('d' native float64, 'q' native int64), C-contiguous, aligned, of rank `ndim`; anything
+// else is a ValueError naming `name` and what was expected.  The caller checks the shape against its other
+// arguments.
+struct Input {
+    const void* ptr = nullptr;
+    long dims[4] = {0, 0, 0, 0};
+    long shape(int k) const { return dims[k]; }
+    const double* doubles() const { return static_cast<const double*>(ptr); }
+    const int64_t* ints() const { return static_cast<const int64_t*>(ptr); }
+};
+Input input_of(nb::handle x, char type, int ndim, const char* name);
+
+// A new uninitialised int64 array of shape (n,), and its data.
+nb::object new_int_array(long n, int64_t** data);
 
 // A new uninitialised float64 array of shape (n,), (r, c) or (a, r, c), and its data.
 nb::object new_array(long n, double** data);

@@ -5,6 +5,10 @@ Given the world pose (oR_i, op_i) of each body (:func:`_body_world_poses`), geom
 
     oR_g = oR_b R_g,    op_g = oR_b p_g + op_b        (R_g, p_g as stored for body -1: already in the world).
 
+:func:`find_contacts` and :func:`scene_poses` run on the C++ core (core/contact/narrow_phase.cpp, a port of the
+kernels below that keeps their order of operations: the same contacts, bit for bit; tests/test_narrow_phase_core.py);
+the simulation still calls the numba kernels here until it moves to the core.
+
 For each pair (a, b) (ordered so that kind[a] <= kind[b]), :func:`_collide` first runs the broad phase --
 bounding spheres |op_a - op_b| < r_a + r_b, and for a plane (half-space n . x <= h) the test n . op_a - h <
 r_a -- then the pair's function from the table below, which writes each penetrating contact into a
@@ -43,7 +47,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .. import checks
+from .. import _core, checks
 from .._numba import borrow, helper, inline_kernel, kernel
 from ..errors import InputError
 from ..kinematics import _world_pose
@@ -528,37 +532,37 @@ class Contacts(NamedTuple):
     depth: np.ndarray  # (n,) penetration (m), > 0
 
 
-def _world_arrays(model, scene, q):
-    """q checked, and the bodies' world rotations and positions at it."""
+def _checked_configuration(model, scene, q):
+    """q checked against ``model`` and ``scene`` against its bodies: the one configuration, a float64 copy."""
     Q, batched = checks.configurations(model, q)
     if batched:
         raise InputError(f"q: expected one configuration of shape ({model.nq},), got {np.shape(q)}")
     if scene.body.shape[0] and int(scene.body.max()) >= model.nbodies:
         raise InputError(f"scene: built for a model with more bodies than {model.name!r} has ({model.nbodies})")
+    return np.ascontiguousarray(Q[0], dtype=np.float64).copy()
+
+
+def _world_arrays(model, scene, q):
+    """q checked, and the bodies' world rotations and positions at it (numba's kinematics: what the compiled
+    narrow phase :func:`_collide` takes)."""
+    q = _checked_configuration(model, scene, q)
     oR, op = np.empty((model.nbodies, 3, 3)), np.empty((model.nbodies, 3))
-    _body_world_poses(model.tree, Q[0].copy(), oR, op)
+    _body_world_poses(model.tree, q, oR, op)
     return oR, op
 
 
 def scene_poses(model, scene, q) -> np.ndarray:
     """(ng, 4, 4) world pose of every geometry of ``scene`` at ``q`` (to draw it; a plane's z axis is its
     normal and its origin the point of the plane nearest the world origin)."""
-    oR, op = _world_arrays(model, scene, q)
-    T = np.tile(np.eye(4), (scene.body.shape[0], 1, 1))
-    T[:, :3, :3], T[:, :3, 3] = scene.R, scene.p
-    m = scene.body >= 0
-    b = scene.body[m]
-    T[m, :3, :3] = oR[b] @ scene.R[m]
-    T[m, :3, 3] = np.einsum("gij,gj->gi", oR[b], scene.p[m]) + op[b]
-    return T
+    q = _checked_configuration(model, scene, q)
+    return _core.scene_poses(model.core, scene.body, scene.R, scene.p, q)
 
 
 def find_contacts(model, scene, q) -> Contacts:
     """The contacts of ``scene`` (built for ``model`` by :func:`~dynamics.contact.scene.build_scene`) at the
-    configuration ``q``: one compiled broad and narrow phase, the same the simulation runs each step."""
-    oR, op = _world_arrays(model, scene, q)
-    out = contact_buffer(scene)
-    n = _collide(scene.arrays, oR, op, out)
-    k = out.pair[:n]
+    configuration ``q``: the broad and narrow phase of the C++ core (core/contact/narrow_phase.cpp, the same
+    contacts, bit for bit, as the compiled :func:`_collide` the simulation runs each step)."""
+    q = _checked_configuration(model, scene, q)
+    k, point, normal, depth = _core.find_contacts(model.core, *scene.arrays, q, scene.max_contacts)
     return Contacts(tuple(scene.names[scene.pair_a[i]] for i in k), tuple(scene.names[scene.pair_b[i]] for i in k),
-                    k.copy(), out.point[:n].copy(), out.normal[:n].copy(), out.depth[:n].copy())
+                    k, point, normal, depth)
