@@ -177,20 +177,24 @@ void expose_contact_model(nb::module_& m) {
                             CIn<int64_t, 1> pair_a, CIn<int64_t, 1> pair_b, CIn<int64_t, 2> pair_body,
                             CIn<double, 2> mat, long K, nb::handle track, nb::handle out, nb::handle out_n,
                             bool exact) {
-            const Model& model = nb::cast<const Model&>(model_);
-            auto* h = new (self) ContactHolder{body, kind, pair_a, pair_b, size, p, mat, R, radius, pair_body,
-                                               writable<double, 1>(track, "track"), writable<double, 3>(out, "out"),
-                                               writable<int64_t, 1>(out_n, "out_n"), nb::borrow(model_), nullptr};
+            const Model* pm = nullptr;
+            if (!nb::try_cast(model_, pm) || !pm) throw nb::type_error("model: expected the model's core");
+            const Model& model = *pm;
+            // checked and made before self is: an __init__ that throws leaves self unconstructed (never destroyed)
+            ContactHolder h{body, kind, pair_a, pair_b, size, p, mat, R, radius, pair_body,
+                            writable<double, 1>(track, "track"), writable<double, 3>(out, "out"),
+                            writable<int64_t, 1>(out_n, "out_n"), nb::borrow(model_), nullptr};
             ct::ContactArrays a;
-            a.scene = checked_scene(*h, model);
+            a.scene = checked_scene(h, model);
             require(K >= 0 && K <= 8 * a.scene.npairs, "K: the scene's max_contacts, at most 8 per pair");
-            require(length(h->track) == 3, "track: (3,)");
-            const long T = length(h->out);
-            require(length(h->out_n) == T && (T == 0 || (h->out.shape(1) == size_t(K) && h->out.shape(2) == ct::NOUT)),
+            require(length(h.track) == 3, "track: (3,)");
+            const long T = length(h.out);
+            require(length(h.out_n) == T && (T == 0 || (h.out.shape(1) == size_t(K) && h.out.shape(2) == ct::NOUT)),
                     "out: (T, K, 15) and out_n (T,)");
-            a.pair_body = h->pair_body.data(), a.mat = h->mat.data(), a.K = K, a.track = h->track.data();
-            a.out = T ? h->out.data() : nullptr, a.out_n = h->out_n.data(), a.T = T;
-            h->model = std::make_unique<ct::ContactModel>(model, a, exact);
+            a.pair_body = h.pair_body.data(), a.mat = h.mat.data(), a.K = K, a.track = h.track.data();
+            a.out = T ? h.out.data() : nullptr, a.out_n = h.out_n.data(), a.T = T;
+            h.model = std::make_unique<ct::ContactModel>(model, a, exact);  // (the arrays' data does not move)
+            new (self) ContactHolder(std::move(h));
         }, "model"_a, "body"_a, "kind"_a, "size"_a, "R"_a, "p"_a, "radius"_a, "pair_a"_a, "pair_b"_a, "pair_body"_a,
            "mat"_a, "K"_a, "track"_a, "out"_a, "out_n"_a, "exact"_a)
         // One state: f_ext (nb, 6) = the body wrenches, tau += J_c^T f_c; returns (power, pair, point, normal, depth,

@@ -195,7 +195,8 @@ def test_the_simulation_refuses_a_bad_constrained_problem(model, monkeypatch):
     q0 = dynamics.assemble(model, model.neutral() + 0.05 * rng.normal(size=model.nq))
     dynamics.simulate(model, q0, np.zeros(model.nv), 0.01, integrator="rk4", dt=0.005, error_estimate="none",
                       progress=False)
-    *args, constrained = captured["args"]
+    *args, constrained, contact = captured["args"]
+    assert contact is None
     con, alpha, beta, project, lam, drift = constrained
     T, other = args[8].shape[0], core_constraints(dynamics.load_urdf(os.path.join(OUR_ROBOTS, "cassie_like_leg.urdf")))
     for bad in [(con, alpha, beta, project, lam), (con, np.nan, beta, project, lam, drift),
@@ -205,4 +206,4 @@ def test_the_simulation_refuses_a_bad_constrained_problem(model, monkeypatch):
                 (con, alpha, beta, project, lam, np.zeros(6)[::2]), (other, alpha, beta, project, lam, drift),
                 (None, alpha, beta, project, lam, drift), (con, "alpha", beta, project, lam, drift), "constraints"]:
         with pytest.raises((ValueError, TypeError)):
-            real(*args, bad)
+            real(*args, bad, None)
