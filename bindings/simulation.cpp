@@ -11,6 +11,7 @@
 #include "control/passive.hpp"
 #include "control/sources.hpp"
 #include "numpy.hpp"
+#include "run_args.hpp"
 #include "simulation/constrained_problem.hpp"
 #include "simulation/robot_problem.hpp"
 #include "simulation/sensitivities.hpp"
@@ -148,23 +149,24 @@ void expose_simulation(nb::module_& m) {
         }, "model"_a, "kind"_a, "times"_a, "table"_a, "gains"_a, "qref"_a, "frame"_a, "rows"_a, "task_gains"_a,
            "orientation"_a, "damping"_a, "callback"_a.none(), "check"_a.none());
 
-    // f(t, z) into dz and the robot problem's analytical Jacobian df/dz into J ((n, n), n = 2 nv + 2; z = [delta,
-    // v, W_source, W_passive] in the chart around q0): a test's window onto the core's Jacobian
-    // (tests/test_simulation_jacobian_core.py).  Returns False when the problem has none (J untouched).
+    // f(t, z) into dz and the robot problem's analytical Jacobian df/dz into J ((n, n), n = 2 nv + 2, + 1 with
+    // contact; z = [delta, v, W_source, W_passive (, W_contact)] in the chart around q0): a test's window onto the
+    // core's Jacobian (tests/test_simulation_jacobian_core.py).  Returns False when the problem has none (J untouched).
     m.def("problem_jacobian", [](const Model& model, const control::Passive& passive, SourceHolder& src, In<1> q0,
-                                 In<1> z, double t, nb::handle dz_, nb::handle J_) {
-        const long nv = model.nv, n = 2 * nv + 2;
+                                 In<1> z, double t, nb::handle dz_, nb::handle J_, nb::object contact_) {
+        core::contact::ContactModel* contact = contact_.is_none() ? nullptr : &contact_of(contact_, model);
+        const long nv = model.nv, n = 2 * nv + (contact ? 3 : 2);
         const Output dz = output_of(dz_, 1), J = output_of(J_, 2);
         require(length(q0) == model.nq, "q0: (nq,)");
-        require(length(z) == n && length(dz) == n, "z, dz: (2 nv + 2,)");
-        require(length(J) == n && static_cast<long>(J.shape(1)) == n, "J: (2 nv + 2, 2 nv + 2)");
-        core::sim::RobotProblem p(model, passive, src.source, q0.data(), core::sim::Outputs{}, nullptr);
+        require(length(z) == n && length(dz) == n, "z, dz: (2 nv + 2,), + 1 with contact");
+        require(length(J) == n && static_cast<long>(J.shape(1)) == n, "J: (n, n)");
+        core::sim::RobotProblem p(model, passive, src.source, q0.data(), core::sim::Outputs{}, contact);
         core::sim::Stats st;
         p.rhs(t, z.data(), dz.data());
         const bool analytical = p.jacobian(t, z.data(), dz.data(), nullptr, static_cast<int>(n), J.data(), st);
         if (src.callback) src.callback->raise_if_failed();
         return analytical;
-    }, "model"_a, "passive"_a, "source"_a, "q0"_a, "z"_a, "t"_a, "dz"_a, "J"_a);
+    }, "model"_a, "passive"_a, "source"_a, "q0"_a, "z"_a, "t"_a, "dz"_a, "J"_a, "contact"_a.none() = nb::none());
 
     // One run of `method` from (t0, z) to t_end (z advanced in place); the samples at out_t into the outputs (rows
     // 0 for what is not kept); the statistics into `stats` (a (1,) STATS record array) and the switches into `sw`
@@ -218,23 +220,9 @@ void expose_simulation(nb::module_& m) {
         out.t = out_t.data(), out.T = T, out.q = oq.data(), out.v = ov.data(), out.tau = otau.data();
         out.keep_q = length(oq) == T && T > 0, out.keep_v = length(ov) == T && T > 0, out.keep_tau = length(otau) == T && T > 0;
         out.w = ow.data(), out.e = oe.data(), out.count = int_output(count_, "count");
-        auto record = [](nb::handle x, size_t size, const char* name) {
-            nb::object raw = x.attr("view")(nb::module_::import_("numpy").attr("uint8"));
-            nb::ndarray<uint8_t, nb::ndim<1>, nb::c_contig, nb::device::cpu> a;
-            if (!nb::try_cast(raw, a, false) || a.shape(0) < size)
-                throw nb::type_error((std::string(name) + ": a record array of the right dtype").c_str());
-            return std::make_pair(raw, a.data());
-        };
-        auto [stats_raw, stats_ptr] = record(stats_, sizeof(core::sim::Stats), "stats");
-        auto [sw_raw, sw_ptr] = record(sw_, sizeof(core::sim::Switch) * core::sim::MAX_SWITCHES, "switches");
-        core::sim::Options opt;
-        opt.nc = nb::cast<int>(opt_["nc"]), opt.nvel = nb::cast<int>(opt_["nvel"]), opt.ne = nb::cast<int>(opt_["ne"]);
-        opt.max_steps = nb::cast<int64_t>(opt_["max_steps"]), opt.nsteps = nb::cast<int64_t>(opt_["nsteps"]);
-        opt.dt = nb::cast<double>(opt_["dt"]), opt.rtol = nb::cast<double>(opt_["rtol"]);
-        opt.atol = nb::cast<double>(opt_["atol"]), opt.h0 = nb::cast<double>(opt_["h0"]);
-        opt.hmax = nb::cast<double>(opt_["hmax"]), opt.blowup = nb::cast<double>(opt_["blowup"]);
-        opt.probe = nb::cast<bool>(opt_["probe"]);
-        if (opt_.contains("deadline")) opt.deadline = nb::cast<double>(opt_["deadline"]);
+        auto [stats_raw, stats_ptr] = record_of(stats_, sizeof(core::sim::Stats), "stats");
+        auto [sw_raw, sw_ptr] = record_of(sw_, sizeof(core::sim::Switch) * core::sim::MAX_SWITCHES, "switches");
+        const core::sim::Options opt = options_of(opt_);
         require(opt.nc == nv && opt.nvel == nv && opt.ne >= 0 && opt.ne <= n, "options: sizes");
         core::sim::Stats st;
         std::vector<core::sim::Switch> sw;

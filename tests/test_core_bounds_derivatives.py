@@ -1,8 +1,8 @@
 """The C++ core's analytical derivatives (core/rnea_derivatives.cpp, core/aba_derivatives.cpp), run as they are and
 under AddressSanitizer and UndefinedBehaviorSanitizer (.ci/run's sanitizer stage), as test_core_bounds.py does for
 the tree algorithms: the identities that prove them (central differences of inverse_dynamics and forward_dynamics
-on the manifold, M and M^-1, a threaded batch equal to its single states) on random trees of every joint type, the
-numba kernels the simulation still links giving the same numbers, and every entry of the extension called directly
+on the manifold, M and M^-1, a threaded batch equal to its single states) on random trees of every joint type, and
+every entry of the extension called directly
 with what no public function passes (wrong shapes, dtypes, layouts, NaN, a zero quaternion, empty batches): None
 or a clear error, never a crash or a read out of bounds."""
 
@@ -11,9 +11,6 @@ import pytest
 
 import dynamics
 from dynamics import _core
-from dynamics.aba_derivatives import _aba_derivatives_into, _work_size
-from dynamics._numba import address
-from dynamics.rnea_derivatives import rnea_derivatives_at
 from robots import ALL_TYPES, chain_urdf, random_state, random_urdf
 
 TREES = [(random_urdf(np.random.default_rng(s), 8, types=ALL_TYPES), False) for s in range(3)] + \
@@ -84,26 +81,6 @@ def test_a_threaded_batch_equals_its_single_states(model):
         for k in (0, 35, 69):
             for got, ref in zip(batch, f(model, Q[k], V[k], A[k])):
                 np.testing.assert_array_equal(got[k], ref)
-
-
-def test_the_core_gives_the_numba_kernels_numbers(model):
-    """The simulation and the constrained derivatives still link the numba kernels: both give the same numbers."""
-    rng = np.random.default_rng(4)
-    nv, nb = model.nv, model.nbodies
-    buf = np.empty(_work_size(nb, nv))
-    for _ in range(3):
-        q, v, a = random_state(model, rng)
-        F = rng.normal(size=(nb, 6))
-        ref = [np.empty((nv, nv)) for _ in range(3)]
-        rnea_derivatives_at(model.tree, q, v, a, model.gravity, F, *ref)
-        got = dynamics.inverse_dynamics_derivatives(model, q, v, a, f_ext=F)
-        for x, y in zip(got, ref):
-            np.testing.assert_allclose(x, y, rtol=1e-12, atol=1e-12 * max(1.0, np.abs(y).max()))
-        ref = [np.empty((nv, nv)) for _ in range(3)]
-        assert _aba_derivatives_into(model.tree, q, v, a, model.gravity, F, address(buf), *ref) == -1
-        got = dynamics.forward_dynamics_derivatives(model, q, v, a, f_ext=F)
-        for x, y in zip(got, ref):
-            np.testing.assert_allclose(x, y, rtol=1e-10, atol=1e-11 * max(1.0, np.abs(y).max()))
 
 
 def test_single_calls_refuse_what_is_not_an_exact_state(model):

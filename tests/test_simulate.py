@@ -14,8 +14,6 @@ from dynamics.simulation import simulate, state_error
 from dynamics.torques import PD, ComputedTorque, Table
 from robots import chain_urdf
 
-# the objmode block that calls Python torque callables: numba says it re-takes the GIL, which is intended
-pytestmark = pytest.mark.filterwarnings("ignore:Code running in object mode:numba.core.errors.NumbaWarning")
 
 ROBOTS = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "robots")
 Q0_2R = np.array([np.pi / 2, np.pi / 4])

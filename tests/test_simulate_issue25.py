@@ -84,14 +84,3 @@ def test_compiled_loop_releases_the_gil(arm):
     assert gaps.max() < 0.5 * wall  # holding the GIL, the compiled run would be one gap as long as itself
 
 
-def test_a_model_from_another_process_gives_the_same_compiled_types(arm):
-    # a worker process gets the model by pickle; its torque source must have the caller's numba type, or the
-    # worker compiles the simulation again instead of loading the caller's from numba's cache
-    import pickle
-
-    from numba import typeof
-
-    from dynamics.torques import PD, make_source
-    there = pickle.loads(pickle.dumps(arm))
-    for torque in (PD([0.1, 0.2], 10.0, 1.0), Target("tip", [1.0, 0.0, 1.0], kp=10.0, kd=2.0, rows=[0, 2])):
-        assert typeof(make_source(there, torque)) == typeof(make_source(arm, torque))

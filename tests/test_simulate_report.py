@@ -1,18 +1,14 @@
-"""What a simulation tells its user: accuracy warnings, the energy-balance scale, the first-compilation
-message, the progress bar, Trajectory.plot and dynamics.work_precision."""
+"""What a simulation tells its user: accuracy warnings, the energy-balance scale, the progress bar,
+Trajectory.plot and dynamics.work_precision."""
 
-import logging
 import os
-import time
 from types import SimpleNamespace
 
 import numpy as np
 import pytest
-from numba import njit
 
 import dynamics
 from dynamics.simulation import report as R
-from dynamics.simulation import run as runmod
 from dynamics.torques import PD
 
 ROBOTS = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "robots")
@@ -57,26 +53,6 @@ def test_still_robot_reports_no_energy_drift(arm):
     mass_size_g = 2 * 12.456 * (1.0 + 0.773) * 9.81  # m L g of this arm, within a factor 2
     assert mass_size_g / 2 < r["energy_scale"] < 2 * mass_size_g
     assert r["energy_drift"] < 1e-12 and r["energy_drift"] == pytest.approx(residual / r["energy_scale"])
-
-
-def test_first_compilation_is_announced_once(caplog):
-    @njit
-    def twice(x):
-        return 2 * x
-
-    with caplog.at_level(logging.WARNING, logger="dynamics.simulation"):
-        for _ in range(2):  # the first call of a kind still without a compiled signature after `after` s: once
-            with runmod._announcing(twice, ("test",), "test", after=0.01):
-                time.sleep(0.5)  # stands for numba compiling (no signature appears meanwhile)
-    messages = [r.getMessage() for r in caplog.records]
-    assert len(messages) == 1 and "first run" in messages[0] and "cached afterwards" in messages[0]
-    caplog.clear()
-    with caplog.at_level(logging.WARNING, logger="dynamics.simulation"):  # a kind with contact says it takes longer
-        with runmod._announcing(twice, ("test", False), "rk4", after=0.01):
-            time.sleep(0.5)
-    assert caplog.records[0].getMessage().endswith(f"'rk4' with contact (first run, about "
-                                                   f"{runmod.COMPILE_SECONDS['rk4'] + runmod.CONTACT_COMPILE_SECONDS}"
-                                                   " s; cached afterwards)")
 
 
 def test_progress_callback_and_switches(arm, capsys):

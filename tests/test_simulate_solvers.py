@@ -1,118 +1,45 @@
-"""The solvers of dynamics.simulation.solvers on plain ODEs, against closed forms and scipy at rtol 1e-12.
-
-One problem type (a linear system z' = A z, or Van der Pol when ``mu`` > 0) so that each solver is
-compiled once for the whole module.
+"""The core's solvers (core/simulation/) on plain ODEs, against closed forms and scipy at rtol 1e-12: a linear
+system z' = A z or Van der Pol, written in Python and run through _core.solve_ode; and their linear algebra (LU,
+the envelope LU that radau uses, the spectral radius) against numpy.
 """
 
 from typing import NamedTuple
 
 import numpy as np
 import pytest
-from numba import njit
 from scipy.integrate import solve_ivp
 from scipy.linalg import expm
 
+from dynamics import _core
 from dynamics.simulation import solvers as S
-from dynamics.simulation.solvers import linalg
-
-
-class ODE(NamedTuple):
-    A: np.ndarray  # (n, n)
-    mu: float  # > 0: Van der Pol y'' = mu (1 - y^2) y' - y instead of the linear system
-    out_t: np.ndarray
-    out_z: np.ndarray
-
-
-@njit(cache=True)
-def _rhs(p, t, z, dz):
-    if p.mu > 0:
-        dz[0] = z[1]
-        dz[1] = p.mu * (1.0 - z[0] * z[0]) * z[1] - z[0]
-        return
-    for i in range(z.shape[0]):
-        s = 0.0
-        for k in range(z.shape[0]):
-            s += p.A[i, k] * z[k]
-        dz[i] = s
-
-
-@njit(cache=True)
-def _rebase(p, t, z, dz, mag):
-    pass
-
-
-@njit(cache=True)
-def _euler_config(p, z, h):
-    n = z.shape[0] // 2
-    for i in range(n):
-        z[i] += h * z[n + i]
-
-
-@njit(cache=True)
-def _emit(p, j, t, z):
-    p.out_t[j] = t
-    p.out_z[j] = z
-
-
-ODE.rhs, ODE.rebase, ODE.euler_config, ODE.emit = _rhs, _rebase, _euler_config, _emit
-
-
-# cached callers, one per method as dynamics.simulation.run's (the drivers are generic over the problem type, not cached)
-@njit(cache=True)
-def _euler(p, z, t1, out_t, opt, stats, sw):
-    return S.solve_fixed(p, S.euler.Euler(opt.nc), z, 0.0, t1, out_t, opt, stats)
-
-
-@njit(cache=True)
-def _rk4(p, z, t1, out_t, opt, stats, sw):
-    return S.solve_fixed(p, S.rk4.make(z.shape[0]), z, 0.0, t1, out_t, opt, stats)
-
-
-@njit(cache=True)
-def _rk45(p, z, t1, out_t, opt, stats, sw):
-    return S.solve_adaptive(p, S.rk45.make(z.shape[0]), z, 0.0, t1, out_t, opt, stats, sw)
-
-
-@njit(cache=True)
-def _dop853(p, z, t1, out_t, opt, stats, sw):
-    return S.solve_adaptive(p, S.dop853.make(z.shape[0]), z, 0.0, t1, out_t, opt, stats, sw)
-
-
-@njit(cache=True)
-def _radau(p, z, t1, out_t, opt, stats, sw):
-    return S.solve_adaptive(p, S.radau.make(z.shape[0]), z, 0.0, t1, out_t, opt, stats, sw)
-
-
-@njit(cache=True)
-def _auto_rk45(p, z, t0, t1, out_t, opt, stats, sw):
-    return S.solve_adaptive(p, S.auto.make_rk45(z.shape[0]), z, t0, t1, out_t, opt, stats, sw)
-
-
-@njit(cache=True)
-def _auto_radau(p, z, t0, t1, out_t, opt, stats, sw):
-    return S.solve_adaptive(p, S.auto.make_radau(z.shape[0]), z, t0, t1, out_t, opt, stats, sw)
-
-
-def _auto(p, z, t1, out_t, opt, stats, sw):  # auto's two phases, alternated from Python as the library does
-    return S.drive_auto((_auto_rk45, _auto_radau), p, z, 0.0, t1, out_t, opt, stats, sw)
-
-
-SOLVE = {"euler": _euler, "rk4": _rk4, "rk45": _rk45, "dop853": _dop853, "radau": _radau, "auto": _auto}
 
 
 def solve(method, z0, t1, *, A=None, mu=0.0, dt=0.01, rtol=1e-6, atol=1e-9, out_t=None, max_steps=10**6):
+    """z' = A z (or Van der Pol y'' = mu (1 - y^2) y' - y when ``mu`` > 0) by the core's ``method`` from (0, z0)
+    to t1; returns (z(t1), the samples (t, z), the statistics, the switches)."""
     z0 = np.array(z0, float)
     n = z0.shape[0]
     A = np.zeros((n, n)) if A is None else np.asarray(A, float)
-    out_t = np.array([0.0, t1]) if out_t is None else np.asarray(out_t, float)
-    p = ODE(A, float(mu), np.zeros(len(out_t)), np.zeros((len(out_t), n)))
+
+    def f(t, z):
+        if mu > 0:
+            return np.array([z[1], mu * (1.0 - z[0] * z[0]) * z[1] - z[0]])
+        return A @ z
+
+    out_t = np.array([0.0, t1]) if out_t is None else np.array(out_t, float)
+    out_z = np.zeros((len(out_t), n))
     opt = S.Options(nc=n // 2, nvel=n - n // 2, ne=n, max_steps=max_steps, nsteps=int(np.ceil(t1 / dt * (1 - 1e-12))),
-                    dt=float(dt), rtol=rtol, atol=atol, h0=0.0, hmax=np.inf, blowup=1e12, probe=0)
+                    dt=float(dt), rtol=rtol, atol=atol, h0=0.0, hmax=np.inf, blowup=1e12, probe=False)
     stats, sw = S.new_stats(), S.new_switch_log()
     z = z0.copy()
-    SOLVE[method](p, z, float(t1), out_t, opt, stats, sw)
+    _core.solve_ode(method, f, z, float(t1), out_t, out_z, opt._asdict(), stats, sw)
     st = stats[0]
-    return z, p, st, sw[:st["switches"]]
+    return z, Samples(out_t, out_z), st, sw[:st["switches"]]
+
+
+class Samples(NamedTuple):
+    out_t: np.ndarray
+    out_z: np.ndarray
 
 
 OSC = np.array([[0.0, 1.0], [-1.0, 0.0]])  # x'' = -x
@@ -176,12 +103,12 @@ def test_rk45_detects_stiffness_and_auto_switches_both_ways():
 def test_fixed_step_blowup_is_reported():
     A = np.array([[-1e4, 0.0], [0.0, -1.0]])
     z, _, st, _ = solve("rk4", [1.0, 1.0], 1.0, A=A, dt=0.01)
-    assert st["status"] in (S.interface.NONFINITE, S.interface.BLOWUP) and st["t"] < 1.0
+    assert st["status"] in (S.NONFINITE, S.BLOWUP) and st["t"] < 1.0
 
 
 def test_max_steps_status():
     _, _, st, _ = solve("rk45", [1, 0], 100.0, A=OSC, rtol=1e-10, atol=1e-10, max_steps=50)
-    assert st["status"] == S.interface.MAX_STEPS
+    assert st["status"] == S.MAX_STEPS
 
 
 def test_lu_solve_real_and_complex():
@@ -189,10 +116,13 @@ def test_lu_solve_real_and_complex():
     for dtype in (np.float64, np.complex128):
         A = rng.normal(size=(7, 7)) + (1j * rng.normal(size=(7, 7)) if dtype is np.complex128 else 0)
         b = rng.normal(size=7).astype(dtype)
-        LU, piv, x = A.astype(dtype).copy(), np.zeros(7, np.int64), b.copy()
-        linalg.lu_factor(LU, piv)
-        linalg.lu_solve(LU, piv, x)
-        assert np.allclose(A @ x, b, atol=1e-12)
+        LU, piv, x, env = A.astype(dtype).copy(), np.zeros(7, np.int32), b.copy(), np.zeros(21, np.int32)
+        LUe, pive, xe = LU.copy(), piv.copy(), x.copy()
+        _core.lu_factor(LU, piv)
+        _core.lu_solve(LU, piv, x)
+        _core.envelope_lu_factor(LUe, pive, env)
+        _core.envelope_lu_solve(LUe, pive, env, xe)
+        assert np.allclose(A @ x, b, atol=1e-12) and np.allclose(A @ xe, b, atol=1e-12)
 
 
 def _block_diagonal(rng, b, blocks, extra, dtype):
@@ -222,15 +152,15 @@ def test_envelope_lu_equals_dense_lu_bit_for_bit(dtype):
     cases.append(nan)
     for A in cases:
         n = A.shape[0]
-        LU, piv = A.copy(), np.zeros(n, np.int64)
-        LUe, pive, env = A.copy(), np.zeros(n, np.int64), np.zeros((3, n), np.int64)
-        linalg.lu_factor(LU, piv)
-        linalg.envelope_lu_factor(LUe, pive, env)
+        LU, piv = A.copy(), np.zeros(n, np.int32)
+        LUe, pive, env = A.copy(), np.zeros(n, np.int32), np.zeros(3 * n, np.int32)
+        _core.lu_factor(LU, piv)
+        _core.envelope_lu_factor(LUe, pive, env)
         assert np.array_equal(piv, pive) and np.array_equal(LU, LUe, equal_nan=True)
         b = rng.normal(size=n).astype(dtype)
         x, xe = b.copy(), b.copy()
-        linalg.lu_solve(LU, piv, x)
-        linalg.envelope_lu_solve(LUe, pive, env, xe)
+        _core.lu_solve(LU, piv, x)
+        _core.envelope_lu_solve(LUe, pive, env, xe)
         assert np.array_equal(x, xe, equal_nan=True)
         if np.isfinite(A).all():
             assert np.allclose(A @ x, b, atol=1e-9 * np.abs(A).max() * np.abs(x).max())
@@ -243,4 +173,4 @@ def test_spectral_radius_of_a_block_diagonal_matrix_is_its_blocks():
     Q = rng.normal(size=(5, 5))
     block = Q @ np.diag([-40.0, 3.0, -2.0, 1.0, 0.5]) @ np.linalg.inv(Q)
     A = np.kron(np.eye(4), block)
-    assert np.isclose(linalg.spectral_radius(A, 20), 40.0, rtol=1e-6)
+    assert np.isclose(_core.spectral_radius(A, 20), 40.0, rtol=1e-6)

@@ -104,3 +104,46 @@ def test_core_jacobian_against_central_differences(case):
     assert np.abs(J[:, 2 * nv:]).max() == 0.0  # f does not depend on the quadratures
     assert np.abs(J[nv:2 * nv, :2 * nv]).max() > 1.0  # the dynamics' block is there (not a zero matrix)
 
+
+
+BALL = """<robot name="ball"><link name="ball"><inertial><mass value="2"/>
+<inertia ixx="0.02" iyy="0.02" izz="0.02" ixy="0" ixz="0" iyz="0"/></inertial></link></robot>"""
+
+
+@pytest.mark.parametrize("exact", [True, False], ids=["sensitivities", "radau"])
+def test_core_jacobian_with_contact_against_central_differences(exact):
+    """A ball pressed into the ground and sliding (friction past its Stribeck drop, damping active): with
+    ``exact`` (a run with sensitivities) the whole J against central differences of f, the contact's d tau_c/dq
+    differenced by the core; without, its v columns (d tau_c/dv is analytical and exact) and the contact power's
+    row, while the q columns carry the contact's stiffness only (Radau's Newton matrix)."""
+    from dynamics.contact.resolve import core_contact, resolve
+    model = dynamics.load_urdf(BALL, floating_base=True)
+    contact = dynamics.Contact(geometries=[dynamics.Sphere("ball", 0.1)],
+                               friction=dynamics.Material(stiffness=2e5, dissipation=0.5, mu_static=0.8,
+                                                          mu_dynamic=0.5, stiction_velocity=1e-3))
+    passive, source, q0 = _core_problem(model, np.array([0, 0, 0.097, 0, 0, 0, 1.0]), np.zeros(6), None)
+    cm = core_contact(resolve(contact, model), model, exact=exact).core
+    nv, n = model.nv, 2 * model.nv + 3
+    z = np.zeros(n)
+    z[:nv] = [0.001, -0.002, 0.0005, 0.02, -0.01, 0.03]
+    z[nv:2 * nv] = [0.3, -0.2, -0.05, 0.5, 1.0, -0.3]  # sliding, approaching
+    f, J = np.zeros(n), np.full((n, n), np.nan)
+    assert _core.problem_jacobian(model.core, passive, source, q0, z, 0.0, f, J, cm)
+    assert f[2 * nv + 2] != 0.0  # the contact's power: it touches
+    F = np.zeros((n, n))
+    for k in range(2 * nv):
+        h = 1e-7 * max(1.0, abs(z[k]))
+        fs = []
+        for s in (1, -1):
+            zs = z.copy()
+            zs[k] += s * h
+            fz = np.zeros(n)
+            _core.problem_jacobian(model.core, passive, source, q0, zs, 0.0, fz, np.empty((n, n)), cm)
+            fs.append(fz)
+        F[:, k] = (fs[0] - fs[1]) / (2 * h)
+    scale = np.abs(F).max(axis=1, keepdims=True) + 1.0
+    err = np.abs(J - F) / scale
+    cols = slice(0, 2 * nv) if exact else slice(nv, 2 * nv)
+    assert err[:, cols].max() <= 1e-6, (err[:, cols].max(), np.unravel_index(err[:, cols].argmax(), err[:, cols].shape))
+    if not exact:  # the stiffness part: the large entries of da/dq, not all of it
+        assert np.abs(J[nv + 2, 2] - F[nv + 2, 2]) <= 0.05 * np.abs(F[nv + 2, 2])

@@ -75,7 +75,8 @@ template void envelope_lu_solve<double>(const double*, int, const int*, const in
 template void envelope_lu_solve<std::complex<double>>(const std::complex<double>*, int, const int*, const int*,
                                                       std::complex<double>*);
 
-void lu_factor(double* A, int n, int* piv) {
+template <class T>
+void lu_factor(T* A, int n, int* piv) {
     for (int k = 0; k < n; ++k) {
         int m = k;
         double big = std::abs(A[k * n + k]);
@@ -84,30 +85,36 @@ void lu_factor(double* A, int n, int* piv) {
         piv[k] = m;
         if (m != k)
             for (int j = 0; j < n; ++j) std::swap(A[k * n + j], A[m * n + j]);
-        const double d = A[k * n + k];
-        if (d == 0) continue;
+        const T d = A[k * n + k];
+        if (d == T(0)) continue;
         for (int i = k + 1; i < n; ++i) {
             A[i * n + k] /= d;
-            const double lik = A[i * n + k];
-            if (lik != 0)
+            const T lik = A[i * n + k];
+            if (lik != T(0))
                 for (int j = k + 1; j < n; ++j) A[i * n + j] -= lik * A[k * n + j];
         }
     }
 }
 
-void lu_solve(const double* LU, int n, const int* piv, double* b) {
+template <class T>
+void lu_solve(const T* LU, int n, const int* piv, T* b) {
     permute(piv, b, n);
     for (int i = 0; i < n; ++i) {
-        double s = b[i];
+        T s = b[i];
         for (int j = 0; j < i; ++j) s -= LU[i * n + j] * b[j];
         b[i] = s;
     }
     for (int i = n - 1; i >= 0; --i) {
-        double s = b[i];
+        T s = b[i];
         for (int j = i + 1; j < n; ++j) s -= LU[i * n + j] * b[j];
         b[i] = s / LU[i * n + i];
     }
 }
+
+template void lu_factor<double>(double*, int, int*);
+template void lu_factor<std::complex<double>>(std::complex<double>*, int, int*);
+template void lu_solve<double>(const double*, int, const int*, double*);
+template void lu_solve<std::complex<double>>(const std::complex<double>*, int, const int*, std::complex<double>*);
 
 double scaled_rms(const double* e, const double* z0, const double* z1, const double* mag, int ne, double rtol,
                   double atol) {

@@ -21,9 +21,12 @@ void envelope_lu_factor(T* A, int n, int* piv, int* env);
 template <class T>
 void envelope_lu_solve(const T* LU, int n, const int* piv, const int* env, T* b);
 
-// Dense LU with partial pivoting (small systems: the sensitivities' chart matrices).
-void lu_factor(double* A, int n, int* piv);
-void lu_solve(const double* LU, int n, const int* piv, double* b);
+// Dense LU with partial pivoting (small systems: the sensitivities' chart matrices; complex: the reference the
+// envelope LU is tested against).
+template <class T>
+void lu_factor(T* A, int n, int* piv);
+template <class T>
+void lu_solve(const T* LU, int n, const int* piv, T* b);
 
 // RMS of e_i / (atol + rtol max(|z0_i| + mag_i, |z1_i| + mag_i)) over the first ne components.
 double scaled_rms(const double* e, const double* z0, const double* z1, const double* mag, int ne, double rtol,

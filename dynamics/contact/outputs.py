@@ -46,8 +46,7 @@ def contact_samples(resolved, c, cnt):
     when the contact did not ask for them."""
     if "contacts" not in resolved.contact.outputs:
         return None
-    from .resolve import contact_views
-    cm = contact_views(c)
+    cm = c
     out, n = cm.out[:cnt], cm.out_n[:cnt].copy()
     K = out.shape[1]
     used = np.arange(K)[None, :] < n[:, None]

@@ -1,7 +1,7 @@
 """One run of the simulation in the C++ core (``core/simulation/``): the passive torques, the torque source and the
 samples as the core reads and writes them; a constrained model's run is the core's ConstrainedProblem
-(``core/simulation/constrained_problem.hpp``).  (Transitional: DYNAMICS_SIM_NUMBA=1 still takes the numba path of
-:mod:`.run`, to compare the two.)"""
+(``core/simulation/constrained_problem.hpp``), a run with contact takes the core's ContactModel
+(``core/contact/contact_model.hpp``)."""
 
 from typing import NamedTuple
 
@@ -13,6 +13,12 @@ from ..control.registry import _REGISTRY
 from ..errors import DeadlineExceeded, InputError
 from ..parallel import seconds_left
 from . import solvers
+
+
+#: the quadratures of a run's state: W_source, W_passive (a run with contact has a third, W_contact)
+NQUAD = 2
+#: a constrained run's position projection stops below this max |phi| (core/simulation/constrained_problem.hpp)
+PROJECT_TOL = 1e-12
 
 
 class Samples(NamedTuple):

@@ -229,8 +229,7 @@ def contact_report(model, s, run, w, warnings):
     robot), the elastic energy E_el = 1/2 k x^2 the contacts hold at the start and the end, and the energy the
     contacts dissipated (damping and friction): -W_c - (E_el(T) - E_el(0)) >= 0."""
     from ..contact.evaluation import elastic_energy_at
-    from ..contact.resolve import contact_views
-    c = contact_views(run.problem.contact)
+    c = run.problem.contact  # (a CoreContact: what the run's contact wrote)
     work = float(w[-1, 2]) if len(w) and w.shape[1] > 2 else 0.0
     e0 = elastic_energy_at(model, s.contact, s.q0, s.v0)
     e1 = elastic_energy_at(model, s.contact, run.qf, run.vf)

@@ -1,23 +1,22 @@
 """Forward simulation: q(t), v(t) from q0, v0 under joint torques, with an honest report.
 
-``simulate`` is four steps: check the arguments (:class:`Settings`), build the problem (:mod:`.problem`:
-the equations of motion, torque source, passive torques; :mod:`.constrained_problem` for a model with
-constraints), run the compiled loop of the chosen method (:mod:`.run`, :mod:`.solvers`), and write the
-report (:mod:`.report`: status, error estimate, energy balance, constraint drift).  The whole loop (stepper,
-torque source, passive torques, ABA or KKT solve, output sampling) is compiled; only a Python-callable torque
-leaves compiled code (through ``numba.objmode``, once per right-hand-side evaluation).
+``simulate`` is three steps: check the arguments (:class:`Settings`), run the chosen method in the C++ core
+(:mod:`.native`: the robot as an ODE with its torque source, passive torques, constraints and contact,
+``core/simulation/``), and write the report (:mod:`.report`: status, error estimate, energy balance, constraint
+drift, contact).  The whole loop runs in C++ with the GIL released; only a Python-callable torque is called
+back, with the GIL taken, once per right-hand-side evaluation.
 """
 
 import math
+import time
 from typing import NamedTuple
 from warnings import warn
 
 import numpy as np
 
 from .. import _core
-from ..aba import _workspace as aba_workspace
-from ..checks import check_model, real_number, singular_joint_error, vector
-from ..configuration import _retract
+from ..aba import refuse_singular
+from ..checks import check_model, real_number, vector
 from ..errors import InputError, SimulationWarning
 from ..joints import KINDS
 from ..task_space import operational_space_inertia
@@ -29,14 +28,11 @@ from ..control.validation import make_source
 from . import report as R
 from ..constrained_dynamics import DEFAULT_BAUMGARTE, baumgarte_gains, project_velocity
 from ..constraints import core_constraints, warn_drift, warn_off_manifold
-from .constrained_problem import PROJECT_TOL, constrained_problem
-from .problem import NQUAD, robot_problem, singular_body
+from .native import NQUAD, PROJECT_TOL
 from .progress import check as check_progress
 from .progress import watcher
-from .run import run
 from .sensitivities import error_estimate as sensitivity_error
-from .sensitivities import final_sensitivities, sensitivity_problem, sensitivity_spec
-from .sensitivities import initial_state as sensitivity_state
+from .sensitivities import sensitivity_spec
 from .solvers import ADAPTIVE, FIXED, NONFINITE, ORDER, STABILITY_LIMIT, Options
 
 __all__ = ["simulate", "Trajectory", "INTEGRATORS", "OUTPUTS", "DEFAULT_OUTPUTS"]
@@ -247,52 +243,7 @@ def _why_nonfinite(model, s, src, main):
 
 
 def _one_run(model, s, ps, src, dt, out_t, rtol, atol, max_steps, outputs, h0=0.0, watch=None, probe=False):
-    """One compiled run of s.integrator from (q0, v0); samples kept at out_t (``outputs`` of q, v, tau)."""
-    nv = model.nv
-    # runs with sensitivities too: the core's Jacobian is assembled from the parts' derivatives, as numba's
-    # (core/simulation/robot_jacobian.cpp), so the variational equations' J S is not blurred by differences
-    if not _NUMBA_SIM:
-        return _native_run(model, s, ps, src, dt, out_t, rtol, atol, max_steps, outputs, h0, watch, probe)
-    cm = None
-    if s.contact is not None:  # the contact modules are imported by a run with contact only
-        from ..contact.resolve import contact_model
-        cm = contact_model(s.contact, model, out_t.shape[0], exact=s.sens is not None)
-    if s.constrained:
-        alpha, beta = s.baumgarte
-        p = constrained_problem(model, ps, src, s.q0, out_t, outputs, alpha, beta, s.project, cm)
-    else:
-        p = robot_problem(model, ps, src, s.q0, out_t, outputs, cm)
-    z = np.zeros(2 * nv + NQUAD + (cm is not None))
-    z[nv:2 * nv] = s.v0
-    ne, inner = 2 * nv, p
-    if s.sens is not None:
-        ncol = len(s.sens.columns)
-        p = sensitivity_problem(inner, s.sens.x0, s.sens.params, out_t, out_t is s.out_t)  # not in the rerun
-        z = sensitivity_state(p, s.v0)
-        ne = 2 * nv * (1 + ncol)
-    nsteps = max(1, math.ceil(s.duration / dt * (1 - 1e-12))) if s.fixed and s.duration > 0 else 0
-    opt = Options(nc=nv, nvel=nv, ne=ne, max_steps=int(max_steps), nsteps=nsteps, dt=float(dt or 0.0),
-                  rtol=float(rtol), atol=float(atol), h0=float(h0 or 0.0), hmax=np.inf, blowup=_blowup(s.v0),
-                  probe=int(probe and s.fixed and s.duration > 0))
-    st, sw, wall = run(s.integrator, p, z, s.duration, opt, watch=watch)
-    if model.nq == nv:  # 1-dof joints only: the chart is q0 + delta (configuration._retract not compiled)
-        qf = inner.base + z[:nv]
-    else:
-        qf = np.empty(model.nq)
-        _retract(model.tree, inner.base, z[:nv], qf)
-    if p is inner:
-        return RunResult(p, st, sw, wall, qf, z[nv:2 * nv].copy())
-    return RunResult(inner, st, sw, wall, qf, z[nv:2 * nv].copy(), p.out_S,
-                     final_sensitivities(p, z))
-
-
-import os  # noqa: E402  (transitional: DYNAMICS_SIM_NUMBA=1 runs the numba simulation, to compare the two)
-_NUMBA_SIM = os.environ.get("DYNAMICS_SIM_NUMBA") == "1"
-
-
-def _native_run(model, s, ps, src, dt, out_t, rtol, atol, max_steps, outputs, h0, watch, probe):
-    """:func:`_one_run` in the C++ core."""
-    import time
+    """One run of s.integrator in the C++ core from (q0, v0); samples kept at out_t (``outputs`` of q, v, tau)."""
     from . import native
     nv = model.nv
     contact = None
@@ -409,11 +360,9 @@ def _project_initial(model, q0, v0, warnings):
 def _check_not_singular(model, q0, v0, g):
     """A singular M at q0: say which joint and why (:func:`dynamics.checks.singular_joint_error`, the rule
     ``dynamics check`` applies too), rather than a run that stops with NaN at t0; through the run's own ABA
-    (:func:`.problem.singular_body`), so that it compiles once.  Asked only after a run that could not take its
-    first step (the right-hand side was not finite at t0): a run that starts compiles none of it."""
-    body = singular_body(model.tree, q0, v0, g, aba_workspace(model.tree.parents.shape[0], model.nv))
-    if body >= 0:
-        raise singular_joint_error(model, body, "q0")
+    (the core's ABA).  Asked only after a run that could not take its first step (the right-hand side was not
+    finite at t0)."""
+    refuse_singular(model, q0, "q0")
 
 
 def _passive(model, s, limits, limit_stiffness, limit_damping, friction_eps):
