@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <chrono>
 #include <string>
+#include <vector>
 
 #include "arrays.hpp"
 #include "checks.hpp"
@@ -122,6 +123,29 @@ void expose_contact(nb::module_& m) {
         const long n = core::contact::collide(S, oMi, out);
         return contacts(out, n);
     }, "model"_a, "body"_a, "kind"_a, "size"_a, "R"_a, "p"_a, "radius"_a, "pair_a"_a, "pair_b"_a, "q"_a, "K"_a);
+
+    // find_contacts at given world poses of the bodies ((nbodies, 4, 4), the last rows ignored) instead of a
+    // configuration: the pair functions on poses a configuration cannot reach exactly (the tests' hand-made cases)
+    m.def("collide_at", [](const Model& model, nb::handle body, nb::handle kind, nb::handle size, nb::handle R,
+                           nb::handle p, nb::handle radius, nb::handle pair_a, nb::handle pair_b, nb::handle poses,
+                           long K) {
+        const Scene S = scene_of(model, body, kind, size, R, p, radius, pair_a, pair_b);
+        const long room = capacity(S, K);
+        const Input T = input_of(poses, 'd', 3, "poses");
+        require(T.shape(0) == model.nb && T.shape(1) == 4 && T.shape(2) == 4,
+                "poses: expected (" + std::to_string(model.nb) + ", 4, 4)" + got(T.shape(0)));
+        std::vector<core::Transform> oMi(model.nb);
+        for (int i = 0; i < model.nb; ++i) {
+            const double* X = T.doubles() + 16 * i;
+            for (int r = 0; r < 3; ++r) {
+                for (int c = 0; c < 3; ++c) oMi[i].R[3 * r + c] = X[4 * r + c];
+            }
+            oMi[i].p = {X[3], X[7], X[11]};
+        }
+        core::contact::ContactBuffer out(room);
+        const long n = core::contact::collide(S, oMi.data(), out);
+        return contacts(out, n);
+    }, "model"_a, "body"_a, "kind"_a, "size"_a, "R"_a, "p"_a, "radius"_a, "pair_a"_a, "pair_b"_a, "poses"_a, "K"_a);
 
     m.def("scene_poses", [](const Model& model, nb::handle body, nb::handle R, nb::handle p, nb::handle q) {
         Scene S;

@@ -1,8 +1,8 @@
 """Narrow phase of contact (dynamics.contact.narrow_phase) against closed forms and an independent reference.
 
 Every pair is run through the real path: geometry declared on two free bodies "A" and "B" of one model, a
-Scene from build_scene, the bodies' world poses set directly, and the compiled _collide.  The contacts are
-returned with the normal pointing from the second geometry towards the first, whatever order the scene
+Scene from build_scene, the bodies' world poses set directly, and the core's narrow phase (_core.collide_at).  The
+contacts are returned with the normal pointing from the second geometry towards the first, whatever order the scene
 keeps the pair in.  Closed forms: distances of spheres, segments and boxes placed at known poses (rotated and
 translated), box manifolds by their area.  Random placements are checked against numpy references written
 here: segment distances by bounded minimisation, box penetration as the minimum over directions of the
@@ -19,7 +19,8 @@ from scipy.spatial.transform import Rotation
 
 import dynamics
 from dynamics import Box, Capsule, ContactPoint, Cylinder, Ground, HalfSpace, Sphere
-from dynamics.contact.narrow_phase import EDGE_BIAS, _collide, contact_buffer
+from dynamics import _core
+from dynamics.contact.narrow_phase import EDGE_BIAS
 from dynamics.contact.scene import build_scene
 
 EMPTY = dynamics.load_urdf('<robot name="w"><link name="world"/></robot>')
@@ -41,12 +42,11 @@ def collide(ga, Ta, gb, Tb=None):
     scene = build_scene(MODEL, [ga] if plane else [ga, gb], world=[gb] if plane else [])
     assert scene.npairs == 1
     Tb = np.eye(4) if Tb is None else Tb
-    oR, op = np.array([Ta[:3, :3], Tb[:3, :3]]), np.array([Ta[:3, 3], Tb[:3, 3]])
-    out = contact_buffer(scene)
-    n = _collide(scene.arrays, oR, op, out)
-    assert n <= scene.max_contacts
+    poses = np.ascontiguousarray([Ta, Tb], dtype=float)
+    pair, point, normal, depth = _core.collide_at(MODEL.core, *scene.arrays, poses, scene.max_contacts)
+    assert len(depth) <= scene.max_contacts
     sign = 1.0 if scene.pair_a[0] == 0 else -1.0
-    return out.point[:n].copy(), sign * out.normal[:n], out.depth[:n].copy()
+    return point, sign * normal, depth
 
 
 def test_sphere_plane_tilted_ground():

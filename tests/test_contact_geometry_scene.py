@@ -1,7 +1,6 @@
 """Contact geometry of models: URDF collisions (against yourdfpy), the <contact_geometry> extension, scene
 building and pair filtering, bad input, the broad phase on a quadruped, and free bodies (against Pinocchio)."""
 
-import itertools
 
 import numpy as np
 import pickle
@@ -10,19 +9,34 @@ import yourdfpy
 
 import dynamics
 from dynamics import Box, Capsule, ContactPoint, Cylinder, Ground, HalfSpace, InputError, Sphere, URDFError
-from dynamics.contact.narrow_phase import (_body_world_poses, _broad_phase, _collide, contact_buffer, find_contacts,
-                                           scene_poses)
+from dynamics.contact.narrow_phase import find_contacts, scene_poses
 from dynamics.contact.scene import MAX_PER_PAIR, build_scene
 from tests.robots import erd
 
 
 def body_poses(model, q):
-    """4x4 world pose of each body (compiled once for every test here), then the world's (identity) last."""
-    oR, op = np.empty((model.nbodies, 3, 3)), np.empty((model.nbodies, 3))
-    _body_world_poses(model.tree, q, oR, op)
+    """4x4 world pose of each body (its frame's placement), then the world's (identity) last."""
     T = np.tile(np.eye(4), (model.nbodies + 1, 1, 1))
-    T[:-1, :3, :3], T[:-1, :3, 3] = oR, op
+    for i, name in enumerate(model.body_names):
+        T[i] = dynamics.frame_placement(model, q, name)
     return T
+
+
+def broad_phase(scene, P):
+    """The pairs whose bounding volumes overlap at the geometries' world poses P (scene_poses): bounding spheres
+    about each geometry's origin, a plane's half-space against the other's sphere (the core's test)."""
+    keep = []
+    for k, (a, b) in enumerate(zip(scene.pair_a, scene.pair_b)):
+        ca = P[a, :3, 3]
+        if np.isinf(scene.radius[b]):  # a plane: its z axis is its normal
+            n = P[b, :3, 2]
+            overlap = n @ ca - n @ P[b, :3, 3] < scene.radius[a]
+        else:
+            d = ca - P[b, :3, 3]
+            overlap = d @ d < (scene.radius[a] + scene.radius[b]) ** 2
+        if overlap:
+            keep.append(k)
+    return keep
 
 
 @pytest.mark.parametrize("rel, floating", [("go1_description/urdf/go1.urdf", False),
@@ -255,26 +269,22 @@ def test_broad_phase_on_a_standing_quadruped():
     q = model.neutral()
     for leg in ("FR", "FL", "RR", "RL"):
         q[model.q_slice(f"{leg}_thigh_joint")], q[model.q_slice(f"{leg}_calf_joint")] = 0.8, -1.6
-    oR, op = np.empty((model.nbodies, 3, 3)), np.empty((model.nbodies, 3))
-    _body_world_poses(model.tree, q, oR, op)
+    T = body_poses(model, q)
     feet = [g for g in model.collision_geometry if g.frame.endswith("_foot")]
     assert len(feet) == 4 and all(g.kind == "sphere" for g in feet)
-    lowest = min((oR[g.body] @ g.pose[:3, 3] + op[g.body])[2] - g.size[0] for g in feet)
+    lowest = min((T[g.body, :3, :3] @ g.pose[:3, 3] + T[g.body, :3, 3])[2] - g.size[0] for g in feet)
     q[2] = -lowest - 1e-3
-    _body_world_poses(model.tree, q, oR, op)
     for geoms, npairs, examined in ((feet, 4, 4), (None, 38, 8)):
         s = build_scene(model, geoms)
-        keep = np.empty(s.npairs, np.int64)
-        m = _broad_phase(s.arrays, oR, op, keep)
+        keep = broad_phase(s, scene_poses(model, s, q))
         # with every primitive: the feet and the lower legs, whose bounding spheres reach the ground
-        assert (s.npairs, m) == (npairs, examined)
-        parts = {s.names[s.pair_a[k]].split("/")[0].split("_")[1] for k in keep[:m]}
+        assert (s.npairs, len(keep)) == (npairs, examined)
+        parts = {s.names[s.pair_a[k]].split("/")[0].split("_")[1] for k in keep}
         assert parts == ({"foot"} if geoms else {"foot", "calf"})
-        out = contact_buffer(s)
-        n = _collide(s.arrays, oR, op, out)
-        assert n == 4 and {s.names[s.pair_a[k]] for k in out.pair[:n]} == {g.name for g in feet}
-        np.testing.assert_allclose(out.normal[:n], np.tile([0, 0, 1], (4, 1)))
-        assert out.depth[:n].max() == pytest.approx(1e-3, rel=1e-9)
+        c = find_contacts(model, s, q)
+        assert len(c.depth) == 4 and set(c.a) == {g.name for g in feet}
+        np.testing.assert_allclose(c.normal, np.tile([0, 0, 1], (4, 1)))
+        assert c.depth.max() == pytest.approx(1e-3, rel=1e-9)
     assert build_scene(model).npairs == 38
 
 

@@ -1,26 +1,31 @@
-"""The C++ narrow phase (core/contact/narrow_phase.cpp, through ``_core.find_contacts``) against the numba one
-(``_collide``, what the simulation still runs): the same contacts, bit for bit.
+"""The C++ narrow phase (core/contact/narrow_phase.cpp, through ``_core.find_contacts``) pinned bit for bit: it was
+ported from the numba kernels with their order of operations and compared with them on every case below (all
+identical, signed zeros included; the numba code is in git's history, commit 9e2c482); the SHA-256 of its answers
+was then recorded (tests/data/narrow_phase_golden.json, ``DYNAMICS_RECORD_GOLDEN=1 pytest`` this file to record
+again after a change that is meant to move bits) and every later change is compared with it.  Closed forms and
+independent references for the same functions are tests/test_contact_geometry.py's.
 
 Static scenes (every geometry on body -1, its world pose given) test the pair functions alone: for each of the 21
 kind pairs (a <= b) of sphere, point, capsule, cylinder, box and plane, hundreds of seeded random poses (a quarter
 of them on a grid of signed axis permutations and quarter metres, where the ties of the pair functions -- equal
 overlaps, parallel edges, a centre on a face -- happen), plus the hand-made cases: coincident centres, parallel
 and collinear capsules, box-box face and edge contacts, a capsule whose axis enters a box.  Scenes on free bodies
-test the whole path, kinematics included: the core's world poses equal numba's in every bit (the core's
-kinematics keeps numba's order of operations), so no tolerance is needed anywhere here; a difference would be a
-bug of the port, not round-off.
+test the whole path, kinematics included.
 
 The bounds tests: every array checked before any C++ runs (dtype, layout, shape, index range, the buffer's size)
 -> ValueError naming the argument; a million pairs with a buffer of 3 -> 3 contacts, nothing written past it.
 """
+
+import hashlib
+import json
+import os
 
 import numpy as np
 import pytest
 
 import dynamics
 from dynamics import Box, Capsule, Cylinder, Ground, Sphere, _core
-from dynamics.contact.narrow_phase import (_collide, _geometry_pose, _world_arrays, contact_buffer, find_contacts,
-                                           scene_poses)
+from dynamics.contact.narrow_phase import find_contacts, scene_poses
 from dynamics.contact.scene import BOX, CAPSULE, CYLINDER, MAX_PER_PAIR, PLANE, POINT, SPHERE, Scene, build_scene
 from dynamics.contact.scene import bounding_radius
 
@@ -28,6 +33,38 @@ KINDS = (SPHERE, POINT, CAPSULE, CYLINDER, BOX, PLANE)
 NAMES = {SPHERE: "sphere", POINT: "point", CAPSULE: "capsule", CYLINDER: "cylinder", BOX: "box", PLANE: "plane"}
 PAIRS = [(a, b) for a in KINDS for b in KINDS if a <= b]
 N_RANDOM = 400  # random poses per kind pair
+GOLDEN = os.path.join(os.path.dirname(os.path.abspath(__file__)), "data", "narrow_phase_golden.json")
+RECORD = os.environ.get("DYNAMICS_RECORD_GOLDEN") == "1"
+
+
+class Digest:
+    """The SHA-256 of a sequence of the core's answers (every array's bytes, in order) and how many contacts."""
+
+    def __init__(self):
+        self.sha, self.contacts = hashlib.sha256(), 0
+
+    def add(self, *arrays):
+        for a in arrays:
+            self.sha.update(np.ascontiguousarray(a).tobytes())
+
+    def contacts_of(self, model, scene, q):
+        c = core_contacts(model, scene, q)
+        self.add(*c)
+        self.contacts += len(c[0])
+        return len(c[0])
+
+
+def assert_recorded(name, digest):
+    """The digest equals the recorded one (or, recording, is written)."""
+    recorded = json.load(open(GOLDEN)) if os.path.exists(GOLDEN) else {}
+    got = {"sha256": digest.sha.hexdigest(), "contacts": digest.contacts}
+    if RECORD:
+        recorded[name] = got
+        with open(GOLDEN, "w") as f:
+            json.dump(recorded, f, indent=1, sort_keys=True)
+        return
+    assert name in recorded, f"{name}: nothing recorded (DYNAMICS_RECORD_GOLDEN=1 to record)"
+    assert got == recorded[name], f"{name}: the core's contacts changed ({got} against {recorded[name]})"
 
 
 @pytest.fixture(scope="module")
@@ -116,27 +153,8 @@ def random_pair(G, ka, kb, rng):
 
 # -- the comparison -------------------------------------------------------------------------------------------
 
-def numba_contacts(model, scene, q):
-    """The old find_contacts: numba's world poses and its compiled narrow phase."""
-    oR, op = _world_arrays(model, scene, q)
-    out = contact_buffer(scene)
-    n = _collide(scene.arrays, oR, op, out)
-    return out.pair[:n], out.point[:n], out.normal[:n], out.depth[:n]
-
-
 def core_contacts(model, scene, q):
     return _core.find_contacts(model.core, *scene.arrays, np.asarray(q, float), scene.max_contacts)
-
-
-def assert_bit_identical(model, scene, q):
-    """The core's contacts are numba's, every bit (signed zeros included); returns how many."""
-    want, got = numba_contacts(model, scene, q), core_contacts(model, scene, q)
-    for name, w, g in zip(("pair", "point", "normal", "depth"), want, got):
-        assert g.dtype == w.dtype and g.shape == w.shape, name
-        differ = g.view(np.int64) != w.view(np.int64)
-        bad = np.flatnonzero(differ.any(axis=1) if differ.ndim == 2 else differ)
-        assert bad.size == 0, f"{name} of contact {bad[0]}: core {g[bad[0]].tolist()}, numba {w[bad[0]].tolist()}"
-    return len(want[0])
 
 
 @pytest.mark.parametrize("ka, kb", PAIRS, ids=[f"{NAMES[a]}-{NAMES[b]}" for a, b in PAIRS])
@@ -149,8 +167,10 @@ def test_random_poses_bit_identical(model, ka, kb):
     for _ in range(N_RANDOM):
         random_pair(G, ka, kb, rng)
     scene = G.scene(8 * N_RANDOM if ka == kb == PLANE else None)
-    n = assert_bit_identical(model, scene, model.neutral())
+    d = Digest()
+    n = d.contacts_of(model, scene, model.neutral())
     assert n >= (0 if ka == kb == POINT else N_RANDOM // 10)  # two points never touch
+    assert_recorded(f"random {NAMES[ka]}-{NAMES[kb]}", d)
 
 
 def special_cases():
@@ -191,7 +211,9 @@ def special_cases():
 
 
 def test_special_cases_bit_identical(model):
-    assert assert_bit_identical(model, special_cases(), model.neutral()) > 50
+    d = Digest()
+    assert d.contacts_of(model, special_cases(), model.neutral()) > 50
+    assert_recorded("special cases", d)
 
 
 # -- on moving bodies: kinematics included ---------------------------------------------------------------------
@@ -225,23 +247,19 @@ def random_configuration(model, rng):
 
 
 def test_free_bodies_bit_identical(free_bodies):
-    """300 configurations of the free bodies: the core's contacts and geometry poses (scene_poses) are numba's,
-    bit for bit (the numpy formula scene_poses had before differed from both in the last bit of one entry in 12:
-    numpy's matrix product sums in another order)."""
+    """300 configurations of the free bodies: the core's contacts and geometry poses (scene_poses) as recorded, bit
+    for bit."""
     model, scene = free_bodies
     rng = np.random.default_rng(7)
-    total = 0
+    d = Digest()
     for _ in range(300):
         q = random_configuration(model, rng)
-        total += assert_bit_identical(model, scene, q)
-        oR, op = _world_arrays(model, scene, q)
+        d.contacts_of(model, scene, q)
         T = scene_poses(model, scene, q)
-        for g in range(len(scene.kind)):  # numba's helper run as Python: the same operations, the same bits
-            R, p = _geometry_pose(scene.arrays, g, oR, op)
-            got, want = np.concatenate([T[g, :3, :3].ravel(), T[g, :3, 3]]), np.array(R + p, float)
-            assert np.array_equal(got.view(np.int64), want.view(np.int64)), g
-            assert T[g, 3].tolist() == [0, 0, 0, 1]
-    assert total > 300
+        d.add(T)
+        assert np.all(T[:, 3] == [0, 0, 0, 1])
+    assert d.contacts > 300
+    assert_recorded("free bodies", d)
 
 
 def test_find_contacts_keeps_its_contract(free_bodies):
@@ -249,7 +267,7 @@ def test_find_contacts_keeps_its_contract(free_bodies):
     model, scene = free_bodies
     q = random_configuration(model, np.random.default_rng(11))
     c = find_contacts(model, scene, q)
-    pair, point, normal, depth = numba_contacts(model, scene, q)
+    pair, point, normal, depth = core_contacts(model, scene, q)
     assert np.array_equal(c.pair, pair) and np.array_equal(c.point, point) and np.array_equal(c.depth, depth)
     assert c.a == tuple(scene.names[scene.pair_a[k]] for k in pair)
     assert c.pair.dtype == np.int64 and c.point.flags.c_contiguous and c.point.shape == (len(pair), 3)
@@ -317,7 +335,7 @@ def test_bad_arrays_are_value_errors(free_bodies, name, change, message):
 
 def test_a_million_pairs_in_a_tiny_buffer(free_bodies):
     """10^6 overlapping pairs and a buffer of 3: the first 3 contacts, the rest dropped, nothing written past
-    it; as numba's buffer guard does."""
+    it."""
     model, scene = free_bodies
     q = model.neutral()
     a = arguments(model, scene, q)
@@ -359,13 +377,14 @@ def test_robot_self_collision_bit_identical(rel):
                                mimic="independent")
     scene = build_scene(model, self_collision=True)
     rng = np.random.default_rng(13)
-    total = 0
+    d = Digest()
     for _ in range(100):
         q = random_state(model, rng)[0]
         if "go1" in rel:
             q[2] = rng.uniform(0.0, 0.4)  # the base near the ground
-        total += assert_bit_identical(model, scene, q)
-    assert total > 100
+        d.contacts_of(model, scene, q)
+    assert d.contacts > 100
+    assert_recorded(f"self-collision {rel.split('/')[0]}", d)
 
 
 def test_non_finite_scenes_do_not_crash(model):
