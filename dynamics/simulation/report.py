@@ -14,7 +14,7 @@ Non-finite numbers are reported as None (strict JSON); the warnings say why.
 How ``error_estimate`` is computed
 ----------------------------------
 ``error_estimate`` estimates the *global* error of the returned final state, as the max-norm over
-``_difference(q_final, q_true)`` (rad or m per velocity coordinate; :func:`dynamics.configuration._difference`)
+``difference(q_true, q_final)`` (rad or m per velocity coordinate; :func:`dynamics.difference`)
 and ``v_final - v_true`` (rad/s or m/s).  ``error_estimate_q`` and ``error_estimate_v`` are the two parts.
 It is measured, not modelled, by a second run of the same method on the same problem (``error_estimate=
 "rerun"``, the default):
@@ -53,7 +53,7 @@ import math
 
 import numpy as np
 
-from ..configuration import _difference
+from .. import _core
 from ..errors import InputError
 from .solvers import OK, RADAU, STATUS_NAMES, SWITCH_CONTACT, SWITCH_STIFF
 
@@ -210,13 +210,13 @@ def json_safe(report):
 
 def state_error(model, q1, v1, q2, v2):
     """(max |q1 - q2| on the manifold, max |v1 - v2|) between two states (the error estimate's, and tests' and
-    benchmarks').  In Python around the compiled configuration difference: one compiled function fewer."""
+    benchmarks'): the core's configuration difference."""
     q1, q2 = np.ascontiguousarray(q1, float), np.ascontiguousarray(q2, float)
-    if model.nq == model.nv:  # 1-dof joints only: the difference is q1 - q2 (no compiled function needed)
+    if model.nq == model.nv:  # 1-dof joints only: the difference is q1 - q2
         d = q1 - q2
     else:
         d = np.empty(model.nv)
-        _difference(model.tree, q2, q1, d)
+        _core.difference(model.core, q2, q1, d)
     dv = np.asarray(v1, float) - np.asarray(v2, float)
     return float(np.max(np.abs(d), initial=0.0)), float(np.max(np.abs(dv), initial=0.0))
 
