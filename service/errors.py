@@ -90,7 +90,8 @@ class NotOffered(Problem):
 
 
 class Unavailable(Problem):
-    """Not now: every simulation worker stayed busy until the deadline; ``Retry-After`` says when to ask again."""
+    """Not now: every simulation worker stayed busy (or was still starting) until the deadline; ``Retry-After``
+    says when to ask again."""
 
 
 class BudgetExceeded(Problem):

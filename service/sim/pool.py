@@ -155,7 +155,7 @@ class SimPool:
             try:
                 w = self._idle.get(timeout=max(0.0, deadline - time.monotonic()))
             except queue.Empty:
-                raise PoolBusy("every simulation worker stayed busy until the deadline") from None
+                raise PoolBusy("every simulation worker stayed busy (or was still starting) until the deadline") from None
             if w.proc.poll() is None:
                 break
             self._replace(w)  # died while idle (killed from outside, out of memory): take another
