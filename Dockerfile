@@ -2,7 +2,7 @@
 #   docker build -t dynamics .
 #   docker run -p 8000:8000 -v dynamics-store:/data dynamics
 # Stage 1 compiles the C++ core and builds the wheel (the bundled robots/ ship inside it); stage 2 installs it
-# (no compiler, no sources).  Nothing compiles at run time: the service answers at once.
+# (no compiler, no sources). No warm-up step: the server is ready as soon as it has started.
 FROM python:3.11-slim AS build
 # the one thing the build needs from the system: a C++ compiler (every other build requirement comes from PyPI)
 # hadolint ignore=DL3008

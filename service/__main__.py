@@ -1,9 +1,11 @@
 """``python -m service [--host 127.0.0.1] [--port 8000] [--store DIR] [--workers N] [--ray-address ADDR]``: run the HTTP service.
 
 Options are written into the ``DYNAMICS_*`` environment variables before uvicorn starts, so that every worker
-process (``--workers N`` starts them from scratch) reads the same settings. ``--warmup`` runs the warm-up's
-stages in this process (compiling the kernels on the bundled robots and filling numba's on-disk cache, as the
-Docker image does at build time) and exits.
+process (``--workers N`` starts them from scratch) reads the same settings.
+
+``--warmup`` is kept for build scripts that still run it (the Docker image did, to fill numba's cache): nothing
+is compiled at run time any more, so it only checks that the library imports and the bundled robots load, says
+so, and exits 0 (refusing it would break those builds for no gain).
 """
 
 from __future__ import annotations
@@ -14,15 +16,11 @@ import sys
 
 import uvicorn
 
-from .compute import compile_operations
-from .kinematics import OPERATIONS as KINEMATICS
 from .library import lib
 from .models import load_model
 from .protocol import HeaderTimeoutProtocol
 from .settings import Settings, configure_logging
-from .sim import warm
 from .store import RobotStore
-from .warmup import Stage, Warmup
 
 
 #: what --help says first (plain text: the module docstring is reST)
@@ -38,41 +36,26 @@ def _parser(prog: str = "python -m service") -> argparse.ArgumentParser:
     p.add_argument("--store", default=None,
                    help="directory of uploaded robots (default $DYNAMICS_STORE or ./store)")
     p.add_argument("--workers", type=int, default=1, help="server processes (default 1)")
-    p.add_argument("--log-level", default="info", help="uvicorn's and the service's (warm-up progress: info)")
+    p.add_argument("--log-level", default="info", help="uvicorn's and the service's (default info)")
     p.add_argument("--ray-address", default=None,
                    help="send job parts to this Ray cluster ('auto', 'ray://head:10001'; $DYNAMICS_RAY_ADDRESS)")
-    p.add_argument("--warmup", action="store_true", help="compile the kernels on the bundled robots and exit")
+    p.add_argument("--warmup", action="store_true",
+                   help="obsolete (the service has no warm-up any more): check that the library imports and the bundled "
+                        "robots load, and exit")
     return p
 
 
 def warmup() -> int:
-    """Every operation on every bundled robot, and the simulation worker's warm-up, in this process."""
+    """``--warmup``: once the numba warm-up; now a check that the library imports and the bundled robots load."""
     settings = Settings.from_env()
     store = RobotStore(settings.store_dir, settings.robots_dir)
     robots = store.bundled_ids()
-
-    def dynamics_kernels() -> None:
-        for rid in robots:
-            record = store.get(rid)
-            model = load_model(record.urdf, record.floating_base)
-            compile_operations(model)
-            compile_operations(model, KINEMATICS)
-
-    stages = [Stage("importing the library", lib), Stage(f"compiling dynamics kernels on {len(robots)} bundled "
-                                                         f"robots", dynamics_kernels)]
-    if settings.sim_workers > 0:  # no simulation, no warming
-        stages.append(Stage("compiling simulation kernels", warm.warm_up))
-        stages.append(Stage("compiling the operational-space simulation kernels", warm.warm_up_later))
-        stages.append(Stage("compiling the contact simulation kernels", warm.warm_up_contact))
-        stages.append(Stage("compiling the other torque kinds, the free joint, radau and contact under PD",
-                            warm.warm_up_rest))
-    run = Warmup()
-    run.run(stages)
-    if run.failures:  # the Docker build step: an image whose kernels did not compile is not built
-        for failure in run.failures:
-            print(f"warmup: FAILED {failure['stage']}: {failure['error']}", file=sys.stderr)
-        return 1
-    print(f"warmup: compiled kernels on {len(robots)} bundled robots in {run.seconds:.1f} s")
+    lib()
+    for rid in robots:
+        record = store.get(rid)
+        load_model(record.urdf, record.floating_base)
+    print(f"warmup: obsolete, the service has no warm-up (the library's core is compiled at install); the library imports "
+          f"and the {len(robots)} bundled robots load")
     return 0
 
 

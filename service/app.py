@@ -3,7 +3,7 @@
 ``uvicorn service.app:create_app --factory`` or ``python -m service``. Nothing here computes: the routes are in
 :mod:`service.routes`, what they share in :mod:`service.deps` (built in the lifespan), the mapping of errors to
 HTTP answers in :mod:`service.errors`. The app imports no numeric library, so that it answers at once; the
-library is imported and compiled by the warm-up (:mod:`service.warmup`).
+library is imported in the background at start (:mod:`service.deps`, :mod:`service.library`).
 """
 
 from __future__ import annotations

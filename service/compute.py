@@ -6,10 +6,10 @@ Two kinds of work, two mechanisms:
   request: the library checks the arguments (its errors name them) and splits a batch over its own threads.
   A batch runs inside the request's deadline (:func:`within`): the library looks at the clock between pieces of
   a few milliseconds and stops, so a request past its budget frees its threads at once (504).
-* A simulation is one opaque library call whose cost the caller controls (duration, tolerances, a stiff
-  system), so it runs in a worker process (:mod:`service.sim.pool`) that is killed when the budget runs out:
-  the only way to really stop a computation that never checks a clock. While the workers still compile (the
-  warm-up), a request waits for them within its budget, then gets a 503 saying how long it should take.
+* A simulation is one library call whose cost the caller controls (duration, tolerances, a stiff system). It
+  runs in a worker process (:mod:`service.sim.pool`) inside the request's deadline: the C++ core checks the
+  clock in its integration loop and stops (504), and a worker still busy shortly past the deadline is killed.
+  The process also keeps a crash of the core away from the server (see docs/architecture.md, "Simulations").
 """
 
 from __future__ import annotations
@@ -30,7 +30,7 @@ from .errors import (BudgetExceeded, Failed, InvalidInput, NotOffered, Problem, 
 from .codec import wants_npz
 from .contact import check_frames
 from .library import lib, parallel
-from .models import Models, load_model, locked_key
+from .models import Models, locked_key
 from .scene import Terms, simulation_scene, skipped
 from . import schemas
 from .schemas import SimulateRequest
@@ -38,7 +38,6 @@ from .settings import Settings
 from .sim.job import Job, build_job
 from .sim.job import samples as sim_samples
 from .sim.pool import PoolBusy, PoolTimeout, SimPool, WorkerCrashed
-from .warmup import WARMUP_URDF, Warmup
 
 # Requests with bodies up to this size may run on the event loop (see service.routes.dynamics)...
 INLINE_BYTES = 2048
@@ -125,8 +124,6 @@ class Operation:
     batched: tuple[tuple[str, int], ...] = ()
     #: iterative work whose cost the request sets (inverse kinematics): run within the budget even for one state
     iterative: bool = False
-    #: the arguments besides q, v, a and tau of the warm-up's call, ``sample(model, args)`` (a frame, a target)
-    sample: Optional[Callable[[Any, dict[str, Any]], dict[str, Any]]] = None
     #: its endpoint: request and answer schemas, summary (the URL segment is its key in the table)
     endpoint: Optional[Endpoint] = None
 
@@ -165,32 +162,11 @@ OPERATIONS: dict[str, Operation] = {
 }
 
 
-def layout(op: Operation, args: dict[str, Any]) -> tuple:
-    """What selects a compiled specialisation of a call: the dimensions of the states, the keywords given."""
-    return (op.function, tuple(getattr(args[s], "ndim", None) for s in op.states),
-            tuple(k for k in op.keywords if args.get(k) is not None))
-
-
 def _numbers_per_state(op: Operation, model, args: dict[str, Any]) -> int:
     """Numbers of the answer per state (the operation's own count, else nv or nv^2)."""
     if op.per_state is not None:
         return op.per_state(model, args)
     return model.nv * model.nv if op.answer == "mass_matrix" else model.nv
-
-
-def compile_operations(model, operations: Optional[dict[str, Operation]] = None) -> list[tuple]:
-    """Call every operation (of ``operations``, default :data:`OPERATIONS`) once with one state, then each with a
-    batch of two: numba compiles (or loads from its disk cache) each kernel now rather than in a request. Returns
-    the layouts run."""
-    q = np.tile(model.neutral(), (2, 1))
-    v = np.zeros((2, model.nv))
-    done = []
-    for states in ({"q": q[0], "v": v[0], "a": v[0], "tau": v[0]}, {"q": q, "v": v, "a": v, "tau": v}):
-        for op in (OPERATIONS if operations is None else operations).values():
-            args = states if op.sample is None else {**states, **op.sample(model, states)}
-            call(op, model, args)
-            done.append(layout(op, args))
-    return done
 
 
 def call(op: Operation, model, args: dict[str, Any]) -> dict[str, Any]:
@@ -229,18 +205,13 @@ def _sensitivity_columns(model, req: SimulateRequest) -> int:
 class Compute:
     """The thread pools, the simulation workers and the deadline logic, shared by all requests of one process."""
 
-    def __init__(self, settings: Settings, models: Models, pool: Optional[SimPool], warmup: Warmup,
-                 operations: tuple[dict[str, Operation], ...] = (OPERATIONS,)):
-        """``operations``: the tables of operations the warm-up compiles (service.kinematics adds its own)."""
+    def __init__(self, settings: Settings, models: Models, pool: Optional[SimPool]):
         self.settings = settings
-        self.operations = operations
         self.models = models
         self.pool = pool
-        self.warmup = warmup
         self.executor = ThreadPoolExecutor(max_workers=settings.compute_threads, thread_name_prefix="dynamics")
         # threads that wait for a simulation worker's answer (the work itself runs in the worker process)
         self.waiters = ThreadPoolExecutor(max_workers=max(1, 4 * settings.sim_workers), thread_name_prefix="sim-wait")
-        self._warm: set[tuple] = set()  # layouts already compiled (service.compute.layout)
 
     def close(self) -> None:
         self.executor.shutdown(wait=False, cancel_futures=True)
@@ -262,18 +233,11 @@ class Compute:
             raise problem
         return await self.run(start)
 
-    def warm_kernels(self) -> None:
-        """Warm-up stage: compile every operation on a tiny robot, fixed and floating (quaternion checks)."""
-        for floating_base in (False, True):
-            model = load_model(WARMUP_URDF, floating_base)
-            for operations in self.operations:
-                self._warm.update(compile_operations(model, operations))
-
     # -- dynamics --------------------------------------------------------------------------------------------
     def can_inline(self, op: Operation, rid: str, args: dict[str, Any]) -> bool:
-        """True when this call is compiled, its model in memory and its answer small: microseconds of work, fit
+        """True when this call's model is in memory and its answer small (one state): microseconds of work, fit
         for the event loop."""
-        if op.iterative or layout(op, args) not in self._warm or any(
+        if op.iterative or any(
                 args.get(s) is not None and args[s].ndim != 1 for s in op.states):
             return False
         entry = self.models.cache.peek((rid, locked_key(args.get("locked"))))
@@ -298,7 +262,6 @@ class Compute:
             if not _finite(out):
                 raise InvalidInput(f"{key}: the result is not finite (is a movable joint carrying no mass, or are "
                                    f"the inputs extreme?)", key)
-        self._warm.add(layout(op, args))
         return {**result, "scene": entry.scene.answer(skipped(op.terms, args, entry.model.gravity))}
 
     def _batch_size(self, op: Operation, args: dict[str, Any]) -> Optional[int]:
@@ -321,18 +284,11 @@ class Compute:
         return batch
 
     # -- simulation ------------------------------------------------------------------------------------------
-    async def await_workers(self, budget: Budget) -> None:
-        """Return once a simulation worker has compiled (at once after the warm-up); if none has within
-        ``budget``, a 503 saying how long the warm-up has run and should still take. Before the request is
-        decoded: during the warm-up, nothing else of it would wait for less."""
+    def require_simulation(self) -> None:
+        """A 501 on a server without simulation workers (DYNAMICS_SIM_WORKERS=0). A request right after the
+        start needs no other wait than :meth:`SimPool.run`'s for an idle worker (one importing the library)."""
         if self.pool is None:
             raise NotOffered("simulate: not available on this server (DYNAMICS_SIM_WORKERS=0)")
-        if self.pool.ready.is_set():
-            return
-        loop = asyncio.get_running_loop()
-        if not await loop.run_in_executor(self.waiters, self.pool.wait_ready, budget.left()):
-            raise Unavailable(f"simulate: {self.warmup.status()}; retry then", code="starting",
-                              headers={"Retry-After": str(self.warmup.retry_after())})
 
     def simulation_job(self, rid: str, req: SimulateRequest, accept: Optional[str] = None
                        ) -> tuple[Job, dict[str, Any]]:
@@ -366,24 +322,18 @@ class Compute:
     def _simulate(self, job: Job, budget: Budget) -> tuple[dict[str, Any], float]:
         try:
             outcome = self.pool.run(dataclasses.replace(job, deadline=budget.deadline), budget.deadline)
-        except PoolTimeout as e:
-            if len(e.args) > 1 and not e.args[1]:  # its worker was compiling, not simulating: it goes on
-                seconds = e.args[2] if len(e.args) > 2 and e.args[2] else 30.0
-                raise Unavailable("simulate: the simulation worker was still compiling the kernels this request "
-                                  "needs (once per kind of simulation after a start with an empty cache); retry in "
-                                  f"about {seconds:.0f} s", code="starting",
-                                  headers={"Retry-After": str(int(seconds))}) from None
+        except PoolTimeout:
             raise BudgetExceeded(f"the simulation of {job.duration:g} s", budget.seconds,
                                  "shorten the duration, loosen rtol/atol or use a larger dt") from None
         except PoolBusy as e:
             raise Unavailable(f"simulate: {e}; retry shortly", headers={"Retry-After": "1"}) from None
         except WorkerCrashed as e:
             raise Failed(f"simulate: {e}", code="worker_crashed") from None
+        if outcome.deadline:  # the core stopped the run at the deadline itself (its worker stays)
+            raise BudgetExceeded(f"the simulation of {job.duration:g} s", budget.seconds,
+                                 "shorten the duration, loosen rtol/atol or use a larger dt")
         if outcome.input_error is not None:  # the library's InputError, raised in the worker
             raise InvalidInput(outcome.input_error, field_of(outcome.input_error))
         if outcome.error is not None:
             raise Failed(f"simulate: {outcome.error}")
-        if outcome.unavailable is not None:  # a kernel the worker compiles in the background (sim/worker.py)
-            raise Unavailable(f"simulate: {outcome.unavailable}", code="starting",
-                              headers={"Retry-After": str(int(min(60, max(1, math.ceil(outcome.retry_after)))))})
         return outcome.trajectory, outcome.seconds

@@ -183,16 +183,6 @@ def _rows(model, args: dict[str, Any]) -> int:
     return sum(c.rows for c in model.constraints)
 
 
-def _all_joints(model, args: dict[str, Any]) -> dict[str, Any]:
-    """The warm-up's arguments: every movable joint actuated."""
-    return {"actuated": list(model.joint_names)}
-
-
-def _guess(model, args: dict[str, Any]) -> dict[str, Any]:
-    """The warm-up's arguments: its q as the guess."""
-    return {"q_guess": args["q"]}
-
-
 #: the closed-loop endpoints, by URL segment (routes in service.routes.constraints)
 OPERATIONS: dict[str, Operation] = {
     "constraint-residual": Operation("constraint residual", "constraint_residual", ("q",), (), "residual",
@@ -200,7 +190,6 @@ OPERATIONS: dict[str, Operation] = {
         endpoint=Endpoint(schemas.ConstraintResidualRequest, schemas.ConstraintResidualAnswer,
                           "phi(q): the loops' and couplings' residual (m,)")),
     "assemble": Operation("assembly", "assemble", ("q_guess",), ("fixed", "tol", "max_iter"), "q", iterative=True,
-                          sample=_guess,
         endpoint=Endpoint(schemas.AssembleRequest, schemas.AssembleAnswer,
                           "q closing every loop near q_guess (Gauss-Newton); 422 when the loops cannot close")),
     "constrained-forward-dynamics": Operation("constrained forward dynamics", "constrained_forward_dynamics",
@@ -209,7 +198,7 @@ OPERATIONS: dict[str, Operation] = {
         endpoint=Endpoint(schemas.ConstrainedForwardDynamicsRequest, schemas.ConstrainedForwardDynamicsAnswer,
                           "accelerations a and multipliers lambda of the constrained model")),
     "constrained-inverse-dynamics": Operation("constrained inverse dynamics", "constrained_inverse_dynamics",
-                                              ("q", "v", "a"), ("actuated", "gravity"), "tau", sample=_all_joints,
+                                              ("q", "v", "a"), ("actuated", "gravity"), "tau",
         endpoint=Endpoint(schemas.ConstrainedInverseDynamicsRequest, schemas.TauAnswer,
                           "torques of the actuated joints for a motion the loops allow")),
 }

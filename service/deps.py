@@ -1,13 +1,17 @@
 """The dependency container: what every request of one server process shares, built once in the lifespan.
 
-:meth:`Deps.start` builds the robot store, the model cache, the catalog, the compute pools, the simulation
-workers and the warm-up (started in the background, so that the server answers at once); routes reach them with
+:meth:`Deps.start` builds the robot store, the model cache, the catalog, the compute pools and the simulation
+workers, and starts importing the library in the background (so that the server answers at once); routes reach
+them with
 ``Depends(deps)``, and the request's time budget with ``Depends(budget)``. A test or another deployment passes
 its own :class:`~service.settings.Settings` to :func:`service.app.create_app`.
 """
 
 from __future__ import annotations
 
+import logging
+import threading
+import time
 from dataclasses import dataclass
 from typing import Optional
 
@@ -15,20 +19,15 @@ from starlette.requests import Request
 
 from . import memory
 from .catalog import Catalog
-from .compute import OPERATIONS, Budget, Compute
+from .compute import Budget, Compute
 from .errors import InvalidInput
-from .constraints import OPERATIONS as CONSTRAINTS
-from .derivatives import OPERATIONS as DERIVATIVES
-from .kinematics import OPERATIONS as KINEMATICS
 from .library import lib
 from .models import Models
 from .settings import Settings
 from .sim.pool import SimPool
 from .store import RobotStore
-from .warmup import Stage, Warmup
 
-#: where the warm-up's last duration is kept, in the store's directory (see service.warmup)
-WARMUP_RECORD = ".warmup.json"
+log = logging.getLogger("service")
 
 
 @dataclass
@@ -39,29 +38,33 @@ class Deps:
     catalog: Catalog
     compute: Compute
     pool: Optional[SimPool]  # None: DYNAMICS_SIM_WORKERS=0, no simulation
-    warmup: Warmup
 
     @classmethod
     def start(cls, settings: Settings) -> "Deps":
         memory.configure()  # large arrays freed go back to the system (the RSS returns to its baseline)
         store = RobotStore(settings.store_dir, settings.robots_dir)
         models = Models(store, settings.cache_size)
-        pool = SimPool(settings.sim_workers) if settings.sim_workers > 0 else None  # workers compile at once
-        warmup = Warmup(settings.store_dir / WARMUP_RECORD)
-        compute = Compute(settings, models, pool, warmup, (OPERATIONS, KINEMATICS, CONSTRAINTS, DERIVATIVES))
-        stages = [Stage("importing the library", lib), Stage("compiling dynamics kernels", compute.warm_kernels)]
-        if pool is not None:
-            plural = "es" if pool.size > 1 else ""
-            stages.append(Stage(f"compiling simulation kernels in {pool.size} worker process{plural}", pool.wait_ready))
-            stages.append(Stage("compiling the operational-space and computed-torque simulation kernels",
-                                pool.wait_late))
-        warmup.start(stages)
-        return cls(settings, store, models, Catalog(settings, store, models), compute, pool, warmup)
+        pool = SimPool(settings.sim_workers) if settings.sim_workers > 0 else None  # workers import the library
+        compute = Compute(settings, models, pool)
+        # The library's import (about a second, see service.library) in the background, so that the first request
+        # does not pay it; one that comes earlier waits for it in its worker thread, never on the event loop.
+        threading.Thread(target=_import_library, daemon=True, name="import-dynamics").start()
+        return cls(settings, store, models, Catalog(settings, store, models), compute, pool)
 
     def close(self) -> None:
         self.compute.close()
         if self.pool is not None:
             self.pool.close()
+
+
+def _import_library() -> None:
+    started = time.monotonic()
+    try:
+        lib()
+    except Exception:  # noqa: BLE001 - logged; every request that needs the library raises it again (a 500)
+        log.exception("importing the dynamics library failed")
+        return
+    log.info("the dynamics library was imported in %.2f s", time.monotonic() - started)
 
 
 def deps(request: Request) -> Deps:

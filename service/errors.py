@@ -90,7 +90,8 @@ class NotOffered(Problem):
 
 
 class Unavailable(Problem):
-    """Not now: the simulation workers are busy or still warming up; ``Retry-After`` says when to ask again."""
+    """Not now: every simulation worker stayed busy (or was still starting) until the deadline; ``Retry-After``
+    says when to ask again."""
 
 
 class BudgetExceeded(Problem):
@@ -182,7 +183,7 @@ def problem_response(problem: Problem) -> Response:
 
 def is_library_input_error(exc: BaseException) -> bool:
     """True for ``dynamics.DynamicsError``. The library is looked up, not imported: the server imports it in the
-    background (see :mod:`service.warmup`), and an error raised before that cannot be the library's."""
+    background (see :mod:`service.deps`), and an error raised before that cannot be the library's."""
     dynamics = sys.modules.get("dynamics")
     return dynamics is not None and isinstance(exc, dynamics.DynamicsError)
 

@@ -53,13 +53,6 @@ def inverse_kinematics(model, args: dict[str, Any]) -> dict[str, Any]:
     return {"q": q, "report": report}
 
 
-def sample(model, args: dict[str, Any]) -> dict[str, Any]:
-    """The warm-up's arguments (service.compute.compile_operations): the last frame, its own placement as the
-    target (reached at once), damping (a 1-dof robot's 6-row J M^-1 J^T is singular)."""
-    return {"frame": model.frame_names[-1], "q0": args["q"], "damping": 1.0,
-            "target": lib().forward_kinematics(model, args["q"])[..., -1, :, :]}
-
-
 def _frames_asked(model, args: dict[str, Any]) -> int:
     return len(model.frame_names) if args.get("frames") is None else len(args["frames"])
 
@@ -75,7 +68,7 @@ OPERATIONS: dict[str, Operation] = {
         endpoint=Endpoint(schemas.KinematicsRequest, schemas.KinematicsAnswer,
                           "world placements of the asked frames (all by default)")),
     "jacobian": Operation("frame Jacobian", "frame_jacobian", ("q",), ("frame", "reference", "point"), "jacobian",
-                          per_state=lambda model, args: 6 * model.nv, sample=sample,
+                          per_state=lambda model, args: 6 * model.nv,
         endpoint=Endpoint(schemas.JacobianRequest, schemas.JacobianAnswer,
                           "a frame's Jacobian J (6, nv), [linear; angular]")),
     "center-of-mass": Operation("centre of mass", "center_of_mass", ("q", "v"), (), "center_of_mass",
@@ -88,12 +81,11 @@ OPERATIONS: dict[str, Operation] = {
                           "M(q)^-1, directly in O(n^2)")),
     "operational-space-inertia": Operation("operational space inertia", "operational_space_inertia", ("q",),
                                            ("frame", "reference", "rows", "damping"), "operational_space_inertia",
-                                           per_state=lambda model, args: _rows(args) ** 2, sample=sample,
+                                           per_state=lambda model, args: _rows(args) ** 2,
         endpoint=Endpoint(schemas.OperationalSpaceInertiaRequest, schemas.OperationalSpaceInertiaAnswer,
                           "Lambda = (J M^-1 J^T)^-1 for a frame's Jacobian rows")),
     "inverse-kinematics": Operation("inverse kinematics", "inverse_kinematics", ("q0",), ("frame",) + IK_OPTIONS,
                                     "q", call=inverse_kinematics, batched=(("target", 2),), iterative=True,
-                                    sample=sample,
         endpoint=Endpoint(schemas.InverseKinematicsRequest, schemas.InverseKinematicsAnswer,
                           "q placing a frame at a target pose or position (damped least squares), and the report")),
 }

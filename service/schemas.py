@@ -690,16 +690,9 @@ class HealthAnswer(BaseModel):
     status: Literal["ok"]
 
 
-class WarmupFailure(BaseModel):
-    stage: str
-    error: str
-
-
 class ReadyAnswer(BaseModel):
-    status: Literal["ready", "degraded"] = Field(description="'degraded': a warm-up stage failed (see failures); "
-                                                             "what it would have compiled compiles on first use")
-    warmup_seconds: float = Field(description="how long this process's warm-up took")
-    failures: list[WarmupFailure] = Field(default_factory=list)
+    status: Literal["ready"] = Field(description="always 'ready': the server takes requests once it has started "
+                                                 "(it has no warm-up)")
 
 
 # -- kinematics and task space (issue 9), the Coriolis matrix and the energies (issue 13) -----------------------

@@ -76,7 +76,7 @@ class Settings:
     sim_workers: int = field(default_factory=lambda: max(1, min(2, os.cpu_count() or 1)))
     # API keys; empty = no authentication.
     api_keys: tuple[str, ...] = ()
-    # Level of the service's own log (logger "service", on stderr): the warm-up's progress is logged at "info".
+    # Level of the service's own log (logger "service", on stderr).
     log_level: str = "info"
     # -- jobs (POST /v1/jobs; service.jobs) ----------------------------------------------------------------------
     # Processes running jobs (each job's parts spread over the library's threads, or over Ray); 0 turns jobs off.
@@ -155,7 +155,7 @@ def configure_logging(level: str) -> None:
 
 
 class _Once(logging.Filter):
-    """Lets each distinct message through once (a kernel announced by the run and again by its rerun)."""
+    """Lets each distinct message through once (a warning repeated by every job of a worker)."""
 
     def __init__(self) -> None:
         super().__init__()
@@ -170,8 +170,8 @@ class _Once(logging.Filter):
 
 
 def configure_worker_logging() -> None:
-    """A simulation worker's log: the library's messages (its "compiling ..." announcements) on stderr with a
-    time and the worker's pid, each once; without it Python's last-resort handler prints them bare."""
+    """A simulation worker's log: the library's messages (its warnings) on stderr with a time and the worker's
+    pid, each once; without it Python's last-resort handler prints them bare."""
     logger = logging.getLogger("dynamics")
     if not logger.handlers:
         handler = logging.StreamHandler(sys.stderr)

@@ -1,9 +1,9 @@
 """Helpers shared by the service tests: a real uvicorn server process on a free loopback port.
 
 Not a conftest: the test modules import what they need. One default server is shared by every module of the
-session (:func:`shared_server`), because each start imports numba and loads the compiled kernels (seconds).
-:meth:`Server.start` returns once the server's warm-up is over (``/v1/ready``), so that no test races the
-compilation (a test of the warm-up itself passes ``ready=False``).
+session (:func:`shared_server`), because each start imports the library in the server and in its simulation
+worker (a second or two of a core). :meth:`Server.start` returns at the first 200 of ``/v1/ready`` (or of
+``/v1/health`` with ``ready=False``): both answer as soon as the server has started.
 """
 
 from __future__ import annotations
@@ -61,14 +61,13 @@ class Server:
         # PYTHONPATH: the server imports the code under test, not whatever checkout the interpreter has installed
         self.env = {**os.environ, "PYTHONPATH": os.pathsep.join(filter(None, [str(REPO), os.environ.get("PYTHONPATH")])),
                     "DYNAMICS_ROBOTS_DIR": str(ROBOTS), "DYNAMICS_SIM_WORKERS": "1",
-                    # a request's budget long enough for its worker to compile a new kind of simulation (a torque
-                    # type, an integrator) from an empty cache on a loaded 2-core machine; the budget tests set theirs
+                    # a request's budget long enough for a loaded 2-core machine; the budget tests set theirs
                     "DYNAMICS_TIME_BUDGET": "300",
                     "DYNAMICS_COMPUTE_THREADS": "2", **(env or {})}
         self.proc: subprocess.Popen | None = None
         self.log = self.cwd / f"server-{self.port}.log"
 
-    def start(self, timeout: float = 600.0, ready: bool = True) -> "Server":
+    def start(self, timeout: float = 120.0, ready: bool = True) -> "Server":
         """Start the process; return once it answers ``/v1/ready`` (``ready``) or ``/v1/health`` with 200."""
         self.cwd.mkdir(parents=True, exist_ok=True)
         with open(self.log, "ab") as log:
@@ -138,10 +137,10 @@ def shared_server(tmp_root: Path) -> Server:
 def while_simulation_starts(call, timeout: float = 300.0):
     """Run ``call()`` (a simulate request) until a simulation worker is there to take it.
 
-    A worker killed past a budget is replaced by one that loads the compiled integrator before it takes jobs
-    (503 until then), and a request's time budget counts its wait for a worker too, so a request queued
-    meanwhile can still run out of budget (504) once it gets one: both are retried.  501 (simulation off on
-    this server) skips the test.
+    A worker killed past a budget is replaced by one that imports the library before it takes jobs, and a
+    request's time budget counts its wait for a worker too (503 when every worker stayed busy until then, 504
+    when the run did not fit what was left): both are retried.  501 (simulation off on this server) skips the
+    test.
     """
     end = time.monotonic() + timeout
     while True:

@@ -82,7 +82,6 @@ def test_simulate(client):
     _wait_for_simulation(client, robot)
     q0, v0 = np.array([0.3, -0.2]), np.array([0.0, 0.5])
     kp, kd, target = np.array([50.0, 20.0]), 4.0, np.array([0.5, 0.5])
-    # a torque kind's first run compiles its own simulation (a 503 until the worker has it)
     traj = while_simulation_starts(lambda: robot.simulate(q0, v0, 0.5, sample_dt=0.05, torque={
         "type": "pd", "q_target": target, "kp": kp, "kd": kd}))
     assert isinstance(traj, Trajectory) and traj.report["status"] == "ok"
@@ -117,25 +116,20 @@ def test_simulate(client):
     assert e.value.status == 422 and e.value.field == "sample_dt" and "DYNAMICS_MAX_SAMPLES" in e.value.message
 
 
-def test_simulation_past_its_budget_is_killed(server):
-    """A simulation longer than the budget is answered 504 and its worker process is gone."""
+def test_simulation_past_its_budget_is_stopped_by_the_core(server):
+    """A simulation longer than the budget is answered 504 within a little of it: the C++ core checks the
+    deadline in its loop and stops, so its worker process stays and takes the next job (no kill, no restart)."""
     with Client(server.url, time_budget=0.3) as c:
         robot = c.robot("puma560")
         _wait_for_simulation(c, c.robot("planar-2r"))
         pids_before = _worker_pids(server.proc.pid)
-        for _ in range(60):  # a worker still compiling what this run needs answers 503: wait for it
-            t0 = time.monotonic()
-            with pytest.raises(ServiceError) as e:
-                robot.simulate(np.zeros(6), np.ones(6), 1000.0, rtol=1e-12, atol=1e-12, sample_dt=1.0)
-            if e.value.status != 503:
-                break
-            time.sleep(5.0)
+        t0 = time.monotonic()
+        with pytest.raises(ServiceError) as e:
+            robot.simulate(np.zeros(6), np.ones(6), 1000.0, rtol=1e-12, atol=1e-12, sample_dt=1.0)
         assert e.value.status == 504 and e.value.code == "time_budget_exceeded"
         assert time.monotonic() - t0 < 3.0
-    time.sleep(0.5)
-    for pid in pids_before:
-        assert not _alive(pid), "the worker of the stopped simulation is still running"
-    assert _worker_pids(server.proc.pid)  # and a fresh worker took its place
+        assert _worker_pids(server.proc.pid) == pids_before
+        _wait_for_simulation(c, c.robot("planar-2r"))
 
 
 def _worker_pids(parent: int) -> list[int]:
@@ -154,11 +148,3 @@ def _worker_pids(parent: int) -> list[int]:
             if int(fields[1]) == parent and b"service.sim.worker" in cmd:
                 pids.append(int(entry))
     return pids
-
-
-def _alive(pid: int) -> bool:
-    try:
-        with open(f"/proc/{pid}/stat") as f:
-            return f.read().rsplit(")", 1)[1].split()[0] != "Z"
-    except OSError:
-        return False

@@ -1,7 +1,7 @@
 """The Dockerfile without a Docker engine: hadolint finds nothing, and the image's own steps work.
 
 The second test replays the image in a fresh virtual environment: copy what the Dockerfile copies, build the
-wheel, install it (the runtime stage runs nothing else: nothing compiles at run time), then start the Dockerfile's CMD (host and port made loopback and
+wheel, install it (no RUN step runs the service: it has no warm-up), then start the Dockerfile's CMD (host and port made loopback and
 free, the store a temporary directory) from an empty working directory, check health and answer one request.
 Third-party dependencies come from the test environment (a .pth line) so that nothing is downloaded.
 """
@@ -89,12 +89,13 @@ def test_image_steps_in_a_fresh_venv(tmp_path):
     data, home = tmp_path / "data", tmp_path / "home"
     data.mkdir()
     home.mkdir()
-    env = {k: v for k, v in os.environ.items() if not k.startswith("DYNAMICS_")}
+    env = {k: v for k, v in os.environ.items() if not k.startswith(("DYNAMICS_", "NUMBA_CACHE_DIR"))}
     env.update({k: v for k, v in steps["env"].items()})
     env.update({"DYNAMICS_STORE": str(data),  # the bundled robots must come from the wheel itself
-                "PATH": f"{venv / 'bin'}:{env['PATH']}"})
-    assert not [r for r in steps["runs"] if "service" in r]  # no warm-up step: nothing to prepare at build time
-    # 3. CMD, on loopback and a free port, from an empty directory
+                "PATH": f"{venv / 'bin'}:{env['PATH']}", "DYNAMICS_SIM_WORKERS": "1"})
+    # 3. no warm-up step any more
+    assert not [r for r in steps["runs"] if "service" in r], steps["runs"]
+    # 4. CMD, on loopback and a free port, from an empty directory
     cmd = steps["cmd"]
     server = Server(data, env=env, cwd=home, python=str(vpy))
     args = cmd[3:]
@@ -112,6 +113,10 @@ def test_image_steps_in_a_fresh_venv(tmp_path):
         r = httpx.post(f"{server.url}/v1/robots/planar-2r/gravity-torques", json={"q": q.tolist()}, timeout=60)
         assert r.status_code == 200, r.text
         assert np.allclose(r.json()["tau"], dynamics.gravity_torques(model, q), rtol=1e-12, atol=1e-12)
+        # a simulation at once after the start: no 503
+        r = httpx.post(f"{server.url}/v1/robots/planar-2r/simulate", timeout=60,
+                       json={"q0": q.tolist(), "v0": [0.0, 0.0], "duration": 0.1, "sample_dt": 0.05})
+        assert r.status_code == 200, r.text
         assert sorted(os.listdir(home)) == ["server.log"]  # nothing written to the working directory
     finally:
         server.stop()

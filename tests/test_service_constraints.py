@@ -233,20 +233,9 @@ def test_assemble_runs_within_the_time_budget(app_client):
     assert r.status_code == 504, r.text
 
 
-def test_the_warm_up_compiles_the_closed_loop_operations(app_client):
-    from service.constraints import OPERATIONS
-    from service.compute import compile_operations
-    model = dynamics.load_urdf(str(ROBOTS / "planar_2r.urdf"))
-    assert {layout[0] for layout in compile_operations(model, OPERATIONS)} == {op.function for op in OPERATIONS.values()}
-    deadline = time.monotonic() + 600  # the app's warm-up compiles in the background (minutes on a cold cache)
-    while (r := app_client.get("/v1/ready")).status_code == 503 and time.monotonic() < deadline:
-        time.sleep(0.5)
-    assert r.status_code == 200, r.text
-
-
 @pytest.fixture(scope="module")
 def sim_client(tmp_path_factory):
-    """simulate needs a worker process: the session's shared server (its warm-up runs the four-bar)."""
+    """simulate needs a worker process: the session's shared server."""
     with Client(shared_server(tmp_path_factory.getbasetemp()).url) as c:
         yield c
 

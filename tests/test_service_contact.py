@@ -4,8 +4,8 @@ dropped on the ground through ``/simulate``, a ``simulate_many`` job and the cli
 
 References: free fall z(t) = z0 - g t^2 / 2 before the touch-down, and at rest the library's documented default
 material (a contact carrying the whole weight sinks the penetration allowance, 1 mm: k = m g / delta), so the
-resting ball presses with m g at depth delta. Every simulation here shares one compiled contact problem (the
-worker's), ~10-20 s once from an empty cache.
+resting ball presses with m g at depth delta. (The first contact run after an install compiles the library's
+last numba kernel, the error estimate with contact: seconds, once.)
 """
 
 from __future__ import annotations
@@ -41,7 +41,7 @@ def server(tmp_path_factory):
 
 @pytest.fixture(scope="module")
 def client(server):
-    with Client(server.url, timeout=600) as c:  # (a first simulation of a kind compiles in the worker)
+    with Client(server.url, timeout=600) as c:
         yield c
 
 
@@ -60,7 +60,7 @@ def post(server, robot_id, body, **kw):
 
 @pytest.fixture(scope="module")
 def drop(server, ball):
-    """The ball dropped from Z0 (one simulation: the worker compiles the contact problem here, once)."""
+    """The ball dropped from Z0 (one simulation)."""
     body = {"q0": q0(), "v0": [0.0] * 6, **DROP, "contact": CONTACT}
 
     def go():

@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import io
 import json
-import time
 
 import numpy as np
 import pytest
@@ -30,9 +29,6 @@ OPS = {"inverse_dynamics": (("q", "v", "a"), ("dtau_dq", "dtau_dv", "mass_matrix
 @pytest.fixture(scope="module")
 def app_client(tmp_path_factory):
     with in_process_app(tmp_path_factory.mktemp("deriv-store"), max_json_answer_bytes=21 * 20_000) as c:
-        deadline = time.monotonic() + 600  # the warm-up compiles the derivative kernels (from an empty cache: a
-        while c.get("/v1/ready").status_code == 503 and time.monotonic() < deadline:  # request would race it)
-            time.sleep(0.2)
         yield c
 
 

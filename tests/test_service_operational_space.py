@@ -26,7 +26,6 @@ def test_operational_space_over_http_matches_the_library(client):
     kw = dict(sample_dt=0.1)
     target = {"type": "operational_space", "frame": "tip", "position": [1.2, 0.0, 0.9], "kp": 100.0, "kd": 20.0,
               "rows": [0, 2]}
-    # the worker compiles the operational-space source after it says ready: 503 until then
     traj = while_simulation_starts(lambda: robot.simulate(q0, v0, 1.0, torque=target, **kw))
     lib = dynamics.simulate(model, q0, v0, 1.0, torque=Target("tip", [1.2, 0.0, 0.9], kp=100.0, kd=20.0,
                                                               rows=[0, 2]), **kw)
@@ -77,37 +76,32 @@ def test_client_sends_the_library_operational_space_objects(client):
     assert np.array_equal(traj.q, lib.q) and np.array_equal(traj.tau, lib.tau)
 
 
-def test_a_request_for_a_source_still_compiling_gets_503_saying_how_long(monkeypatch):
-    """The worker compiles the operational-space source after it says ready (its own problem type); a request that
-    needs it meanwhile waits until its deadline (less a second), then is answered 503 with the time left; a bad
-    spec is still a 422 at once."""
+def test_the_worker_answers_a_bad_spec_422_and_a_run_past_its_deadline_504():
+    """In the worker: a bad operational-space spec is the library's input error (422, naming the frame); a run
+    still going at its deadline is stopped by the C++ core and comes back as ``deadline`` (the server's 504),
+    not as a failure (500)."""
     import time
     from types import SimpleNamespace
 
-    from service.compute import Budget, Compute
-    from service.errors import Unavailable
-    from service.sim import warm, worker
-    from service.sim.job import Job, Outcome
-
-    later = warm.LateWarmup()  # never started: still compiling
-    monkeypatch.setattr(warm, "LATER", later)
     from service.client import torque_spec
+    from service.compute import Budget, Compute
+    from service.errors import BudgetExceeded
+    from service.sim import worker
+    from service.sim.job import Job
+
     spec = torque_spec(Target("tip", [1.2, 0.0, 0.9], kp=1.0, kd=1.0, rows=[0, 2]))  # as the schema passes it
     urdf = (ROBOTS / "planar_2r.urdf").read_text()
-    job = Job("arm", urdf, False, (), np.array([0.3, 0.6]), np.zeros(2), 0.1, {}, spec, 1000,
-              deadline=time.monotonic() + 1.5)
-    tic = time.monotonic()
-    out = worker.handle(job, worker.ModelCache(2))
-    assert 0.4 < time.monotonic() - tic < 1.4  # waited until the deadline less a second
-    assert out.unavailable and "operational-space" in out.unavailable and "s left" in out.unavailable
-    assert 1.0 <= out.retry_after <= later.SECONDS
-    bad = worker.handle(Job("arm", urdf, False, (), np.array([0.3, 0.6]), np.zeros(2), 0.1, {},
-                            {**spec, "frame": "tpi"}, 1000, deadline=time.monotonic() + 60.0),
-                        worker.ModelCache(2))
+    q0, v0 = np.array([0.3, 0.6]), np.zeros(2)
+    bad = worker.handle(Job("arm", urdf, False, (), q0, v0, 0.1, {}, {**spec, "frame": "tpi"}, 1000,
+                            deadline=time.monotonic() + 60.0), worker.ModelCache(2))
     assert bad.input_error and "tpi" in bad.input_error
-
+    # 1e6 fixed steps (seconds of work) within 0.2 s
+    long = Job("arm", urdf, False, (), q0, v0, 100.0, {"integrator": "rk4", "dt": 1e-4, "sample_dt": 1.0}, spec,
+               1_000_000, deadline=time.monotonic() + 0.2)
+    tic = time.monotonic()
+    out = worker.handle(long, worker.ModelCache(2))
+    assert time.monotonic() - tic < 1.0
+    assert out.deadline and "deadline" in out.error and out.trajectory is None
     pool = SimpleNamespace(run=lambda job, deadline: out)
-    with pytest.raises(Unavailable) as e:
-        Compute._simulate(SimpleNamespace(pool=pool), job, Budget.starting_now(10.0))
-    assert "still compiling the simulation kernels of the operational-space" in str(e.value) and e.value.headers["Retry-After"].isdigit()
-    assert isinstance(out, Outcome)
+    with pytest.raises(BudgetExceeded):
+        Compute._simulate(SimpleNamespace(pool=pool), long, Budget.starting_now(0.2))

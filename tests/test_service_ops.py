@@ -98,7 +98,7 @@ def test_time_budget_stops_the_work(server):
     buf = io.BytesIO()
     np.savez(buf, q=q)
     with client(server, KEY_A) as c:
-        # compile the batched kernel first (on a cold numba cache a compilation cannot be interrupted)
+        # the model into the server's cache first, so that the budget below is the batch's alone
         warm = c.post("/v1/robots/puma560/mass-matrix", json={"q": q[:3].tolist()})
         assert warm.status_code == 200, warm.text
         t0 = time.monotonic()

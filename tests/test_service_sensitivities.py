@@ -24,7 +24,7 @@ def server(tmp_path_factory):
 
 @pytest.fixture(scope="module")
 def client(server):
-    with Client(server.url, timeout=300) as c:  # a first run with sensitivities compiles its kernels (~20 s)
+    with Client(server.url, timeout=300) as c:
         yield c
 
 

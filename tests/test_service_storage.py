@@ -26,11 +26,9 @@ def no_space(fd):
 
 
 def files_under(path):
-    """The stored files (not the lock, the job database or the warm-up's record of its duration, which the
-    warm-up writes in the background whenever it ends, and fails to write while the disk is full: its temporary
-    file, ``..warmup.json.*.tmp``, exists for that moment)."""
+    """The stored files (not the lock or the job database)."""
     return sorted(p.relative_to(path) for p in path.rglob("*") if p.is_file() and p.suffix != ".lock"
-                  and p.name != "jobs.db" and not p.name.startswith(("jobs.db-", ".warmup.json", "..warmup.json")))
+                  and p.name != "jobs.db" and not p.name.startswith("jobs.db-"))
 
 
 def test_a_full_disk_answers_507_naming_the_storage(tmp_path, monkeypatch):

@@ -5,7 +5,7 @@ The dispatcher claims queued jobs (one transaction each, :meth:`JobDB.claim`) wh
 each to the process pool (:func:`service.jobs.runner.run_job`). Processes rather than threads of the server:
 a job's Python work (chunking, stacking trajectories, writing .npz) then never holds the server's GIL, a job
 that crashes its process (out of memory, a segfault) takes only itself down, and each worker keeps its
-compiled kernels and models between jobs. Inside a worker a part spreads over the local cores (the library's
+models between jobs. Inside a worker a part spreads over the local cores (the library's
 threads) or, with ``DYNAMICS_RAY_ADDRESS``, over a Ray cluster; the pool's size (``DYNAMICS_JOB_WORKERS``,
 default 1) is the number of jobs running at once on this server.
 

@@ -3,7 +3,7 @@
 
 Request bodies are read by :func:`service.codec.read_body` (size limit enforced while reading) and decoded in a
 compute thread together with the computation, so that neither parsing megabytes of JSON nor the numbers block
-the event loop; a tiny request whose kernel is compiled and model cached runs on the loop (a thread hop would
+the event loop; a tiny request (one state) whose model is cached runs on the loop (a thread hop would
 cost more than the work).
 """
 

@@ -1,4 +1,5 @@
-"""``POST /v1/robots/{id}/simulate``: a trajectory from (q0, v0), computed in a worker process within the budget."""
+"""``POST /v1/robots/{id}/simulate``: a trajectory from (q0, v0), computed in a worker process within the budget
+(503 only when every worker stays busy until the deadline)."""
 
 from __future__ import annotations
 
@@ -31,7 +32,7 @@ async def simulate(robot_id: str, request: Request, d: Deps = Depends(deps),
                    time_budget: Budget = Depends(budget)) -> Response:
     robot_id = d.catalog.resolve(robot_id, caller(request))
     body = await read_body(request, d.settings.max_body_bytes)
-    await d.compute.await_workers(time_budget)
+    d.compute.require_simulation()
     accept, content_type = request.headers.get("accept"), request.headers.get("content-type")
     if len(body) <= INLINE_BYTES and media_type(content_type) != NPZ:  # small: decoded here (microseconds), and
         req = _request(d, body, content_type)                           # built here too if its model is cached

@@ -38,13 +38,12 @@ class Job:
 @dataclass(frozen=True)
 class Outcome:
     """A worker's answer: the trajectory (t, q, v, tau, report) and the seconds its library call took, or the
-    library's input error, or a failure, or ``unavailable``: what the worker still compiles and for how long
-    (``retry_after`` seconds, about)."""
+    library's input error, or a failure, or ``deadline``: the core stopped the run at the job's deadline (its
+    message in ``error``)."""
     trajectory: Optional[dict[str, Any]] = None
     input_error: Optional[str] = None
     error: Optional[str] = None
-    unavailable: Optional[str] = None
-    retry_after: float = 0.0
+    deadline: bool = False
     seconds: float = 0.0  # the library call's wall time in the worker (the answer's Server-Timing)
 
 

@@ -6,13 +6,13 @@ A request takes an idle worker, sends its job and waits at most until its deadli
 killed (SIGKILL: the simulation holds no resource worth a clean exit) and a fresh one is started in its place,
 so a runaway simulation never keeps a core busy after its answer (504) has left.
 
-A new worker imports the library and runs one tiny simulation (numba compiles the integrator, or loads it
-from its on-disk cache) before it says "ready"; only ready workers take jobs. So a request budget never kills
-a compilation (which would then never finish): neither the warm-up's, nor one that a job starts (a kind of
-simulation the warm-up did not compile, such as a PD controller with contact): the worker says so on its status
-connection, and past the deadline the request is told to retry (503) while the worker finishes.
-:attr:`SimPool.ready` is set once the first worker is ready: the end of the service's warm-up (see
-:mod:`service.warmup`).
+A new worker imports the library before it says "ready"; only ready workers take jobs. Nothing is compiled at
+run time (the library's C++ core is compiled when it is installed), so a worker is ready as soon as its import
+is done, and every job past its deadline is killed alike. The C++ core also checks the deadline inside its
+integration loop (``DeadlineExceeded``, answered as a 504 by the worker's own outcome), so the kill is the
+backstop for a step that never reaches that check; the worker process itself also isolates the server from a
+crash of the core (a 500 ``worker_crashed``, and a fresh worker) -- see docs/architecture.md for why simulations
+still run in processes.
 
 Plain ``subprocess`` rather than ``multiprocessing.Process``: no re-import of ``__main__``, no fork of a process
 that runs an event loop and threads, and it works inside uvicorn's own worker processes.
@@ -30,12 +30,19 @@ import threading
 import time
 from multiprocessing.connection import Connection
 from concurrent.futures import ThreadPoolExecutor
-from typing import Any, Optional
+from typing import Any
 
 log = logging.getLogger("service")
 
-#: how long a new worker may take to import and compile before it is given up (and replaced)
-READY_TIMEOUT = 600.0
+#: how long a new worker may take to import the library before it is given up (and replaced); the import takes
+#: about a second, many more on a loaded machine
+READY_TIMEOUT = 120.0
+
+
+#: seconds past a job's deadline before its worker is killed: the core checks the deadline every 16 steps
+#: (64 for a fixed step) and then answers by itself, which keeps the worker (a kill costs a new process and its
+#: import of the library, about a second of a core)
+KILL_GRACE = 0.25
 
 
 class WorkerCrashed(RuntimeError):
@@ -43,50 +50,37 @@ class WorkerCrashed(RuntimeError):
 
 
 class PoolTimeout(Exception):
-    """The job ran past its deadline. ``args[1]``: False if its worker was compiling (its warm-up, or kernels
-    the job needs), so that it was left to finish: the request may be retried; True if it was killed.
-    ``args[2]`` where given: the seconds the compilation was announced to take."""
+    """The job ran past its deadline (its worker was killed), or the deadline passed before it could start."""
 
 
 class PoolBusy(Exception):
     """No worker became free before the deadline."""
 
 
-#: seconds a worker still warming up may go on with a job whose request gave up on it
-WARM_GRACE = 600.0
-
-
 class _Worker:
-    """A worker process and its two connections: jobs (request, answer) and ``status`` (what the worker says of
-    its own, unasked: its late warm-up's outcome, a compilation under way)."""
+    """A worker process and its connection (jobs there, answers back)."""
 
-    #: the worker's command line, before its three arguments (FD STATUS_FD PARENT_PID)
+    #: the worker's command line, before its two arguments (FD PARENT_PID)
     command = (sys.executable, "-m", "service.sim.worker")
 
     def __init__(self) -> None:
         parent, child = socket.socketpair()
-        status_parent, status_child = socket.socketpair()
         try:
             self.proc = subprocess.Popen(
-                [*self.command, str(child.fileno()), str(status_child.fileno()), str(os.getpid())],
-                pass_fds=(child.fileno(), status_child.fileno()), stdin=subprocess.DEVNULL, close_fds=True,
+                [*self.command, str(child.fileno()), str(os.getpid())],
+                pass_fds=(child.fileno(),), stdin=subprocess.DEVNULL, close_fds=True,
             )
         finally:
             child.close()
-            status_child.close()
         self.conn = Connection(parent.detach())
-        self.status = Connection(status_parent.detach())
         self.jobs = 0
         self.started = time.monotonic()
-        self.warm = False  # True once its whole warm-up (service.sim.warm) is over
-        self.compiling = 0.0  # seconds the worker announced for a compilation during its current job, 0 if none
 
     def kill(self) -> None:
-        for conn in (self.conn, self.status):
-            try:
-                conn.close()
-            except OSError:
-                pass
+        try:
+            self.conn.close()
+        except OSError:
+            pass
         if self.proc.poll() is None:
             self.proc.kill()
         # Reap in the background so that no zombie stays and the caller does not wait.
@@ -102,9 +96,7 @@ class SimPool:
         self._all: set[_Worker] = set()
         self._lock = threading.Lock()
         self._closed = False
-        self.ready = threading.Event()  # set when the first worker is ready, and stays set
-        self.late = threading.Event()   # set when the first worker's late warm-up ended (service.sim.warm)
-        self.late_error: Optional[str] = None  # why it failed, None if it did not
+        self.ready = threading.Event()  # set when the first worker is ready (has imported the library), stays set
         self.killed = 0
         # Every worker is started from this one thread, which lives as long as the pool: a worker's parent-death
         # signal (service.lifeline) fires when the thread that started it ends.
@@ -123,33 +115,6 @@ class SimPool:
         with self._lock:
             self._all.add(w)
         threading.Thread(target=self._await_ready, args=(w,), daemon=True, name="sim-ready").start()
-        threading.Thread(target=self._await_status, args=(w,), daemon=True, name="sim-status").start()
-
-    def _await_status(self, w: _Worker) -> None:
-        """The worker's word on its late warm-up: ("late", None | "the error"), then ("contact", ...) and
-        ("rest", ...); and at any time ("compiling", seconds): its job is compiling kernels."""
-        while True:
-            try:
-                stage, error = w.status.recv()
-            except (EOFError, OSError, ValueError, TypeError):
-                return
-            if stage == "compiling":
-                w.compiling = float(error)
-                continue
-            if error:
-                log.error("simulation worker %s: the %s warm-up failed: %s", w.proc.pid, stage, error)
-            if stage == "late" and not self.late.is_set():
-                self.late_error = error
-                self.late.set()
-            elif stage == "rest":
-                w.warm = True
-
-    def wait_late(self) -> None:
-        """Block until a worker's late warm-up ended; a RuntimeError naming the failure if it failed."""
-        self.late.wait()
-        if self.late_error:
-            raise RuntimeError(f"the operational-space and computed-torque kernels did not compile: "
-                               f"{self.late_error}")
 
     def _await_ready(self, w: _Worker) -> None:
         try:
@@ -190,7 +155,7 @@ class SimPool:
             try:
                 w = self._idle.get(timeout=max(0.0, deadline - time.monotonic()))
             except queue.Empty:
-                raise PoolBusy("every simulation worker stayed busy until the deadline") from None
+                raise PoolBusy("every simulation worker stayed busy (or was still starting) until the deadline") from None
             if w.proc.poll() is None:
                 break
             self._replace(w)  # died while idle (killed from outside, out of memory): take another
@@ -198,20 +163,19 @@ class SimPool:
             self._idle.put(w)
             raise PoolTimeout("the deadline passed before the simulation could start")
         try:
-            w.compiling = 0.0
             w.conn.send(job)
-            if not w.conn.poll(max(0.0, deadline - time.monotonic())):
-                if not w.warm or w.compiling:  # compiling (its warm-up's kernels, or the job's): killing it would
-                    # lose them, and its replacement would start over (a short budget would never meet them
-                    # compiled)
-                    threading.Thread(target=self._finish, args=(w,), daemon=True, name="sim-finish").start()
-                    raise PoolTimeout("the simulation's worker was compiling", False, w.compiling)
+            # (the core stops at the job's deadline by itself and answers DeadlineExceeded; the grace lets that
+            # answer arrive, and past it the worker is killed)
+            if not w.conn.poll(max(0.0, deadline + KILL_GRACE - time.monotonic())):
                 self.killed += 1
                 self._replace(w)
-                raise PoolTimeout("the simulation ran past the deadline; its worker was stopped", w.warm)
+                raise PoolTimeout("the simulation ran past the deadline; its worker was stopped")
             answer = w.conn.recv()
         except (EOFError, OSError) as e:
-            code = w.proc.poll()
+            try:  # (its connection closes a moment before the process is reaped: wait for the exit code)
+                code = w.proc.wait(1.0)
+            except subprocess.TimeoutExpired:
+                code = None
             self._replace(w)
             raise WorkerCrashed(f"simulation worker exited (code {code}): {e}") from None
         except PoolTimeout:
@@ -222,20 +186,6 @@ class SimPool:
         w.jobs += 1
         self._idle.put(w)
         return answer
-
-    def _finish(self, w: _Worker) -> None:
-        """Let a compiling worker finish the job its request gave up on (its answer dropped), then take jobs
-        again; one still busy after WARM_GRACE seconds is replaced after all."""
-        try:
-            if w.conn.poll(WARM_GRACE):
-                w.conn.recv()
-                w.jobs += 1
-                self._idle.put(w)
-                return
-        except (EOFError, OSError):
-            pass
-        self.killed += 1
-        self._replace(w)
 
     def close(self) -> None:
         self._closed = True
