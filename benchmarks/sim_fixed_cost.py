@@ -23,7 +23,6 @@ benchmarks/out/sim_fixed_cost.md.
 
 import argparse
 import json
-import statistics
 import subprocess
 import sys
 from pathlib import Path
