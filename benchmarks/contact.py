@@ -18,7 +18,8 @@ The tools, each with its error-controlled or default stepping over a range of se
   C loop) with its default Euler integrator at its default step (2 ms) and smaller ones;
 * **Drake**: the URDF through Drake's parser, a MultibodyPlant in continuous time (``time_step=0``) with
   compliant point contact (Hunt-Crossley, the scene's stiffness and dissipation), stepped by its
-  error-controlled ``runge_kutta3`` over ``set_target_accuracy``.
+  error-controlled ``runge_kutta3`` over ``set_target_accuracy`` (the ``bench`` extra; without ``pydrake`` its
+  runs are left out and said so).
 
 The error of a run is its observable's distance to the same tool's observable at its tightest setting (the
 tools' contact models differ, so each converges to its own answer; those answers and the analytic one are
@@ -430,14 +431,16 @@ SETTINGS = {
 }
 
 
-def jobs_for(scene: Scene, quick: bool) -> list[Job]:
+def jobs_for(scene: Scene, quick: bool, tools=("ours", "MuJoCo", "Drake")) -> list[Job]:
     dts, accuracies, rtols, (dt_ref, acc_ref, rtol_ref) = SETTINGS[scene.name]
     if quick:
         dts, accuracies, rtols = dts[:2], accuracies[:1], rtols[:2]
     out = [Job(scene.name, "MuJoCo", "MuJoCo Euler", f"dt {dt:.0e}", mujoco_runner(scene, dt)) for dt in dts]
     out.append(Job(scene.name, "MuJoCo", "MuJoCo Euler", f"dt {dt_ref:.0e}", mujoco_runner(scene, dt_ref), True))
-    out += [Job(scene.name, "Drake", "Drake RK3", f"accuracy {a:.0e}", drake_runner(scene, a)) for a in accuracies]
-    out.append(Job(scene.name, "Drake", "Drake RK3", f"accuracy {acc_ref:.0e}", drake_runner(scene, acc_ref), True))
+    if "Drake" in tools:
+        out += [Job(scene.name, "Drake", "Drake RK3", f"accuracy {a:.0e}", drake_runner(scene, a)) for a in accuracies]
+        out.append(Job(scene.name, "Drake", "Drake RK3", f"accuracy {acc_ref:.0e}", drake_runner(scene, acc_ref),
+                       True))
     out += [Job(scene.name, "ours", "ours auto", f"rtol {r:.0e}", ours_runner(scene, r)) for r in rtols]
     out.append(Job(scene.name, "ours", "ours auto", f"rtol {rtol_ref:.0e}", ours_runner(scene, rtol_ref), True))
     return out
@@ -526,7 +529,7 @@ SCALES = {"ball": lambda s: s.p0[2], "incline": lambda s: s.analytic(), "quadrup
 SCENES = {"ball": ball_scene, "incline": incline_scene, "quadruped": quadruped_scene}
 
 
-# -- contact on a robot touching nothing, and the cold start ---------------------------------------------------
+# -- contact on a robot touching nothing -------------------------------------------------------------------
 def overhead(repeat: int, log) -> list[str]:
     """Go1 under its PD springs far above the ground for 1 s and 20 s: simulate with contact=Contact() (the broad
     phase finds nothing to touch at every evaluation) against no contact, timed alternately, best of many rounds
@@ -542,7 +545,7 @@ def overhead(repeat: int, log) -> list[str]:
             (("without contact", None), ("with contact (nothing touches)", dynamics.Contact()))}
     best = dict.fromkeys(runs, math.inf)
     steps = {}
-    for r in range(10 * repeat + 1):  # (round 0 compiles)
+    for r in range(10 * repeat + 1):  # (round 0 warms up: first calls, caches)
         for (duration, name), contact in runs.items():
             t = time.perf_counter()
             traj = dynamics.simulate(model, q0, v0, duration, torque=torque, contact=contact, error_estimate="none",
@@ -562,53 +565,13 @@ def overhead(repeat: int, log) -> list[str]:
     return lines
 
 
-COLD = """
-import time, numpy as np
-t0 = time.perf_counter()
-import dynamics
-t1 = time.perf_counter()
-model = dynamics.load_urdf(URDF, floating_base=True, collision=True)
-q0 = model.neutral(); q0[2] = 0.5
-dynamics.simulate(model, q0, np.zeros(model.nv), 0.5, contact=dynamics.Contact(), progress=False)
-t2 = time.perf_counter()
-dynamics.simulate(model, q0, np.zeros(model.nv), 0.5, contact=dynamics.Contact(), progress=False)
-print(f"{t1 - t0:.2f} {t2 - t1:.2f} {time.perf_counter() - t2:.4f}")
-"""
-
-
-def cold_start(log) -> list[str]:
-    """The first contact simulation from an empty numba cache: the package copied without its __pycache__ into a
-    temporary folder, NUMBA_CACHE_DIR empty, in a fresh process (a ball dropped on the ground, 0.5 s)."""
-    import resource
-    import shutil
-    import subprocess
-    import tempfile
-    with tempfile.TemporaryDirectory() as tmp:
-        shutil.copytree(REPO / "dynamics", Path(tmp) / "dynamics", ignore=shutil.ignore_patterns("__pycache__"))
-        env = {**os.environ, "PYTHONPATH": tmp, "NUMBA_CACHE_DIR": str(Path(tmp) / "numba-cache")}
-        code = COLD.replace("URDF", repr(ball_scene().urdf.encode()))
-        before = resource.getrusage(resource.RUSAGE_CHILDREN)
-        out = subprocess.run([sys.executable, "-c", code], env=env, cwd=tmp, capture_output=True, text=True)
-        after = resource.getrusage(resource.RUSAGE_CHILDREN)
-    cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)  # (the load does not inflate it)
-    if out.returncode != 0:
-        raise RuntimeError(f"the cold start failed:\n{out.stderr[-2000:]}")
-    imp, first, second = (float(x) for x in out.stdout.split())
-    messages = [line for line in out.stderr.splitlines() if line.strip()]
-    log(f"  cold start: import {imp:.1f} s, first contact simulation {first:.1f} s, then {second:.4f} s; the process "
-        f"used {cpu:.1f} CPU s; stderr: {messages[:3]}")
-    return ["### Cold start", "",
-            "The first contact simulation (a ball dropped on the ground, 0.5 s) in a fresh process from an empty "
-            "numba cache (the package copied without its `__pycache__`, `NUMBA_CACHE_DIR` empty).", "",
-            "| import dynamics | first contact simulation (compiles) | the same again | CPU seconds of the whole process "
-            "| message while it compiles |", "|---|---|---|---|---|",
-            f"| {imp:.1f} s | {first:.1f} s | {second * 1e3:.1f} ms | {cpu:.0f} s | "
-            f"{messages[0][:90] if messages else '(none)'} |"]
-
-
 def header(repeat: int, load_start) -> list[str]:
     import mujoco
-    versions = f"MuJoCo {mujoco.__version__}, Drake {importlib.metadata.version('drake')}"
+    try:
+        drake = f"Drake {importlib.metadata.version('drake')}"
+    except importlib.metadata.PackageNotFoundError:
+        drake = "Drake not installed (its runs left out)"
+    versions = f"MuJoCo {mujoco.__version__}, {drake}"
     load_end = os.getloadavg()
     return [f"Machine: {os.cpu_count()} logical CPUs shared by several engineers; load average "
             f"{load_start[0]:.2f} at the start, {load_end[0]:.2f} at the end.  Python {sys.version.split()[0]}, "
@@ -620,14 +583,18 @@ def main(argv=None) -> int:
     ap.add_argument("--repeat", type=int, default=3, help="rounds of the round robin (best time of each run)")
     ap.add_argument("--quick", action="store_true", help="fewer settings, one round")
     ap.add_argument("--scenes", default=",".join(SCENES), help="comma-separated: " + ", ".join(SCENES))
-    ap.add_argument("--no-cold", action="store_true", help="skip the cold start (it compiles everything again)")
     args = ap.parse_args(argv)
     repeat = 1 if args.quick else args.repeat
     # (the ball's 1 cm impact penetration is its scene's stiffness, not a mistake: the library's warning is noise here)
     warnings.filterwarnings("ignore", message="contact: the largest penetration")
     import logging
-    import pydrake  # noqa: F401 - (its logger, "drake", exists once it is imported)
-    logging.getLogger("drake").setLevel(logging.ERROR)  # (a half-space takes no part in deformable contact: said once)
+    try:
+        import pydrake  # noqa: F401 - (its logger, "drake", exists once it is imported)
+        logging.getLogger("drake").setLevel(logging.ERROR)  # (a half-space takes no part in deformable contact)
+        tools = ("ours", "MuJoCo", "Drake")
+    except ImportError:
+        print("Drake not importable (pip install -e '.[bench]'): its runs are left out", flush=True)
+        tools = ("ours", "MuJoCo")
     load_start = os.getloadavg()
 
     def log(s):
@@ -637,9 +604,9 @@ def main(argv=None) -> int:
     for name in args.scenes.split(","):
         scene = SCENES[name]()
         log(f"{name}: building the runs")
-        jobs = jobs_for(scene, args.quick)
+        jobs = jobs_for(scene, args.quick, tools)
         first = []
-        for job in jobs:  # once untimed: compile (ours) and load (every tool) before the round robin
+        for job in jobs:  # once untimed: the first call of every run (every tool loads) before the round robin
             t = time.perf_counter()
             state = job.go()
             first.append((state, time.perf_counter() - t))
@@ -647,8 +614,6 @@ def main(argv=None) -> int:
         results = evaluate(scene, round_robin(jobs, repeat, log, first))
         lines += scene_tables(scene, results, log) + [""]
     lines += overhead(repeat, log) + [""]
-    if not args.no_cold:
-        lines += cold_start(log) + [""]
     text = "\n".join(["# Contact (`python -m benchmarks.contact`)", ""] + header(repeat, load_start) + [""] + lines)
     OUT.mkdir(parents=True, exist_ok=True)
     (OUT / "contact.md").write_text(text + "\n")

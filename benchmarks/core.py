@@ -9,11 +9,12 @@ package, never copied; a generated 200-link chain), in one run:
 * single-call latency of `inverse_dynamics`, `forward_dynamics`, `mass_matrix`, `gravity_torques` and
   `bias_forces` as ratios to one call from Python of `pin.rnea`, `pin.aba`, `pin.crba`,
   `pin.computeGeneralizedGravity` and `pin.nonLinearEffects` (Panda, UR5, Talos);
-* cold start in a fresh subprocess (import, load_urdf, first calls) with the numba cache warm and
-  with NUMBA_CACHE_DIR pointed at an empty temporary directory;
-* cold start of the simulation (2R arm), each case in a fresh interpreter with an empty numba cache:
-  import + load_urdf + first inverse_dynamics, then the first default simulate, then the first rk4 one
-  (``--sim-cold-only`` runs just this table);
+* first calls, each in fresh processes (min / median / max over --processes of them, the tools alternated):
+  ``import dynamics``, load_urdf of Panda and the first inverse_dynamics, mass_matrix, forward_dynamics and
+  frame_jacobian; the first simulate of PUMA (robots/puma560.urdf, default auto); the first contact simulation of
+  the README's ball; against Pinocchio's (``import pinocchio``, buildModelFromUrdf, rnea, crba, aba,
+  computeFrameJacobian) and MuJoCo's (``import mujoco``, MjModel.from_xml_string of the ball on a plane, an mj_step
+  loop) where they have them (``--first-call-only`` runs just this table);
 * ``--single-only``: just the single-call table (Panda, UR5, Talos), a minute instead of many: the way to
   compare two checkouts run alternately (the script imports the ``dynamics`` its interpreter has installed, so
   ``other/.venv/bin/python benchmarks/core.py --single-only`` times that checkout's library; the header names it);
@@ -36,7 +37,6 @@ import os
 import platform
 import subprocess
 import sys
-import tempfile
 import textwrap
 import time
 from dataclasses import dataclass
@@ -221,7 +221,7 @@ def bench_robot(dyn, pin, robot: Robot, B: int, repeat: int, rng) -> dict:
     pd = pm.createData()
     out_p = np.zeros((pm.nv, B), order="F")
 
-    # same results on both sides (and the first calls compile / warm everything)
+    # same results on both sides (and the first calls warm everything)
     k = min(B, 5)
     check = 0.0
     tau = dyn.inverse_dynamics(model, Q[:k], V[:k], A[:k])
@@ -332,107 +332,153 @@ def bench_growth(dyn, pin, n: int, B: int, repeat: int, rng) -> dict:
     return r
 
 
-COLD_SCRIPT = textwrap.dedent(
-    """
-    import json, sys, time
-    import numpy as np
-    t0 = time.perf_counter()
-    import dynamics
-    t1 = time.perf_counter()
-    m = dynamics.load_urdf(sys.argv[1])
-    t2 = time.perf_counter()
-    q = np.zeros(m.nq); v = np.zeros(m.nv)
-    dynamics.inverse_dynamics(m, q, v, v)
-    t3 = time.perf_counter()
-    dynamics.forward_dynamics(m, q, v, v)
-    dynamics.mass_matrix(m, q)
-    Q = np.zeros((256, m.nq)); V = np.zeros((256, m.nv))
-    dynamics.inverse_dynamics(m, Q, V, V)
-    dynamics.forward_dynamics(m, Q, V, V)
-    dynamics.mass_matrix(m, Q)
-    t4 = time.perf_counter()
-    print(json.dumps({"import": t1 - t0, "load": t2 - t1, "first_id": t3 - t2, "all_first": t4 - t0}))
-    """
+#: First calls in a fresh process (no cache of any kind survives between processes): each script prints the seconds
+#: of each step, in order; the parent times the whole process.  Ours in three processes (the kinematics and dynamics
+#: calls, the first simulate, the first contact simulation: each a truly first call); Pinocchio's and MuJoCo's in
+#: one each.  argv: Panda's URDF, PUMA's URDF.
+FIRST_CALL_SCRIPTS = {
+    "ours: Panda": textwrap.dedent(
+        """
+        import json, sys, time
+        T = [time.perf_counter()]
+        def lap(): T.append(time.perf_counter())
+        import numpy as np
+        import dynamics; lap()
+        m = dynamics.load_urdf(sys.argv[1], mimic="independent"); lap()
+        q = m.neutral(); v = np.zeros(m.nv)
+        dynamics.inverse_dynamics(m, q, v, v); lap()
+        dynamics.mass_matrix(m, q); lap()
+        dynamics.forward_dynamics(m, q, v, v); lap()
+        dynamics.frame_jacobian(m, q, "panda_hand"); lap()
+        d = np.diff(T)
+        print(json.dumps(dict(zip(["import", "load_panda", "id", "m", "fd", "jac"], d.tolist()))))
+        """),
+    "ours: PUMA simulate": textwrap.dedent(
+        """
+        import json, sys, time
+        T = [time.perf_counter()]
+        def lap(): T.append(time.perf_counter())
+        import numpy as np
+        import dynamics; lap()
+        m = dynamics.load_urdf(sys.argv[2]); lap()
+        dynamics.simulate(m, m.neutral() + 0.1, np.zeros(m.nv), 1.0, progress=False); lap()
+        d = np.diff(T)
+        print(json.dumps(dict(zip(["import", "load_puma", "sim"], d.tolist()))))
+        """),
+    "ours: ball contact": textwrap.dedent(
+        """
+        import json, sys, time
+        T = [time.perf_counter()]
+        def lap(): T.append(time.perf_counter())
+        import numpy as np
+        import dynamics; lap()
+        BALL = '''<robot name="ball"><link name="ball"><inertial><mass value="0.2"/>
+          <inertia ixx="2e-4" iyy="2e-4" izz="2e-4" ixy="0" ixz="0" iyz="0"/></inertial></link></robot>'''
+        ball = dynamics.load_urdf(BALL, floating_base=True); lap()
+        dynamics.simulate(ball, [0, 0, 0.3, 0, 0, 0, 1], np.zeros(6), 0.6, progress=False,
+                          contact=dynamics.Contact(geometries=[dynamics.Sphere("ball", 0.05)])); lap()
+        d = np.diff(T)
+        print(json.dumps(dict(zip(["import", "load_ball", "contact"], d.tolist()))))
+        """),
+    "Pinocchio: Panda": textwrap.dedent(
+        """
+        import json, sys, time
+        T = [time.perf_counter()]
+        def lap(): T.append(time.perf_counter())
+        import numpy as np
+        import pinocchio as pin; lap()
+        m = pin.buildModelFromUrdf(sys.argv[1]); d = m.createData(); lap()
+        q = pin.neutral(m); v = np.zeros(m.nv)
+        pin.rnea(m, d, q, v, v); lap()
+        pin.crba(m, d, q); lap()
+        pin.aba(m, d, q, v, v); lap()
+        pin.computeFrameJacobian(m, d, q, m.getFrameId("panda_hand")); lap()
+        d = np.diff(T)
+        print(json.dumps(dict(zip(["import", "load_panda", "id", "m", "fd", "jac"], d.tolist()))))
+        """),
+    "MuJoCo: ball contact": textwrap.dedent(
+        """
+        import json, sys, time
+        T = [time.perf_counter()]
+        def lap(): T.append(time.perf_counter())
+        import numpy as np
+        import mujoco; lap()
+        XML = '''<mujoco><worldbody><geom type="plane" size="0 0 1"/>
+          <body pos="0 0 0.3"><freejoint/><geom type="sphere" size="0.05" mass="0.2"/></body></worldbody></mujoco>'''
+        m = mujoco.MjModel.from_xml_string(XML); d = mujoco.MjData(m); lap()
+        for _ in range(round(0.6 / m.opt.timestep)):
+            mujoco.mj_step(m, d)
+        lap()
+        d = np.diff(T)
+        print(json.dumps(dict(zip(["import", "load_ball", "contact"], d.tolist()))))
+        """),
+}
+
+#: the first-call table's rows: (key, what, ours, Pinocchio's, MuJoCo's call; None where it has none)
+FIRST_CALL_ROWS = (
+    ("import", "import", "import dynamics", "import pinocchio", "import mujoco"),
+    ("load_panda", "load Panda", "load_urdf", "buildModelFromUrdf + createData", None),
+    ("id", "first inverse dynamics", "inverse_dynamics", "rnea", None),
+    ("m", "first mass matrix", "mass_matrix", "crba", None),
+    ("fd", "first forward dynamics", "forward_dynamics", "aba", None),
+    ("jac", "first frame Jacobian (panda_hand)", "frame_jacobian", "computeFrameJacobian", None),
+    ("load_puma", "load PUMA 560 (robots/puma560.urdf)", "load_urdf", None, None),
+    ("sim", "first simulate of PUMA (1 s, default auto)", "simulate", None, None),
+    ("load_ball", "load the README's ball", "load_urdf", None, "MjModel.from_xml_string + MjData"),
+    ("contact", "first contact simulation of the ball (0.6 s)", "simulate(contact=...)", None,
+     "mj_step loop (its default 2 ms step)"),
+    ("process", "whole process (from its start to its exit)", None, None, None),
 )
 
 
-def cold_start(urdf: str, cache_dir: str | None) -> dict:
-    """Run COLD_SCRIPT in a fresh interpreter; cache_dir = None leaves numba's cache where it is."""
-    env = dict(os.environ)
-    if cache_dir is None:
-        env.pop("NUMBA_CACHE_DIR", None)
-    else:
-        env["NUMBA_CACHE_DIR"] = cache_dir
+def first_call_process(name: str, panda: str, puma: str) -> dict:
+    """One fresh interpreter running FIRST_CALL_SCRIPTS[name]: its steps' seconds and the whole process's."""
     t0 = time.perf_counter()
-    out = subprocess.run(
-        [sys.executable, "-c", COLD_SCRIPT, urdf], env=env, capture_output=True, text=True, check=True
-    )
+    out = subprocess.run([sys.executable, "-c", FIRST_CALL_SCRIPTS[name], panda, puma], capture_output=True,
+                         text=True, cwd="/")
+    if out.returncode:
+        raise RuntimeError(f"{name}: the first-call process failed:\n{out.stderr[-2000:]}")
     r = json.loads(out.stdout.strip().splitlines()[-1])
     r["process"] = time.perf_counter() - t0
     return r
 
 
-def bench_cold(urdf: str, repeat: int) -> dict:
-    cold_start(urdf, None)  # make sure the default cache is populated
-    warm = min((cold_start(urdf, None) for _ in range(repeat)), key=lambda r: r["process"])
-    runs = []
-    for _ in range(max(1, min(repeat, 2))):  # a cold compile is expensive: at most 2 runs
-        with tempfile.TemporaryDirectory(prefix="numba-cold-") as d:
-            runs.append(cold_start(urdf, d))
-    cold = min(runs, key=lambda r: r["process"])
-    return {"warm": warm, "cold": cold}
+def bench_first_calls(processes: int) -> dict[str, dict[str, list[float]]]:
+    """Every script of FIRST_CALL_SCRIPTS ``processes`` times, alternated (round after round), each in a fresh
+    process: {tool: {step: [seconds, ...]}} for "ours", "Pinocchio" and "MuJoCo" (a tool whose package cannot be
+    found is left out; ours' import and process rows pool its three scripts)."""
+    import importlib.util
+    panda = str(erd_robots_dir() / "panda_description/urdf/panda.urdf")
+    puma = str(Path(__file__).resolve().parent.parent / "robots" / "puma560.urdf")
+    names = [n for n in FIRST_CALL_SCRIPTS
+             if n.startswith("ours") or importlib.util.find_spec(n.split(":")[0].lower()) is not None]
+    out: dict[str, dict[str, list[float]]] = {}
+    for _ in range(processes):
+        for n in names:
+            steps = out.setdefault(n.split(":")[0], {})
+            for key, seconds in first_call_process(n, panda, puma).items():
+                steps.setdefault(key, []).append(seconds)
+    return out
 
 
-#: cold start of the simulation (issue 8, section 3): each case in its own interpreter with an empty cache
-SIM_COLD_SCRIPT = textwrap.dedent(
-    """
-    import json, resource, sys, time
-    t0 = time.perf_counter()
-    import numpy as np
-    import dynamics
-    arm = dynamics.load_urdf(sys.argv[1])
-    dynamics.inverse_dynamics(arm, np.zeros(2), np.zeros(2), np.zeros(2))
-    t1 = time.perf_counter()
-    if sys.argv[2] == "default":
-        dynamics.simulate(arm, [0.5, 0.2], [0.0, 0.0], 1.0)
-    elif sys.argv[2] == "rk4":
-        dynamics.simulate(arm, [0.5, 0.2], [0.0, 0.0], 1.0, integrator="rk4", dt=1e-3)
-    elif sys.argv[2] == "os":
-        target = dynamics.torques.Target("tip", [1.2, 0.0, 0.9], kp=100.0, kd=20.0, rows=[0, 2])
-        dynamics.simulate(arm, [0.5, 0.2], [0.0, 0.0], 1.0, torque=target, integrator="rk4", dt=1e-3)
-    t2 = time.perf_counter()
-    cpu = resource.getrusage(resource.RUSAGE_SELF)
-    print(json.dumps({"library": t1 - t0, "simulate": t2 - t1, "cpu": cpu.ru_utime + cpu.ru_stime}))
-    """
-)
+def first_call_table(res: dict[str, dict[str, list[float]]], processes: int) -> list[str]:
+    tools = [t for t in ("ours", "Pinocchio", "MuJoCo") if t in res]
 
-SIM_COLD_CASES = (("library", "import + load_urdf + first inverse_dynamics"),
-                  ("default", "... + first simulate, default integrator (auto)"),
-                  ("rk4", "... + first simulate, integrator='rk4'"),
-                  ("os", "... + first simulate, rk4, operational-space torque (Target)"))
-
-
-def bench_cold_simulation(urdf: str) -> list[dict]:
-    """Each case of SIM_COLD_CASES in a fresh interpreter with NUMBA_CACHE_DIR a new empty directory: wall
-    seconds of the library part and of the first simulate, and the process's CPU seconds (on a shared,
-    loaded machine the CPU time is the steadier figure)."""
-    rows = []
-    for case, label in SIM_COLD_CASES:
-        with tempfile.TemporaryDirectory(prefix="numba-cold-") as d:
-            env = dict(os.environ, NUMBA_CACHE_DIR=d)
-            out = subprocess.run([sys.executable, "-c", SIM_COLD_SCRIPT, urdf, case], env=env, capture_output=True,
-                                 text=True, check=True)
-        r = json.loads(out.stdout.strip().splitlines()[-1])
-        rows.append(dict(r, case=case, label=label))
-    return rows
-
-
-def sim_cold_table(rows) -> list[str]:
-    L = ["## Cold start of the simulation (2R arm, fresh interpreter, empty numba cache)", "",
-         "| case | library part (s) | first simulate (s) | total wall (s) | CPU (s) |", "|---|---:|---:|---:|---:|"]
-    for r in rows:
-        sim = f"{r['simulate']:.1f}" if r["case"] != "library" else "-"
-        L.append(f"| {r['label']} | {r['library']:.1f} | {sim} | {r['library'] + r['simulate']:.1f} | {r['cpu']:.1f} |")
+    def cell(tool, key):
+        xs = res[tool].get(key)
+        if not xs:
+            return "-"
+        xs = np.array(xs) * 1e3
+        return " / ".join(f"{x:.0f}" if x >= 100 else f"{x:.3g}" for x in (xs.min(), np.median(xs), xs.max()))
+    L = [f"## First calls in a fresh process (ms: min / median / max over {processes} processes each, alternated)",
+         "",
+         "Ours in three processes (Panda's calls; PUMA's simulate; the ball's contact simulation), each call a first "
+         "one; their import and whole-process times pooled.  Pinocchio and MuJoCo in one process each.", "",
+         "| step | " + " | ".join(tools) + " | calls (ours; Pinocchio; MuJoCo) |",
+         "|---|" + "---:|" * len(tools) + "---|"]
+    for key, what, *calls in FIRST_CALL_ROWS:
+        names = "; ".join(c or "-" for c in calls) if any(calls) else ""
+        L.append(f"| {what} | " + " | ".join(cell(t, key) for t in tools) + f" | {names} |")
     return L + [""]
 
 
@@ -446,7 +492,6 @@ def us(t):
 
 
 def machine_header(B, repeat) -> list[str]:
-    import numba
     import pinocchio as pin
 
     cpu = platform.processor() or platform.machine()
@@ -462,7 +507,7 @@ def machine_header(B, repeat) -> list[str]:
 
     return [
         f"Machine: {cpu}, {os.cpu_count()} logical CPUs, load average at start {load}.  "
-        f"Python {platform.python_version()}, numpy {np.__version__}, numba {numba.__version__}, "
+        f"Python {platform.python_version()}, numpy {np.__version__}, "
         f"Pinocchio {pin.__version__}.",
         f"Batched runs: {B} states; our batch uses {num_threads()} threads, Pinocchio {PIN_THREADS} "
         f"(ModelPool).  Every time is the best of {repeat} runs.  Ratio = ours / Pinocchio (< 1: we are faster).",
@@ -485,7 +530,7 @@ def single_table(rows) -> list[str]:
     return L + ["", "Target: every single-call ratio <= 1.5 on Panda and UR5.", ""]
 
 
-def tables(header, rows, growth, cold, cold_robot) -> str:
+def tables(header, rows, growth) -> str:
     L = ["# Core benchmarks (`python -m benchmarks.core`)", ""] + header + [""]
     L += [
         "## Batched, per state (us), and single-call latency",
@@ -538,21 +583,6 @@ def tables(header, rows, growth, cold, cold_robot) -> str:
             f"(~0.5 GB at 200 joints; MemoryError under an 8 GB limit at 1000).",
             "",
         ]
-    if cold:
-        L += [
-            f"## Cold start ({cold_robot}, fresh interpreter)",
-            "",
-            "| numba cache | import dynamics (s) | load_urdf (s) | first inverse_dynamics (s) "
-            "| import + first ID, FD, M single and batched (s) | whole process (s) |",
-            "|---|---:|---:|---:|---:|---:|",
-        ]
-        for label, key in [("warm", "warm"), ("empty (NUMBA_CACHE_DIR = new temp dir)", "cold")]:
-            c = cold[key]
-            L.append(
-                f"| {label} | {c['import']:.3f} | {c['load']:.3f} | {c['first_id']:.3f} | {c['all_first']:.3f} "
-                f"| {c['process']:.3f} |"
-            )
-        L.append("")
     return "\n".join(L)
 
 
@@ -561,15 +591,17 @@ def main(argv=None) -> int:
     p.add_argument("--states", type=int, default=10_000, help="batch size (default 10000)")
     p.add_argument("--repeat", type=int, default=5, help="best of N runs (default 5)")
     p.add_argument("--quick", action="store_true", help="1000 states, best of 2, chains up to 200")
-    p.add_argument("--no-cold", action="store_true", help="skip the cold-start subprocesses")
+    p.add_argument("--no-first-call", action="store_true", help="skip the first-call processes")
+    p.add_argument("--processes", type=int, default=None,
+                   help="fresh processes per first-call script (default 10, 2 with --quick)")
     p.add_argument("--no-growth", action="store_true", help="skip the chain growth table")
-    p.add_argument("--sim-cold-only", action="store_true", help="only the simulation cold-start table")
+    p.add_argument("--first-call-only", action="store_true", help="only the first-call table")
     p.add_argument("--single-only", action="store_true", help="only the single-call table (Panda, UR5, Talos)")
     args = p.parse_args(argv)
     B, repeat = (1000, 2) if args.quick else (args.states, args.repeat)
-    arm = str(Path(__file__).resolve().parent.parent / "robots" / "planar_2r.urdf")
-    if args.sim_cold_only:
-        print("\n".join(sim_cold_table(bench_cold_simulation(arm))))
+    processes = args.processes or (2 if args.quick else 10)
+    if args.first_call_only:
+        print("\n".join(first_call_table(bench_first_calls(processes), processes)))
         return 0
 
     import pinocchio as pin
@@ -592,14 +624,10 @@ def main(argv=None) -> int:
         for n in (20, 200) if args.quick else (20, 200, 1000):
             print(f"... chain of {n}", file=sys.stderr, flush=True)
             growth.append(bench_growth(dyn, pin, n, B if n <= 200 else max(B // 5, 100), repeat, rng))
-    cold, cold_robot = None, "Panda"
-    if not args.no_cold:
-        print("... cold start", file=sys.stderr, flush=True)
-        cold = bench_cold(benchmark_robots()[0].source, min(repeat, 3))
-    report = tables(header, rows, growth, cold, cold_robot)
-    if not args.no_cold:
-        print("... cold start of the simulation", file=sys.stderr, flush=True)
-        report += "\n" + "\n".join(sim_cold_table(bench_cold_simulation(arm)))
+    report = tables(header, rows, growth)
+    if not args.no_first_call:
+        print("... first calls", file=sys.stderr, flush=True)
+        report += "\n" + "\n".join(first_call_table(bench_first_calls(processes), processes))
     print(report)
     OUT.parent.mkdir(parents=True, exist_ok=True)
     OUT.write_text(report + "\n")

@@ -5,27 +5,27 @@ touching), all static, and the time of one broad + narrow phase over them divide
 touching or not.
 
 * **core**: ``_core.collide_bench``, ``core::contact::collide`` in a C++ loop (the world poses computed once);
-* **numba**: the compiled ``_collide`` called from a Python loop (its dispatch, a few microseconds a call, is
-  spread over the N pairs);
 * **MuJoCo** (if ``import mujoco`` works): the same primitives, each on a free body at the same pose (a plane on
   the world body), every pair an explicit ``<pair>`` and automatic collisions off, ``mj_collision`` from a
   Python loop.  MuJoCo does more per contact (its contact frame, margins, solver parameters) and collides
   cylinders with spheres, capsules and boxes by general convex collision (MPR/GJK), exactly; ours treats them
   as capsules.  It has no point (a sphere of radius 1e-6 here) and does not collide plane with plane.
 
-Best of --repeat rounds.  The table is printed.
+Best of --repeat rounds.  The table is printed and written to benchmarks/out/narrow_phase.md.
 """
 
 import argparse
 import time
+from pathlib import Path
 
 import numpy as np
 
 import dynamics
 from dynamics import _core
-from dynamics.contact.narrow_phase import _collide, _world_arrays, contact_buffer
-from dynamics.contact.scene import BOX, CAPSULE, CYLINDER, PLANE, POINT, SPHERE
+from dynamics.contact.scene import CAPSULE, CYLINDER, PLANE, POINT, SPHERE
 from tests.test_narrow_phase_core import NAMES, PAIRS, Geometries, random_pair
+
+OUT = Path(__file__).resolve().parent / "out" / "narrow_phase.md"
 
 
 def scene_of(ka, kb, N):
@@ -39,16 +39,6 @@ def scene_of(ka, kb, N):
 def core_time(model, scene, q, repeats):
     seconds, n = _core.collide_bench(model.core, *scene.arrays, q, scene.max_contacts, repeats)
     return seconds, n
-
-
-def numba_time(model, scene, q, repeats):
-    oR, op = _world_arrays(model, scene, q)
-    out, arrays = contact_buffer(scene), scene.arrays
-    _collide(arrays, oR, op, out)
-    t0 = time.perf_counter()
-    for _ in range(repeats):
-        _collide(arrays, oR, op, out)
-    return (time.perf_counter() - t0) / repeats
 
 
 def quaternion(R):
@@ -131,22 +121,25 @@ def main():
     model = dynamics.load_urdf("planar_2r")
     q = model.neutral()
     N = args.pairs
-    print(f"microseconds per pair ({N} pairs per kind pair, best of {args.repeat} x {args.calls} calls)\n")
-    print(f"| {'pair':<18} | contacts | core  | numba | core/numba | MuJoCo | contacts | core/MuJoCo |")
-    print(f"|{'-' * 20}|----------|-------|-------|------------|--------|----------|-------------|")
+    lines = [f"microseconds per pair ({N} pairs per kind pair, best of {args.repeat} x {args.calls} calls)", "",
+             f"| {'pair':<18} | contacts | core  | MuJoCo | contacts | core/MuJoCo |",
+             f"|{'-' * 20}|---------:|------:|-------:|---------:|------------:|"]
+    print("\n".join(lines), flush=True)
     for ka, kb in PAIRS:
         scene = scene_of(ka, kb, N)
         c = best(lambda: core_time(model, scene, q, args.calls)[0], args.repeat) / N * 1e6
         n = core_time(model, scene, q, 1)[1]
-        nb = best(lambda: numba_time(model, scene, q, args.calls), args.repeat) / N * 1e6
-        row = f"| {NAMES[ka] + '-' + NAMES[kb]:<18} | {n:8d} | {c:5.3f} | {nb:5.3f} | {c / nb:10.2f} |"
+        row = f"| {NAMES[ka] + '-' + NAMES[kb]:<18} | {n:8d} | {c:5.3f} |"
         if have_mujoco and not ka == kb == PLANE:
             m, d = mujoco_model(scene)
             mj = best(lambda: mujoco_time(m, d, args.calls)[0], args.repeat) / N * 1e6
             row += f" {mj:6.3f} | {mujoco_time(m, d, 1)[1]:8d} | {c / mj:11.2f} |"
         else:
             row += f" {'-':>6} | {'-':>8} | {'-':>11} |"
-        print(row)
+        lines.append(row)
+        print(row, flush=True)
+    OUT.parent.mkdir(parents=True, exist_ok=True)
+    OUT.write_text("\n".join(lines) + "\n")
 
 
 if __name__ == "__main__":

@@ -1,206 +1,112 @@
-"""Simulation with derivatives: ``python -m benchmarks.sensitivities [--quick]``.
+"""What sensitivities cost a simulation: ``python -m benchmarks.sensitivities [--quick] [--repeat R]``.
 
-Section "radau": wall time of Radau with the robot's Jacobian assembled from its parts' derivatives
-(:mod:`dynamics.simulation.jacobian`, the default) against the same solver on the finite-difference Jacobian of
-the whole right-hand side (what it used before: the problem class without a ``jacobian``), on the stiff suite
-(damped chains, joint damping 1e3: time constants ~10 us), a stiff PD on Panda and (without --quick) a contact
-scene with nv >= 20, Talos standing on box soles (nv 38, rtol 1e-6).  Both runs alternate in the
-same process, after a warm-up that compiles both; the ratio is FD / analytical (> 1: faster).  The final states
-of the two agree to the tolerance (the column "|dx|").
+Per robot and integrator, through the public API only: the wall time of ``dynamics.simulate(...,
+sensitivities=True)`` (dx(T)/dx0, 2 nv columns, integrated with the state under the same error control) against
+the same call without sensitivities, the two alternated, best of --repeat; and against 2 nv + 1 plain runs
+(forward differences of x0: what a shooting method does without sensitivities; the best single run times
+2 nv + 1).  Times are whole calls with ``error_estimate="none"``; the error estimate of S (the default ``rerun``
+estimate, ``report["sensitivities"]["error_estimate"]``) comes from one more, untimed, call.
 
-Section "sensitivities": the wall time of one ``simulate(..., sensitivities=True)`` (dx(T)/dx0, 2 nv columns)
-against 2 nv + 1 plain simulations (forward differences of x0: what a shooting method does without
-sensitivities), rk45 and radau, the same tolerance.
+Robots: the double pendulum (planar 2R) under PD, a 12-link chain (damping 1e3: stiff), Panda under PD and, without
+--quick, the README's ball dropped on the ground with contact (rk45 and radau, rtol 1e-6).  A standing robot with
+contact is left out: Talos (nv 38) is beyond radau with sensitivities (76 columns make 5,852 components, over its
+2,000); Go1 (nv 18) standing, with sensitivities, took 33 s for 0.1 s with rk45 (0.8 s without) and over 5 minutes
+for 0.01 s with radau, on 2 shared cores.
+Printed as a markdown table and written to benchmarks/out/sensitivities.md.
 """
 
 import argparse
-import importlib
 import os
 import sys
 import time
+import warnings
+from pathlib import Path
 
 import numpy as np
-from numba import njit
 
 import dynamics
-from dynamics.contact.resolve import contact_model
-from dynamics.control.validation import make_source
-from dynamics.simulation.jacobian import robot_jacobian
-from dynamics.simulation.problem import RobotProblem, rhs, robot_problem
-from dynamics.simulation.solvers import new_stats
-from dynamics.simulation.solvers.linalg import fd_jacobian
 from dynamics.torques import PD
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "tests"))
 from robots import chain_urdf, erd  # noqa: E402
 
-SIM = importlib.import_module("dynamics.simulation.simulate")
+OUT = Path(__file__).resolve().parent / "out" / "sensitivities.md"
 
 
-class FDJacobianProblem(RobotProblem):
-    """The robot problem without its ``jacobian``: Radau falls back to differencing the right-hand side."""
-
-    jacobian = None
-
-
-def _fd_variant(fd):
-    """simulate() builds FDJacobianProblem when ``fd`` (a benchmark-only switch of the problem's class)."""
-    if not hasattr(SIM, "_robot_problem_original"):
-        SIM._robot_problem_original = SIM.robot_problem
-    orig = SIM._robot_problem_original
-    SIM.robot_problem = (lambda *a: FDJacobianProblem(*orig(*a))) if fd else orig
+#: the README's ball (a free body, dropped on the ground: bounces)
+BALL = """<robot name="ball"><link name="ball"><inertial><mass value="0.2"/>
+  <inertia ixx="2e-4" iyy="2e-4" izz="2e-4" ixy="0" ixz="0" iyz="0"/></inertial></link></robot>"""
 
 
-def stiff_cases(quick):
-    sizes = (6, 12) if quick else (6, 12, 24)
+def cases(quick):
+    """(name, model, q0, v0, duration, simulate's keywords, integrators)."""
     out = []
-    for n in sizes:
-        m = dynamics.load_urdf(chain_urdf(n, damping=1e3))
-        out.append((f"chain{n} damping 1e3", m, np.linspace(0.2, 1.2, n), np.ones(n), 0.5, None, None))
-    panda = dynamics.load_urdf(erd("panda_description/urdf/panda.urdf"), mimic="independent")
-    q0 = panda.neutral() + 0.1
-    target = q0 + 0.2
-    pd = PD(target, 1e4, 1e3, tau_ff=dynamics.gravity_torques(panda, target))
-    out.append(("Panda stiff PD (kp 1e4, kd 1e3)", panda, q0, np.zeros(panda.nv), 0.5, pd, None))
-    if not quick:
-        out.append(talos_standing())
-    return out
-
-
-def talos_standing():
-    """Talos (every joint, floating base) standing on two box soles under joint PD with gravity compensation:
-    a contact scene with nv >= 20 (as tests/test_contact_humanoid.py, without its locked upper body)."""
-    soles, sole = ["left_sole_link", "right_sole_link"], (0.2, 0.1, 0.02)
-    model = dynamics.load_urdf(erd("talos_data/robots/talos_reduced.urdf"), floating_base=True,
-                               strict_inertia=False)
-    q = model.neutral().copy()
-    for side in ("left", "right"):
-        for j, angle in ((3, -0.411354), (4, 0.859395), (5, -0.448041)):  # half sitting
-            q[model.q_index[model.joint_names.index(f"leg_{side}_{j}_joint")]] = angle
-    weight = float(np.sum(model.tree.mass)) * 9.81
-    pose = np.eye(4)
-    pose[2, 3] = sole[2] / 2
-    contact = dynamics.Contact(geometries=[dynamics.Box(f, sole, pose) for f in soles])
-    k = weight / contact.friction.penetration_allowance  # the default stiffness of each contact point
-    q[2] = -dynamics.frame_placement(model, q, soles[0])[2, 3] - weight / (8 * k)  # 8 corners share the weight
-    g = dynamics.gravity_torques(model, q)
-    J = [dynamics.frame_jacobian(model, q, f) for f in soles]
-    w = np.linalg.lstsq(np.hstack([Jf[:, :6].T for Jf in J]), g[:6], rcond=None)[0]
-    n = model.nv - 6
-    pd = PD(q.copy(), np.r_[np.zeros(6), np.full(n, 3000.0)], np.r_[np.zeros(6), np.full(n, 100.0)],
-            tau_ff=g - J[0].T @ w[:6] - J[1].T @ w[6:])
-    return ("Talos standing, contact (rtol 1e-6)", model, q, np.zeros(model.nv), 0.5, pd, contact)
-
-
-def _wall(model, q0, v0, T, torque, fd, reps, contact=None, **kw):
-    _fd_variant(fd)
-    best, tr = np.inf, None
-    if contact is not None:
-        kw.update(contact=contact, rtol=1e-6, atol=1e-8)
-    for _ in range(reps):
-        tr = dynamics.simulate(model, q0, v0, T, torque=torque, integrator="radau", error_estimate="none",
-                               outputs=("q", "v"), **kw)
-        best = min(best, tr.report["wall_time_s"])
-    _fd_variant(False)
-    return best, tr
-
-
-@njit
-def _jacobians(p, z, f0, J, st, ne, fd, reps):
-    n = z.shape[0]
-    for _ in range(reps):
-        if fd:
-            fd_jacobian(p, 0.0, z, f0, np.zeros(n), ne, J, st[0])
-        else:
-            robot_jacobian(p, 0.0, z, f0, z, ne, J, st[0])
-
-
-def one_jacobian_us(model, q0, v0, torque, contact=None):
-    """Microseconds of one right-hand-side Jacobian: (analytical, finite differences), alternately timed."""
-    s = SIM._settings(model, q0, v0, 1.0, "radau", 1e-6, 1e-8, None, None, None, 10, "none", ("q",), [], None,
-                      False, contact)
-    cm = None if contact is None else contact_model(s.contact, model, 1)
-    p = robot_problem(model, SIM._passive(model, s, None, 1e4, 100.0, 1e-3), make_source(model, torque), s.q0,
-                      np.zeros(1), (), cm)
-    n = 2 * model.nv + 2 + (cm is not None)
-    z, f0, J, st = np.zeros(n), np.zeros(n), np.zeros((n, n)), new_stats()
-    z[model.nv:2 * model.nv] = v0
-    rhs(p, 0.0, z, f0)
-    out = [np.inf, np.inf]
-    for _ in range(5):
-        for fd in (0, 1):
-            t = time.perf_counter()
-            _jacobians(p, z, f0, J, st, 2 * model.nv, fd, 200)
-            out[fd] = min(out[fd], (time.perf_counter() - t) / 200 * 1e6)
-    return out
-
-
-def radau_section(quick):
-    rows = ["| case | nv | steps | Jacobians | one Jacobian: analytical / FD (us) | run, analytical (s) | "
-            "run, finite differences (s) | ratio FD/analytical | \\|dx\\| |",
-            "|---|---:|---:|---:|---:|---:|---:|---:|---:|"]
-    reps = 1 if quick else 3
-    for name, m, q0, v0, T, torque, contact in stiff_cases(quick):
-        for fd in (False, True):  # warm-up: compile both
-            _wall(m, q0, v0, min(T, 0.01), torque, fd, 1, contact)
-        wa, wf = [], []
-        for _ in range(reps):  # alternately
-            a, ta = _wall(m, q0, v0, T, torque, False, 1, contact)
-            f, tf = _wall(m, q0, v0, T, torque, True, 1, contact)
-            wa.append(a)
-            wf.append(f)
-        dx = max(np.abs(ta.q[-1] - tf.q[-1]).max(), np.abs(ta.v[-1] - tf.v[-1]).max())
-        ja, jf = one_jacobian_us(m, q0, v0, torque, contact)
-        rows.append(f"| {name} | {m.nv} | {ta.report['steps']} | {ta.report['jacobian_evals']} | "
-                    f"{ja:.0f} / {jf:.0f} ({jf / ja:.1f}x) | {min(wa):.3f} | "
-                    f"{min(wf):.3f} | {min(wf) / min(wa):.2f} | {dx:.1e} |")
-        print(rows[-1], flush=True)
-    return rows
-
-
-def sensitivity_section(quick):
-    rows = ["| case | integrator | nv | one run (s) | with sensitivities (s) | 2 nv + 1 runs (s) | ratio | "
-            "error estimate of S |",
-            "|---|---|---:|---:|---:|---:|---:|---:|"]
     two_r = dynamics.load_urdf(dynamics.robots.path("planar_2r"))
+    out.append(("double pendulum, PD", two_r, np.array([0.3, 0.2]), np.array([0.0, 1.5]), 2.0,
+                dict(torque=PD([0.5, -0.3], 8.0, 0.5), rtol=1e-8, atol=1e-10), ("rk45", "radau")))
+    chain = dynamics.load_urdf(chain_urdf(12, damping=1e3))
+    out.append(("chain12, damping 1e3 (stiff)", chain, np.linspace(0.2, 1.2, 12), np.ones(12), 0.5,
+                dict(rtol=1e-6, atol=1e-8), ("radau",)))
     panda = dynamics.load_urdf(erd("panda_description/urdf/panda.urdf"), mimic="independent")
     pq0 = panda.neutral() + 0.1
-    cases = [("double pendulum, PD", two_r, np.array([0.3, 0.2]), np.array([0.0, 1.5]), 2.0,
-              PD([0.5, -0.3], 8.0, 0.5)),
-             ("Panda, PD", panda, pq0, np.zeros(panda.nv), 0.5 if quick else 1.0,
-              PD(pq0 + 0.2, 200.0, 20.0, tau_ff=dynamics.gravity_torques(panda, pq0 + 0.2)))]
-    for name, m, q0, v0, T, pd in cases:
-        for integ in ("rk45", "radau"):
-            kw = dict(torque=pd, integrator=integ, rtol=1e-8, atol=1e-10, outputs=("q", "v"))
-            dynamics.simulate(m, q0, v0, 0.01, sensitivities=True, error_estimate="none", **kw)  # compile
-            dynamics.simulate(m, q0, v0, 0.01, error_estimate="none", **kw)
-            tr = dynamics.simulate(m, q0, v0, T, sensitivities=True, **kw)
-            ts = tr.report["wall_time_s"]
-            one = np.inf
-            t1 = time.perf_counter()
-            for k in range(2 * m.nv + 1):
-                dq = np.zeros(m.nv)
-                dq[k % m.nv] = 1e-7 if k else 0.0
-                r = dynamics.simulate(m, q0 + dq, v0, T, error_estimate="none", **kw)
-                one = min(one, r.report["wall_time_s"])
-            tfd = time.perf_counter() - t1
-            rows.append(f"| {name} | {integ} | {m.nv} | {one:.3f} | {ts:.3f} | {tfd:.3f} | {tfd / ts:.1f} | "
-                        f"{tr.report['sensitivities']['error_estimate']:.1e} |")
-            print(rows[-1], flush=True)
-    return rows
+    out.append(("Panda, PD", panda, pq0, np.zeros(panda.nv), 0.5 if quick else 1.0,
+                dict(torque=PD(pq0 + 0.2, 200.0, 20.0, tau_ff=dynamics.gravity_torques(panda, pq0 + 0.2)),
+                     rtol=1e-8, atol=1e-10), ("rk45", "radau")))
+    if not quick:
+        ball = dynamics.load_urdf(BALL, floating_base=True)
+        out.append(("README ball, contact (drop, bounces)", ball, np.array([0, 0, 0.3, 0, 0, 0, 1.0]),
+                    np.array([0.5, 0, 0, 0, 0, 0]), 0.6,
+                    dict(contact=dynamics.Contact(geometries=[dynamics.Sphere("ball", 0.05)]), rtol=1e-6, atol=1e-8),
+                    ("rk45", "radau")))
+    return out
+
+
+def call(model, q0, v0, T, **kw):
+    t = time.perf_counter()
+    tr = dynamics.simulate(model, q0, v0, T, outputs=("q", "v"), progress=False, **kw)
+    return time.perf_counter() - t, tr
+
+
+def rows(quick, repeat):
+    out = ["| case | integrator | nv | steps | without (s) | with sensitivities (s) | ratio with / without | "
+           "2 nv + 1 runs (s) | ratio (2 nv + 1) / with | error estimate of S |",
+           "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|"]
+    for name, m, q0, v0, T, kw, integrators in cases(quick):
+        for integ in integrators:
+            kw_i = dict(kw, integrator=integ, error_estimate="none")
+            call(m, q0, v0, min(T, 0.01), sensitivities=True, **kw_i)  # first calls
+            call(m, q0, v0, min(T, 0.01), **kw_i)
+            plain, sens = np.inf, np.inf
+            for _ in range(repeat):  # alternately
+                w, tr_plain = call(m, q0, v0, T, **kw_i)
+                plain = min(plain, w)
+                w, tr = call(m, q0, v0, T, sensitivities=True, **kw_i)
+                sens = min(sens, w)
+            est = call(m, q0, v0, T, sensitivities=True, **dict(kw, integrator=integ))[1]
+            est = est.report["sensitivities"]["error_estimate"]
+            fd = (2 * m.nv + 1) * plain
+            out.append(f"| {name} | {integ} | {m.nv} | {tr_plain.report['steps']} / {tr.report['steps']} | "
+                       f"{plain:.4f} | {sens:.4f} | {sens / plain:.2f} | {fd:.3f} | {fd / sens:.1f} | "
+                       + ("-" if est is None else f"{est:.1e}") + " |")
+            print(out[-1], flush=True)
+    return out
 
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--quick", action="store_true")
-    ap.add_argument("--section", choices=("radau", "sensitivities", "all"), default="all")
+    ap.add_argument("--quick", action="store_true", help="no contact case, shorter Panda run, best of 1")
+    ap.add_argument("--repeat", type=int, default=5, help="best of R alternated pairs (1 with --quick)")
     a = ap.parse_args(argv)
-    out = []
-    if a.section in ("radau", "all"):
-        out += ["## radau: analytical against finite-difference Jacobian", ""] + radau_section(a.quick) + [""]
-    if a.section in ("sensitivities", "all"):
-        out += ["## sensitivities: one run against 2 nv + 1 runs", ""] + sensitivity_section(a.quick)
-    print("\n".join(out))
+    repeat = 1 if a.quick else a.repeat
+    # (rk45 on the bouncing ball says it looks stiff, a run's accuracy notes: the table is the point here)
+    warnings.filterwarnings("ignore", category=dynamics.SimulationWarning)
+    lines = ["## sensitivities: simulate with sensitivities=True against without, and against 2 nv + 1 runs", "",
+             f"Whole calls, error_estimate='none', best of {repeat} alternated pairs; steps: without / with.", ""]
+    lines += rows(a.quick, repeat)
+    text = "\n".join(lines)
+    print("\n" + text)
+    OUT.parent.mkdir(parents=True, exist_ok=True)
+    OUT.write_text(text + "\n")
 
 
 if __name__ == "__main__":

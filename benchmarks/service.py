@@ -10,10 +10,10 @@ that the load of a shared machine falls on both alike:
   answer into a numpy array), in JSON and in `.npz`, as ratios to the library call on the same batch and to
   the trivial endpoint.
 
-Then (issue 8) the start of a server with one simulation worker: seconds until the first `/v1/health` answer,
-until the first `/v1/ready` answer (there is no warm-up any more: at once), and until a simulate request sent
-right after that is answered (it waits for its worker's import of the library within its budget). On the numba cache as it is, and
-with `--cold` also on an empty one (a fresh `NUMBA_CACHE_DIR`: minutes of compilation).
+Then (issue 8) the start of a server with one simulation worker, --starts times (min / median / max): seconds
+from the process's start until the first `/v1/health` answer, until the first `/v1/ready` answer of 200 (both
+polled every 10 ms), and until the first simulate (planar 2R, 0.1 s, sent as soon as the server is ready) is
+answered, with that request's own latency.
 
 Targets (issue 4): single-state p50 at most 1.5x the trivial endpoint's; the 10,000-state `.npz` batch at most
 2x the library time + 10 ms. Batch timings are the best of --repeat runs (the machine is shared: the minimum
@@ -58,7 +58,7 @@ class Started:
     health: float      # seconds from t0 to the first /v1/health answer
 
 
-def start_server(store: Path, env: dict[str, str]) -> Started:
+def start_server(store: Path, env: dict[str, str], poll: float = 0.05) -> Started:
     port = free_port()
     # PYTHONPATH: the server runs this checkout's code, whatever checkout the interpreter has installed
     env = {**os.environ, "PYTHONPATH": os.pathsep.join(filter(None, [str(REPO), os.environ.get("PYTHONPATH")])),
@@ -69,20 +69,20 @@ def start_server(store: Path, env: dict[str, str]) -> Started:
     proc = subprocess.Popen([sys.executable, "-m", "service", "--host", "127.0.0.1", "--port", str(port),
                              "--store", str(store), "--log-level", "warning"], env=env, start_new_session=True)
     url = f"http://127.0.0.1:{port}"
-    if wait_for(url + "/v1/health", t0 + 120):
+    if wait_for(url + "/v1/health", t0 + 120, poll):
         return Started(proc, url, t0, time.monotonic() - t0)
     proc.kill()
     raise SystemExit("the service did not start")
 
 
-def wait_for(url: str, deadline: float) -> bool:
+def wait_for(url: str, deadline: float, poll: float = 0.05) -> bool:
     while time.monotonic() < deadline:
         try:
             if httpx.get(url, timeout=1).status_code == 200:
                 return True
         except httpx.TransportError:
             pass
-        time.sleep(0.05)
+        time.sleep(poll)
     return False
 
 
@@ -119,23 +119,38 @@ def ms(x: float) -> str:
     return f"{x * 1e3:.3f}"
 
 
-def start_row(label: str, cache_dir: Path | None) -> str:
-    """Start a server with one simulation worker (``cache_dir``: a fresh numba cache); its start-up times."""
+def start_times() -> dict[str, float]:
+    """Start a server with one simulation worker: seconds from its start to the first /v1/health answer, the first
+    /v1/ready 200, and the first simulate answered (sent once ready), and that request's own latency."""
     env = {"DYNAMICS_SIM_WORKERS": "1", "DYNAMICS_TIME_BUDGET": "600"}
-    if cache_dir is not None:
-        env["NUMBA_CACHE_DIR"] = str(cache_dir)
     with tempfile.TemporaryDirectory() as tmp:
-        server = start_server(Path(tmp) / "store", env)
+        server = start_server(Path(tmp) / "store", env, poll=0.01)
         try:
-            assert wait_for(server.url + "/v1/ready", time.monotonic() + 900)
+            assert wait_for(server.url + "/v1/ready", time.monotonic() + 600, poll=0.01)
             ready = time.monotonic() - server.t0
-            r = httpx.post(server.url + "/v1/robots/planar-2r/simulate", timeout=900,
+            t0 = time.monotonic()
+            r = httpx.post(server.url + "/v1/robots/planar-2r/simulate", timeout=600,
                            json={"q0": [0.3, -0.2], "v0": [0.0, 0.0], "duration": 0.1})
             assert r.status_code == 200, r.text
             simulated = time.monotonic() - server.t0
+            request = time.monotonic() - t0
         finally:
             stop(server)
-    return f"| {label} | {server.health:.2f} | {ready:.1f} | {simulated:.1f} |"
+    return {"health": server.health, "ready": ready, "simulate": simulated, "request": request}
+
+
+def start_rows(starts: int) -> list[str]:
+    """The start of `python -m service` ``starts`` times, each a fresh process: min / median / max."""
+    runs = [start_times() for _ in range(starts)]
+
+    def cell(key):
+        x = np.array([r[key] for r in runs])
+        return f"{x.min():.2f} / {np.median(x):.2f} / {x.max():.2f}"
+    return [f"| start of `python -m service` (1 simulation worker), s: min / median / max of {starts} | first "
+            "/v1/health | first /v1/ready | first simulate answered | that simulate request alone |",
+            "|---|---:|---:|---:|---:|",
+            f"| from the process's start | {cell('health')} | {cell('ready')} | {cell('simulate')} | "
+            f"{cell('request')} |"]
 
 
 def request_rows(args, model, rid: str, url: str) -> list[str]:
@@ -280,10 +295,14 @@ def main(argv=None) -> int:
     p.add_argument("--n", type=int, default=2000, help="single-state requests per endpoint")
     p.add_argument("--batch", type=int, default=10_000)
     p.add_argument("--repeat", type=int, default=7)
-    p.add_argument("--cold", action="store_true", help="also time a start on an empty numba cache (minutes)")
+    p.add_argument("--starts", type=int, default=5, help="fresh starts of the service for the start-up table")
     p.add_argument("--n-sim", type=int, default=200, help="simulate requests for the simulate overhead")
     p.add_argument("--simulate-only", action="store_true", help="only the simulate overhead (issue 24)")
+    p.add_argument("--start-only", action="store_true", help="only the start-up table (issue 8)")
     args = p.parse_args(argv)
+    if args.start_only:
+        print("\n".join(start_rows(args.starts)))
+        return 0
     if args.simulate_only:
         table = "\n".join(simulate_rows(args)) + "\n"
         print(table)
@@ -292,16 +311,11 @@ def main(argv=None) -> int:
     with tempfile.TemporaryDirectory() as tmp:
         server = start_server(Path(tmp) / "store", {"DYNAMICS_SIM_WORKERS": "0"})
         try:
-            assert wait_for(server.url + "/v1/ready", time.monotonic() + 600)  # no warm-up under the timings
+            assert wait_for(server.url + "/v1/ready", time.monotonic() + 600)  # ready before the timings
             rows = request_rows(args, model, args.robot.replace("-", "_"), server.url)
         finally:
             stop(server)
-    starts = ["| start of `python -m service` (1 simulation worker) | first /v1/health (s) | first /v1/ready "
-              "(s) | first simulate answered (s) |", "|---|---:|---:|---:|",
-              start_row("numba cache warm", None)]
-    if args.cold:
-        with tempfile.TemporaryDirectory() as cache:
-            starts.append(start_row("numba cache empty (`NUMBA_CACHE_DIR` new)", Path(cache)))
+    starts = start_rows(args.starts)
     header = (f"Robot {args.robot} (nq={model.nq}), {args.n} sequential single-state requests per endpoint over one "
               f"keep-alive connection, batches best of {args.repeat}; {os.cpu_count()} CPUs, Python "
               f"{sys.version.split()[0]}, uvicorn (h11) with one server process.")

@@ -1,37 +1,38 @@
-"""The fixed cost of ``simulate`` (issue 24), two source trees alternately in one run.
+"""The fixed cost of ``simulate`` (issue 24): what every call pays besides its steps.
 
-    python -m benchmarks.sim_fixed_cost [--before DIR] [--rounds N] [--cold]
+    python -m benchmarks.sim_fixed_cost [--before PYTHON] [--rounds N] [--calls N]
 
-Per tree and round, in a fresh interpreter (one warm numba cache per tree), Panda (example-robot-data,
+Per round, in a fresh interpreter (the first calls of each kind made before timing), Panda (example-robot-data,
 ``mimic="independent"``) under PD towards a posture:
 
-* ``fixed_ms``: a 1 ms simulation (``error_estimate="none"``), the whole call's wall time less the compiled
-  run's (``report["wall_time_s"]``), median of 30 calls: what every run of a sweep pays besides its steps;
-* ``overhead_1s``: a 1 s simulation (default error estimate): the share of the call's wall time spent
-  neither in the run nor in its error estimate, median of 7;
-* ``cost_of_estimate``: the error estimate's wall time over the run's (same 1 s simulation);
-* ``us_per_rhs``: the run's wall time per right-hand-side evaluation (solver work included).
+* ``rk4 step``: one rk4 step, duration = dt = 0.1 ms, ``error_estimate="none"``: the whole call's wall time
+  (``call_ms``) and the part outside the core's run (``fixed_ms`` = the call less ``report["wall_time_s"]``),
+  median of --calls calls;
+* ``auto 1 ms``: the default call (``auto``, default error estimate, 1,001 samples) on a 1 ms simulation: the
+  whole call (``call_ms``), and its part neither in the run nor in its error estimate (``fixed_ms``), median of
+  --calls calls;
+* ``overhead_1s``: a 1 s simulation (default error estimate): the share of the call's wall time spent neither in
+  the run nor in its error estimate, median of 7; ``cost_of_estimate``: the error estimate's wall time over the
+  run's; ``us_per_rhs``: the run's wall time per right-hand-side evaluation (solver work included).
 
-``--cold``: also, per tree, the CPU seconds of a fresh interpreter with an empty numba cache running the
-first simulate of the 2R arm with rk4 and with the default ``auto`` (benchmarks.core's cold-start script).
-``--before``: a checkout of the library to compare with (``git archive <commit> dynamics robots | tar -x -C
-DIR``); without it, only this tree.  Alternating rounds make the comparison fair on a shared, noisy machine:
-read the ratios, not the absolute times.
+``--before``: the Python interpreter of another checkout (``other/.venv/bin/python``, the ``dynamics`` it has
+installed); the two run alternately, a fresh interpreter each round, which makes the comparison fair on a shared,
+noisy machine: read the ratios, not the absolute times.  Printed as a markdown table and written to
+benchmarks/out/sim_fixed_cost.md.
 """
 
 import argparse
 import json
-import os
 import subprocess
 import sys
-import tempfile
 from pathlib import Path
 
 SCRIPT = r"""
-import json, statistics, time
+import json, statistics, sys, time
 import numpy as np
 import dynamics
 from dynamics.torques import PD
+calls = int(sys.argv[1])
 model = dynamics.load_urdf(dynamics.robots.example_robot_data("panda_description/urdf/panda.urdf"),
                            mimic="independent")
 rng = np.random.default_rng(0)
@@ -41,69 +42,66 @@ q0, v0 = model.neutral() + 0.1, np.zeros(model.nv)
 
 def call(duration, **kw):
     t0 = time.perf_counter()
-    tr = dynamics.simulate(model, q0, v0, duration, torque=pd, **kw)
+    tr = dynamics.simulate(model, q0, v0, duration, torque=pd, progress=False, **kw)
     return time.perf_counter() - t0, tr.report
 
-call(1.0)  # compiled or loaded from the cache
-call(0.001, error_estimate="none")
-fixed = statistics.median(w - r["wall_time_s"] for w, r in (call(0.001, error_estimate="none") for _ in range(30)))
+RK4 = dict(integrator="rk4", dt=1e-4, error_estimate="none")
+call(1e-4, **RK4)  # first calls
+call(1e-3)
+call(1.0)
+rk4 = [call(1e-4, **RK4) for _ in range(calls)]
+auto = [call(1e-3) for _ in range(calls)]
 runs = [call(1.0) for _ in range(7)]
-over = statistics.median((w - r["wall_time_s"] - r["error_estimate_wall_time_s"]) / w for w, r in runs)
-est = statistics.median(r["error_estimate_wall_time_s"] / r["wall_time_s"] for w, r in runs)
-rhs = min(r["wall_time_s"] / r["rhs_evals"] for w, r in runs)
-print(json.dumps({"fixed_ms": fixed * 1e3, "overhead_1s": over, "cost_of_estimate": est, "us_per_rhs": rhs * 1e6}))
+med = statistics.median
+rest = lambda w, r: w - r["wall_time_s"] - r.get("error_estimate_wall_time_s", 0.0)
+print(json.dumps({
+    "rk4_call_ms": med(w for w, r in rk4) * 1e3, "rk4_fixed_ms": med(rest(w, r) for w, r in rk4) * 1e3,
+    "auto_call_ms": med(w for w, r in auto) * 1e3, "auto_fixed_ms": med(rest(w, r) for w, r in auto) * 1e3,
+    "overhead_1s": med(rest(w, r) / w for w, r in runs),
+    "cost_of_estimate": med(r["error_estimate_wall_time_s"] / r["wall_time_s"] for w, r in runs),
+    "us_per_rhs": min(r["wall_time_s"] / r["rhs_evals"] for w, r in runs) * 1e6}))
 """
 
 ROOT = Path(__file__).resolve().parent.parent
-KEYS = ("fixed_ms", "overhead_1s", "cost_of_estimate", "us_per_rhs")
+OUT = ROOT / "benchmarks" / "out" / "sim_fixed_cost.md"
+KEYS = ("rk4_call_ms", "rk4_fixed_ms", "auto_call_ms", "auto_fixed_ms", "overhead_1s", "cost_of_estimate",
+        "us_per_rhs")
 
 
-def _run(tree, cache, code, *args):
-    env = dict(os.environ, PYTHONPATH=str(tree), PYTHONDONTWRITEBYTECODE="1", NUMBA_CACHE_DIR=str(cache))
-    out = subprocess.run([sys.executable, "-c", code, *args], env=env, capture_output=True, text=True,
-                         check=True, cwd="/")
+def _run(python, calls):
+    """SCRIPT in a fresh interpreter ``python`` (this checkout's: sys.executable), run from / so that the
+    ``dynamics`` it has installed is the one imported."""
+    out = subprocess.run([python, "-c", SCRIPT, str(calls)], capture_output=True, text=True, check=True, cwd="/")
     return json.loads(out.stdout.strip().splitlines()[-1])
-
-
-def cold(tree):
-    """CPU seconds of a fresh interpreter's first rk4 and first auto simulate (2R arm), empty cache each."""
-    from benchmarks.core import SIM_COLD_SCRIPT
-    arm = str(ROOT / "robots" / "planar_2r.urdf")
-    out = {}
-    for case in ("rk4", "default"):
-        with tempfile.TemporaryDirectory(prefix="numba-cold-") as d:
-            out[case] = _run(tree, d, SIM_COLD_SCRIPT, arm, case)["cpu"]
-    return out
 
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--before", help="directory holding the library to compare with")
+    ap.add_argument("--before", help="the Python interpreter of another checkout to compare with")
     ap.add_argument("--rounds", type=int, default=3)
-    ap.add_argument("--cold", action="store_true", help="also the cold start (empty numba cache), CPU s")
+    ap.add_argument("--calls", type=int, default=30, help="calls per median (rk4 step, auto 1 ms)")
     args = ap.parse_args(argv)
-    trees = {"before": Path(args.before)} if args.before else {}
-    trees["after"] = ROOT
-    rows = {name: [] for name in trees}
-    colds = {name: [] for name in trees}
-    with tempfile.TemporaryDirectory() as d:  # one numba cache per tree, warm after the first round
-        for _ in range(args.rounds):
-            for name, tree in trees.items():
-                rows[name].append(_run(tree, Path(d, name), SCRIPT))
-                if args.cold:
-                    colds[name].append(cold(tree))
-    print("| tree | " + " | ".join(KEYS) + (" | cold rk4 CPU s | cold auto CPU s |" if args.cold else " |"))
-    print("|---|" + "---|" * (len(KEYS) + 2 * args.cold))
+    pythons = {"before": args.before} if args.before else {}
+    pythons["after"] = sys.executable
+    rows = {name: [] for name in pythons}
+    for _ in range(args.rounds):
+        for name, python in pythons.items():
+            rows[name].append(_run(python, args.calls))
+    lines = ["Panda under PD; `rk4 step`: duration = dt = 0.1 ms, error_estimate='none'; `auto 1 ms`: the default "
+             f"call, 1,001 samples; medians of {args.calls} calls, each round a fresh interpreter.", "",
+             "| tree | " + " | ".join(KEYS) + " |", "|---|" + "---:|" * len(KEYS)]
     for name, rs in rows.items():
-        cells = [", ".join(f"{r[k]:.3g}" for r in rs) for k in KEYS]
-        if args.cold:
-            cells += [", ".join(f"{c[k]:.1f}" for c in colds[name]) for k in ("rk4", "default")]
-        print(f"| {name} | " + " | ".join(cells) + " |")
+        lines.append(f"| {name} | " + " | ".join(", ".join(f"{r[k]:.3g}" for r in rs) for k in KEYS) + " |")
     if args.before:
+        lines.append("")
         for k in KEYS:
             b = min(r[k] for r in rows["before"])
             a = min(r[k] for r in rows["after"])
-            print(f"{k}: after / before = {a / b:.3g} (best of each)")
+            lines.append(f"{k}: after / before = {a / b:.3g} (best of each)")
+    text = "\n".join(lines)
+    print(text)
+    OUT.parent.mkdir(parents=True, exist_ok=True)
+    OUT.write_text(text + "\n")
     return 0
 
 
