@@ -63,7 +63,6 @@ from .model import _unpack
 from .crba import _crba_into
 from .crba import _workspace as crba_workspace
 from .crba import _work_at as crba_work_at
-from .parallel import run_chunks
 from .rnea import _rnea_terms
 from .rnea import _workspace as rnea_workspace
 from .rnea import _work_at as rnea_work_at
@@ -448,91 +447,14 @@ def _C_rows(C):
     return C.row[n - 1] + (3 if k == 0 else 6 if k == 1 else 5 if k == 2 else 1)
 
 
-# -- inverse dynamics --------------------------------------------------------------------------------------------
-
-@kernel
-def _constrained_id_kernel(tree, C, gravity, q, v, a, actuated, ws, tau_out):
-    """tau_out (nv,) with zeros at passive coordinates such that M a + C v + g = tau + J^T lambda for some
-    lambda.  ``actuated`` (nv,) is 1.0 at actuated coordinates.  Returns 0 (done), 1 (a violates the
-    constraints: J a + gamma != 0) or 2 (the actuated coordinates cannot produce this motion)."""
-    tws, _, rws, _, J, phi, gamma, f, _, _, _, no_forces, _, _, _, _ = ws
-    nv, m = f.shape[0], phi.shape[0]
-    _rnea_terms(tree, q, v, a, gravity, no_forces, rws, f, True, True)  # f = M a + C v + g
-    _constraint_terms(tree, C, q, v, True, True, tws, phi, J, gamma)
-    scale = 1.0
-    for r in range(m):
-        x = gamma[r]
-        s = abs(gamma[r])
-        for c in range(nv):
-            x += J[r, c] * a[c]
-            s += abs(J[r, c] * a[c])
-        if abs(x) > 1e-8 * max(s, 1e-3):
-            return 1
-    # N^T: the null space of J (the motions the loops allow); N^T (S_act tau) = N^T f decides tau
-    NT = np.eye(nv)
-    if m > 0:
-        _, sv, Vt = np.linalg.svd(J)
-        rank = 0
-        for k in range(sv.shape[0]):
-            if sv[k] > 1e-9 * sv[0]:
-                rank += 1
-        NT = np.ascontiguousarray(Vt[rank:, :])
-    A = NT * actuated.reshape(1, nv)  # N^T S_act (k, nv), passive columns zero
-    rhs = NT @ f
-    tau = np.zeros(nv)
-    if A.shape[0] > 0:
-        tau = np.linalg.lstsq(A, rhs)[0]
-    res, s = 0.0, 0.0
-    Af = A @ tau
-    for k in range(rhs.shape[0]):
-        res = max(res, abs(Af[k] - rhs[k]))
-        s = max(s, abs(rhs[k]))
-    for c in range(nv):
-        tau_out[c] = tau[c] * actuated[c]
-        s = max(s, abs(f[c]))
-    if res > 1e-8 * max(s, 1e-6):
-        return 2
-    return 0
-
-
-@kernel
-def _constrained_id_batch(tree, Q, V, A, C, gravity, actuated, out, status):
-    # the arguments as views with no owner: no reference counts in the loops (dynamics._numba.borrow)
-    tree, Q, V = borrow(tree), borrow(Q), borrow(V)
-    A, C, gravity = borrow(A), borrow(C), borrow(gravity)
-    actuated, out, status = borrow(actuated), borrow(out), borrow(status)
-    nb, nv = tree.parents.shape[0], tree.S.shape[0]
-    ws = _workspace(nb, nv, _C_rows(C))
-    lv, la = V.shape[0] - 1, A.shape[0] - 1
-    for b in range(Q.shape[0]):
-        status[b] = _constrained_id_kernel(tree, C, gravity, Q[b], V[min(b, lv)], A[min(b, la)], actuated, ws,
-                                          out[b])
-
-
-
 # -- public entry points -----------------------------------------------------------------------------------------
 class _Failed(Exception):
     def __init__(self, state, code):
         self.state, self.code = state, code
 
 
-class _Checked:
-    """A batch kernel whose last argument is a per-state status (-1 or 0: fine), for run_chunks."""
-
-    def __init__(self, kernel, ok):
-        self.kernel, self.ok = kernel, ok
-
-    def __call__(self, tree, *args):
-        status = np.empty(args[-1].shape[0], np.int64)
-        self.kernel(tree, *args, status)
-        bad = np.flatnonzero(status != self.ok)
-        if bad.size:
-            raise _Failed(int(bad[0]), int(status[bad[0]]))
-
-
 _fd_single = SingleCall(_constrained_fd_one, PACKED, VECTOR, VECTOR, VECTOR, types.float64, types.float64, VECTOR,
                         VECTOR)
-_id_batch = _Checked(_constrained_id_batch, 0)
 
 
 def _singular(model, what, e):
@@ -612,17 +534,16 @@ def constrained_inverse_dynamics(model, q, v, a, *, actuated, gravity=None):
     """
     Q, (V, A), B, batched = checks.state_batch(model, q, (("v", v, model.nv), ("a", a, model.nv)))
     mask = _actuated_mask(model, actuated)
-    C, _ = arrays(model)
     out = np.empty((B, model.nv))
-    try:
-        run_chunks(_id_batch, model.tree, (Q, V, A), (C, checks.gravity_vector(model, gravity), mask), out)
-    except _Failed as e:
-        where = f" (state {e.state})" if batched else ""
-        if e.code == 1:
+    failed, code = run_core(_core.constrained_inverse_dynamics_batch, model, Q, V, A,
+                            checks.gravity_vector(model, gravity), mask, out=out)
+    if failed >= 0:
+        where = f" (state {failed})" if batched else ""
+        if code == 1:
             raise InputError(f"a{where}: violates the constraints (Phi_q a + Phi_q_dot v != 0); constrained "
-                             f"motions satisfy them, e.g. the a of constrained_forward_dynamics") from None
+                             f"motions satisfy them, e.g. the a of constrained_forward_dynamics")
         names = [model.joint_names[i] for i in range(model.nbodies) if mask[model.v_index[i]]]
         raise InputError(f"actuated{where}: the joints {names} cannot produce this motion of the constrained "
                          f"mechanism (too few actuators for its {model.info.get('constraints', {}).get('mobility', '?')}"
-                         f" degrees of freedom, or torques the loops absorb); actuate other joints") from None
+                         f" degrees of freedom, or torques the loops absorb); actuate other joints")
     return out if batched else out[0]

@@ -87,7 +87,7 @@ def test_a_threaded_batch_equals_its_single_states(model):
 
 
 def test_the_core_gives_the_numba_kernels_numbers(model):
-    """The simulation and the constrained derivatives still link the numba kernels: both give the same numbers."""
+    """The simulation still links the numba kernels: both give the same numbers."""
     rng = np.random.default_rng(4)
     nv, nb = model.nv, model.nbodies
     buf = np.empty(_work_size(nb, nv))
