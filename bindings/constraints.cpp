@@ -253,6 +253,18 @@ void expose_constraints(nb::module_& m) {
         return core::project_position(model, c, core::thread_data(model), cd, q.data(), tol, max_iter, out.data());
     }, "model"_a, "constraints"_a, "q"_a, "tol"_a, "max_iter"_a, "q_out"_a);
 
+    // (max |phi(q)|, max |Phi_q v|): the position and velocity residuals of one state (a simulation's drift)
+    m.def("constraint_drift", [](const Model& model, const Constraints& c, In<1> q, In<1> v) {
+        require_model(c, model);
+        require(length(q) == model.nq && length(v) == model.nv, "q, v: expected (nq,) and (nv,)");
+        require(core::configuration_ok(model, q.data()) && core::all_finite(v.data(), model.nv),
+                "q, v: expected a finite configuration and velocity");
+        double position, velocity;
+        core::constraint_drift(model, c, core::thread_data(model), thread_constrained_data(model, c), q.data(),
+                               v.data(), position, velocity);
+        return nb::make_tuple(position, velocity);
+    }, "model"_a, "constraints"_a, "q"_a, "v"_a);
+
     // out (B, nv): the velocity nearest v with Phi_q v = 0 (kinetic-energy metric)
     m.def("project_velocity_batch", [](const Model& model, const Constraints& c, In<2> Q, In<2> V,
                                        nb::handle out_, int nthreads, double seconds) {
