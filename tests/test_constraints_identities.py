@@ -114,6 +114,26 @@ def test_constrained_inverse_then_forward_returns_the_motion():
     np.testing.assert_allclose(T, np.tile([0.7, 0, 0], (3, 1)), atol=1e-10)
 
 
+@pytest.mark.parametrize("robot", ["cassie_like_leg.urdf", "stewart_platform.urdf", "four_bar.urdf"])
+def test_redundant_actuation_gives_the_minimum_norm_torques(robot):
+    """Every joint actuated (more actuators than the mobility): tau is the minimum-norm solution of
+    N^T tau = N^T (M a + C v + g), N an orthonormal basis of null(Phi_q) from numpy's SVD (an independent
+    reference: LAPACK, not the core's Gram-Schmidt)."""
+    model = dynamics.load_urdf(os.path.join(OUR_ROBOTS, robot))
+    rng = np.random.default_rng(11)
+    for _ in range(5):
+        q = dynamics.integrate(model, model.neutral(), rng.uniform(-0.3, 0.3, model.nv))
+        v, tau0 = rng.normal(size=model.nv), rng.normal(size=model.nv)
+        a, _ = dynamics.constrained_forward_dynamics(model, q, v, tau0)
+        tau = dynamics.constrained_inverse_dynamics(model, q, v, a, actuated=list(model.joint_names))
+        J = dynamics.constraint_jacobian(model, q)
+        _, sv, Vt = np.linalg.svd(J)
+        N = Vt[int(np.sum(sv > 1e-9 * sv[0])):].T
+        f = dynamics.inverse_dynamics(model, q, v, a)
+        ref = np.linalg.pinv(N.T) @ (N.T @ f)
+        np.testing.assert_allclose(tau, ref, rtol=0, atol=1e-11 * max(1.0, np.abs(f).max()))
+
+
 def test_inverse_dynamics_errors():
     leg = dynamics.load_urdf(LEG)
     q = dynamics.assemble(leg, leg.neutral() + 0.1, fixed=["hip_roll", "hip_yaw", "hip_pitch", "knee", "toe"])
