@@ -46,26 +46,17 @@ with the model) and one ``ws = _workspace(model.nbodies, model.nv, m)`` per thre
 """
 
 import numpy as np
-from numba import types
 
 from . import _core, checks
-from ._numba import (PACKED, SingleCall, VECTOR, address, borrow, copy_into, helper, inline_kernel, keep_alive,
-                     kernel, scratch, view)
+from ._numba import copy_into, helper, kernel
 from .configuration import _integrate_q
-from .data import _take
-from .constraints import arrays, _constraint_terms, core_constraints, packed, run_core
-from .constraints import _unpack as unpack_constraints
+from .constraints import arrays, _constraint_terms, core_constraints, run_core
 from .constraints import _workspace as terms_workspace
-from .constraints import _work_at as terms_work_at
-from .checks import DONE, GENERAL, _config_ok, _vector_ok
 from .errors import InputError
-from .model import _unpack
 from .crba import _crba_into
 from .crba import _workspace as crba_workspace
-from .crba import _work_at as crba_work_at
 from .rnea import _rnea_terms
 from .rnea import _workspace as rnea_workspace
-from .rnea import _work_at as rnea_work_at
 
 #: pivots of K's pivoted Cholesky factor below this times K's largest diagonal entry are dependent rows
 RANK_RTOL = 1e-12
@@ -84,27 +75,6 @@ def _workspace(nb, nv, m):
             np.empty((m, nv)), np.empty(m), np.empty(m), np.empty(nv), np.empty((m, nv)), np.empty((m, m)),
             np.empty(m), np.zeros((0, 6)), np.empty((m, m)), np.empty(nv, np.int64), np.empty(m, np.int64),
             np.empty(m))
-
-
-@inline_kernel
-def _work_at(base, nb, nv, m, lam, piv):
-    """The same scratch as :func:`_workspace` carved from the buffer at ``base`` (at 0: only its size), lam (nv,)
-    and piv (m,) int64 given, and the size in floats: one allocation, or none on the stack, for a single call."""
-    tws, o = terms_work_at(base, 0, nb, nv)
-    cws, o = crba_work_at(base, o, nb)
-    rws, o = rnea_work_at(base, o, nb)
-    LM, o = _take(base, o, (nv, nv))
-    J, o = _take(base, o, (m, nv))
-    phi, o = _take(base, o, m)
-    gamma, o = _take(base, o, m)
-    f, o = _take(base, o, nv)
-    Y, o = _take(base, o, (m, nv))
-    K, o = _take(base, o, (m, m))
-    rhs, o = _take(base, o, m)
-    no_forces, o = _take(base, o, (0, 6))
-    LK, o = _take(base, o, (m, m))
-    t, o = _take(base, o, m)
-    return (tws, cws, rws, LM, J, phi, gamma, f, Y, K, rhs, no_forces, LK, lam, piv, t), o
 
 
 @kernel
@@ -324,7 +294,7 @@ def _pivoted_cholesky(K, tol, L, piv):
 @kernel
 def _constrained_accel_kernel(tree, C, gravity, q, v, tau, alpha, beta, ws, a_out, lam_out):
     """One state: a_out (nv,) and lam_out (m,) of the KKT system (module docstring) with Baumgarte gains alpha,
-    beta (1/s; 0, 0 for none).  ws = _workspace(nb, nv, m) (or _work_at), reused across calls of one
+    beta (1/s; 0, 0 for none).  ws = _workspace(nb, nv, m), reused across calls of one
     thread.  Returns -1, or the index of a body whose joint makes M singular (then the outputs are not valid).
     The single-state entry for a simulation's right-hand side: it allocates nothing."""
     tws, cws, rws, LM, J, phi, gamma, f, Y, K, rhs, no_forces, LK, lam, piv, t = ws
@@ -351,28 +321,6 @@ def _constrained_accel_kernel(tree, C, gravity, q, v, tau, alpha, beta, ws, a_ou
             a_out[k] += Y[r, k] * lam_out[r]
     _ltl_solve(LM, lam, a_out)
     return -1
-
-
-def _constrained_fd_one(packed, packed_C, q, v, tau, alpha, beta, a, lam):
-    """One state from Python into a (nv,) and lam (m,), inputs checked in the same compiled call: DONE, or
-    GENERAL for a non-finite input, a zero quaternion or a singular M (the general path then says which).  The
-    model and its constraints come packed (two arrays to unbox, not nineteen) and the scratch is one buffer."""
-    tree, gravity, nq = _unpack(packed)
-    C = unpack_constraints(packed_C)
-    nb, nv, m = tree.parents.shape[0], tree.S.shape[0], lam.shape[0]
-    if not (_config_ok(tree, nq, q) and _vector_ok(v, nv) and _vector_ok(tau, nv) and a.shape[0] == nv
-            and m == _C_rows(C)):
-        return GENERAL
-    ints = np.empty(nv + m, np.int64)
-    n = _work_at(0, nb, nv, m, ints[:nv], ints[nv:])[1]
-    buf = scratch(n + 3)  # one buffer (on the stack when small), not ~30 arrays
-    g = view(buf, n, 3)  # gravity as a writable array: the batch's type, so both share one compiled kernel
-    g[0], g[1], g[2] = gravity[0], gravity[1], gravity[2]
-    status = _constrained_accel_kernel(tree, C, g, q, v, tau, alpha, beta,
-                                      _work_at(address(buf), nb, nv, m, ints[:nv], ints[nv:])[0], a, lam)
-    keep_alive(buf)
-    keep_alive(ints)
-    return DONE if status < 0 else GENERAL
 
 
 @kernel
@@ -437,24 +385,10 @@ def _project_position_kernel(tree, C, q, ws, tol, max_iter, q_out):
     return err
 
 
-@kernel
-def _C_rows(C):
-    """m, the number of constraint rows."""
-    n = C.kind.shape[0]
-    if n == 0:
-        return 0
-    k = C.kind[n - 1]
-    return C.row[n - 1] + (3 if k == 0 else 6 if k == 1 else 5 if k == 2 else 1)
-
-
 # -- public entry points -----------------------------------------------------------------------------------------
 class _Failed(Exception):
     def __init__(self, state, code):
         self.state, self.code = state, code
-
-
-_fd_single = SingleCall(_constrained_fd_one, PACKED, VECTOR, VECTOR, VECTOR, types.float64, types.float64, VECTOR,
-                        VECTOR)
 
 
 def _singular(model, what, e):
