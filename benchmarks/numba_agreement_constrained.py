@@ -32,10 +32,16 @@ def load_old():
     for name, path in files.items():
         text = subprocess.run(["git", "show", f"{OLD}:{path}"], cwd=ROOT, check=True, capture_output=True,
                               text=True).stdout
+        text = text.replace("from .constrained_dynamics import", "from ._old_constrained_dynamics import")
         p = ROOT / "dynamics" / f"{name}.py"
         p.write_text(text)
         paths.append(p)
-    return paths, [importlib.import_module(f"dynamics.{n}") for n in files]
+    try:
+        return paths, [importlib.import_module(f"dynamics.{n}") for n in files]
+    except BaseException:
+        for p in paths:
+            p.unlink()
+        raise
 
 
 def cases():
@@ -121,8 +127,11 @@ def main():
                 assert all(np.array_equal(x, y) for x, y in zip(one, (new[0, i, :model.nv] for i in range(3)))), \
                     "single call and batch differ"
             A, _ = dyn.constrained_forward_dynamics(model, Q, V, T)
-            for label, actuated in (("all joints", list(model.joint_names)),
-                                    ("the motors", [j for j in model.joint_names if j not in PASSIVE])):
+            sets = [("all joints", list(model.joint_names)),
+                    ("the motors", [j for j in model.joint_names if j not in PASSIVE])]
+            if "rod_pitch" in model.joint_names:  # the leg's mobility: the motors and one rod joint
+                sets.append(("the motors and rod_pitch", sets[1][1] + ["rod_pitch"]))
+            for label, actuated in sets:
                 id_row(old_cd, name, label, model, C, g, Q, V, A, actuated)
     finally:
         for p in paths:
