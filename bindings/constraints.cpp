@@ -6,7 +6,9 @@
 
 #include "arrays.hpp"
 #include "checks.hpp"
+#include "constrained_derivatives.hpp"
 #include "constrained_dynamics.hpp"
+#include "constrained_inverse_dynamics.hpp"
 #include "numpy.hpp"
 
 namespace bind {
@@ -27,6 +29,18 @@ core::ConstrainedData& thread_constrained_data(const Model& model, const Constra
     thread_local core::ConstrainedData cd;
     cd.resize(model, con);
     return cd;
+}
+
+// The calling thread's workspaces of the constrained inverse dynamics and of the derivatives (single calls).
+core::ConstrainedInverseData& thread_inverse_data(const Model& model, const Constraints& con) {
+    thread_local core::ConstrainedInverseData w;
+    w.resize(model, con);
+    return w;
+}
+core::ConstrainedDerivativesData& thread_constrained_derivatives_data(const Model& model, const Constraints& con) {
+    thread_local core::ConstrainedDerivativesData w;
+    w.resize(model, con);
+    return w;
 }
 
 template <class A>
@@ -121,6 +135,85 @@ void expose_constraints(nb::module_& m) {
         return status(s);
     });
 
+    // out (B, nv): the torques of the actuated coordinates (actuated (nv): 1.0 there, 0.0 elsewhere) that produce
+    // (q, v, a); a state that fails stops its chunk with code 1 (a violates the constraints) or 2 (the actuated
+    // joints cannot produce it)
+    m.def("constrained_inverse_dynamics_batch", [](const Model& model, const Constraints& c, In<2> Q, In<2> V,
+                                                   In<2> A, In<1> gravity, In<1> actuated, nb::handle out_,
+                                                   int nthreads, double seconds) {
+        require_model(c, model);
+        const Output out = output_of(out_, 2);
+        const long B = length(out), nv = model.nv;
+        require_rows(Q, B, model.nq, "q"), require_rows(V, B, nv, "v"), require_rows(A, B, nv, "a");
+        require_out(out, B, {nv}, "tau");
+        require(length(actuated) == nv, "actuated: expected " + std::to_string(nv) + " numbers");
+        for (long k = 0; k < nv; ++k)
+            require(actuated(k) == 0.0 || actuated(k) == 1.0, "actuated: expected 0.0 or 1.0 per coordinate");
+        const core::Vec3 g = vec3(gravity, "gravity");
+        std::vector<core::ConstrainedInverseData> work(std::max(1L, std::min<long>(std::max(nthreads, 1), B)));
+        for (auto& w : work) w.resize(model, c);  // allocated here, not in a worker
+        core::WorkspacePool<core::ConstrainedInverseData> pool(work);
+        core::BatchStatus s;
+        {
+            nb::gil_scoped_release unlocked;
+            s = core::run_batch(model, B, nthreads, seconds, [&](long b, core::Data& d) {
+                const int code = core::constrained_inverse_dynamics(model, c, d, pool.of(d), row(Q, b), row(V, b),
+                                                                    row(A, b), g, actuated.data(),
+                                                                    out.data() + b * nv);
+                return code == core::ID_DONE ? -1 : code;
+            });
+        }
+        return status(s);
+    });
+
+    // one state: [da; dlam] along q, v and tau (3, nv + m, nv), or None when an input is not an exact
+    // float64 state of the right length with finite values, the model has no constraints or M is singular (the
+    // caller's general path then says what is wrong)
+    m.def("constrained_forward_dynamics_derivatives", [](const Model& model, const Constraints& c, nb::handle q,
+                                                         nb::handle v, nb::handle tau, double alpha,
+                                                         double beta) -> nb::object {
+        require_model(c, model);
+        const double *pq = vector_of(q, model.nq), *pv = vector_of(v, model.nv), *pt = vector_of(tau, model.nv);
+        if (c.m == 0 || !pq || !pv || !pt || !core::configuration_ok(model, pq) || !core::all_finite(pv, model.nv) ||
+            !core::all_finite(pt, model.nv) || !std::isfinite(alpha) || !std::isfinite(beta))
+            return nb::none();
+        double* out;
+        nb::object O = new_array(3, model.nv + c.m, model.nv, &out);
+        if (core::constrained_forward_dynamics_derivatives(model, c, core::thread_data(model),
+                                                           thread_constrained_derivatives_data(model, c), pq, pv, pt,
+                                                           model.gravity, alpha, beta, out) >= 0)
+            return nb::none();
+        return O;
+    }, "model"_a, "constraints"_a, "q"_a.none(), "v"_a.none(), "tau"_a.none(), "alpha"_a, "beta"_a);
+
+    // out (B, 3, nv + m, nv): [da; dlam] along q, v and tau per state
+    m.def("constrained_forward_dynamics_derivatives_batch", [](const Model& model, const Constraints& c, In<2> Q,
+                                                               In<2> V, In<2> T, In<1> gravity, double alpha,
+                                                               double beta, nb::handle out_, int nthreads,
+                                                               double seconds) {
+        require_model(c, model);
+        require(c.m > 0, "constraints: none (the derivatives are those of a model with constraints)");
+        require(std::isfinite(alpha) && std::isfinite(beta), "baumgarte: expected finite gains");
+        const Output out = output_of(out_, 4);
+        const long B = length(out), nv = model.nv, n = nv + c.m;
+        require_rows(Q, B, model.nq, "q"), require_rows(V, B, nv, "v"), require_rows(T, B, nv, "tau");
+        require_out(out, B, {3, n, nv}, "[da; dlam]");
+        const core::Vec3 g = vec3(gravity, "gravity");
+        std::vector<core::ConstrainedDerivativesData> work(std::max(1L, std::min<long>(std::max(nthreads, 1), B)));
+        for (auto& w : work) w.resize(model, c);  // allocated here, not in a worker
+        core::WorkspacePool<core::ConstrainedDerivativesData> pool(work);
+        core::BatchStatus s;
+        {
+            nb::gil_scoped_release unlocked;
+            s = core::run_batch(model, B, nthreads, seconds, [&](long b, core::Data& d) {
+                return core::constrained_forward_dynamics_derivatives(model, c, d, pool.of(d), row(Q, b), row(V, b),
+                                                                      row(T, b), g, alpha, beta,
+                                                                      out.data() + b * 3 * n * nv);
+            });
+        }
+        return status(s);
+    });
+
     // what = 0: phi (out (B, m)), 1: Phi_q (out (B, m, nv)), 2: Phi_q_dot v (out (B, m)); V read only for 2
     m.def("constraint_terms_batch", [](const Model& model, const Constraints& c, In<2> Q, In<2> V, int what,
                                        nb::handle out_, int nthreads, double seconds) {
@@ -159,6 +252,18 @@ void expose_constraints(nb::module_& m) {
         core::ConstrainedData& cd = thread_constrained_data(model, c);
         return core::project_position(model, c, core::thread_data(model), cd, q.data(), tol, max_iter, out.data());
     }, "model"_a, "constraints"_a, "q"_a, "tol"_a, "max_iter"_a, "q_out"_a);
+
+    // (max |phi(q)|, max |Phi_q v|): the position and velocity residuals of one state (a simulation's drift)
+    m.def("constraint_drift", [](const Model& model, const Constraints& c, In<1> q, In<1> v) {
+        require_model(c, model);
+        require(length(q) == model.nq && length(v) == model.nv, "q, v: expected (nq,) and (nv,)");
+        require(core::configuration_ok(model, q.data()) && core::all_finite(v.data(), model.nv),
+                "q, v: expected a finite configuration and velocity");
+        double position, velocity;
+        core::constraint_drift(model, c, core::thread_data(model), thread_constrained_data(model, c), q.data(),
+                               v.data(), position, velocity);
+        return nb::make_tuple(position, velocity);
+    }, "model"_a, "constraints"_a, "q"_a, "v"_a);
 
     // out (B, nv): the velocity nearest v with Phi_q v = 0 (kinetic-energy metric)
     m.def("project_velocity_batch", [](const Model& model, const Constraints& c, In<2> Q, In<2> V,

@@ -18,11 +18,9 @@ void ConstrainedData::resize(const Model& model, const Constraints& con) {
     dq.resize(nv), delta.resize(nv), qn.resize(model.nq);
 }
 
-namespace {
-
 // lam[k]: Featherstone's lambda over coordinates (the previous coordinate of a multi-coordinate joint, else the
 // parent joint's last; -1 at the root).
-void dof_parents(const Model& model, int* lam) {
+static void dof_parents(const Model& model, int* lam) {
     for (int i = 0; i < model.nb; ++i) {
         const int p = model.parents[i];
         int prev = p >= 0 ? model.v_idx[p] + model.nv_j[p] - 1 : -1;
@@ -70,7 +68,7 @@ void ltl_solve(const double* L, const int* lam, int nv, double* x) {
 }
 
 // Y = (L^-T J^T)^T (row r = L^-T J[r], skipping the zeros of sparse rows) and K = Y Y^T.
-void delassus(const double* L, const int* lam, int nv, int m, const double* J, double* Y, double* K) {
+static void delassus(const double* L, const int* lam, int nv, int m, const double* J, double* Y, double* K) {
     for (int r = 0; r < m; ++r) {
         double* y = Y + r * nv;
         std::copy(J + r * nv, J + (r + 1) * nv, y);
@@ -184,8 +182,6 @@ int pinv_solve(double* K, int m, const double* rhs, double rtol, double* x, doub
     }
     return rank;
 }
-
-}  // namespace
 
 int constrained_forward_dynamics(const Model& model, const Constraints& con, Data& data, ConstrainedData& cd,
                                  const double* q, const double* v, const double* tau, const Vec3& gravity,

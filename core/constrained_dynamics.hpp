@@ -63,4 +63,25 @@ int project_velocity(const Model& model, const Constraints& con, Data& data, Con
 double project_position(const Model& model, const Constraints& con, Data& data, ConstrainedData& cd, const double* q,
                         double tol, int max_iter, double* q_out);
 
+// The KKT solve's linear algebra, shared with constrained_derivatives and constrained_inverse_dynamics (row-major
+// matrices; ld the row stride).
+
+// M(q) = L^T L (Table 6.3, the LTL factorisation) into L (nv x nv), lam the coordinates' parents.  Returns -1, or
+// the body whose joint has a non-positive pivot.
+int mass_factor(const Model& model, Data& data, const double* q, double* L, int* lam);
+// x = L^-T x (from the leaves to the root) and x = L^-1 x (from the root to the leaves).
+void ltl_solve_t(const double* L, const int* lam, int nv, double* x);
+void ltl_solve(const double* L, const int* lam, int nv, double* x);
+// A[:n, :n] = L L^T in place (lower triangle).  False when a pivot is <= tol.
+bool cholesky(double* A, int ld, int n, double tol);
+// x[:n] = L[:n, :n]^-1 x[:n] and x[:n] = L[:n, :n]^-T x[:n] in place.
+void lower_solve(const double* L, int ld, int n, double* x);
+void upper_solve(const double* L, int ld, int n, double* x);
+// P^T K P = L L^T with diagonal pivoting (K, L m x m), stopping where the largest pivot left is <= tol; returns the
+// rank (L's columns beyond it zero); piv[i]: K's row at i.
+int pivoted_cholesky(const double* K, int m, double tol, double* L, int* piv);
+// x = K^+ rhs for a symmetric positive semidefinite K (m x m; overwritten when rows are dependent); L (m x m), piv
+// and t (m) scratch.  Returns the rank.
+int pinv_solve(double* K, int m, const double* rhs, double rtol, double* x, double* L, int* piv, double* t);
+
 }  // namespace core

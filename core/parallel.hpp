@@ -7,7 +7,10 @@
 #pragma once
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
+#include <exception>
+#include <memory>
 #include <cmath>
 #include <system_error>
 #include <thread>
@@ -71,5 +74,30 @@ BatchStatus run_batch(const Model& model, long B, int nthreads, double seconds, 
     }
     return out;
 }
+
+// Workspaces of a batch's threads, made (and sized) by the caller before the threads start, so that a failed
+// allocation is an exception on the calling thread: min(nthreads, B) of them (run_batch uses at most that many
+// threads), at least one.  A worker claims a free one the first time it shows its Data and keeps it, as
+// DerivativesPool (derivatives_data.hpp) does.
+template <class W>
+class WorkspacePool {
+public:
+    explicit WorkspacePool(std::vector<W>& work)
+        : n_(static_cast<int>(work.size())), owner_(new std::atomic<const Data*>[n_]), work_(work) {
+        for (int t = 0; t < n_; ++t) owner_[t].store(nullptr);
+    }
+    W& of(const Data& data) {
+        for (int t = 0; t < n_; ++t) {
+            const Data* seen = nullptr;
+            if (owner_[t].compare_exchange_strong(seen, &data) || seen == &data) return work_[t];
+        }
+        std::terminate();  // more Data than workspaces: the caller made too few
+    }
+
+private:
+    int n_;
+    std::unique_ptr<std::atomic<const Data*>[]> owner_;
+    std::vector<W>& work_;
+};
 
 }  // namespace core

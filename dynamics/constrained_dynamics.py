@@ -46,27 +46,17 @@ with the model) and one ``ws = _workspace(model.nbodies, model.nv, m)`` per thre
 """
 
 import numpy as np
-from numba import types
 
 from . import _core, checks
-from ._numba import (PACKED, SingleCall, VECTOR, address, borrow, copy_into, helper, inline_kernel, keep_alive,
-                     kernel, scratch, view)
+from ._numba import copy_into, helper, kernel
 from .configuration import _integrate_q
-from .data import _take
-from .constraints import arrays, _constraint_terms, core_constraints, packed, run_core
-from .constraints import _unpack as unpack_constraints
+from .constraints import arrays, _constraint_terms, core_constraints, run_core
 from .constraints import _workspace as terms_workspace
-from .constraints import _work_at as terms_work_at
-from .checks import DONE, GENERAL, _config_ok, _vector_ok
 from .errors import InputError
-from .model import _unpack
 from .crba import _crba_into
 from .crba import _workspace as crba_workspace
-from .crba import _work_at as crba_work_at
-from .parallel import run_chunks
 from .rnea import _rnea_terms
 from .rnea import _workspace as rnea_workspace
-from .rnea import _work_at as rnea_work_at
 
 #: pivots of K's pivoted Cholesky factor below this times K's largest diagonal entry are dependent rows
 RANK_RTOL = 1e-12
@@ -85,27 +75,6 @@ def _workspace(nb, nv, m):
             np.empty((m, nv)), np.empty(m), np.empty(m), np.empty(nv), np.empty((m, nv)), np.empty((m, m)),
             np.empty(m), np.zeros((0, 6)), np.empty((m, m)), np.empty(nv, np.int64), np.empty(m, np.int64),
             np.empty(m))
-
-
-@inline_kernel
-def _work_at(base, nb, nv, m, lam, piv):
-    """The same scratch as :func:`_workspace` carved from the buffer at ``base`` (at 0: only its size), lam (nv,)
-    and piv (m,) int64 given, and the size in floats: one allocation, or none on the stack, for a single call."""
-    tws, o = terms_work_at(base, 0, nb, nv)
-    cws, o = crba_work_at(base, o, nb)
-    rws, o = rnea_work_at(base, o, nb)
-    LM, o = _take(base, o, (nv, nv))
-    J, o = _take(base, o, (m, nv))
-    phi, o = _take(base, o, m)
-    gamma, o = _take(base, o, m)
-    f, o = _take(base, o, nv)
-    Y, o = _take(base, o, (m, nv))
-    K, o = _take(base, o, (m, m))
-    rhs, o = _take(base, o, m)
-    no_forces, o = _take(base, o, (0, 6))
-    LK, o = _take(base, o, (m, m))
-    t, o = _take(base, o, m)
-    return (tws, cws, rws, LM, J, phi, gamma, f, Y, K, rhs, no_forces, LK, lam, piv, t), o
 
 
 @kernel
@@ -325,7 +294,7 @@ def _pivoted_cholesky(K, tol, L, piv):
 @kernel
 def _constrained_accel_kernel(tree, C, gravity, q, v, tau, alpha, beta, ws, a_out, lam_out):
     """One state: a_out (nv,) and lam_out (m,) of the KKT system (module docstring) with Baumgarte gains alpha,
-    beta (1/s; 0, 0 for none).  ws = _workspace(nb, nv, m) (or _work_at), reused across calls of one
+    beta (1/s; 0, 0 for none).  ws = _workspace(nb, nv, m), reused across calls of one
     thread.  Returns -1, or the index of a body whose joint makes M singular (then the outputs are not valid).
     The single-state entry for a simulation's right-hand side: it allocates nothing."""
     tws, cws, rws, LM, J, phi, gamma, f, Y, K, rhs, no_forces, LK, lam, piv, t = ws
@@ -352,28 +321,6 @@ def _constrained_accel_kernel(tree, C, gravity, q, v, tau, alpha, beta, ws, a_ou
             a_out[k] += Y[r, k] * lam_out[r]
     _ltl_solve(LM, lam, a_out)
     return -1
-
-
-def _constrained_fd_one(packed, packed_C, q, v, tau, alpha, beta, a, lam):
-    """One state from Python into a (nv,) and lam (m,), inputs checked in the same compiled call: DONE, or
-    GENERAL for a non-finite input, a zero quaternion or a singular M (the general path then says which).  The
-    model and its constraints come packed (two arrays to unbox, not nineteen) and the scratch is one buffer."""
-    tree, gravity, nq = _unpack(packed)
-    C = unpack_constraints(packed_C)
-    nb, nv, m = tree.parents.shape[0], tree.S.shape[0], lam.shape[0]
-    if not (_config_ok(tree, nq, q) and _vector_ok(v, nv) and _vector_ok(tau, nv) and a.shape[0] == nv
-            and m == _C_rows(C)):
-        return GENERAL
-    ints = np.empty(nv + m, np.int64)
-    n = _work_at(0, nb, nv, m, ints[:nv], ints[nv:])[1]
-    buf = scratch(n + 3)  # one buffer (on the stack when small), not ~30 arrays
-    g = view(buf, n, 3)  # gravity as a writable array: the batch's type, so both share one compiled kernel
-    g[0], g[1], g[2] = gravity[0], gravity[1], gravity[2]
-    status = _constrained_accel_kernel(tree, C, g, q, v, tau, alpha, beta,
-                                      _work_at(address(buf), nb, nv, m, ints[:nv], ints[nv:])[0], a, lam)
-    keep_alive(buf)
-    keep_alive(ints)
-    return DONE if status < 0 else GENERAL
 
 
 @kernel
@@ -438,101 +385,10 @@ def _project_position_kernel(tree, C, q, ws, tol, max_iter, q_out):
     return err
 
 
-@kernel
-def _C_rows(C):
-    """m, the number of constraint rows."""
-    n = C.kind.shape[0]
-    if n == 0:
-        return 0
-    k = C.kind[n - 1]
-    return C.row[n - 1] + (3 if k == 0 else 6 if k == 1 else 5 if k == 2 else 1)
-
-
-# -- inverse dynamics --------------------------------------------------------------------------------------------
-
-@kernel
-def _constrained_id_kernel(tree, C, gravity, q, v, a, actuated, ws, tau_out):
-    """tau_out (nv,) with zeros at passive coordinates such that M a + C v + g = tau + J^T lambda for some
-    lambda.  ``actuated`` (nv,) is 1.0 at actuated coordinates.  Returns 0 (done), 1 (a violates the
-    constraints: J a + gamma != 0) or 2 (the actuated coordinates cannot produce this motion)."""
-    tws, _, rws, _, J, phi, gamma, f, _, _, _, no_forces, _, _, _, _ = ws
-    nv, m = f.shape[0], phi.shape[0]
-    _rnea_terms(tree, q, v, a, gravity, no_forces, rws, f, True, True)  # f = M a + C v + g
-    _constraint_terms(tree, C, q, v, True, True, tws, phi, J, gamma)
-    scale = 1.0
-    for r in range(m):
-        x = gamma[r]
-        s = abs(gamma[r])
-        for c in range(nv):
-            x += J[r, c] * a[c]
-            s += abs(J[r, c] * a[c])
-        if abs(x) > 1e-8 * max(s, 1e-3):
-            return 1
-    # N^T: the null space of J (the motions the loops allow); N^T (S_act tau) = N^T f decides tau
-    NT = np.eye(nv)
-    if m > 0:
-        _, sv, Vt = np.linalg.svd(J)
-        rank = 0
-        for k in range(sv.shape[0]):
-            if sv[k] > 1e-9 * sv[0]:
-                rank += 1
-        NT = np.ascontiguousarray(Vt[rank:, :])
-    A = NT * actuated.reshape(1, nv)  # N^T S_act (k, nv), passive columns zero
-    rhs = NT @ f
-    tau = np.zeros(nv)
-    if A.shape[0] > 0:
-        tau = np.linalg.lstsq(A, rhs)[0]
-    res, s = 0.0, 0.0
-    Af = A @ tau
-    for k in range(rhs.shape[0]):
-        res = max(res, abs(Af[k] - rhs[k]))
-        s = max(s, abs(rhs[k]))
-    for c in range(nv):
-        tau_out[c] = tau[c] * actuated[c]
-        s = max(s, abs(f[c]))
-    if res > 1e-8 * max(s, 1e-6):
-        return 2
-    return 0
-
-
-@kernel
-def _constrained_id_batch(tree, Q, V, A, C, gravity, actuated, out, status):
-    # the arguments as views with no owner: no reference counts in the loops (dynamics._numba.borrow)
-    tree, Q, V = borrow(tree), borrow(Q), borrow(V)
-    A, C, gravity = borrow(A), borrow(C), borrow(gravity)
-    actuated, out, status = borrow(actuated), borrow(out), borrow(status)
-    nb, nv = tree.parents.shape[0], tree.S.shape[0]
-    ws = _workspace(nb, nv, _C_rows(C))
-    lv, la = V.shape[0] - 1, A.shape[0] - 1
-    for b in range(Q.shape[0]):
-        status[b] = _constrained_id_kernel(tree, C, gravity, Q[b], V[min(b, lv)], A[min(b, la)], actuated, ws,
-                                          out[b])
-
-
-
 # -- public entry points -----------------------------------------------------------------------------------------
 class _Failed(Exception):
     def __init__(self, state, code):
         self.state, self.code = state, code
-
-
-class _Checked:
-    """A batch kernel whose last argument is a per-state status (-1 or 0: fine), for run_chunks."""
-
-    def __init__(self, kernel, ok):
-        self.kernel, self.ok = kernel, ok
-
-    def __call__(self, tree, *args):
-        status = np.empty(args[-1].shape[0], np.int64)
-        self.kernel(tree, *args, status)
-        bad = np.flatnonzero(status != self.ok)
-        if bad.size:
-            raise _Failed(int(bad[0]), int(status[bad[0]]))
-
-
-_fd_single = SingleCall(_constrained_fd_one, PACKED, VECTOR, VECTOR, VECTOR, types.float64, types.float64, VECTOR,
-                        VECTOR)
-_id_batch = _Checked(_constrained_id_batch, 0)
 
 
 def _singular(model, what, e):
@@ -612,17 +468,16 @@ def constrained_inverse_dynamics(model, q, v, a, *, actuated, gravity=None):
     """
     Q, (V, A), B, batched = checks.state_batch(model, q, (("v", v, model.nv), ("a", a, model.nv)))
     mask = _actuated_mask(model, actuated)
-    C, _ = arrays(model)
     out = np.empty((B, model.nv))
-    try:
-        run_chunks(_id_batch, model.tree, (Q, V, A), (C, checks.gravity_vector(model, gravity), mask), out)
-    except _Failed as e:
-        where = f" (state {e.state})" if batched else ""
-        if e.code == 1:
+    failed, code = run_core(_core.constrained_inverse_dynamics_batch, model, Q, V, A,
+                            checks.gravity_vector(model, gravity), mask, out=out)
+    if failed >= 0:
+        where = f" (state {failed})" if batched else ""
+        if code == 1:
             raise InputError(f"a{where}: violates the constraints (Phi_q a + Phi_q_dot v != 0); constrained "
-                             f"motions satisfy them, e.g. the a of constrained_forward_dynamics") from None
+                             f"motions satisfy them, e.g. the a of constrained_forward_dynamics")
         names = [model.joint_names[i] for i in range(model.nbodies) if mask[model.v_index[i]]]
         raise InputError(f"actuated{where}: the joints {names} cannot produce this motion of the constrained "
                          f"mechanism (too few actuators for its {model.info.get('constraints', {}).get('mobility', '?')}"
-                         f" degrees of freedom, or torques the loops absorb); actuate other joints") from None
+                         f" degrees of freedom, or torques the loops absorb); actuate other joints")
     return out if batched else out[0]

@@ -41,7 +41,6 @@ import numpy as np
 from . import _core, checks
 from ._numba import address, float_at, helper, inline_kernel, int_at, kernel
 from .data import _take
-from .configuration import _integrate_q
 from .errors import DeadlineExceeded, InputError
 from .kinematics import frame_placement, _world_pose
 from .model import _frozen
@@ -367,11 +366,18 @@ def _close_near(model, C, m, q0):
     q1, err = q0, 0.0
     rng = np.random.default_rng(0)
     for attempt in range(6):  # a stretched pose (a singular J) can stall: retry from nearby ones
-        start = q0 if attempt == 0 else _integrate_q(model.tree, q0, rng.normal(scale=0.3, size=model.nv), 1.0)
+        start = q0 if attempt == 0 else _integrate(model, q0, rng.normal(scale=0.3, size=model.nv), 1.0)
         q1, err = close_loops(model, C, m, start, np.ones(model.nv), 1e-10, 30)
         if err <= 1e-10:
             break
     return constraint_jacobian(model, q1), err
+
+
+def _integrate(model, q, v, dt):
+    """The configuration reached from q along the constant velocity v after dt (a new array; the core's)."""
+    out = np.empty(model.nq)
+    _core.integrate(model.core, np.ascontiguousarray(q, float), np.ascontiguousarray(v, float), float(dt), out)
+    return out
 
 
 def coupling_rows(C, m, nv):
@@ -386,7 +392,7 @@ def coupling_rows(C, m, nv):
 def close_loops(model, C, m, q, free, tol, max_iter):
     """Gauss-Newton on phi from q over the coordinates where ``free`` is 1 (see :mod:`dynamics.assemble`):
     returns (q, max |phi(q)|), stopping at tol, after max_iter steps, or where no step reduces |phi|."""
-    tree, core, con = model.tree, model.core, core_constraints(model)
+    core, con = model.core, core_constraints(model)
     V = np.zeros((1, model.nv))
     phi, J = np.empty((1, m)), np.empty((1, m, model.nv))
     _core.constraint_terms_batch(core, con, q[None], V, 0, phi, 1, np.inf)
@@ -398,7 +404,7 @@ def close_loops(model, C, m, q, free, tol, max_iter):
         dq = -np.linalg.lstsq(J[0] * free, phi[0], rcond=1e-12)[0] * free
         step = 1.0
         while step > 1e-6:
-            q_new = _integrate_q(tree, q, dq, step)
+            q_new = _integrate(model, q, dq, step)
             _core.constraint_terms_batch(core, con, q_new[None], V, 0, phi, 1, np.inf)
             if np.abs(phi[0]).max() < err:
                 break

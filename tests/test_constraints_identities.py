@@ -11,8 +11,8 @@ import numpy as np
 import pytest
 
 import dynamics
-from dynamics.constrained_dynamics import _drift_kernel, _project_position_kernel, _workspace
-from dynamics.constraints import arrays
+from dynamics import _core
+from dynamics.constraints import core_constraints
 from robots import OUR_ROBOTS, random_state, random_urdf
 
 LEG = os.path.join(OUR_ROBOTS, "cassie_like_leg.urdf")
@@ -114,6 +114,26 @@ def test_constrained_inverse_then_forward_returns_the_motion():
     np.testing.assert_allclose(T, np.tile([0.7, 0, 0], (3, 1)), atol=1e-10)
 
 
+@pytest.mark.parametrize("robot", ["cassie_like_leg.urdf", "stewart_platform.urdf", "four_bar.urdf"])
+def test_redundant_actuation_gives_the_minimum_norm_torques(robot):
+    """Every joint actuated (more actuators than the mobility): tau is the minimum-norm solution of
+    N^T tau = N^T (M a + C v + g), N an orthonormal basis of null(Phi_q) from numpy's SVD (an independent
+    reference: LAPACK, not the core's Gram-Schmidt)."""
+    model = dynamics.load_urdf(os.path.join(OUR_ROBOTS, robot))
+    rng = np.random.default_rng(11)
+    for _ in range(5):
+        q = dynamics.integrate(model, model.neutral(), rng.uniform(-0.3, 0.3, model.nv))
+        v, tau0 = rng.normal(size=model.nv), rng.normal(size=model.nv)
+        a, _ = dynamics.constrained_forward_dynamics(model, q, v, tau0)
+        tau = dynamics.constrained_inverse_dynamics(model, q, v, a, actuated=list(model.joint_names))
+        J = dynamics.constraint_jacobian(model, q)
+        _, sv, Vt = np.linalg.svd(J)
+        N = Vt[int(np.sum(sv > 1e-9 * sv[0])):].T
+        f = dynamics.inverse_dynamics(model, q, v, a)
+        ref = np.linalg.pinv(N.T) @ (N.T @ f)
+        np.testing.assert_allclose(tau, ref, rtol=0, atol=1e-11 * max(1.0, np.abs(f).max()))
+
+
 def test_inverse_dynamics_errors():
     leg = dynamics.load_urdf(LEG)
     q = dynamics.assemble(leg, leg.neutral() + 0.1, fixed=["hip_roll", "hip_yaw", "hip_pitch", "knee", "toe"])
@@ -127,27 +147,24 @@ def test_inverse_dynamics_errors():
         dynamics.constrained_inverse_dynamics(leg, q, v, a, actuated=["kne"])
 
 
-def test_drift_kernel_reports_position_and_velocity_residuals():
+def test_drift_reports_position_and_velocity_residuals():
+    """The core's drift (a simulation's constraint_drift) against the public residual and Jacobian."""
     fb = dynamics.load_urdf(FOUR_BAR)
-    C, m = arrays(fb)
-    ws = _workspace(fb.nbodies, fb.nv, m)
     q, v = np.array([0.3, 1.0, 1.2]), np.array([0.5, -0.2, 0.3])
-    pos, vel = _drift_kernel(fb.tree, C, q, v, ws)
+    pos, vel = _core.constraint_drift(fb.core, core_constraints(fb), q, v)
     assert pos == np.abs(dynamics.constraint_residual(fb, q)).max()
     assert vel == pytest.approx(np.abs(dynamics.constraint_jacobian(fb, q) @ v).max(), rel=1e-14)
 
 
-def test_position_projection_kernel_returns_to_the_manifold():
-    """The simulation's projection after a step: a perturbed leg configuration back onto phi = 0."""
+def test_position_projection_returns_to_the_manifold():
+    """The simulation's projection after a step (the core's): a perturbed leg configuration back onto phi = 0."""
     leg = dynamics.load_urdf(LEG, floating_base=True)
-    C, m = arrays(leg)
-    ws = _workspace(leg.nbodies, leg.nv, m)
     rng = np.random.default_rng(8)
     q = dynamics.assemble(leg, leg.neutral(), fixed=["root_joint", "hip_roll", "hip_yaw", "hip_pitch", "knee", "toe"])
     q_step = dynamics.integrate(leg, q, rng.normal(size=leg.nv), 1e-3)  # a step's drift
     assert np.abs(dynamics.constraint_residual(leg, q_step)).max() > 1e-5
     out = np.empty(leg.nq)
-    err = _project_position_kernel(leg.tree, C, q_step, ws, 1e-12, 10, out)
+    err = _core.project_position(leg.core, core_constraints(leg), q_step, 1e-12, 10, out)
     assert err <= 1e-12 and err == np.abs(dynamics.constraint_residual(leg, out)).max()
     assert np.abs(out - q_step).max() < 1e-2  # a small correction
 

@@ -207,3 +207,144 @@ def test_the_simulation_refuses_a_bad_constrained_problem(model, monkeypatch):
                 (None, alpha, beta, project, lam, drift), (con, "alpha", beta, project, lam, drift), "constraints"]:
         with pytest.raises((ValueError, TypeError)):
             real(*args, bad, None)
+
+
+# -- constrained inverse dynamics, the constrained derivatives, the drift ---------------------------------------
+
+def test_new_entries_refuse_constraints_of_another_model(model):
+    con = core_constraints(model)
+    other = dynamics.load_urdf(os.path.join(OUR_ROBOTS, "puma560.urdf"))
+    q, v, nv = np.zeros(other.nq), np.zeros(other.nv), other.nv
+    Q, V, g = q[None], v[None], np.zeros(3)
+    calls = [
+        lambda: _core.constrained_forward_dynamics_derivatives(other.core, con, q, v, v, 0.0, 0.0),
+        lambda: _core.constrained_forward_dynamics_derivatives_batch(other.core, con, Q, V, V, g, 0.0, 0.0,
+                                                                     np.empty((1, 3, nv + con.m, nv)), 1, np.inf),
+        lambda: _core.constrained_inverse_dynamics_batch(other.core, con, Q, V, V, g, np.ones(nv), np.empty((1, nv)),
+                                                         1, np.inf),
+        lambda: _core.constraint_drift(other.core, con, q, v),
+    ]
+    for call in calls:
+        with pytest.raises(ValueError):
+            call()
+
+
+def test_derivatives_single_call_answers_none_for_what_it_does_not_take(model):
+    con, nq, nv = core_constraints(model), model.nq, model.nv
+    rng = np.random.default_rng(0)
+    q = dynamics.assemble(model, model.neutral() + 0.05 * rng.normal(size=nq))
+    v, tau = rng.normal(size=nv), rng.normal(size=nv)
+    out = _core.constrained_forward_dynamics_derivatives(model.core, con, q, v, tau, 10.0, 10.0)
+    assert out.shape == (3, nv + con.m, nv)
+    nan = v.copy()
+    nan[0] = np.nan
+    for args in [(q[:-1], v, tau), (q, v[:-1], tau), (q, v, tau.astype(np.float32)), (q[None], v, tau),
+                 (q, np.empty(2 * nv)[::2], tau), (q, nan, tau), (q, v, nan), (np.full(nq, np.inf), v, tau),
+                 ("q", v, tau), (None, v, tau), (list(q), v, tau)]:
+        assert _core.constrained_forward_dynamics_derivatives(model.core, con, *args, 10.0, 10.0) is None
+    assert _core.constrained_forward_dynamics_derivatives(model.core, con, q, v, tau, np.inf, 1.0) is None
+    for bad in (None, "model", q):
+        with pytest.raises(TypeError):
+            _core.constrained_forward_dynamics_derivatives(bad, con, q, v, tau, 0.0, 0.0)
+        with pytest.raises(TypeError):
+            _core.constrained_forward_dynamics_derivatives(model.core, bad, q, v, tau, 0.0, 0.0)
+
+
+def test_derivatives_and_inverse_batches_refuse_bad_shapes(model):
+    c, con, nv = model.core, core_constraints(model), model.nv
+    m, B = con.m, 4
+    rng = np.random.default_rng(1)
+    Q = dynamics.assemble(model, np.tile(model.neutral(), (B, 1)) + 0.05 * rng.normal(size=(B, model.nq)))
+    V, T, g = rng.normal(size=(B, nv)), rng.normal(size=(B, nv)), np.array(model.gravity, float)
+    out = np.empty((B, 3, nv + m, nv))
+    dd = _core.constrained_forward_dynamics_derivatives_batch
+    assert dd(c, con, Q, V, T, g, 0.0, 0.0, out, 2, np.inf) == (B, False, -1, -1)
+    A, _ = dynamics.constrained_forward_dynamics(model, Q, V, T)
+    tau, mask = np.empty((B, nv)), np.ones(nv)
+    cid = _core.constrained_inverse_dynamics_batch
+    assert cid(c, con, Q, V, A, g, mask, tau, 2, np.inf) == (B, False, -1, -1)
+    bad_calls = [
+        lambda: dd(c, con, Q[:, :-1], V, T, g, 0.0, 0.0, out, 2, np.inf),
+        lambda: dd(c, con, Q[:3], V, T, g, 0.0, 0.0, out, 2, np.inf),
+        lambda: dd(c, con, Q, V[:, :-1], T, g, 0.0, 0.0, out, 2, np.inf),
+        lambda: dd(c, con, Q, V, T[:2], g, 0.0, 0.0, out, 2, np.inf),
+        lambda: dd(c, con, Q, V, T, np.zeros(2), 0.0, 0.0, out, 2, np.inf),
+        lambda: dd(c, con, Q, V, T, g, np.nan, 0.0, out, 2, np.inf),
+        lambda: dd(c, con, Q, V, T, g, 0.0, 0.0, np.empty((B, 3, nv, nv)), 2, np.inf),
+        lambda: dd(c, con, Q, V, T, g, 0.0, 0.0, np.empty((B, 2, nv + m, nv)), 2, np.inf),
+        lambda: dd(c, con, Q, V, T, g, 0.0, 0.0, out.astype(np.float32), 2, np.inf),
+        lambda: dd(c, con, Q, V, T, g, 0.0, 0.0, np.empty((B, 3, nv + m, 2 * nv))[..., ::2], 2, np.inf),
+        lambda: dd(c, con, Q, V, T, g, 0.0, 0.0, out.tolist(), 2, np.inf),
+        lambda: dd(c, con, Q[None], V, T, g, 0.0, 0.0, out, 2, np.inf),
+        lambda: cid(c, con, Q[:, :-1], V, A, g, mask, tau, 2, np.inf),
+        lambda: cid(c, con, Q, V[:3], A, g, mask, tau, 2, np.inf),
+        lambda: cid(c, con, Q, V, A[:, :-1], g, mask, tau, 2, np.inf),
+        lambda: cid(c, con, Q, V, A, g, mask[:-1], tau, 2, np.inf),
+        lambda: cid(c, con, Q, V, A, g, np.full(nv, np.nan), tau, 2, np.inf),
+        lambda: cid(c, con, Q, V, A, g, np.full(nv, 0.5), tau, 2, np.inf),
+        lambda: cid(c, con, Q, V, A, g, mask, np.empty((B, nv + 1)), 2, np.inf),
+        lambda: cid(c, con, Q, V, A, g, mask, tau.astype(np.float32), 2, np.inf),
+        lambda: cid(c, con, Q, V, A, g, mask, np.empty((B, 2 * nv))[:, ::2], 2, np.inf),
+        lambda: cid(c, con, Q, V, A, np.zeros(4), mask, tau, 2, np.inf),
+    ]
+    for call in bad_calls:
+        with pytest.raises((ValueError, TypeError)):
+            call()
+    # an empty batch does nothing; non-contiguous and float32 inputs are converted, not read out of bounds
+    assert dd(c, con, Q[:0], V[:0], T[:0], g, 0.0, 0.0, out[:0], 2, np.inf) == (0, False, -1, -1)
+    assert cid(c, con, Q[:0], V[:0], A[:0], g, mask, tau[:0], 2, np.inf) == (0, False, -1, -1)
+    ref = out.copy()
+    dd(c, con, np.asfortranarray(Q), np.asfortranarray(V), np.repeat(T, 2, axis=0)[::2], g, 0.0, 0.0,
+       out, 2, np.inf)
+    np.testing.assert_array_equal(out, ref)
+    # NaN states: no crash, a finite-or-not answer but never a read out of bounds
+    Qn = Q.copy()
+    Qn[1, 0] = np.nan
+    dd(c, con, Qn, V, T, g, 0.0, 0.0, out, 2, np.inf)
+    cid(c, con, Qn, V, A, g, mask, tau, 2, np.inf)
+
+
+def test_drift_refuses_what_it_does_not_take(model):
+    c, con, nq, nv = model.core, core_constraints(model), model.nq, model.nv
+    q, v = model.neutral(), np.zeros(nv)
+    assert len(_core.constraint_drift(c, con, q, v)) == 2
+    nan = v.copy()
+    nan[0] = np.nan
+    for args in [(q[:-1], v), (q, v[:-1]), (q, nan), (np.full(nq, np.inf), v), (q[None], v), ("q", v)]:
+        with pytest.raises((ValueError, TypeError)):
+            _core.constraint_drift(c, con, *args)
+    # float32 and non-contiguous inputs are converted, not read out of bounds
+    ref = _core.constraint_drift(c, con, q, v)
+    assert _core.constraint_drift(c, con, np.repeat(q, 2)[::2], v.astype(np.float32)) == ref
+
+
+def test_new_public_functions_name_the_bad_argument(model):
+    q, v = model.neutral(), np.zeros(model.nv)
+    nan = v.copy()
+    nan[0] = np.nan
+    for call in [lambda: dynamics.constrained_forward_dynamics_derivatives(model, q[:-1], v, v),
+                 lambda: dynamics.constrained_forward_dynamics_derivatives(model, q, nan, v),
+                 lambda: dynamics.constrained_forward_dynamics_derivatives(model, q, v, v, baumgarte=(1.0, np.inf)),
+                 lambda: dynamics.constrained_forward_dynamics_derivatives(model, q, v, "tau"),
+                 lambda: dynamics.constrained_inverse_dynamics(model, q, nan, v, actuated=list(model.joint_names)),
+                 lambda: dynamics.constrained_inverse_dynamics(model, q[:-1], v, v, actuated=list(model.joint_names)),
+                 lambda: dynamics.constrained_inverse_dynamics(model, q, v, v, actuated="theta1"),
+                 lambda: dynamics.constrained_inverse_dynamics(model, q, v, v, actuated=[3])]:
+        with pytest.raises(dynamics.InputError):
+            call()
+
+
+def test_derivatives_and_inverse_batches_are_the_single_calls(model):
+    rng = np.random.default_rng(6)
+    B = 70  # threaded
+    Q = dynamics.assemble(model, np.tile(model.neutral(), (B, 1)) + 0.05 * rng.normal(size=(B, model.nq)))
+    V, T = rng.normal(size=(B, model.nv)), rng.normal(size=(B, model.nv))
+    batch = dynamics.constrained_forward_dynamics_derivatives(model, Q, V, T, baumgarte=(5.0, 7.0))
+    A, _ = dynamics.constrained_forward_dynamics(model, Q, V, T)
+    tau = dynamics.constrained_inverse_dynamics(model, Q, V, A, actuated=list(model.joint_names))
+    for b in (0, 33, B - 1):
+        one = dynamics.constrained_forward_dynamics_derivatives(model, Q[b], V[b], T[b], baumgarte=(5.0, 7.0))
+        for x, y in zip(one, batch):
+            np.testing.assert_array_equal(x, y[b])
+        np.testing.assert_array_equal(
+            dynamics.constrained_inverse_dynamics(model, Q[b], V[b], A[b], actuated=list(model.joint_names)), tau[b])

@@ -243,23 +243,19 @@ def test_core_entries_refuse_what_they_do_not_take(model):
 
 
 def test_constrained_entry_refuses_what_it_does_not_take():
-    """forward_dynamics on a constrained model (Panda's mimic fingers) has its own entry: it answers GENERAL for
-    anything else, a wrong multiplier count included, and its a is the general path's."""
-    from dynamics.checks import DONE
-    from dynamics.constrained_dynamics import _fd_single, packed
+    """forward_dynamics on a constrained model (Panda's mimic fingers) goes through the core's constrained entry:
+    None for anything else, and its a is the general path's."""
+    from dynamics.constraints import core_constraints
     model = dynamics.load_urdf(ROBOTS["panda"][0])
     assert model.constraints
     q, v, tau = _states(model)[0]
-    P, C, nv = model.packed, packed(model), model.nv
-    a, lam = np.empty(nv), np.empty(1)
-    def call(P, C, q, v, tau, *out):  # no Baumgarte terms, as forward_dynamics calls it
-        return _fd_single.call(P, C, q, v, tau, 0.0, 0.0, *out)
-    assert call(P, C, q, v, tau, a, lam) == DONE
+    c, con, nv = model.core, core_constraints(model), model.nv
+    a, lam = _core.constrained_forward_dynamics(c, con, q, v, tau, 0.0, 0.0)
     np.testing.assert_array_equal(a, dynamics.forward_dynamics(model, list(q), list(v), list(tau)))
     np.testing.assert_array_equal(lam, dynamics.constrained_forward_dynamics(model, list(q), v, tau)[1])
-    for args in [(P, C, q, v, tau, a), (P, C, q, v, tau, a, lam, lam), (P, None, q, v, tau, a, lam),
-                 (P, C.astype(np.float64), q, v, tau, a, lam), (P, C, q, v, tau, a, np.empty(2)),
-                 (P, C, q, v, tau, a, np.empty(0)), (P, C, q, v, tau, a[:-1], lam), (P, C, q, v[:-1], tau, a, lam),
-                 (P, C, q, v, tau.astype(np.float32), a, lam), (P, C, q[None], v, tau, a, lam),
-                 (P, C, q, v, tau, np.empty(2 * nv)[::2], lam), (P, C, "q", v, tau, a, lam)]:
-        assert refuses(call, *args)
+    for args in [(q, v, tau.astype(np.float32)), (q[None], v, tau), (q, v[:-1], tau), (q, np.empty(2 * nv)[::2], tau),
+                 ("q", v, tau), (None, v, tau)]:
+        assert _core.constrained_forward_dynamics(c, con, *args, 0.0, 0.0) is None
+    for args in [(q, v, tau, 0.0), (q, v, tau, 0.0, 0.0, 0.0)]:
+        with pytest.raises(TypeError):
+            _core.constrained_forward_dynamics(c, con, *args)
