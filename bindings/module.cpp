@@ -12,6 +12,7 @@ void expose_derivatives(nb::module_& m);
 void expose_constraints(nb::module_& m);
 void expose_contact_model(nb::module_& m);
 void expose_contact(nb::module_& m);
+void expose_control(nb::module_& m);
 }  // namespace bind
 
 NB_MODULE(_core, m) {
@@ -26,4 +27,5 @@ NB_MODULE(_core, m) {
     bind::expose_constraints(m);
     bind::expose_contact_model(m);
     bind::expose_contact(m);
+    bind::expose_control(m);
 }
