@@ -1,69 +1,48 @@
-"""Analytical torque-source derivatives against the central differences they replaced in Radau's Newton matrix:
-`python -m benchmarks.source_derivatives`.
+"""The torque sources' analytical derivatives in the C++ core against numba's, and Radau runs on the core against
+the numba simulation: `python -m benchmarks.source_derivatives`.
 
 For a PD and a computed-torque source on Panda and on the stiff 10-link chain (damping 1e3, benchmarks
 .work_precision's), and the operational-space controller (a pose target with a posture task) on Panda, in one
 process, alternately (best of --repeat):
 
-* one Jacobian of the robot's right-hand side (:func:`dynamics.simulation.jacobian.robot_jacobian`);
-* a whole Radau run (rtol 1e-8).
+* the source's derivatives at one state (dtau/dq, dtau/dv): numba's kernel (``source_derivatives_into``, which the
+  numba simulation's Jacobian still compiles, called from a compiled wrapper) against the core's
+  (``_core.torque_source_derivatives``, sources and passive torques built beforehand), and the public
+  ``dynamics.torque_source_derivatives`` / ``closed_loop_derivatives`` (argument checks and the source's
+  construction included);
+* a whole Radau run (rtol 1e-8) on the numba simulation (``DYNAMICS_SIM_NUMBA``'s path, the analytical source
+  derivatives in its Newton matrix) and on the core's (which differenced the computed torque and the
+  operational-space controller until they moved to the core).
 
-"Differenced" is the previous code path itself: the source's kind tag is swapped for a benchmark-only tag
-whose evaluation is the same kind's but which has no analytical derivative, so ``source_derivatives`` falls
-back to its central differences (``_source_differences``).  Ratios are differenced / analytical (above 1.0 the
-analytical is faster).  Also prints the largest difference of the two runs' final states.
+Also prints each run's Jacobians and steps (numba / core) and the largest difference of the two final states.
+The numba columns go when the numba simulation does.
 """
 
 from __future__ import annotations
 
 import argparse
+import importlib
 import time
-from typing import NamedTuple
 
 import numpy as np
+from numba import njit
 
 import dynamics
 from benchmarks.work_precision import chain_urdf, erd
-from dynamics.control import derivatives, dispatch
-from dynamics.simulation import problem as problem_module
-from dynamics.simulation.jacobian import robot_jacobian
-from dynamics.simulation.problem import robot_problem
-from dynamics.simulation.solvers.interface import new_stats
+from dynamics import _core
+from dynamics.control.derivatives import source_derivatives_into
+from dynamics.control.dispatch import kind_tag, source_workspace
+from dynamics.control.registry import release_callable
+from dynamics.simulation.native import core_passive, core_source
 from dynamics.torque_derivatives import _passive
 from dynamics.torques import PD, ComputedTorque, Target, make_source
 
-
-class DifferencedPD(NamedTuple):
-    """A PD source with no analytical derivative (benchmark only)."""
+simulate_module = importlib.import_module("dynamics.simulation.simulate")
 
 
-class DifferencedComputedTorque(NamedTuple):
-    """A computed-torque source with no analytical derivative (benchmark only)."""
-
-
-class DifferencedOperationalSpace(NamedTuple):
-    """An operational-space source with no analytical derivative (benchmark only)."""
-
-
-dispatch._EVAL[DifferencedPD] = dispatch._EVAL[dispatch.PDKind]
-dispatch._EVAL[DifferencedComputedTorque] = dispatch._EVAL[dispatch.ComputedTorqueKind]
-derivatives._DERIVATIVES[DifferencedPD] = derivatives._differenced
-derivatives._DERIVATIVES[DifferencedComputedTorque] = derivatives._differenced
-dispatch._EVAL[DifferencedOperationalSpace] = dispatch._EVAL[dispatch.OperationalSpaceKind]
-derivatives._DERIVATIVES[DifferencedOperationalSpace] = derivatives._differenced
-derivatives.MAY_BE_DIFFERENCED.update({DifferencedPD, DifferencedComputedTorque, DifferencedOperationalSpace})
-_ANALYTICAL_TAG = problem_module.kind_tag
-_DIFFERENCED = {dispatch.PDKind: DifferencedPD, dispatch.ComputedTorqueKind: DifferencedComputedTorque,
-                dispatch.OperationalSpaceKind: DifferencedOperationalSpace}
-
-
-def _differenced_tag(kind):
-    return _DIFFERENCED[type(_ANALYTICAL_TAG(kind))]()
-
-
-def use(differenced):
-    """Build the next problems with the differenced tags or the analytical ones."""
-    problem_module.kind_tag = _differenced_tag if differenced else _ANALYTICAL_TAG
+@njit(cache=False)
+def _numba_derivatives(tag, src, tree, ps, t, q, v, ws, dq, dv):
+    return source_derivatives_into(tag, src, tree, ps, t, q, v, ws, dq, dv)
 
 
 def cases():
@@ -89,26 +68,43 @@ def cases():
             ("chain10 stiff computed torque", chain, cq0, ct(chain, cq0, np.zeros(10)), 0.5)]
 
 
-def jacobian_time(model, q0, source, n=200):
-    """Best time of one robot_jacobian (of n in a row) at (q0, v = 0.1)."""
-    ps = _passive(model, None, None, 1e4, 100.0, 1e-3)  # simulate's defaults
-    p = robot_problem(model, ps, make_source(model, source), q0, np.zeros(1), ("q", "v"))
-    nv = model.nv
-    z = np.zeros(2 * nv + 2)
-    z[nv:2 * nv] = 0.1
-    J, st = np.empty((z.size, z.size)), new_stats()[0]
-    robot_jacobian(p, 0.3, z, np.zeros(z.size), np.ones(z.size), 2 * nv, J, st)
+def _best(f, n):
+    f()
     t = time.perf_counter()
     for _ in range(n):
-        robot_jacobian(p, 0.3, z, np.zeros(z.size), np.ones(z.size), 2 * nv, J, st)
-    return (time.perf_counter() - t) / n, J.copy()
+        f()
+    return (time.perf_counter() - t) / n
 
 
-def run_time(model, q0, source, T):
-    t = time.perf_counter()
-    tr = dynamics.simulate(model, q0, np.zeros(model.nv), T, torque=source, integrator="radau", rtol=1e-8,
-                           atol=1e-8, sample_dt=T, error_estimate="none")
-    return time.perf_counter() - t, tr
+def derivative_times(model, q0, source, n=300):
+    """(numba kernel, core binding, public torque_source_derivatives, public closed_loop_derivatives) seconds a call
+    at (t = 0.3, q0, v = 0.1), and the largest difference of numba's and the core's results."""
+    ps = _passive(model, None, None, 1e4, 100.0, 1e-3)  # simulate's defaults
+    src = make_source(model, source)
+    assert src.slot < 0
+    tag, ws = kind_tag(src.kind), source_workspace(src, model.tree.parents.shape[0], model.nv)
+    cps, csrc = core_passive(model, ps), core_source(model, src)
+    q, v, nv = np.ascontiguousarray(q0, float), np.full(model.nv, 0.1), model.nv
+    out = [np.empty((nv, nv)) for _ in range(4)]
+    t_numba = _best(lambda: _numba_derivatives(tag, src, model.tree, ps, 0.3, q, v, ws, out[0], out[1]), n)
+    t_core = _best(lambda: _core.torque_source_derivatives(model.core, cps, csrc, 0.3, q, v, out[2], out[3]), n)
+    t_public = _best(lambda: dynamics.torque_source_derivatives(model, source, 0.3, q, v), n)
+    t_loop = _best(lambda: dynamics.closed_loop_derivatives(model, source, 0.3, q, v), n)
+    diff = max(np.abs(out[0] - out[2]).max(), np.abs(out[1] - out[3]).max())
+    if src.slot >= 0:
+        release_callable(src.slot)
+    return np.array([t_numba, t_core, t_public, t_loop]), diff
+
+
+def run(model, q0, source, T, numba):
+    simulate_module._NUMBA_SIM = numba
+    try:
+        t = time.perf_counter()
+        tr = dynamics.simulate(model, q0, np.zeros(model.nv), T, torque=source, integrator="radau", rtol=1e-8,
+                               atol=1e-8, sample_dt=T, error_estimate="none")
+        return time.perf_counter() - t, tr
+    finally:
+        simulate_module._NUMBA_SIM = False
 
 
 def main():
@@ -116,29 +112,30 @@ def main():
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--only", default="", help="run the cases whose name contains this text")
     args = ap.parse_args()
-    print("| case | Jacobian differenced (us) | analytical (us) | ratio | run differenced (s) | analytical (s) | "
-          "ratio | Jacobians | largest difference of the final states |")
-    print("|---|---|---|---|---|---|---|---|---|")
+    print("| case | derivatives numba (us) | core (us) | ratio | public torque_source_derivatives (us) | "
+          "closed_loop_derivatives (us) | run numba (s) | core (s) | ratio | Jacobians | steps | "
+          "largest difference of the final states |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|")
     for name, model, q0, source, T in cases():
         if args.only not in name:
             continue
-        best = {True: [np.inf, np.inf], False: [np.inf, np.inf]}
-        runs, Js = {}, {}
+        best_d, best_r, runs = np.full(4, np.inf), {True: np.inf, False: np.inf}, {}
         for k in range(args.repeat + 1):  # the first round compiles
-            for differenced in (False, True):
-                use(differenced)
-                tj, Js[differenced] = jacobian_time(model, q0, source)
-                tr_time, runs[differenced] = run_time(model, q0, source, T)
+            d, diff = derivative_times(model, q0, source)
+            for numba in (True, False):
+                tr_time, runs[numba] = run(model, q0, source, T, numba)
                 if k > 0:
-                    best[differenced][0] = min(best[differenced][0], tj)
-                    best[differenced][1] = min(best[differenced][1], tr_time)
-        use(False)
-        a, d = runs[False], runs[True]
-        dx = max(np.abs(a.q[-1] - d.q[-1]).max(), np.abs(a.v[-1] - d.v[-1]).max())
-        print(f"| {name} | {best[True][0] * 1e6:.1f} | {best[False][0] * 1e6:.1f} | "
-              f"{best[True][0] / best[False][0]:.2f} | {best[True][1]:.3f} | {best[False][1]:.3f} | "
-              f"{best[True][1] / best[False][1]:.2f} | {a.report['jacobian_evals']} / "
-              f"{d.report['jacobian_evals']} | {dx:.1e} |", flush=True)
+                    best_r[numba] = min(best_r[numba], tr_time)
+            if k > 0:
+                best_d = np.minimum(best_d, d)
+        a, b = runs[True], runs[False]
+        dx = max(np.abs(a.q[-1] - b.q[-1]).max(), np.abs(a.v[-1] - b.v[-1]).max())
+        us = best_d * 1e6
+        print(f"| {name} | {us[0]:.1f} | {us[1]:.1f} | {us[0] / us[1]:.2f} | {us[2]:.1f} | {us[3]:.1f} | "
+              f"{best_r[True]:.3f} | {best_r[False]:.3f} | {best_r[True] / best_r[False]:.2f} | "
+              f"{a.report['jacobian_evals']} / {b.report['jacobian_evals']} | {a.report['steps']} / "
+              f"{b.report['steps']} | {dx:.1e} |", flush=True)
+        assert diff == 0.0, f"{name}: numba's and the core's source derivatives differ by {diff:.1e}"
 
 
 if __name__ == "__main__":

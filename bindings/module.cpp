@@ -13,6 +13,7 @@ void expose_constraints(nb::module_& m);
 void expose_contact_model(nb::module_& m);
 void expose_contact(nb::module_& m);
 void expose_ode(nb::module_& m);
+void expose_control(nb::module_& m);
 }  // namespace bind
 
 NB_MODULE(_core, m) {
@@ -28,4 +29,5 @@ NB_MODULE(_core, m) {
     bind::expose_contact_model(m);
     bind::expose_contact(m);
     bind::expose_ode(m);
+    bind::expose_control(m);
 }

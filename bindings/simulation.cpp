@@ -71,10 +71,13 @@ private:
     std::unique_ptr<nb::python_error> error_;
 };
 
-// The source and its callback, kept together (the source points at the callback).
+// The source and its callback, kept together (the source points at the callback), and the model it was made for
+// (its address and sizes: bindings/control.cpp refuses a source of another model).
 struct SourceHolder {
     core::control::Source source;
     std::unique_ptr<PyTorque> callback;
+    const Model* model = nullptr;
+    int nq = -1, nv = -1, nb = -1, nf = -1;
 };
 
 // A (1,) int64 array: the count of samples, read by the progress bar while the run goes.
@@ -85,6 +88,30 @@ int64_t* int_output(nb::handle x, const char* name) {
 }
 
 }  // namespace
+
+// The holder's core source (bindings/control.cpp), checked to be made for `model`.
+core::control::Source& source_of(nb::handle x, const Model& model) {
+    SourceHolder* h = nullptr;
+    if (!nb::try_cast(x, h) || !h) throw nb::type_error("source: expected a _core.Source");
+    require(h->model == &model && h->nq == model.nq && h->nv == model.nv && h->nb == model.nb && h->nf == model.nf,
+            "source: made for another model");
+    return h->source;
+}
+
+// Raise the exception a source's Python callable kept, if any.
+void raise_source_error(nb::handle x) {
+    SourceHolder* h = nullptr;
+    if (nb::try_cast(x, h) && h && h->callback) h->callback->raise_if_failed();
+}
+
+// The passive torques' parameters, checked to fit `model` (their sizes and q indices).
+void require_passive(const core::control::Passive& p, const Model& model) {
+    const size_t nv = model.nv;
+    bool ok = p.damping.size() == nv && p.friction.size() == nv && p.lower.size() == nv && p.upper.size() == nv &&
+              p.qpos.size() == nv;
+    for (size_t k = 0; ok && k < nv; ++k) ok = p.qpos[k] >= -1 && p.qpos[k] < model.nq;
+    require(ok, "passive: made for another model");
+}
 
 void expose_simulation(nb::module_& m) {
     using namespace nb::literals;
@@ -114,6 +141,7 @@ void expose_simulation(nb::module_& m) {
                             In<1> qref, long frame, Ints rows, In<2> task_gains, In<2> orientation, double damping,
                             nb::object callback, nb::object check) {
             new (self) SourceHolder();
+            self->model = &model, self->nq = model.nq, self->nv = model.nv, self->nb = model.nb, self->nf = model.nf;
             control::Source& s = self->source;
             require(kind >= control::ZERO && kind <= control::OPERATIONAL_SPACE, "source: unknown kind");
             const long N = length(times), nv = model.nv;

@@ -9,55 +9,22 @@ Pinocchio's convention, as :func:`dynamics.forward_dynamics_derivatives`).  By t
 
     da/dq = da/dq|_tau + M^-1 (dtau_s/dq + dtau_p/dq),      da/dv = da/dv|_tau + M^-1 (dtau_s/dv + dtau_p/dv)
 
-with the ABA derivatives of :mod:`dynamics.aba_derivatives` and the sources' analytical derivatives of
-:mod:`dynamics.control.derivatives` (PD, computed torque, tables, constants).  The operational-space
-controller and Python callables are differenced (central differences, step 6e-6, along q (+) h e_k).
+with the ABA derivatives and the sources' analytical derivatives (PD, computed torque, tables, constants, the
+operational-space controller on 1-dof joints), both in the C++ core (core/control/derivatives.hpp,
+core/control/closed_loop_derivatives.cpp; bindings/control.cpp).  Python callables, and the operational-space
+controller on other joints, are differenced (central differences, step 6e-6, along q (+) h e_k).
 """
 
 import numpy as np
 
-from . import checks
-from ._numba import address, keep_alive, kernel
-from .aba_derivatives import _aba_derivatives_into, _work_size
+from . import _core, checks
 from .configuration import _configuration
-from .control.derivatives import source_derivatives_tangent
-from .control.dispatch import kind_tag, source_workspace, torque_eval
-from .control.passive import Passive, passive_derivatives, passive_torques
+from .control.passive import Passive
 from .control.registry import release_callable
 from .control.validation import make_source
 from .errors import InputError
 from .joints import KINDS
-
-
-@kernel
-def _closed_loop_kernel(tag, src, tree, ps, t, q, v, ws, da_dq, da_dv):
-    """da/dq, da/dv of the closed loop (module docstring); returns -1 or a body whose joint makes M singular."""
-    nv = v.shape[0]
-    dq, dv = np.empty((nv, nv)), np.empty((nv, nv))
-    source_derivatives_tangent(tag, src, tree, ps, t, q, v, ws, dq, dv)
-    tau, pas, pq, pv = np.empty(nv), np.empty(nv), np.empty(nv), np.empty(nv)
-    torque_eval(tag, src, tree, ps, t, q, v, ws, tau)
-    passive_torques(ps, q, v, pas)
-    passive_derivatives(ps, q, v, pq, pv)
-    for k in range(nv):
-        tau[k] += pas[k]
-        dq[k, k] += pq[k]
-        dv[k, k] += pv[k]
-    buf = np.empty(_work_size(tree.parents.shape[0], nv))
-    Minv = np.empty((nv, nv))
-    singular = _aba_derivatives_into(tree, q, v, tau, ps.gravity, ps.f_ext, address(buf), da_dq, da_dv, Minv)
-    keep_alive(buf)
-    if singular >= 0:
-        return singular
-    for r in range(nv):
-        for c in range(nv):
-            sq = sv = 0.0
-            for m in range(nv):
-                sq += Minv[r, m] * dq[m, c]
-                sv += Minv[r, m] * dv[m, c]
-            da_dq[r, c] += sq
-            da_dv[r, c] += sv
-    return -1
+from .simulation.native import core_passive, core_source
 
 
 def _passive(model, gravity, limits, limit_stiffness, limit_damping, friction_eps):
@@ -78,7 +45,7 @@ def _passive(model, gravity, limits, limit_stiffness, limit_damping, friction_ep
 
 
 def _prepared(model, source, t, q, v, passive):
-    """(source, tag, passive, t, q, v, workspace), every argument checked and named."""
+    """(source, passive, t, q, v), every argument checked and named."""
     checks.check_model(model)
     if getattr(model, "constraints", None):
         raise InputError("model: these derivatives are of the unconstrained closed loop; this model has "
@@ -92,7 +59,21 @@ def _prepared(model, source, t, q, v, passive):
     except InputError as e:  # make_source names simulate's argument, torque
         msg = str(e)
         raise InputError("source" + msg[len("torque"):] if msg.startswith("torque") else msg) from None
-    return src, kind_tag(src.kind), ps, t, q, v, source_workspace(src, model.tree.parents.shape[0], model.nv)
+    return src, ps, t, q, v
+
+
+def _core_call(binding, model, source, t, q, v, passive):
+    """binding(model.core, passive, source, t, q, v, out1, out2) on the core's forms of the checked arguments;
+    returns (its result, out1, out2).  A callable source's exception is raised as simulate raises it."""
+    src, ps, t, q, v = _prepared(model, source, t, q, v, passive)
+    nv = model.nv
+    out1, out2 = np.empty((nv, nv)), np.empty((nv, nv))
+    try:
+        result = binding(model.core, core_passive(model, ps), core_source(model, src), t, q, v, out1, out2)
+    finally:
+        if src.slot >= 0:
+            release_callable(src.slot)
+    return result, out1, out2
 
 
 def torque_source_derivatives(model, source, t, q, v, *, gravity=None, limits=None, limit_stiffness=1e4,
@@ -106,14 +87,8 @@ def torque_source_derivatives(model, source, t, q, v, *, gravity=None, limits=No
     passive-torque settings (the computed torque cancels the passive torques, so they enter its derivatives).
     One state: t a float, q (nq,), v (nv,).
     """
-    src, tag, ps, t, q, v, ws = _prepared(model, source, t, q, v,
-                                          (gravity, limits, limit_stiffness, limit_damping, friction_eps))
-    dq, dv = np.empty((model.nv, model.nv)), np.empty((model.nv, model.nv))
-    try:
-        source_derivatives_tangent(tag, src, model.tree, ps, t, q, v, ws, dq, dv)
-    finally:
-        if src.slot >= 0:
-            release_callable(src.slot)
+    _, dq, dv = _core_call(_core.torque_source_derivatives, model, source, t, q, v,
+                           (gravity, limits, limit_stiffness, limit_damping, friction_eps))
     return dq, dv
 
 
@@ -124,14 +99,8 @@ def closed_loop_derivatives(model, source, t, q, v, *, gravity=None, limits=None
     da_dq in the tangent space.  Arguments as :func:`torque_source_derivatives`; a model without constraints
     (contact is not included).  Raises InputError naming the joint when M is singular at q.
     """
-    src, tag, ps, t, q, v, ws = _prepared(model, source, t, q, v,
-                                          (gravity, limits, limit_stiffness, limit_damping, friction_eps))
-    da_dq, da_dv = np.empty((model.nv, model.nv)), np.empty((model.nv, model.nv))
-    try:
-        singular = _closed_loop_kernel(tag, src, model.tree, ps, t, q, v, ws, da_dq, da_dv)
-    finally:
-        if src.slot >= 0:
-            release_callable(src.slot)
+    singular, da_dq, da_dv = _core_call(_core.closed_loop_derivatives, model, source, t, q, v,
+                                        (gravity, limits, limit_stiffness, limit_damping, friction_eps))
     if singular >= 0:
         raise checks.singular_joint_error(model, singular, "q")
     return da_dq, da_dv

@@ -5,8 +5,9 @@ variational equations' df/dx) against central differences of the core's right-ha
 Cases: a planar 3R beyond a joint limit under PD with damping and friction (the passive torques' derivatives, the
 PD's analytical one); Panda on a free joint under PD (the chart's rate depends on delta, the analytical source
 derivative is carried to the chart); a spherical joint on a planar joint under a Python callable (the source
-differenced alone in the chart); the planar 2R under computed torque (differenced: the core has no analytical
-derivative for it)."""
+differenced alone in the chart); the planar 2R under computed torque and Panda under the operational-space
+controller (a pose target with a posture; both sources' derivatives analytical
+in the core, core/control/computed_torque_derivatives.cpp and operational_space_derivatives.cpp)."""
 
 import importlib
 import os
@@ -18,7 +19,7 @@ import dynamics
 from dynamics import _core
 from dynamics.control.validation import make_source
 from dynamics.simulation.native import core_passive, core_source
-from dynamics.torques import PD, ComputedTorque
+from dynamics.torques import PD, ComputedTorque, Target
 from robots import OUR_ROBOTS, erd
 from test_sensitivities_floating import SPHERICAL_ON_PLANAR
 
@@ -74,9 +75,18 @@ def _two_r_computed_torque():
     return model, np.array([0.1, 0.2]), np.array([0.3, -0.4]), ComputedTorque(t, ref_q, ref_v, ref_a, 100.0, 20.0)
 
 
-@pytest.mark.parametrize("case", [_planar_3r, _floating_panda, _spherical_on_planar, _two_r_computed_torque],
+def _panda_operational_space():
+    model = dynamics.load_urdf(erd("panda_description/urdf/panda.urdf"), mimic="independent")
+    q0 = np.array([0.5, 0.3, -0.4, -1.5, 0.3, 1.2, 0.0, 0.01, 0.03])
+    hand = dynamics.frame_placement(model, q0 + 0.2, "panda_hand")
+    return model, q0, np.linspace(-0.5, 0.5, model.nv), Target("panda_hand", hand[:3, 3], hand[:3, :3], kp=100.0,
+                                                               kd=20.0, posture=q0 + 0.1, posture_kp=10.0)
+
+
+@pytest.mark.parametrize("case", [_planar_3r, _floating_panda, _spherical_on_planar, _two_r_computed_torque,
+                                  _panda_operational_space],
                          ids=["planar_3r_pd_limits", "floating_panda_pd", "spherical_on_planar_callable",
-                              "two_r_computed_torque"])
+                              "two_r_computed_torque", "panda_operational_space"])
 def test_core_jacobian_against_central_differences(case):
     """Row-scaled |J - F| <= 1e-7 (measured: 8e-11 to 1.1e-9; the differences of f are good to ~1e-9)."""
     model, q0, v0, torque = case()

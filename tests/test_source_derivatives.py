@@ -1,5 +1,5 @@
-"""The torque sources' state derivatives (dynamics.control.derivatives) and the closed loop's
-(dynamics.torque_derivatives) against central finite differences on the manifold: q moved along
+"""The torque sources' state derivatives (core/control/derivatives.hpp) and the closed loop's
+(dynamics.torque_derivatives, on the core) against central finite differences on the manifold: q moved along
 dynamics.integrate(q, +-h e_k) (the tangent space), v along +-h e_k.  The torque being differenced is the
 source's own compiled evaluation (torque_eval); the closed loop's acceleration is dynamics.forward_dynamics
 under that torque plus the passive torques written out here."""
@@ -9,11 +9,12 @@ import pytest
 from numba import njit
 
 import dynamics
+from dynamics import _core
 from dynamics.control.dispatch import kind_tag, source_workspace, torque_eval
 from dynamics.control.registry import release_callable
 from dynamics.control.validation import make_source
 from dynamics.errors import InputError
-from dynamics.control.derivatives import source_derivatives_tangent
+from dynamics.simulation.native import core_passive, core_source
 from dynamics.torque_derivatives import _passive, _prepared
 from dynamics.torques import PD, ComputedTorque, OperationalSpace, Table, Target, TaskReference
 from robots import ALL_TYPES, erd, random_state, random_urdf
@@ -172,10 +173,15 @@ def test_time_only_sources_are_zero(panda):
 
 
 def _analytical(model, source, t, q, v):
-    """Whether the source's derivative came from its analytical function (not the differences)."""
-    src, tag, ps, t, q, v, ws = _prepared(model, source, t, q, v, (None, None, 1e4, 100.0, 1e-3))
+    """Whether the source's derivative came from its analytical function in the core (not the differences)."""
+    src, ps, t, q, v = _prepared(model, source, t, q, v, (None, None, 1e4, 100.0, 1e-3))
     n = model.nv
-    return source_derivatives_tangent(tag, src, model.tree, ps, t, q, v, ws, np.empty((n, n)), np.empty((n, n)))
+    try:
+        return _core.torque_source_derivatives(model.core, core_passive(model, ps), core_source(model, src), t, q, v,
+                                               np.empty((n, n)), np.empty((n, n)))
+    finally:
+        if src.slot >= 0:
+            release_callable(src.slot)
 
 
 def _pose_path():
@@ -188,7 +194,7 @@ def _pose_path():
 
 @pytest.mark.parametrize("case", ["position", "rows", "orientation_rows", "pose_path", "damped_springs"])
 def test_operational_space_panda(panda, case):
-    """The operational-space controller's analytical derivatives (dynamics.control.operational_space_derivatives)
+    """The operational-space controller's analytical derivatives (core/control/operational_space_derivatives.cpp)
     against central differences of its torque: position only, two task rows, two orientation rows far from the
     target orientation, a moving pose with a posture task
     at three times (before, inside and after the reference's times), and damping with the limit springs."""

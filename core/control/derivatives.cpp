@@ -7,18 +7,18 @@
 
 #include "configuration.hpp"
 #include "joints.hpp"
+#include "operational_space_derivatives.hpp"
 
 namespace core::control {
 
-namespace {
-
-// c of Jl(phi)^-1 = 1 - [phi]/2 + c [phi]^2 (the same c as Jr^-1's).
 double so3_jinv_c(double p0, double p1, double p2) {
     const double phi2 = p0 * p0 + p1 * p1 + p2 * p2;
     if (phi2 < 1e-8) return 1.0 / 12.0 + phi2 / 720.0;
     const double phi = std::sqrt(phi2);
     return 1.0 / phi2 - (1.0 + std::cos(phi)) / (2.0 * phi * std::sin(phi));
 }
+
+namespace {
 
 // dq[k:k+3, k:k+3] = -diag(kp) Jl(phi)^-1 with phi = e[k:k+3].
 void rotation_error_block(const double* kp, const double* e, int k, int nv, double* dq) {
@@ -85,10 +85,9 @@ bool source_derivatives(const Model& model, const Source& src, const Passive& ps
         case PD:
             std::fill(dq, dq + n2, 0.0), std::fill(dv, dv + n2, 0.0);
             return pd_derivatives(model, src, ws, q, dq, dv);
-        default:
-            (void)ps, (void)t, (void)v;
-            return false;  // differenced by the caller (computed torque and operational space: until the core has
-                           // the RNEA derivatives they need)
+        case COMPUTED_TORQUE: return computed_torque_derivatives(model, src, ps, ws, t, q, v, dq, dv);
+        case OPERATIONAL_SPACE: return operational_space_derivatives(model, src, ps, ws, t, q, v, dq, dv);
+        default: return false;  // a Python callable: differenced by the caller
     }
 }
 

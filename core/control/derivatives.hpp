@@ -10,9 +10,9 @@
 //     with Jl^-1(phi) = 1 - [phi]/2 + c [phi]^2 the inverse left Jacobian of SO(3).
 // Computed torque, tau = RNEA(q, v, a*) - tau_passive(q, v), a* = a_ref + kd (v_ref - v) + kp (q_ref - q):
 //     dtau/dq = dRNEA/dq (q, v, a*) - M diag(kp) - dtau_passive/dq,  dtau/dv = dRNEA/dv (q, v, a*) - M diag(kd) - ...
-// Operational space: operational_space_derivatives (1-dof joints; other models are differenced).
-// Zero, constant and tables depend on t alone: zero.  Python callables have none: false, and the caller
-// differences the source (source_derivatives_tangent).
+// (computed_torque_derivatives.cpp).  Operational space: operational_space_derivatives.hpp (1-dof joints; other
+// models are differenced).  Zero, constant and tables depend on t alone: zero.  Python callables have none: false,
+// and the caller differences the source (source_derivatives_tangent).
 #pragma once
 
 #include "sources.hpp"
@@ -28,6 +28,19 @@ bool source_derivatives(const Model& model, const Source& src, const Passive& ps
 // analytical.
 bool source_derivatives_tangent(const Model& model, const Source& src, const Passive& ps, SourceWorkspace& ws,
                                 double t, const double* q, const double* v, double* dq, double* dv);
+
+// The computed torque's (computed_torque_derivatives.cpp; every entry written).
+bool computed_torque_derivatives(const Model& model, const Source& src, const Passive& ps, SourceWorkspace& ws,
+                                 double t, const double* q, const double* v, double* dq, double* dv);
+
+// c of Jl(phi)^-1 = 1 - [phi]/2 + c [phi]^2 (the same c as Jr^-1's).
+double so3_jinv_c(double p0, double p1, double p2);
+
+// The closed loop a = ABA(q, v, tau_s(t, q, v) + tau_p(q, v)) of a model without contact: da_dq (tangent space),
+// da_dv = the ABA derivatives at that torque + M^-1 (dtau_s + dtau_p) (dynamics/torque_derivatives.py).  Returns
+// -1, or a body whose joint makes M singular (then nothing is valid).
+int closed_loop_derivatives(const Model& model, const Source& src, const Passive& ps, SourceWorkspace& ws, double t,
+                            const double* q, const double* v, double* da_dq, double* da_dv);
 
 constexpr double FD_STEP = 6e-6;  // central differences (relative, ~ eps^(1/3))
 

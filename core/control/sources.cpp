@@ -13,7 +13,9 @@ namespace core::control {
 
 SourceWorkspace::SourceWorkspace(const Model& model)
     : data(model), e(model.nv), qr(model.nv), vr(model.nv), ar(model.nv), pas(model.nv), J(6 * model.nv),
-      Minv(static_cast<size_t>(model.nv) * model.nv), JM(6 * model.nv), tp(model.nv), zero(model.nv, 0.0) {}
+      Minv(static_cast<size_t>(model.nv) * model.nv), JM(6 * model.nv), tp(model.nv), zero(model.nv, 0.0), dd(model),
+      M(static_cast<size_t>(model.nv) * model.nv), DM(static_cast<size_t>(model.nv) * model.nv), pq(model.nv),
+      pv(model.nv) {}
 
 namespace {
 

@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "data.hpp"
+#include "derivatives_data.hpp"
 #include "passive.hpp"
 
 namespace core::control {
@@ -53,6 +54,8 @@ struct SourceWorkspace {
     std::vector<double> e, qr, vr, ar, pas;     // (nv,) / reference rows
     std::vector<double> J, Minv, JM, tp, zero;  // operational space: J (6 x nv), M^-1, J M^-1 (6 x nv), tau_p, zeros
     double jdv[6] = {}, y[6] = {}, Lam[36] = {}, A[36] = {};  // Jdot v, the task's y, Lambda, J M^-1 J^T + d 1
+    DerivativesData dd;                         // the derivatives': the RNEA derivatives' workspace
+    std::vector<double> M, DM, pq, pv;          // M, d(M s)/dq (nv x nv), the passive derivatives' diagonals
     explicit SourceWorkspace(const Model& model);
 };
 

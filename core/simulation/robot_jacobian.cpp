@@ -14,7 +14,7 @@
 // da/dq (tangent space, Pinocchio's convention), da/dv and M^-1 from aba_derivatives (Carpentier & Mansard 2018);
 // dtau_p/dq, dtau_p/dv (diagonal) from passive_derivatives; the source's analytically where control/derivatives.hpp
 // has it (then times T), else by central differences of the source alone in the chart coordinates (Python
-// callables, computed torque, operational space).  T from T^-1 = d delta/d e, central differences of the chart's
+// callables; the operational space on a model with multi-dof joints).  T from T^-1 = d delta/d e, central differences of the chart's
 // inverse along integrate.  The W columns are zero (f does not depend on the quadratures).
 //
 // Contact: after an evaluation that found a contact (since the last Jacobian), tau also holds the generalised contact

@@ -25,27 +25,26 @@ with the RNEA derivatives and M from :mod:`dynamics.rnea_derivatives` (the model
 Operational space: :mod:`.operational_space_derivatives` (1-dof joints; other models are differenced).
 
 Zero, constant and tables: zero (they depend on t alone).  Python callables have no analytical derivative: their
-function returns False and the caller differences the source
-(:func:`dynamics.simulation.jacobian.source_derivatives`, :func:`source_derivatives_tangent`).
+function returns False and the caller differences the source (:func:`dynamics.simulation.jacobian.source_derivatives`).
+
+These kernels serve the numba simulation's Jacobian (:mod:`dynamics.simulation.jacobian`) until it goes; the public
+:func:`dynamics.torque_source_derivatives` and :func:`dynamics.closed_loop_derivatives` and the core's simulations
+use the C++ port of every one of them (core/control/derivatives.hpp), the same bits.
 """
 
 import numpy as np
 from numba.extending import overload
 
-from .._numba import JIT_OPTIONS, inline_kernel, kernel
-from ..configuration import _difference, _integrate_q
+from .._numba import JIT_OPTIONS, inline_kernel
+from ..configuration import _difference
 from ..joints import JOINT_FREE, JOINT_PLANAR, JOINT_SPHERICAL, _so3_jr_inv, _unit2
 from ..rnea_derivatives import rnea_derivatives_at
 from ..spatial import qrot
 from .dispatch import (CallableKind, ComputedTorqueKind, ConstantKind, OperationalSpaceKind, PDKind, TableKind,
-                       ZeroKind, torque_eval)
+                       ZeroKind)
 from .interpolation import reference_at
 from .operational_space_derivatives import operational_space_derivatives
 from .passive import passive_derivatives
-
-#: central-difference step of the kinds without an analytical derivative (relative, ~ eps^(1/3))
-FD_STEP = 6e-6
-
 
 @inline_kernel
 def _zero(dq, dv):
@@ -157,30 +156,3 @@ def source_derivatives_into(tag, src, tree, ps, t, q, v, ws, dq, dv):
 @overload(source_derivatives_into, jit_options=JIT_OPTIONS)
 def _ov_source_derivatives_into(tag, src, tree, ps, t, q, v, ws, dq, dv):
     return _DERIVATIVES[tag.instance_class]
-
-
-@kernel
-def source_derivatives_tangent(tag, src, tree, ps, t, q, v, ws, dq, dv):
-    """dtau/dq (tangent space) and dtau/dv: analytical where the kind has it, else central differences of the
-    source along q (+) h e_k and v + h e_k.  Returns True if analytical."""
-    if source_derivatives_into(tag, src, tree, ps, t, q, v, ws, dq, dv):
-        return True
-    nv = v.shape[0]
-    e, vt, tp, tm = np.zeros(nv), v.copy(), np.empty(nv), np.empty(nv)
-    for k in range(nv):
-        e[k] = 1.0
-        torque_eval(tag, src, tree, ps, t, _integrate_q(tree, q, e, FD_STEP), v, ws, tp)
-        torque_eval(tag, src, tree, ps, t, _integrate_q(tree, q, e, -FD_STEP), v, ws, tm)
-        e[k] = 0.0
-        for r in range(nv):
-            dq[r, k] = (tp[r] - tm[r]) / (2 * FD_STEP)
-    for k in range(nv):
-        h = FD_STEP * max(1.0, abs(v[k]))
-        vt[k] = v[k] + h
-        torque_eval(tag, src, tree, ps, t, q, vt, ws, tp)
-        vt[k] = v[k] - h
-        torque_eval(tag, src, tree, ps, t, q, vt, ws, tm)
-        vt[k] = v[k]
-        for r in range(nv):
-            dv[r, k] = (tp[r] - tm[r]) / (2 * h)
-    return False

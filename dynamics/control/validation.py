@@ -3,10 +3,9 @@ public entry, with an error that names the argument (``torque.kp``, ``torque.ref
 
 import numpy as np
 
-from .. import checks
+from .. import _core, checks
 from ..crba import mass_matrix
 from ..errors import InputError
-from ..spatial import _rotation_log
 from .operational_space import _workspace as operational_space_workspace
 from .registry import register_callable
 from .sources import (CALLABLE, COMPUTED_TORQUE, CONSTANT, OPERATIONAL_SPACE, PD, PD_KIND, TABLE_LINEAR,
@@ -113,7 +112,7 @@ def _operational_space_source(model, spec):
     otab = np.zeros((N, 12))
     otab[:, :9] = R.reshape(N, 9)
     for k in range(N - 1):
-        otab[k, 9:] = _rotation_log(tuple((R[k + 1] @ R[k].T).ravel()))
+        otab[k, 9:] = _core.rotation_log(np.ascontiguousarray(R[k + 1] @ R[k].T))
     if rows is None:
         rows = np.arange(6 if ref.orientation is not None else 3)
     if ref.orientation is None and rows.max() > 2:
