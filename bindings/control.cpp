@@ -61,6 +61,26 @@ void expose_control(nb::module_& m) {
         return analytical;
     }, "model"_a, "passive"_a, "source"_a, "t"_a, "q"_a, "v"_a, "dq"_a, "dv"_a);
 
+    // tau (nv,) = the source's torques at (t, q, v) (the simulation's evaluation; the tests difference it).
+    m.def("source_torques", [](const Model& model, const control::Passive& passive, nb::handle source, double t,
+                               nb::handle q_, nb::handle v_, nb::handle tau_) {
+        control::Source& src = source_of(source, model);
+        require_passive(passive, model);
+        const Input q = input_of(q_, 'd', 1, "q"), v = input_of(v_, 'd', 1, "v");
+        require(q.shape(0) == model.nq && v.shape(0) == model.nv, "q, v: expected (nq,), (nv,)");
+        require(std::isfinite(t), "t: expected a finite number");
+        require(core::configuration_ok(model, q.doubles()), "q: expected a finite configuration (non-zero quaternions)");
+        require(core::all_finite(v.doubles(), model.nv), "v: expected finite values");
+        const Output tau = output_of(tau_, 1);
+        require(length(tau) == model.nv, "tau: expected (nv,)");
+        control::SourceWorkspace ws(model);
+        {
+            nb::gil_scoped_release unlocked;
+            control::source_torques(model, src, passive, ws, t, q.doubles(), v.doubles(), tau.data());
+        }
+        raise_source_error(source);
+    }, "model"_a, "passive"_a, "source"_a, "t"_a, "q"_a, "v"_a, "tau"_a);
+
     // da/dq (tangent space) into da_dq and da/dv into da_dv (nv x nv) of a = ABA(q, v, tau_source + tau_passive);
     // returns -1, or a body whose joint makes M singular at q.
     m.def("closed_loop_derivatives", [](const Model& model, const control::Passive& passive, nb::handle source,

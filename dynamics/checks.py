@@ -1,14 +1,14 @@
 """Every input check of the public entry points, in one place.
 
 Public functions accept one state (q of shape (nq,)) or a batch (B, nq).  Arguments are checked here once
-(type, shape, finiteness, a quaternion or a planar joint's (cos, sin)) and turned into C-contiguous writable float64 2-D arrays
-(one compiled signature per kernel); the kernels never check.  Every error is an :class:`InputError` whose
-message starts with the argument's name and says what was expected.
+(type, shape, finiteness, a quaternion or a planar joint's (cos, sin)) and turned into C-contiguous float64 2-D
+arrays, which the core's batches take; the core's kernels never check.  Every error is an :class:`InputError`
+whose message starts with the argument's name and says what was expected.
 
-The single-state fast paths check their inputs inside the compiled call: length, unit stride, finiteness and
-non-zero quaternions (:func:`_config_ok`, :func:`_vector_ok`); their type, dtype and rank are the signature
-numba's dispatcher checks (:class:`dynamics._numba.SingleCall`).  On a failed check the call returns :data:`GENERAL` and the public function takes the general path, which raises
-the same error as always, so every message has one source.
+The single-state fast paths (``_core.rnea`` and the like) check their inputs in the bindings: exactly a float64
+array of the right length, unit stride, finite, non-zero quaternions (``bindings/numpy.cpp``).  Anything else
+returns None and the public function takes the general path here, which raises the same error as always, so every
+message has one source.
 """
 
 import math
@@ -16,10 +16,8 @@ import math
 import numpy as np
 
 from . import _core
-# DONE and GENERAL are re-exported: this module is the status codes' home for the algorithms
-from ._numba import DONE, GENERAL, NumbaError, address, float_at, inline_kernel  # noqa: F401
 from .errors import InputError
-from .joints import JOINT_FREE, KINDS, _joint_config_ok
+from .joints import JOINT_FREE, KINDS
 from .model import Model
 
 
@@ -32,63 +30,9 @@ _first_zero_unit_k = _core.first_zero_unit
 
 #: float64, the dtype the general path's fast checks compare with; NOT_ARRAYS: what a non-array raises there
 F64 = np.dtype(np.float64)
-NOT_ARRAYS = (AttributeError, TypeError, NumbaError)  # NumbaError: older numba refuses a big-endian array so
+NOT_ARRAYS = (AttributeError, TypeError)
 #: what a single call into the core raises for a ``model`` that is not a Model (the general path then says so)
 NOT_A_MODEL = (AttributeError, TypeError)
-
-
-@inline_kernel
-def _unit_stride_of_length(x, n):
-    return x.shape[0] == n and (n <= 1 or x.strides[0] == 8)
-
-
-@inline_kernel
-def _vector_ok(x, n):
-    """x has length n, unit stride and finite values (the general path names what is wrong otherwise)."""
-    if not _unit_stride_of_length(x, n):
-        return False
-    for k in range(n):
-        if not np.isfinite(x[k]):
-            return False
-    return True
-
-
-@inline_kernel
-def _finite(x):
-    """Every value of the C-contiguous float64 array x is finite.  The single calls in which every input value
-    reaches the result (RNEA, ABA, all frame placements, and every coordinate but the world's joints' in CRBA, M^-1
-    and g(q): a nan or inf anywhere in q, v, a or tau makes a nan or
-    inf in the root's torque or acceleration, or in a frame, since nan * 0 and inf * 0 are nan) check the result
-    instead of each input first (not CRBA or M^-1, which the first joint's angle never reaches, nor g(q), which
-    a floating base's position never reaches): checking first cost ~0.5 us of Panda's 1.2 us RNEA call (measured), and
-    on a non-finite result the general path names the input (or returns the same overflowed result)."""
-    flat = float_at(address(x), 0, x.size)
-    for k in range(x.size):
-        if not np.isfinite(flat[k]):
-            return False
-    return True
-
-
-@inline_kernel
-def _config_ok(tree, nq, q):
-    """q is a valid configuration: as :func:`_vector_ok`, and every unit block (a quaternion, a planar joint's
-    (cos, sin)) is non-zero."""
-    if not _vector_ok(q, nq):
-        return False
-    for i in range(tree.jtype.shape[0]):
-        if not _joint_config_ok(tree, i, q):
-            return False
-    return True
-
-
-@inline_kernel
-def _nonzero(x):
-    """Whether any x[k] != 0: a term with x = 0 is skipped (the single-state twin of the general path's
-    ``X.any()``, so both paths skip the same terms and agree bit for bit)."""
-    for k in range(x.shape[0]):
-        if x[k] != 0.0:
-            return True
-    return False
 
 
 def check_model(model):

@@ -50,37 +50,12 @@ sums, not the quaternion algebra.
 from typing import NamedTuple
 
 import numpy as np
-from numba.extending import overload
 
 from . import _core
-from ._numba import JIT_OPTIONS, inline_kernel, kernel
 from .checks import check_model, vector, zero_unit_message
 from .errors import InputError
 from .joints import ZERO_QUATERNION_SQ
-from .joints import _joint_chart_rate, _joint_difference, _joint_integrate_delta, _joint_log, _joint_retract
 
-
-
-@kernel
-def _integrate_delta(tree, q, v, dt, delta):
-    """Chart coordinates (see the module docstring) of ``_integrate_q(tree, q, v, dt)`` around q."""
-    for i in range(tree.jtype.shape[0]):
-        _joint_integrate_delta(tree, i, q, v, dt, delta)
-
-
-@inline_kernel
-def _retract(tree, q0, delta, q):
-    """q = q0 (+) delta in the stepper's chart (:func:`dynamics.joints._joint_retract`)."""
-    for i in range(tree.jtype.shape[0]):
-        _joint_retract(tree, i, q0, delta, q)
-
-
-@inline_kernel
-def _chart_rate(tree, q, delta, v, out):
-    """out = d(delta)/dt for velocity v, at the configuration q = _retract(q0, delta)
-    (:func:`dynamics.joints._joint_chart_rate`)."""
-    for i in range(tree.jtype.shape[0]):
-        _joint_chart_rate(tree, i, q, delta, v, out)
 
 
 class OneDofChart(NamedTuple):
@@ -105,52 +80,6 @@ def retract_in(tag, tree, q0, delta, q):
 def chart_rate_in(tag, tree, q, delta, v, out):
     """:func:`_chart_rate` for the chart named by ``tag`` (compiled code only)."""
     raise NotImplementedError
-
-
-def _retract_one_dof(tag, tree, q0, delta, q):
-    for i in range(tree.jtype.shape[0]):
-        q[tree.q_idx[i]] = q0[tree.q_idx[i]] + delta[tree.v_idx[i]]
-
-
-def _retract_free(tag, tree, q0, delta, q):
-    _retract(tree, q0, delta, q)
-
-
-def _chart_rate_one_dof(tag, tree, q, delta, v, out):
-    for i in range(tree.jtype.shape[0]):
-        out[tree.v_idx[i]] = v[tree.v_idx[i]]
-
-
-def _chart_rate_free(tag, tree, q, delta, v, out):
-    _chart_rate(tree, q, delta, v, out)
-
-
-@overload(retract_in, jit_options=JIT_OPTIONS, inline="always")
-def _ov_retract_in(tag, tree, q0, delta, q):
-    return _retract_one_dof if tag.instance_class is OneDofChart else _retract_free
-
-
-@overload(chart_rate_in, jit_options=JIT_OPTIONS, inline="always")
-def _ov_chart_rate_in(tag, tree, q, delta, v, out):
-    return _chart_rate_one_dof if tag.instance_class is OneDofChart else _chart_rate_free
-
-
-@kernel
-def _difference(tree, q0, q1, out):
-    """Tangent vector ``d`` with ``_retract(q0, d) == q1`` (the chart's inverse; used for error norms):
-    q1 - q0 for 1-dof joints, (p1 - p0, log(quat0^-1 quat1)) for the free joint."""
-    for i in range(tree.jtype.shape[0]):
-        _joint_difference(tree, i, q0, q1, out)
-
-
-@kernel
-def _integrate_q(tree, q, v, dt):
-    """The configuration reached from q along the constant velocity v after dt (a new array)."""
-    delta = np.empty(v.shape[0])
-    _integrate_delta(tree, q, v, dt, delta)
-    out = np.empty(q.shape[0])
-    _retract(tree, q, delta, out)
-    return out
 
 
 def integrate(model, q, v, dt=1.0):

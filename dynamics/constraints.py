@@ -39,13 +39,10 @@ from typing import NamedTuple
 import numpy as np
 
 from . import _core, checks
-from ._numba import address, float_at, helper, inline_kernel, int_at, kernel
-from .data import _take
 from .errors import DeadlineExceeded, InputError
-from .kinematics import frame_placement, _world_pose
+from .kinematics import frame_placement
 from .model import _frozen
 from .parallel import num_threads, seconds_left
-from .spatial import add, cross, cross_motion, dot, load3, load33, matmul, rot, _rotation_log, scale, transpose
 
 POINT, WELD, REVOLUTE, COUPLING = 0, 1, 2, 3
 #: rows per constraint kind
@@ -287,17 +284,6 @@ def packed(model):
     if model.constraint_packed is not None:
         return model.constraint_packed
     return pack(arrays(model)[0])
-
-
-@inline_kernel
-def _unpack(packed):
-    """:class:`ConstraintArrays` from :func:`packed`: borrowed views, living as long as the call."""
-    nc = packed[0]
-    f = 1 + 8 * nc  # the floats start after nc, kind, row, body (2 nc), idx (4 nc)
-    base = address(packed)
-    return ConstraintArrays(int_at(base, 1, nc), int_at(base, 1 + nc, nc), int_at(base, 1 + 2 * nc, (nc, 2)),
-                            float_at(base, f, (nc, 2, 3, 3)), float_at(base, f + 18 * nc, (nc, 2, 3)),
-                            int_at(base, 1 + 4 * nc, (nc, 4)), float_at(base, f + 24 * nc, (nc, 2)))
 
 
 def with_constraints(model, constraints, *, at=None):
@@ -569,161 +555,6 @@ def _assembly_notes(constraints, C, J, tol, err):
 
 
 # -- kernels -----------------------------------------------------------------------------------------------------
-
-@helper
-def _workspace(nb, nv):
-    """World poses, motion axes oS (nv, 6), body velocities V and bias accelerations A (nb, 6) at the origin."""
-    return np.empty((nb, 3, 3)), np.empty((nb, 3)), np.empty((nv, 6)), np.empty((nb, 6)), np.empty((nb, 6))
-
-
-@inline_kernel
-def _work_at(base, o, nb, nv):
-    """The same scratch as :func:`_workspace` carved from the buffer at ``base`` from offset o, and the offset
-    after it."""
-    R, o = _take(base, o, (nb, 3, 3))
-    p, o = _take(base, o, (nb, 3))
-    oS, o = _take(base, o, (nv, 6))
-    V, o = _take(base, o, (nb, 6))
-    A, o = _take(base, o, (nb, 6))
-    return (R, p, oS, V, A), o
-
-
-@inline_kernel
-def _get(X, i):
-    return (X[i, 0], X[i, 1], X[i, 2]), (X[i, 3], X[i, 4], X[i, 5])
-
-
-@inline_kernel
-def _put(X, i, w, v):
-    X[i, 0], X[i, 1], X[i, 2] = w
-    X[i, 3], X[i, 4], X[i, 5] = v
-
-
-@kernel
-def _body_motion(tree, q, v, with_v, ws):
-    """World poses, motion axes oS_k and (with_v) V_i and A_i of every body (module docstring)."""
-    parents, S, v_idx, nv_j = tree.parents, tree.S, tree.v_idx, tree.nv_j
-    oR, op, oS, V, A = ws
-    zero = (0.0, 0.0, 0.0)
-    for i in range(parents.shape[0]):
-        _, _, R, p = _world_pose(tree, i, q, oR, op)
-        jw, jv = zero, zero
-        for k in range(v_idx[i], v_idx[i] + nv_j[i]):
-            w = rot(R, (S[k, 0], S[k, 1], S[k, 2]))
-            u = add(rot(R, (S[k, 3], S[k, 4], S[k, 5])), cross(p, w))
-            _put(oS, k, w, u)
-            if with_v:
-                jw, jv = add(jw, scale(v[k], w)), add(jv, scale(v[k], u))
-        if with_v:
-            par = parents[i]
-            Vw, Vv, Aw, Av = zero, zero, zero, zero
-            if par >= 0:
-                Vw, Vv = _get(V, par)
-                Aw, Av = _get(A, par)
-            Vw, Vv = add(Vw, jw), add(Vv, jv)
-            cw, cv = cross_motion(Vw, Vv, jw, jv)
-            _put(V, i, Vw, Vv)
-            _put(A, i, add(Aw, cw), add(Av, cv))
-
-
-@inline_kernel
-def _anchor_pose(C, c, s, oR, op):
-    """World axes (9-tuple) and origin of anchor s (0: a, 1: b) of constraint c."""
-    b = C.body[c, s]
-    R = (C.R[c, s, 0, 0], C.R[c, s, 0, 1], C.R[c, s, 0, 2], C.R[c, s, 1, 0], C.R[c, s, 1, 1], C.R[c, s, 1, 2],
-         C.R[c, s, 2, 0], C.R[c, s, 2, 1], C.R[c, s, 2, 2])
-    p = (C.p[c, s, 0], C.p[c, s, 1], C.p[c, s, 2])
-    if b < 0:
-        return R, p
-    Rb = load33(oR, b)
-    return matmul(Rb, R), add(rot(Rb, p), load3(op, b))
-
-
-@inline_kernel
-def _anchor_motion(V, A, b, x):
-    """Velocity (linear at world point x, angular) and classical bias acceleration (linear, angular) of body b."""
-    zero = (0.0, 0.0, 0.0)
-    if b < 0:
-        return zero, zero, zero, zero
-    w, v0 = _get(V, b)
-    aw, av0 = _get(A, b)
-    lin = add(v0, cross(w, x))
-    return lin, w, add(add(av0, cross(aw, x)), cross(w, lin)), aw
-
-
-@inline_kernel
-def _add_columns(tree, oS, b, x, sign, J, r, lin, D, nang):
-    """J[r:r+3] += sign * linear velocity columns at world point x (if lin), then J[r+3 or r: +nang] +=
-    sign * D[j] . angular columns, over the support of body b."""
-    parents, v_idx, nv_j = tree.parents, tree.v_idx, tree.nv_j
-    ra = r + 3 if lin else r
-    j = b
-    while j >= 0:
-        for k in range(v_idx[j], v_idx[j] + nv_j[j]):
-            w, u = _get(oS, k)
-            if lin:
-                vx = add(u, cross(w, x))
-                J[r, k] += sign * vx[0]
-                J[r + 1, k] += sign * vx[1]
-                J[r + 2, k] += sign * vx[2]
-            for t in range(nang):
-                J[ra + t, k] += sign * dot(D[t], w)
-        j = parents[j]
-
-
-@inline_kernel
-def _col(R, k):
-    return (R[k], R[3 + k], R[6 + k])
-
-
-@kernel
-def _constraint_terms(tree, C, q, v, with_J, with_v, ws, phi, J, gamma):
-    """phi (m,) at q; with_J: J = Phi_q (m, nv); with_v: gamma = Phi_q_dot v (m,).  ws from :func:`_workspace`."""
-    oR, op, oS, V, A = ws
-    _body_motion(tree, q, v, with_v, ws)
-    if with_J:
-        J[:, :] = 0.0
-    E = ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0))
-    for c in range(C.kind.shape[0]):
-        kind, r = C.kind[c], C.row[c]
-        if kind == 3:  # coupling: q_f - (k q_l + offset)
-            qf, vf, ql, vl = C.idx[c, 0], C.idx[c, 1], C.idx[c, 2], C.idx[c, 3]
-            mult = C.coef[c, 0]
-            phi[r] = q[qf] - mult * q[ql] - C.coef[c, 1]
-            if with_J:
-                J[r, vf] += 1.0
-                J[r, vl] -= mult
-            if with_v:
-                gamma[r] = 0.0
-            continue
-        Ra, xa = _anchor_pose(C, c, 0, oR, op)
-        Rb, xb = _anchor_pose(C, c, 1, oR, op)
-        ba, bb = C.body[c, 0], C.body[c, 1]
-        phi[r], phi[r + 1], phi[r + 2] = xa[0] - xb[0], xa[1] - xb[1], xa[2] - xb[2]
-        t1, t2 = _col(Ra, 0), _col(Ra, 1)
-        D, nang = E, 0
-        if kind == 1:  # weld: log(R_A R_B^T)
-            e = _rotation_log(matmul(Ra, transpose(Rb)))
-            phi[r + 3], phi[r + 4], phi[r + 5] = e
-            nang = 3
-        elif kind == 2:  # hinge: t_k . (u_B x u_A)
-            n = cross(_col(Rb, 2), _col(Ra, 2))
-            phi[r + 3], phi[r + 4] = dot(t1, n), dot(t2, n)
-            D, nang = (t1, t2, t2), 2
-        if with_J:
-            _add_columns(tree, oS, ba, xa, 1.0, J, r, True, D, nang)
-            _add_columns(tree, oS, bb, xb, -1.0, J, r, True, D, nang)
-        if with_v:
-            la, wa, aa, ala = _anchor_motion(V, A, ba, xa)
-            lb, wb, ab, alb = _anchor_motion(V, A, bb, xb)
-            gamma[r], gamma[r + 1], gamma[r + 2] = aa[0] - ab[0], aa[1] - ab[1], aa[2] - ab[2]
-            dw, dal = add(wa, scale(-1.0, wb)), add(ala, scale(-1.0, alb))
-            if kind == 1:
-                gamma[r + 3], gamma[r + 4], gamma[r + 5] = dal
-            elif kind == 2:
-                gamma[r + 3] = dot(cross(wa, t1), dw) + dot(t1, dal)
-                gamma[r + 4] = dot(cross(wa, t2), dw) + dot(t2, dal)
-
 
 # -- public entry points (the core's constraint_terms_batch) ---------------------------------------------------
 

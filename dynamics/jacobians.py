@@ -17,11 +17,8 @@ The algorithm is the core's (``core/jacobians.cpp``); this module checks the arg
 import numpy as np
 
 from . import _core, checks
-from ._numba import inline_kernel
 from .checks import REFERENCES
-from .kinematics import LOCAL, WORLD, _frame_pose, _support, _world_poses
 from .parallel import run
-from .spatial import add, cross, load3, load33, rot, rotT
 
 _ORIGIN = np.zeros(3)
 
@@ -51,31 +48,3 @@ def frame_jacobian(model, q, frame, *, reference="local_world_aligned", point=No
     Q, batched = checks.configurations(model, q)
     out = run(_core.frame_jacobian_batch, model, Q, f, ref, pt, out=np.empty((Q.shape[0], 6, model.nv)))
     return out if batched else out[0]
-
-
-# -- numba kernels that the operational-space controller still calls (until it moves to the core) --------------
-
-@inline_kernel
-def _jacobian_into(tree, frames, q, f, ref, point, path, oR, op, J):
-    """J (6, nv) of frame f at q in reference ``ref``, at ``point`` (frame axes) from the frame origin.
-    Only the support's columns are written: J must be zero elsewhere.  Returns the frame's world pose.
-    Inlined: called as a function from J M^-1 J^T's batch it cost that kernel ~30 % (0.7 us per state)."""
-    S, v_idx, nv_j = tree.S, tree.v_idx, tree.nv_j
-    n = _support(tree.parents, frames.body[f], path)
-    _world_poses(tree, q, path, n, oR, op)
-    Rf, pf = _frame_pose(frames, f, oR, op)
-    o = add(pf, rot(Rf, point))
-    for t in range(n):
-        i = path[t]
-        R, p = load33(oR, i), load3(op, i)
-        x = (-p[0], -p[1], -p[2]) if ref == WORLD else (o[0] - p[0], o[1] - p[1], o[2] - p[2])
-        for k in range(v_idx[i], v_idx[i] + nv_j[i]):
-            w = rot(R, (S[k, 0], S[k, 1], S[k, 2]))
-            v = add(rot(R, (S[k, 3], S[k, 4], S[k, 5])), cross(w, x))
-            if ref == LOCAL:
-                w, v = rotT(Rf, w), rotT(Rf, v)
-            J[0, k], J[1, k], J[2, k] = v
-            J[3, k], J[4, k], J[5, k] = w
-    return Rf, pf
-
-

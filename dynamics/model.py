@@ -44,7 +44,6 @@ import numpy as np
 
 from . import _core
 from .errors import closest
-from ._numba import address, float_at, inline_kernel, int_at
 from .joints import (JOINT_NQ, JOINT_NV, KINDS, ROTATES_ABOUT_AXIS, URDF_JOINT_CODES, motion_subspace,
                      revolute_terms)
 
@@ -105,23 +104,6 @@ def pack(tree, gravity, frames):
     return _frozen(np.concatenate([ints, floats.view(np.int64), [nf], frames.body, frames.kind,
                                    frame_floats.view(np.int64)]),
                    np.int64)
-
-
-@inline_kernel
-def _unpack(packed):
-    """(tree, gravity, nq) from the packed model: views with no owner (:func:`dynamics._numba.float_at`), nothing
-    copied; they live as long as the call that unpacks them."""
-    base = address(packed)
-    nb, nq, nv = packed[0], packed[1], packed[2]
-    f = 3 + 5 * nb  # the floats: gravity, Xrot, Xpos, axis, S, then mass, h, Io, XK, XKK from o
-    o = f + 3 + 15 * nb + 6 * nv
-    tree = Tree(int_at(base, 3, nb), int_at(base, 3 + nb, nb), int_at(base, 3 + 2 * nb, nb),
-                int_at(base, 3 + 3 * nb, nb), int_at(base, 3 + 4 * nb, nb), float_at(base, f + 3, (nb, 3, 3)),
-                float_at(base, f + 3 + 9 * nb, (nb, 3)), float_at(base, f + 3 + 12 * nb, (nb, 3)),
-                float_at(base, f + 3 + 15 * nb, (nv, 6)), float_at(base, o, nb),
-                float_at(base, o + nb, (nb, 3)), float_at(base, o + 4 * nb, (nb, 3, 3)),
-                float_at(base, o + 13 * nb, (nb, 3, 3)), float_at(base, o + 22 * nb, (nb, 3, 3)))
-    return tree, float_at(base, f, 3), nq
 
 
 def _frozen(a, dtype=np.float64):

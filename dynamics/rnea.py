@@ -14,16 +14,11 @@ Backward pass:  tau_i = S_i^T f_i ,  f_p += X_i^T f_i .
 The algorithm is the core's (``core/rnea.cpp``); this module checks the arguments and calls it.
 """
 
-from typing import NamedTuple
 
 import numpy as np
 
 from . import _core, checks
-from ._numba import helper, inline_kernel, kernel
-from .data import Data, _data_at, _forward_body, _take
-from .joints import _joint_motion, _project_force
 from .parallel import run
-from .spatial import add, cross_force, force_to_parent, inertia_times, load3, load33, motion_to_child, store3
 
 
 def _run(model, q, v, a, gravity, f_ext):
@@ -92,91 +87,3 @@ def bias_forces(model, q, v, *, gravity=None):
             pass
     checks.check_model(model)
     return _run(model, q, v, np.zeros(model.nv), gravity, None)
-
-
-# -- numba kernels that the constrained dynamics and the torque sources still call (until they move to the core)
-
-class Work(NamedTuple):
-    """RNEA's scratch for one state: the forward pass's :class:`~dynamics.data.Data`, then per body (nb, 3)
-    its spatial acceleration (aw, av) and the force it transmits to its parent (n, f), body frame."""
-
-    d: Data
-    aw: object
-    av: object
-    n: object
-    f: object
-
-
-@inline_kernel
-def _work_at(base, o, nb):
-    """A :class:`Work` carved from the buffer at ``base`` from offset o (at base 0: only its size), and the
-    offset after it."""
-    d, o = _data_at(base, o, nb)
-    aw, o = _take(base, o, (nb, 3))
-    av, o = _take(base, o, (nb, 3))
-    n, o = _take(base, o, (nb, 3))
-    f, o = _take(base, o, (nb, 3))
-    return Work(d, aw, av, n, f), o
-
-
-@helper
-def _workspace(nb):
-    """A :class:`Work` of owned arrays, which the caller may keep (a torque source's scratch)."""
-    d = Data(np.empty((nb, 3, 3)), np.empty((nb, 3)), np.empty((nb, 3)), np.empty((nb, 3)), np.empty((nb, 3)),
-             np.empty((nb, 3)))
-    return Work(d, np.empty((nb, 3)), np.empty((nb, 3)), np.empty((nb, 3)), np.empty((nb, 3)))
-
-
-@inline_kernel
-def _rnea_terms(tree, q, v, a, gravity, f_ext, ws, tau, with_v, with_a):
-    """RNEA for one state into ``tau``; ``f_ext`` is (nb, 6) [force, torque] per body or (0, 6).
-
-    ``with_v=False`` (v is zero) skips the velocity pass and every velocity-product term; ``with_a=False``
-    (a is zero) skips the joint accelerations: the caller promises those inputs are zero.
-    """
-    parents, mass, hs, Ios = tree.parents, tree.mass, tree.h, tree.Io
-    d = ws.d
-    zero = (0.0, 0.0, 0.0)
-    a0 = (-gravity[0], -gravity[1], -gravity[2])  # the world accelerates up: a_0 = (0, -g)
-    nb = parents.shape[0]
-    for i in range(nb):  # X_i, v_i, c_i;  a_i = X_i a_p + S_i qdd_i + c_i,  f_i = I a + v x* I v - f_ext
-        R, p, w, vl, cw, cv = _forward_body(tree, i, q, v, d, with_v)
-        par = parents[i]
-        if par < 0:
-            aw, al = motion_to_child(R, p, zero, a0)
-        else:
-            aw, al = motion_to_child(R, p, load3(ws.aw, par), load3(ws.av, par))
-        if with_a:
-            sw, sv = _joint_motion(tree, i, a)
-            aw, al = add(aw, sw), add(al, sv)
-        m, h, Io = mass[i], load3(hs, i), load33(Ios, i)
-        if with_v:
-            aw, al = add(aw, cw), add(al, cv)
-        n, f = inertia_times(m, h, Io, aw, al)
-        if with_v:
-            hn, hf = inertia_times(m, h, Io, w, vl)
-            bn, bf = cross_force(w, vl, hn, hf)
-            n, f = add(n, bn), add(f, bf)
-        if f_ext.shape[0] > 0:
-            n = (n[0] - f_ext[i, 3], n[1] - f_ext[i, 4], n[2] - f_ext[i, 5])
-            f = (f[0] - f_ext[i, 0], f[1] - f_ext[i, 1], f[2] - f_ext[i, 2])
-        store3(ws.aw, i, aw)
-        store3(ws.av, i, al)
-        store3(ws.n, i, n)
-        store3(ws.f, i, f)
-    for i in range(nb - 1, -1, -1):  # tau_i = S_i^T f_i,  f_p += X_i^T f_i
-        n, f = load3(ws.n, i), load3(ws.f, i)
-        _project_force(tree, i, n, f, tau)
-        par = parents[i]
-        if par >= 0:
-            pn, pf = force_to_parent(load33(d.R, i), load3(d.p, i), n, f)
-            store3(ws.n, par, add(load3(ws.n, par), pn))
-            store3(ws.f, par, add(load3(ws.f, par), pf))
-
-
-@kernel
-def _rnea_into(tree, q, v, a, gravity, f_ext, ws, tau):
-    """RNEA for one state into ``tau`` with every term."""
-    _rnea_terms(tree, q, v, a, gravity, f_ext, ws, tau, True, True)
-
-

@@ -1,9 +1,8 @@
 """Joint torque sources for :func:`dynamics.simulate`, and the passive joint torques of the model.
 
-A torque source turns (t, q, v) into the applied joint torques tau (nv,).  Every source except a Python
-callable is compiled: it is stored as one tuple of arrays (``Source``) of the same numba type for every
-kind, and :func:`torque_eval` evaluates it inside the compiled integration loop, compiled for its kind alone
-(the kind's tag, :func:`kind_tag`, travels with it as a type).
+A torque source turns (t, q, v) into the applied joint torques tau (nv,).  Every source is checked into one
+record of arrays (``Source``) and evaluated by the C++ core inside the integration loop (``core/control/``); a
+Python callable is called back from there.
 
 =====================  ========================================================================================
 ``torque=`` argument   tau(t, q, v)
@@ -13,7 +12,7 @@ array (nv,)            the constant vector
 ``Table(t, tau)``      piecewise linear in t through the rows of tau (N, nv); ``hold="zoh"``: tau[k] on
                        [t_k, t_k+1).  Before t_0 / after t_N-1 the first / last row.
 ``PD(q_target, kp,     kp (q_target - q) + kd (v_target - v) + tau_ff; the position error is the tangent
-kd)``                  vector from q to q_target (:func:`dynamics.integrate._difference`), so it is also
+kd)``                  vector from q to q_target (:func:`dynamics.difference`), so it is also
                        defined for a free-flyer (whose gains are zero by default unless given per dof).
 ``ComputedTorque(t,    M(q) a* + h(q, v) - tau_passive(q, v) with a* = a_ref + kd (v_ref - v) + kp (q_ref - q)
 q, v, a, kp, kd)``     (inverse dynamics, the RNEA), so the closed loop is e'' + kd e' + kp e = 0 exactly for the
@@ -21,12 +20,12 @@ q, v, a, kp, kd)``     (inverse dynamics, the RNEA), so the closed loop is e'' +
                        Hermite polynomials, which are C2 and consistent (v_ref = q_ref', a_ref = v_ref').
 ``OperationalSpace(    operational-space control of a frame's position (and orientation) along a reference
 frame, reference,      trajectory: tau = J^T (Lambda xdd* + mu + p) + N tau_0 with a null-space posture task
-kp, kd)``, ``Target``  (:mod:`dynamics.control.operational_space`); ``Target`` holds a fixed pose.
-callable f(t, q, v)    called from the compiled loop through ``numba.objmode`` (one Python call per
-                       right-hand-side evaluation; everything else stays compiled).
+kp, kd)``, ``Target``  (``core/control/operational_space.hpp``); ``Target`` holds a fixed pose.
+callable f(t, q, v)    called back from the core's loop with the GIL taken (one Python call per right-hand-side
+                       evaluation; everything else stays in C++).
 =====================  ========================================================================================
 
-Passive joint torques (:func:`passive_torques`), always added by the simulator:
+Passive joint torques (``core/control/passive.cpp``), always added by the simulator:
 
 * viscous damping ``-d v`` (URDF ``<dynamics damping>``);
 * Coulomb friction ``-F tanh(v / eps)`` (URDF ``<dynamics friction>``), regularised with the velocity scale
@@ -37,16 +36,13 @@ Passive joint torques (:func:`passive_torques`), always added by the simulator:
   at contact, so the force is continuous).
 
 The code lives in :mod:`dynamics.control`, one module per concern: :mod:`~dynamics.control.sources` (the
-classes above and the compiled :class:`Source`), :mod:`~dynamics.control.validation` (:func:`make_source`, the
-input checks), :mod:`~dynamics.control.dispatch` (the compiled evaluation of each kind),
-:mod:`~dynamics.control.interpolation` (the references), :mod:`~dynamics.control.passive`,
-:mod:`~dynamics.control.registry` (Python callables) and :mod:`~dynamics.control.operational_space` (the
-controller).  This module is their public face: ``dynamics.torques.PD(...)``.
+classes above and the checked :class:`Source`), :mod:`~dynamics.control.validation` (:func:`make_source`, the
+input checks), :mod:`~dynamics.control.passive` and :mod:`~dynamics.control.registry` (Python callables); the
+core evaluates every kind (``core/control/``: the sources, their references' interpolation, the
+operational-space controller).  This module is their public face: ``dynamics.torques.PD(...)``.
 """
 
-from .control.dispatch import kind_tag, source_workspace, torque_eval
-from .control.interpolation import reference_at
-from .control.passive import Passive, passive_torques
+from .control.passive import Passive
 from .control.registry import register_callable, release_callable
 from .control.sources import (CALLABLE, COMPUTED_TORQUE, CONSTANT, KIND_NAMES, OPERATIONAL_SPACE, PD, PD_KIND,
                               TABLE_LINEAR, TABLE_ZOH, ZERO, ComputedTorque, OperationalSpace, Source, Table,
@@ -54,6 +50,5 @@ from .control.sources import (CALLABLE, COMPUTED_TORQUE, CONSTANT, KIND_NAMES, O
 from .control.validation import make_source
 
 __all__ = ["Table", "PD", "ComputedTorque", "OperationalSpace", "TaskReference", "Target", "Passive", "Source",
-           "make_source", "passive_torques", "register_callable", "release_callable", "kind_tag",
-           "source_workspace", "torque_eval", "reference_at", "KIND_NAMES", "ZERO", "CONSTANT", "TABLE_LINEAR",
+           "make_source", "register_callable", "release_callable", "KIND_NAMES", "ZERO", "CONSTANT", "TABLE_LINEAR",
            "TABLE_ZOH", "PD_KIND", "COMPUTED_TORQUE", "CALLABLE", "OPERATIONAL_SPACE"]

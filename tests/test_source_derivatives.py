@@ -1,16 +1,14 @@
 """The torque sources' state derivatives (core/control/derivatives.hpp) and the closed loop's
 (dynamics.torque_derivatives, on the core) against central finite differences on the manifold: q moved along
 dynamics.integrate(q, +-h e_k) (the tangent space), v along +-h e_k.  The torque being differenced is the
-source's own compiled evaluation (torque_eval); the closed loop's acceleration is dynamics.forward_dynamics
+source's own evaluation in the core (``_core.source_torques``, the simulation's); the closed loop's acceleration is dynamics.forward_dynamics
 under that torque plus the passive torques written out here."""
 
 import numpy as np
 import pytest
-from numba import njit
 
 import dynamics
 from dynamics import _core
-from dynamics.control.dispatch import kind_tag, source_workspace, torque_eval
 from dynamics.control.registry import release_callable
 from dynamics.control.validation import make_source
 from dynamics.errors import InputError
@@ -23,19 +21,14 @@ H = 1e-7
 TOL = 1e-6
 
 
-@njit(cache=False)
-def _torque_kernel(tag, src, tree, ps, t, q, v, ws, tau):
-    torque_eval(tag, src, tree, ps, t, q, v, ws, tau)
-
-
 def torque(model, source, t, q, v, limits=None):
-    """The torque the source applies (its compiled evaluation, as the simulator's)."""
+    """The torque the source applies (the core's evaluation, as the simulator's)."""
     src = make_source(model, source)
     ps = _passive(model, None, limits, 1e4, 100.0, 1e-3)
     tau = np.empty(model.nv)
     try:
-        _torque_kernel(kind_tag(src.kind), src, model.tree, ps, float(t), np.asarray(q, float),
-                       np.asarray(v, float), source_workspace(src, model.tree.parents.shape[0], model.nv), tau)
+        _core.source_torques(model.core, core_passive(model, ps), core_source(model, src), float(t),
+                             np.asarray(q, float), np.asarray(v, float), tau)
     finally:
         if src.slot >= 0:
             release_callable(src.slot)

@@ -1,13 +1,11 @@
 """Control: the torque sources of :func:`dynamics.simulate` and the passive joint torques, one module per
-concern (issue 22's split of ``torques.py``).  Users import them from :mod:`dynamics.torques`, their public face.
+concern.  Users import them from :mod:`dynamics.torques`, their public face; the core evaluates them
+(``core/control/``: the sources, the operational-space controller, the passive torques and their derivatives).
 
 ==========================  ======================================================================================
-:mod:`.sources`             the user-facing classes (:class:`~.sources.PD`, ...) and the compiled ``Source``
+:mod:`.sources`             the user-facing classes (:class:`~.sources.PD`, ...) and the checked ``Source``
 :mod:`.validation`          ``make_source``: the user's argument checked and turned into a ``Source``
-:mod:`.dispatch`            the compiled evaluation of each kind, selected at compile time by the kind's tag
-:mod:`.interpolation`       the references' interpolation (quintic Hermite)
-:mod:`.passive`             damping, friction and limit springs
-:mod:`.registry`            Python-callable torques, reached from compiled code through ``objmode``
-:mod:`.operational_space`   the operational-space controller (Khatib)
+:mod:`.passive`             damping, friction and limit springs (the ``Passive`` record)
+:mod:`.registry`            Python-callable torques, called back by the core with the GIL taken
 ==========================  ======================================================================================
 """

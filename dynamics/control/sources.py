@@ -12,9 +12,8 @@ KIND_NAMES = ("zero", "constant", "table_linear", "table_zoh", "pd", "computed_t
 
 
 class Source(NamedTuple):
-    """Compiled form of a torque source: one numba type for every kind except the operational space, whose
-    workspace ``ws`` is None in the others (the operational-space workspace is large).  Which kind's
-    evaluation is compiled is told by its tag (:func:`~.dispatch.kind_tag`, which the problem carries)."""
+    """A torque source as checked arrays (:func:`~.validation.make_source`), from which the core's source is made
+    (:func:`dynamics.simulation.native.core_source`; its evaluation: ``core/control/sources.cpp``)."""
 
     kind: int
     times: np.ndarray  # (N,) table or reference times
@@ -29,8 +28,7 @@ class Source(NamedTuple):
     task_gains: np.ndarray  # (2, 6): Kp, Kd per task row
     orientation: np.ndarray  # (N, 12): reference orientation R_k (9) and psi_k = log(R_k+1 R_k^T) (3)
     damping: float  # added to the diagonal of J M^-1 J^T
-    ws: object  # operational_space.workspace (None for the other kinds): scratch, so one Source serves one
-    #             simulation at a time (as it does)
+    ws: object  # None (kept for the field order)
 
 
 

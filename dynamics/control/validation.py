@@ -6,7 +6,6 @@ import numpy as np
 from .. import _core, checks
 from ..crba import mass_matrix
 from ..errors import InputError
-from .operational_space import _workspace as operational_space_workspace
 from .registry import register_callable
 from .sources import (CALLABLE, COMPUTED_TORQUE, CONSTANT, OPERATIONAL_SPACE, PD, PD_KIND, TABLE_LINEAR,
                       TABLE_ZOH, ZERO, ComputedTorque, OperationalSpace, Source, Table, TaskReference, Target)
@@ -131,12 +130,12 @@ def _operational_space_source(model, spec):
         gains[1] = 2.0 * np.sqrt(gains[0] * np.diag(mass_matrix(model, qref)))
     damping = checks.real_number("torque.damping", spec.damping, lo=0.0)
     return Source(OPERATIONAL_SPACE, times, np.ascontiguousarray(np.concatenate([p, pd, pdd], 1)), gains, qref,
-                  -1, _read_only(model.frame_arrays), f, rows.astype(np.int64), task_gains, otab, float(damping),
-                  operational_space_workspace(model.tree.parents.shape[0], nv, nq))
+                  -1, _read_only(model.frame_arrays), f, rows.astype(np.int64), task_gains, otab, float(damping), None)
 
 
 def make_source(model, torque):
-    """The compiled :class:`Source` for the ``torque`` argument of :func:`dynamics.simulate`."""
+    """The :class:`Source` for the ``torque`` argument of :func:`dynamics.simulate` (the core's, made of it:
+    :func:`dynamics.simulation.native.core_source`)."""
     nv, nq = model.nv, model.nq
     empty_t = np.zeros(1)
     empty_tab = np.zeros((1, nv))

@@ -33,7 +33,7 @@ from .progress import check as check_progress
 from .progress import watcher
 from .sensitivities import error_estimate as sensitivity_error
 from .sensitivities import sensitivity_spec
-from .solvers import ADAPTIVE, FIXED, NONFINITE, ORDER, STABILITY_LIMIT, Options
+from .solvers import FIXED, NONFINITE, ORDER, STABILITY_LIMIT, Options
 
 __all__ = ["simulate", "Trajectory", "INTEGRATORS", "OUTPUTS", "DEFAULT_OUTPUTS"]
 
