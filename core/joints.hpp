@@ -14,6 +14,8 @@
 // v_i x (S qd) is the only velocity-product term (eq. 5.8).
 #pragma once
 
+#include <cmath>
+
 #include "model.hpp"
 
 namespace core {
@@ -26,8 +28,36 @@ int joint_nq(int type);
 int joint_nv(int type);
 void joint_neutral(int type, double* q0);
 
-// Body i in its parent's frame at q.
-Transform joint_transform(const Model& model, int i, const double* q);
+// Xrot Rot(axis, theta) = X + s XK + t XKK for s = sin theta, t = 1 - cos theta (Rodrigues' formula).
+inline Mat3 rodrigues(const Model& model, int i, double s, double t) {
+    const Mat3 &X = model.Xrot[i], &A = model.XK[i], &B = model.XKK[i];
+    Mat3 R;
+    for (int k = 0; k < 9; ++k) R[k] = X[k] + s * A[k] + t * B[k];
+    return R;
+}
+
+// Body i in its parent's frame at q.  Inline, as forward_body is: every tree algorithm calls it once per body
+// and state, and as a call its transform went through memory twice (returned, then copied into Data).
+inline Transform joint_transform(const Model& model, int i, const double* q) {
+    const int k = model.q_idx[i];
+    const Mat3& X = model.Xrot[i];
+    const Vec3& p0 = model.Xpos[i];
+    switch (model.jtype[i]) {
+        case JOINT_REVOLUTE: return {rodrigues(model, i, std::sin(q[k]), 1.0 - std::cos(q[k])), p0};
+        case JOINT_PRISMATIC: return {X, p0 + rot(X, q[k] * model.axis[i])};
+        case JOINT_SPHERICAL: return {X * quaternion_rotation(q[k], q[k + 1], q[k + 2], q[k + 3]), p0};
+        case JOINT_PLANAR: {
+            double nrm = std::sqrt(q[k + 2] * q[k + 2] + q[k + 3] * q[k + 3]);
+            const Motion &u = model.S[model.v_idx[i]], &w = model.S[model.v_idx[i] + 1];
+            double x = q[k], y = q[k + 1];
+            Vec3 d = {x * u.v.x + y * w.v.x, x * u.v.y + y * w.v.y, x * u.v.z + y * w.v.z};
+            return {rodrigues(model, i, q[k + 3] / nrm, 1.0 - q[k + 2] / nrm), p0 + rot(X, d)};
+        }
+        default:  // JOINT_FREE
+            return {X * quaternion_rotation(q[k + 3], q[k + 4], q[k + 5], q[k + 6]),
+                    p0 + rot(X, {q[k], q[k + 1], q[k + 2]})};
+    }
+}
 
 // S_i qd: the joint's motion in the body frame for rates (or accelerations) qd (indexed by v).
 inline Motion joint_motion(const Model& model, int i, const double* qd) {
