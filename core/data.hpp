@@ -79,7 +79,7 @@ inline void forward_body(const Model& model, Data& data, int i, const double* q,
     Motion vJ = joint_motion(model, i, qd);
     v = v + vJ;
     data.v[i] = v;
-    data.c[i] = cross(v, vJ);
+    data.c[i] = velocity_product(model, i, v, vJ);
 }
 
 // The forward pass over every body.
