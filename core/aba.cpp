@@ -17,6 +17,37 @@ void aba_rigid_body_pass(const Model& model, Data& data, const double* q, const 
     }
 }
 
+// U = I^A S, u = tau - S^T p^A and D = S^T U for the nj columns of S from k0 (U[a]: column a as 6 numbers).
+static void joint_columns(const Model& model, int k0, int nj, const Mat6& IA, const double* pA, const double* tau,
+                          double (*U)[6], Data& data, double* D) {
+    for (int a = 0; a < nj; ++a) {
+        const int k = k0 + a;
+        double s[6];
+        to_array(model.S[k], s);
+        for (int r = 0; r < 6; ++r) {
+            double x = 0.0;
+            for (int c = 0; c < 6; ++c) x += IA(r, c) * s[c];
+            U[a][r] = x;
+        }
+        data.U[k] = force_from(U[a]);
+        double x = tau[k];
+        for (int r = 0; r < 6; ++r) x -= s[r] * pA[r];
+        data.u[k] = x;
+    }
+    for (int a = 0; a < nj; ++a)
+        for (int b = 0; b < nj; ++b) D[6 * a + b] = dot(model.S[k0 + a], data.U[k0 + b]);
+}
+
+// The same for a revolute joint about the body axis k (S = e_k): U is column k of I^A, u = tau - p^A_k and
+// D = U_k, each non-zero number the general sums' (their other terms are products with S's zeros).
+static void axis_column(int k, const Mat6& IA, const double* pA, double tau, double* U, Force& Uk, double& u,
+                        double& D) {
+    for (int r = 0; r < 6; ++r) U[r] = IA(r, k);
+    Uk = force_from(U);
+    u = tau - pA[k];
+    D = U[k];
+}
+
 int aba_articulated_pass(const Model& model, Data& data, const double* tau) {
     double pA[6], pa[6], D[36], t[6], U[6][6];  // U[a]: joint i's a-th column of U, as 6 numbers
     Mat6 Ia;
@@ -24,22 +55,10 @@ int aba_articulated_pass(const Model& model, Data& data, const double* tau) {
         const int k0 = model.v_idx[i], nj = model.nv_j[i];
         const Mat6& IA = data.IA[i];
         to_array(data.pA[i], pA);
-        for (int a = 0; a < nj; ++a) {  // U = I^A S,  u = tau - S^T p^A
-            const int k = k0 + a;
-            double s[6];
-            to_array(model.S[k], s);
-            for (int r = 0; r < 6; ++r) {
-                double x = 0.0;
-                for (int c = 0; c < 6; ++c) x += IA(r, c) * s[c];
-                U[a][r] = x;
-            }
-            data.U[k] = force_from(U[a]);
-            double x = tau[k];
-            for (int r = 0; r < 6; ++r) x -= s[r] * pA[r];
-            data.u[k] = x;
-        }
-        for (int a = 0; a < nj; ++a)  // D = S^T U
-            for (int b = 0; b < nj; ++b) D[6 * a + b] = dot(model.S[k0 + a], data.U[k0 + b]);
+        if (model.axis_k[i] >= 0)  // U = I^A S, u = tau - S^T p^A, D = S^T U
+            axis_column(model.axis_k[i], IA, pA, tau[k0], U[0], data.U[k0], data.u[k0], D[0]);
+        else
+            joint_columns(model, k0, nj, IA, pA, tau, U, data, D);
         double* Dinv = data.Dinv[i].a;
         if (!spd_inverse(D, nj, Dinv)) return i;
         const int par = model.parents[i];

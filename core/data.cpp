@@ -1,8 +1,6 @@
 // The workspace, and the forward pass written once (data.hpp).
 #include "data.hpp"
 
-#include "joints.hpp"
-
 namespace core {
 
 void Data::resize(const Model& model) {
@@ -22,21 +20,6 @@ Data& thread_data(const Model& model) {
     thread_local Data data;
     data.resize(model);
     return data;
-}
-
-void forward_body(const Model& model, Data& data, int i, const double* q, const double* qd, bool with_v) {
-    Transform X = joint_transform(model, i, q);
-    data.X[i] = X;
-    if (!with_v) {
-        data.c[i] = Motion{};
-        return;
-    }
-    int par = model.parents[i];
-    Motion v = motion_to_child(X, par < 0 ? Motion{} : data.v[par]);
-    Motion vJ = joint_motion(model, i, qd);
-    v = v + vJ;
-    data.v[i] = v;
-    data.c[i] = cross(v, vJ);
 }
 
 }  // namespace core

@@ -12,6 +12,7 @@
 
 #include <vector>
 
+#include "joints.hpp"
 #include "model.hpp"
 
 namespace core {
@@ -65,8 +66,21 @@ struct Data {
 Data& thread_data(const Model& model);
 
 // Body i's step of the forward pass (its parent's is done); without with_v the velocities are not written and
-// c_i = 0 is.
-void forward_body(const Model& model, Data& data, int i, const double* q, const double* qd, bool with_v);
+// c_i = 0 is.  Inline: RNEA, ABA and the energies call it once per body and state.
+inline void forward_body(const Model& model, Data& data, int i, const double* q, const double* qd, bool with_v) {
+    Transform X = joint_transform(model, i, q);
+    data.X[i] = X;
+    if (!with_v) {
+        data.c[i] = Motion{};
+        return;
+    }
+    int par = model.parents[i];
+    Motion v = motion_to_child(X, par < 0 ? Motion{} : data.v[par]);
+    Motion vJ = joint_motion(model, i, qd);
+    v = v + vJ;
+    data.v[i] = v;
+    data.c[i] = velocity_product(model, i, v, vJ);
+}
 
 // The forward pass over every body.
 inline void forward_pass(const Model& model, Data& data, const double* q, const double* qd, bool with_v) {

@@ -33,35 +33,6 @@ void joint_neutral(int type, double* q0) {
     }
 }
 
-// Xrot Rot(axis, theta) = X + s XK + t XKK for s = sin theta, t = 1 - cos theta (Rodrigues' formula).
-static Mat3 rodrigues(const Model& model, int i, double s, double t) {
-    const Mat3 &X = model.Xrot[i], &A = model.XK[i], &B = model.XKK[i];
-    Mat3 R;
-    for (int k = 0; k < 9; ++k) R[k] = X[k] + s * A[k] + t * B[k];
-    return R;
-}
-
-Transform joint_transform(const Model& model, int i, const double* q) {
-    const int k = model.q_idx[i];
-    const Mat3& X = model.Xrot[i];
-    const Vec3& p0 = model.Xpos[i];
-    switch (model.jtype[i]) {
-        case JOINT_REVOLUTE: return {rodrigues(model, i, std::sin(q[k]), 1.0 - std::cos(q[k])), p0};
-        case JOINT_PRISMATIC: return {X, p0 + rot(X, q[k] * model.axis[i])};
-        case JOINT_SPHERICAL: return {X * quaternion_rotation(q[k], q[k + 1], q[k + 2], q[k + 3]), p0};
-        case JOINT_PLANAR: {
-            double nrm = std::sqrt(q[k + 2] * q[k + 2] + q[k + 3] * q[k + 3]);
-            const Motion &u = model.S[model.v_idx[i]], &w = model.S[model.v_idx[i] + 1];
-            double x = q[k], y = q[k + 1];
-            Vec3 d = {x * u.v.x + y * w.v.x, x * u.v.y + y * w.v.y, x * u.v.z + y * w.v.z};
-            return {rodrigues(model, i, q[k + 3] / nrm, 1.0 - q[k + 2] / nrm), p0 + rot(X, d)};
-        }
-        default:  // JOINT_FREE
-            return {X * quaternion_rotation(q[k + 3], q[k + 4], q[k + 5], q[k + 6]),
-                    p0 + rot(X, {q[k], q[k + 1], q[k + 2]})};
-    }
-}
-
 static double quaternion_sq(const double* q) { return q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]; }
 
 bool joint_config_ok(const Model& model, int i, const double* q) {

@@ -14,6 +14,8 @@
 // v_i x (S qd) is the only velocity-product term (eq. 5.8).
 #pragma once
 
+#include <cmath>
+
 #include "model.hpp"
 
 namespace core {
@@ -26,11 +28,45 @@ int joint_nq(int type);
 int joint_nv(int type);
 void joint_neutral(int type, double* q0);
 
-// Body i in its parent's frame at q.
-Transform joint_transform(const Model& model, int i, const double* q);
+// Xrot Rot(axis, theta) = X + s XK + t XKK for s = sin theta, t = 1 - cos theta (Rodrigues' formula).
+inline Mat3 rodrigues(const Model& model, int i, double s, double t) {
+    const Mat3 &X = model.Xrot[i], &A = model.XK[i], &B = model.XKK[i];
+    Mat3 R;
+    for (int k = 0; k < 9; ++k) R[k] = X[k] + s * A[k] + t * B[k];
+    return R;
+}
 
-// S_i qd: the joint's motion in the body frame for rates (or accelerations) qd (indexed by v).
+// Body i in its parent's frame at q.  Inline, as forward_body is: every tree algorithm calls it once per body
+// and state, and as a call its transform went through memory twice (returned, then copied into Data).
+inline Transform joint_transform(const Model& model, int i, const double* q) {
+    const int k = model.q_idx[i];
+    const Mat3& X = model.Xrot[i];
+    const Vec3& p0 = model.Xpos[i];
+    switch (model.jtype[i]) {
+        case JOINT_REVOLUTE: return {rodrigues(model, i, std::sin(q[k]), 1.0 - std::cos(q[k])), p0};
+        case JOINT_PRISMATIC: return {X, p0 + rot(X, q[k] * model.axis[i])};
+        case JOINT_SPHERICAL: return {X * quaternion_rotation(q[k], q[k + 1], q[k + 2], q[k + 3]), p0};
+        case JOINT_PLANAR: {
+            double nrm = std::sqrt(q[k + 2] * q[k + 2] + q[k + 3] * q[k + 3]);
+            const Motion &u = model.S[model.v_idx[i]], &w = model.S[model.v_idx[i] + 1];
+            double x = q[k], y = q[k + 1];
+            Vec3 d = {x * u.v.x + y * w.v.x, x * u.v.y + y * w.v.y, x * u.v.z + y * w.v.z};
+            return {rodrigues(model, i, q[k + 3] / nrm, 1.0 - q[k + 2] / nrm), p0 + rot(X, d)};
+        }
+        default:  // JOINT_FREE
+            return {X * quaternion_rotation(q[k + 3], q[k + 4], q[k + 5], q[k + 6]),
+                    p0 + rot(X, {q[k], q[k + 1], q[k + 2]})};
+    }
+}
+
+// x e_k, the unit vector e_k (k in {0, 1, 2}) scaled.
+inline Vec3 scaled_axis(int k, double x) { return {k == 0 ? x : 0.0, k == 1 ? x : 0.0, k == 2 ? x : 0.0}; }
+
+// S_i qd: the joint's motion in the body frame for rates (or accelerations) qd (indexed by v).  A revolute joint
+// about a body axis (Model::axis_k) gives the loop's numbers, 0.0 + 1.0 x and zeros, without its products.
 inline Motion joint_motion(const Model& model, int i, const double* qd) {
+    const int axis = model.axis_k[i];
+    if (axis >= 0) return {scaled_axis(axis, 0.0 + qd[model.v_idx[i]]), {}};
     Motion m;
     for (int k = model.v_idx[i]; k < model.v_idx[i] + model.nv_j[i]; ++k) {
         const Motion& s = model.S[k];
@@ -41,12 +77,37 @@ inline Motion joint_motion(const Model& model, int i, const double* qd) {
     return m;
 }
 
-// tau[dofs of i] = S_i^T f: the generalised force the joint transmits.
+// tau[dofs of i] = S_i^T f: the generalised force the joint transmits.  About a body axis k: the moment's
+// component k, which the sum's other terms (products with zeros) do not change, plus 0.0 so that a zero torque
+// is +0 as the sum makes it.
 inline void joint_project(const Model& model, int i, const Force& f, double* tau) {
+    const int axis = model.axis_k[i];
+    if (axis >= 0) {
+        tau[model.v_idx[i]] = 0.0 + f.n[axis];
+        return;
+    }
     for (int k = model.v_idx[i]; k < model.v_idx[i] + model.nv_j[i]; ++k) {
         const Motion& s = model.S[k];
         tau[k] = s.w.x * f.n.x + s.w.y * f.n.y + s.w.z * f.n.z + s.v.x * f.f.x + s.v.y * f.f.y + s.v.z * f.f.z;
     }
+}
+
+// a x (x e_k) without the products with e_k's zeros: each non-zero component is the full cross product's.
+inline Vec3 cross_axis(const Vec3& a, int k, double x) {
+    switch (k) {
+        case 0: return {0.0, a.z * x, -(a.y * x)};
+        case 1: return {-(a.z * x), 0.0, a.x * x};
+        default: return {a.y * x, -(a.x * x), 0.0};
+    }
+}
+
+// c_i = v_i x (S_i qd) for the joint's motion vJ = S_i qd (eq. 5.8); about a body axis k, vJ = (x e_k, 0) and
+// v x vJ = (w x x e_k, v x x e_k): 4 products instead of the full cross product's 18.
+inline Motion velocity_product(const Model& model, int i, const Motion& v, const Motion& vJ) {
+    const int axis = model.axis_k[i];
+    if (axis < 0) return cross(v, vJ);
+    const double x = vJ.w[axis];
+    return {cross_axis(v.w, axis, x), cross_axis(v.v, axis, x)};
 }
 
 // A unit quaternion (or a planar joint's (cos, sin)) whose squared norm is below this is "zero".

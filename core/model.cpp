@@ -17,6 +17,17 @@ static void require_size(size_t got, long want, const char* name) {
             std::string(name) + " has " + std::to_string(got) + " entries, expected " + std::to_string(want));
 }
 
+// k when joint i is revolute with S_i = (e_k, 0) exactly (k in {0, 1, 2}), else -1 (Model::axis_k).
+static int revolute_axis_index(const Model& m, int i) {
+    if (m.jtype[i] != JOINT_REVOLUTE) return -1;
+    const Motion& s = m.S[m.v_idx[i]];
+    if (s.v.x != 0.0 || s.v.y != 0.0 || s.v.z != 0.0) return -1;
+    const double w[3] = {s.w.x, s.w.y, s.w.z};
+    for (int k = 0; k < 3; ++k)
+        if (w[k] == 1.0 && w[(k + 1) % 3] == 0.0 && w[(k + 2) % 3] == 0.0) return k;
+    return -1;
+}
+
 void check(Model& m) {
     require(m.nb >= 0 && m.nq >= 0 && m.nv >= 0, "negative sizes");
     for (auto* a : {&m.parents, &m.jtype, &m.q_idx, &m.v_idx, &m.nv_j}) require_size(a->size(), m.nb, "a per-body array");
@@ -42,6 +53,8 @@ void check(Model& m) {
         m.has_unit_blocks = m.has_unit_blocks || joint_nq(t) != joint_nv(t);
     }
     require(nq == m.nq && nv == m.nv, "nq or nv is not the sum of the joints'");
+    m.axis_k.assign(m.nb, -1);
+    for (int i = 0; i < m.nb; ++i) m.axis_k[i] = revolute_axis_index(m, i);
     for (auto* a : {&m.frame_body, &m.frame_kind}) require_size(a->size(), m.nf, "a per-frame array");
     require_size(m.frame_R.size(), m.nf, "frame_R");
     require_size(m.frame_p.size(), m.nf, "frame_p");

@@ -47,6 +47,10 @@ struct Model {
     std::vector<Vec3> frame_p;
     // derived by check(): whether a joint has nq != nv (free, spherical, planar: a unit block in q)
     bool has_unit_blocks = false;
+    // derived by check(), nb: k in {0, 1, 2} when joint i is revolute about the body's own x, y or z axis (S_i is
+    // exactly the unit angular motion e_k, as for every revolute joint of Panda, UR5 and Talos), else -1; the
+    // kernels then skip the products with S's zeros (joints.hpp)
+    std::vector<int> axis_k;
 };
 
 // Checks every index and size of a model filled from outside (the bindings) and derives what is derived;

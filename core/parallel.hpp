@@ -1,9 +1,13 @@
 // Batches of states over threads, with a deadline (the C++ side of dynamics/parallel.py).
 //
-// A batch is split into one contiguous chunk per thread; each thread has its own Data (allocated before any
-// thread starts, so a failed allocation is an exception on the calling thread, never in a worker) and works
-// through its chunk, looking at the clock every 16 states when a deadline is set.  A state whose kernel
-// returns a code >= 0 (a singular joint) ends its chunk; the status reports the first such state.
+// Each thread has its own Data (allocated before any thread starts, so a failed allocation is an exception on the
+// calling thread, never in a worker) and takes the batch's states from one shared counter, CHUNK at a time, until
+// none are left: a thread that the machine slows down (another process on its core) takes fewer chunks instead of
+// holding the whole batch up, as one fixed slice per thread did.  Each state is computed by the same kernel
+// whichever thread takes it, so the numbers do not depend on the split.  With a deadline, a thread looks at the
+// clock before each chunk.  A state whose kernel returns a code >= 0 (a singular joint) ends its thread's work,
+// and no chunk past it is started; every state before it is still computed, so the status reports the first
+// such state of the batch.
 #pragma once
 
 #include <algorithm>
@@ -29,6 +33,8 @@ struct BatchStatus {
 
 // Below this many states a batch runs on the calling thread (starting a thread costs ~20-50 us).
 constexpr long MIN_PARALLEL_BATCH = 64;
+// States a thread takes from the shared counter at a time (and between two looks at the clock).
+constexpr long CHUNK = 16;
 
 // Runs kernel(b, data) -> int for b in [0, B) on up to nthreads threads; `seconds` from now is the deadline
 // (infinite: none).  The caller has released the GIL.
@@ -41,31 +47,39 @@ BatchStatus run_batch(const Model& model, long B, int nthreads, double seconds, 
     const int nt = B < MIN_PARALLEL_BATCH ? 1 : static_cast<int>(std::max(1L, std::min<long>(nthreads, B)));
     std::vector<Data> datas(nt, Data(model));
     std::vector<BatchStatus> status(nt);
+    std::atomic<long> next{0};       // the first state no thread has taken
+    std::atomic<long> first_bad{B};  // the first failed state seen so far: no chunk at or past it starts
     auto work = [&](int t) {
-        const long lo = B * t / nt, hi = B * (t + 1) / nt;
         BatchStatus& s = status[t];
-        for (long b = lo; b < hi; ++b) {
-            if (timed && ((b - lo) & 15) == 0 && clock::now() > t_end) {
+        Data& data = datas[t];
+        for (;;) {
+            const long lo = next.fetch_add(CHUNK, std::memory_order_relaxed);
+            if (lo >= first_bad.load(std::memory_order_relaxed)) return;
+            if (timed && clock::now() > t_end) {
                 s.expired = true;
                 return;
             }
-            int code = kernel(b, datas[t]);
-            if (code >= 0) {
-                s.failed = b, s.code = code;
-                return;
+            const long hi = std::min(B, lo + CHUNK);
+            for (long b = lo; b < hi; ++b) {
+                int code = kernel(b, data);
+                if (code >= 0) {
+                    s.failed = b, s.code = code;
+                    long seen = first_bad.load(std::memory_order_relaxed);
+                    while (b < seen && !first_bad.compare_exchange_weak(seen, b, std::memory_order_relaxed)) {
+                    }
+                    return;
+                }
+                ++s.done;
             }
-            ++s.done;
         }
     };
     std::vector<std::thread> threads;
-    int t = 1;
     try {
-        for (; t < nt; ++t) threads.emplace_back(work, t);
-    } catch (const std::system_error&) {  // no thread to be had: the rest on this one
+        for (int t = 1; t < nt; ++t) threads.emplace_back(work, t);
+    } catch (const std::system_error&) {  // no thread to be had: this one takes what the others would have
     }
     work(0);
     for (auto& th : threads) th.join();
-    for (int r = t; r < nt; ++r) work(r);
     BatchStatus out;
     for (const BatchStatus& s : status) {
         out.done += s.done;

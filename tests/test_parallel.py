@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 import dynamics
-from dynamics import parallel
+from dynamics import _core, parallel
 
 from robots import chain_urdf
 
@@ -41,3 +41,19 @@ def test_the_deadline_is_per_context_and_restored():
         with parallel.deadline(None):
             dynamics.mass_matrix(model, np.zeros((3, model.nq)))
     dynamics.mass_matrix(model, np.zeros((3, model.nq)))
+
+
+def test_the_first_singular_state_is_reported_whichever_thread_meets_it():
+    """Threads take states in chunks from one counter (core/parallel.hpp); with every state singular each thread
+    stops at its first, and the status still names state 0 of the batch, as the public error does."""
+    text = chain_urdf(2)  # the last link carries nothing: M is singular at joint1 in every state
+    head, tail = text.rsplit('<link name="link1">', 1)
+    model = dynamics.load_urdf(head + '<link name="link1"/>' + tail.split("</link>", 1)[1])
+    B = 5000
+    Q = np.random.default_rng(0).uniform(-1, 1, (B, 2))
+    out = np.empty((B, 2))
+    done, expired, failed, _ = _core.aba_batch(model.core, Q, Q, Q, np.zeros((1, 0, 6)), np.array(model.gravity),
+                                               True, out, 2, float("inf"))
+    assert (failed, expired, done) == (0, False, 0)
+    with pytest.raises(dynamics.InputError, match="singular at joint 'joint1'"):
+        dynamics.forward_dynamics(model, Q, Q, Q)
