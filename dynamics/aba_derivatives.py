@@ -14,9 +14,7 @@ frame), as Pinocchio's.
 The public function is the core's (``core/aba_derivatives.cpp``): the ABA, M^-1 and the RNEA derivatives at
 the ABA's acceleration, then the two products; this module checks the arguments and calls it.
 
-The numba kernel below stays for the compiled callers that link it (the simulation's Radau Jacobian, the torque
-sources' and the closed loop's derivatives) until they move to the core.  It takes four passes over the tree, all
-in the world frame, sharing what each computes:
+The core's kernel takes four passes over the tree, all in the world frame, sharing what each computes:
 
 1. forward: the RNEA derivatives' velocity part (world poses, axes J, ov, dV, dAv, world inertias, dY) and
    the ABA's bias forces pA_i = ov_i x* I_i ov_i - f_ext_i and velocity products c_i = ov_i x (J_i qd_i);
@@ -26,49 +24,15 @@ in the world frame, sharing what each computes:
    oa_i and the RNEA derivatives' acceleration part at it;
 4. backward: the RNEA derivatives' composites and their blocks;
 
-then the products -M^-1 dtau/dq, -M^-1 dtau/dv.  Every compiled caller calls the one kernel
-:func:`_aba_derivatives_into` with the address of a workspace buffer of :func:`_work_size` floats (one per
-thread).
+then the products -M^-1 dtau/dq, -M^-1 dtau/dv, in one workspace per thread (``core/derivatives_data.hpp``).
 """
 
-from typing import NamedTuple
 
 import numpy as np
 
 from . import _core, checks
 from .errors import InputError
 from .parallel import run
-
-
-class Work(NamedTuple):
-    """The scratch of one state: the RNEA derivatives' (:class:`dynamics.rnea_derivatives.Work`, whose forward
-    pass also gives the ABA's world poses, axes J, velocities and inertias), the articulated-body passes' (I^A
-    (nb, 6, 6), U and U D^-1 (nv, 6), D^-1 (nb, 6, 6), M^-1's column forces F (nb, nv, 6), subtree sizes,
-    two 6x6 scratch matrices), the ABA's bias forces pA and velocity products c (nb, 6) and u (nv,);
-    dtau/dq, dtau/dv and M (nv, nv) each, and the acceleration a (nv,)."""
-
-    rd: object
-    IA: object
-    U: object
-    UD: object
-    Dinv: object
-    F: object
-    nsub: object
-    D: object
-    scratch: object
-    pA: object
-    c: object
-    u: object
-    dq: object
-    dv: object
-    M: object
-    a: object
-
-
-#: above this nv the products go to BLAS (np.dot): its dgemm is ~6x faster than the compiled loops at nv = 50
-#: (they are not vectorised over the workspace's views), but each call takes a lock in OpenBLAS's buffer pool,
-#: which threads of a batch contend for: at small nv that lock cost more than the products themselves
-BLAS_NV = 24
 
 
 def forward_dynamics_derivatives(model, q, v, tau, *, gravity=None, f_ext=None):

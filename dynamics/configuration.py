@@ -40,14 +40,10 @@ eq. 145).  Any Runge-Kutta method applied to it keeps its full order (this is th
 after each accepted step the chart is re-centred (``q0 <- _retract(q0, delta)``, ``delta <- 0``), so
 ``delta_theta`` stays small and far from the singularity of Jr^-1 at |theta| = pi.
 
-The public functions are the core's (``core/configuration.cpp``).  The kernels here are the simulation's
-(``numba.njit``, on the model's ``Tree``) until it moves to the core.  The simulation's chart functions
-(:func:`retract_in`, :func:`chart_rate_in`) also take a tag (:func:`chart_tag`) whose numba type says whether
-the model has a joint with nq != nv (free, spherical, planar): a model of 1-dof joints only compiles the plain
-sums, not the quaternion algebra.
+The functions are the core's (``core/configuration.cpp``: ``integrate``, ``difference``, ``retract``,
+``chart_rate``); this module checks the arguments and calls them.
 """
 
-from typing import NamedTuple
 
 import numpy as np
 
@@ -56,30 +52,6 @@ from .checks import check_model, vector, zero_unit_message
 from .errors import InputError
 from .joints import ZERO_QUATERNION_SQ
 
-
-
-class OneDofChart(NamedTuple):
-    """The chart of a model of 1-dof joints only: q = q0 + delta, delta' = v (a tag: a type, no data)."""
-
-
-class FreeJointChart(NamedTuple):
-    """The chart of a model with a free, spherical or planar joint (the module docstring)."""
-
-
-def chart_tag(model):
-    """The tag of the model's chart for :func:`retract_in` and :func:`chart_rate_in` (free, spherical and planar
-    joints are the joints with nq != nv)."""
-    return OneDofChart() if model.nq == model.nv else FreeJointChart()
-
-
-def retract_in(tag, tree, q0, delta, q):
-    """:func:`_retract` for the chart named by ``tag`` (compiled code only)."""
-    raise NotImplementedError
-
-
-def chart_rate_in(tag, tree, q, delta, v, out):
-    """:func:`_chart_rate` for the chart named by ``tag`` (compiled code only)."""
-    raise NotImplementedError
 
 
 def integrate(model, q, v, dt=1.0):

@@ -32,43 +32,13 @@ Backward pass (leaves in), with composites Y_i = sum of I over the subtree of i,
 Cost: O(n d) for n coordinates at tree depth d (the ancestor walk), as Pinocchio.
 
 The public function is the core's (``core/rnea_derivatives.cpp``); this module checks the arguments and calls it.
-The numba kernels below stay for the compiled callers that link them (the constrained dynamics' derivatives,
-the torque sources', the kinematics derivatives) until those move to the core.
 """
 
-from typing import NamedTuple
 
 import numpy as np
 
 from . import _core, checks
 from .parallel import run
-
-
-class Work(NamedTuple):
-    """The derivatives' scratch for one state.  Per body (nb): world pose oR (3, 3), op (3); world velocity ov
-    and acceleration oa (6, gravity included); composite inertia mass, h (3), Io (3, 3) about the world origin;
-    dY's blocks B (3, 3) and hf (3); composite force F (6).  Per coordinate (nv, 6): J, dV, dAq, dAv, Fa, Fv,
-    Fq (module docstring), and lv (nv, 3) the angular half of dY^T J; tau (nv,)."""
-
-    oR: object
-    op: object
-    ov: object
-    oa: object
-    mass: object
-    h: object
-    Io: object
-    B: object
-    hf: object
-    F: object
-    J: object
-    dV: object
-    dAq: object
-    dAv: object
-    Fa: object
-    Fv: object
-    Fq: object
-    lv: object
-    tau: object
 
 
 def inverse_dynamics_derivatives(model, q, v, a, *, gravity=None, f_ext=None):

@@ -127,14 +127,3 @@ def chain_urdf(n, *, length=0.2, mass=1.0, inertia=1e-3, damping=0.0, name=None,
             f'velocity="10"/><dynamics damping="{damping}" friction="0"/></joint>')
     parts.append("</robot>")
     return "".join(parts)
-
-
-def refuses(call, *args):
-    """A single-call entry refuses arguments: GENERAL from the kernel, or numba's own error for another type
-    (TypeError; a NumbaError from older numba): the public functions then take the general path."""
-    from numba.core.errors import NumbaError
-    from dynamics.checks import GENERAL
-    try:
-        return call(*args) == GENERAL
-    except (TypeError, NumbaError):
-        return True

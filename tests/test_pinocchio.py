@@ -93,8 +93,7 @@ def pin_model(text, model, floating=False):
             P = P * turn[j]
         out.addJoint(parent, jm, P, name)
     for fr in list(pm.frames)[1:]:
-        # Pinocchio 3 names a frame's joint and frame parentJoint and parentFrame; 2.x (with numpy < 1.27, the
-        # oldest numba's CI stage) parent and previousFrame
+        # Pinocchio 3 names a frame's joint and frame parentJoint and parentFrame; 2.x parent and previousFrame
         joint = fr.parentJoint if hasattr(fr, "parentJoint") else fr.parent
         previous = fr.parentFrame if hasattr(fr, "parentFrame") else fr.previousFrame
         placement = turn[joint].actInv(fr.placement) if joint in turn else fr.placement

@@ -4,8 +4,7 @@ dropped on the ground through ``/simulate``, a ``simulate_many`` job and the cli
 
 References: free fall z(t) = z0 - g t^2 / 2 before the touch-down, and at rest the library's documented default
 material (a contact carrying the whole weight sinks the penetration allowance, 1 mm: k = m g / delta), so the
-resting ball presses with m g at depth delta. (The first contact run after an install compiles the library's
-last numba kernel, the error estimate with contact: seconds, once.)
+resting ball presses with m g at depth delta.
 """
 
 from __future__ import annotations

@@ -10,7 +10,7 @@ import pytest
 
 import dynamics
 from dynamics import _core
-from robots import chain_urdf, erd, random_state, random_urdf, refuses
+from robots import chain_urdf, erd, random_state, random_urdf
 
 ROBOTS = {
     "panda": (erd("panda_description/urdf/panda.urdf"), False),
@@ -191,7 +191,7 @@ class _Subclass(np.ndarray):
 
 def _unusual_arrays(x):
     """x as arrays the compiled entries do not take themselves (they read numpy's array header), or take although
-    numba's entry point did not (read-only): each must get the general path's result."""
+    the old compiled entry points did not (read-only): each must get the general path's result."""
     strided = np.empty(2 * len(x))
     strided[::2] = x
     readonly = x.copy()
