@@ -95,7 +95,7 @@ def states(name, x, n, model=None, kind="v"):
             raise InputError(f"{name}: expected shape ({n},) or (B, {n}), got {arr.shape}"
                              + _length_hint(model, name, arr.shape[-1] if arr.ndim else 0, kind))
         arr2 = np.ascontiguousarray(arr2)
-        if not arr2.flags.writeable:  # one compiled signature: writable arrays only
+        if not arr2.flags.writeable:  # (the batches' outputs and inputs: writable, owned arrays)
             arr2 = arr2.copy()
     bad = _first_nonfinite_k(arr2)
     if bad >= 0:

@@ -31,18 +31,8 @@ of a closure declared twice, to 1e-9 relative.
 lambda's rows and frames are those of :mod:`dynamics.constraints` (world axes, force on body a at its
 anchor, torques, coupling forces).
 
-Simulation hook (for :mod:`dynamics.simulation`; compiled, single state, no allocation).  With ``C, m = dynamics.constraints.arrays(model)`` (resolved once and kept
-with the model) and one ``ws = _workspace(model.nbodies, model.nv, m)`` per thread:
-
-* ``_constrained_accel_kernel(tree, C, gravity, q, v, tau, alpha, beta, ws, a_out, lam_out) -> int``: the
-  right-hand side a = qdd (and lambda) in place of the ABA; -1 when fine, else the body whose joint makes M
-  singular.  alpha, beta: Baumgarte gains (1/s), :data:`DEFAULT_BAUMGARTE` for a simulation, 0, 0 for none.
-* ``_drift_kernel(tree, C, q, v, ws) -> (max |phi|, max |Phi_q v|)``: the position and velocity residuals, for
-  ``constraint_drift`` in the report (their largest values over the run).
-* ``_project_position_kernel(tree, C, q, ws, tol, max_iter, q_out) -> max |phi|`` then
-  ``_project_velocity_kernel(tree, C, q_out, v, ws, v_out) -> int``: the optional projection onto the
-  constraint manifold after an accepted step (positions by Gauss-Newton, velocities in the kinetic-energy
-  metric).
+The simulation's constrained right-hand side, drift and projections are the core's
+(``core/constrained_dynamics.hpp``, ``core/simulation/constrained_problem.cpp``), on the same equations.
 """
 
 import numpy as np

@@ -270,22 +270,6 @@ def run_core(kernel, model, *args, out):
     return failed, body
 
 
-def pack(C):
-    """:class:`ConstraintArrays` as one read-only int64 array, for a single-state entry point (one argument to
-    unbox instead of seven): [nc, kind, row, body, idx, then the float64 bits of R, p, coef]; :func:`_unpack`
-    reads it back as views."""
-    floats = np.concatenate([np.ravel(C.R), np.ravel(C.p), np.ravel(C.coef)]).astype(np.float64)
-    return _frozen(np.concatenate([[C.kind.shape[0]], C.kind, C.row, np.ravel(C.body), np.ravel(C.idx),
-                                   floats.view(np.int64)]), np.int64)
-
-
-def packed(model):
-    """The model's constraints packed (:func:`pack`): kept in the model by :func:`with_constraints`."""
-    if model.constraint_packed is not None:
-        return model.constraint_packed
-    return pack(arrays(model)[0])
-
-
 def with_constraints(model, constraints, *, at=None):
     """A new model with ``constraints`` added to ``model.constraints`` (immutable, like :func:`lock_joints`).
 
@@ -324,9 +308,9 @@ def with_constraints(model, constraints, *, at=None):
             c = replace(c, placement=np.linalg.solve(Ta, Tb))
         fixed.append(c)
     out = replace(model, constraints=tuple(model.constraints) + tuple(fixed), info=dict(model.info),
-                  constraint_arrays=None, constraint_packed=None)
+                  constraint_arrays=None)
     C, m = arrays(out)
-    out = replace(out, constraint_arrays=(C, m), constraint_packed=pack(C))
+    out = replace(out, constraint_arrays=(C, m))
     refuse_never_holding(out, out.constraints, C)
     J, err = _close_near(out, C, m, q0)
     tol = 1e-9 * max(1.0, np.abs(J).max(initial=0.0))
@@ -347,7 +331,7 @@ def with_constraints(model, constraints, *, at=None):
 
 def _close_near(model, C, m, q0):
     """(Phi_q, max |phi|) where Gauss-Newton from q0 (then from nearby starts) closes the loops, or gets nearest."""
-    if np.all(C.kind == COUPLING):  # constant rows, always closable: no kinematics compiled to load a gripper
+    if np.all(C.kind == COUPLING):  # constant rows, always closable: no kinematics needed to load a gripper
         return coupling_rows(C, m, model.nv), 0.0
     q1, err = q0, 0.0
     rng = np.random.default_rng(0)
@@ -597,7 +581,7 @@ def warn_off_manifold(model, q0, warnings):
     if not model.constraints:
         return
     C, _ = arrays(model)
-    if np.all(C.kind == COUPLING):  # one row each, in numpy: no kinematics compiled to simulate a gripper
+    if np.all(C.kind == COUPLING):  # one row each, in numpy: no kinematics needed for a gripper
         phi = np.abs(q0[C.idx[:, 0]] - C.coef[:, 0] * q0[C.idx[:, 2]] - C.coef[:, 1])
     else:
         phi = np.abs(constraint_residual(model, q0))

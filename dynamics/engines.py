@@ -17,8 +17,6 @@ force it on/off, and a callable ``progress(done, total)`` is called after every 
 Processes: workers start by forkserver (spawn elsewhere), which imports the main script again in each worker
 process; a script that calls us at its top level, outside ``if __name__ == "__main__":``, would then run again
 in every worker and break the pool.  :func:`check_main_guard` finds that before any worker starts and says so.
-Workers load the compiled kernels from numba's on-disk cache, warmed by the caller (``simulate_many`` runs its
-first simulation in the calling process).
 
 Ray is optional (``pip install 'dynamics[ray]'``).  ``engine="ray"`` connects to ``ray_address`` (an existing
 cluster, e.g. "ray://head:10001" or "auto"), or starts a local Ray on first use.

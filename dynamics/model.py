@@ -25,16 +25,7 @@ XK, XKK            (nb,3,3)         Xrot [axis]x and Xrot [axis]x^2 for revolute
                                     otherwise), so that R(q) = Xrot + sin q XK + (1 - cos q) XKK (:mod:`dynamics.joints`)
 =================  ===============  =====================================================================
 
-The same arrays also exist packed into one flat array, ``Model.packed`` (:func:`pack`, built once with the
-model): a compiled call from Python unboxes each array argument (~60 ns each, ~1 us for the 14 arrays of a
-Tree), so the single-state entry points pass this one and :func:`_unpack` rebuilds the :class:`Tree` as views
-inside the kernel.  Layout (in order, nothing between; the floats are stored bit for bit as int64):
-
-    [nb, nq, nv, parents, jtype, q_idx, v_idx, nv_j,                                   ints (3 + 5 nb)
-     gravity(3), Xrot(9 nb), Xpos(3 nb), axis(3 nb), S(6 nv), mass(nb), h(3 nb), Io(9 nb),   floats
-     XK(9 nb), XKK(9 nb),
-     nf, body(nf), kind(nf),                                                         ints
-     R(9 nf), p(3 nf)]                                                          floats (the frames)
+The C++ core's model (``Model.core``, :func:`core_model`) is built once from these arrays, with the model.
 """
 
 from dataclasses import dataclass, field
@@ -49,7 +40,7 @@ from .joints import (JOINT_NQ, JOINT_NV, KINDS, ROTATES_ABOUT_AXIS, URDF_JOINT_C
 
 
 class Tree(NamedTuple):
-    """The flat arrays the compiled kernels read (one tuple, so a kernel takes one argument)."""
+    """The model's flat arrays (module docstring), read-only; the core's model is built from them."""
 
     parents: np.ndarray
     jtype: np.ndarray
@@ -91,21 +82,6 @@ def frame_kind(body, R, p):
     return FRAME_SHIFTED if np.any(p != 0.0) else FRAME_BODY
 
 
-def pack(tree, gravity, frames):
-    """The model's arrays as one read-only int64 array (layout in the module docstring)."""
-    nb, nv = tree.parents.shape[0], tree.S.shape[0]
-    nq = int(sum(JOINT_NQ[c] for c in tree.jtype))
-    floats = np.concatenate([np.ravel(x).astype(np.float64) for x in (gravity, tree.Xrot, tree.Xpos, tree.axis,
-                                                                      tree.S, tree.mass, tree.h, tree.Io, tree.XK,
-                                                                      tree.XKK)])
-    ints = np.array([nb, nq, nv, *tree.parents, *tree.jtype, *tree.q_idx, *tree.v_idx, *tree.nv_j], np.int64)
-    nf = frames.body.shape[0]
-    frame_floats = np.concatenate([np.ravel(frames.R), np.ravel(frames.p)]).astype(np.float64)
-    return _frozen(np.concatenate([ints, floats.view(np.int64), [nf], frames.body, frames.kind,
-                                   frame_floats.view(np.int64)]),
-                   np.int64)
-
-
 def _frozen(a, dtype=np.float64):
     a = np.ascontiguousarray(a, dtype=dtype)
     a.flags.writeable = False
@@ -125,9 +101,8 @@ class Model:
     Derived once, when the model is built (it is never written to afterwards): ``frame_arrays`` (the frames
     as flat arrays, :class:`Frames`), ``quaternion_starts`` (index in q of each free or spherical joint's
     quaternion), ``unit_blocks`` ((n, 2) int64: start in q and size of each block that is a unit vector, a
-    quaternion or a planar joint's (cos, sin); :attr:`JointKind.unit`), and for
-    the single-state entry points ``packed`` (the arrays as one, module docstring), ``frame_lookup`` (a frame's
-    name -> its index: one dict lookup per call) and the shapes of their results, ``placements_shape``
+    quaternion or a planar joint's (cos, sin); :attr:`JointKind.unit`), the core's model ``core``, and for
+    the single-state entry points ``frame_lookup`` (a frame's name -> its index: one dict lookup per call) and the shapes of their results, ``placements_shape``
     (nframes, 4, 4) and ``jacobian_shape`` (6, nv).
     """
 
@@ -155,11 +130,9 @@ class Model:
     #: closed loops and coupled joints (:mod:`dynamics.constraints`), added by :func:`dynamics.with_constraints`
     #: or by load_urdf (``<mimic>``, ``<loop>``); empty for a plain tree
     constraints: tuple = ()
-    #: the constraints resolved into flat arrays, ``(ConstraintArrays, m)``, and the same packed into one int64
-    #: array for the single-state calls; set by :func:`dynamics.with_constraints` with ``constraints``
-    #: (:mod:`dynamics.constraints`), None for a plain tree
+    #: the constraints resolved into flat arrays, ``(ConstraintArrays, m)``; set by :func:`dynamics.with_constraints`
+    #: with ``constraints`` (:mod:`dynamics.constraints`), None for a plain tree
     constraint_arrays: tuple = None
-    constraint_packed: np.ndarray = None
     #: the contact primitives fixed to the bodies (:class:`dynamics.contact.geometry.CollisionGeometry`: name,
     #: body, frame, kind, size, read-only 4x4 pose in the body), read by ``load_urdf(..., collision=True)`` or
     #: added by :func:`dynamics.add_free_body`; empty otherwise
@@ -178,7 +151,6 @@ class Model:
         object.__setattr__(self, "unit_blocks", _frozen(np.array(
             [(k + KINDS[c].unit[0], KINDS[c].unit[1]) for c, k in zip(self.tree.jtype, self.tree.q_idx)
              if KINDS[c].unit], np.int64).reshape(-1, 2), np.int64))
-        object.__setattr__(self, "packed", pack(self.tree, self.gravity, self.frame_arrays))
         object.__setattr__(self, "core", core_model(self))
         # frame name -> index, one dict lookup for the single-call entry points (names only: True and 1.0 must not
         # find frame 1); and the shapes of their results
@@ -328,10 +300,8 @@ class Model:
         return {k: v for k, v in self.__dict__.items() if k != "core"}
 
     def __setstate__(self, state):
-        """Unpickling (process pools, Ray) gives writable arrays; the kernels are compiled for read-only ones, so
-        a writable copy would compile every kernel again (a minute) in each worker: freeze them again, with numpy's
-        own dtype
-        objects (``dtype.type``), as a new model's are."""
+        """Unpickling (process pools, Ray) gives writable arrays: freeze them again (a model is never written to),
+        with numpy's own dtype objects (``dtype.type``), as a new model's are, and build the core's model."""
         for key, value in state.items():
             if isinstance(value, (Tree, Frames)):
                 value = type(value)(*(_frozen(a, a.dtype.type) for a in value))

@@ -132,7 +132,7 @@ def simulate_many(model, q0, v0, duration, *, torque=None, engine="threads", pro
     options = dict(simulate_options, duration=duration)
     items = [(k, Q[k].copy(), V[k].copy(), tau, options) for k, tau in enumerate(_torques(torque, B))]
     t0 = time.perf_counter()
-    first = _run_chunk(model, items[:1])  # compiles here, and measures one run for the chunk size
+    first = _run_chunk(model, items[:1])  # measures one run for the chunk size
     per_run = time.perf_counter() - t0
     size = engines.chunk_size(B - 1, per_run, engine, engines.workers(engine, ray_address)) if B > 1 else 1
     rest = engines.map_chunks(_run_chunk, model, items[1:], engine=engine, chunk=size, progress=progress,
@@ -166,7 +166,7 @@ def map_batches(fn, model, *arrays, engine="threads", chunk=None, progress=None,
         raise InputError(f"arrays: expected batches with the same first dimension, got {[a.shape for a in arrays]}")
     if chunk is None:
         t0 = time.perf_counter()
-        fn(model, *[a[:256] for a in arrays], **kwargs)  # compiles, and measures a small batch
+        fn(model, *[a[:256] for a in arrays], **kwargs)  # measures a small batch
         per_item = (time.perf_counter() - t0) / max(1, min(B, 256))
         chunk = max(engines.chunk_size(B, per_item, engine, engines.workers(engine, ray_address)), 1024)
     ranges = [(lo, min(B, lo + int(chunk))) for lo in range(0, B, int(chunk))]

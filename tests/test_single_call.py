@@ -165,7 +165,7 @@ def test_model_survives_pickling():
     """A model from a process pool or a Ray task builds its core model again: the same numbers, on the fast path."""
     model = dynamics.load_urdf(ROBOTS["ur5"][0])
     clone = pickle.loads(pickle.dumps(model))
-    assert not clone.packed.flags.writeable and clone.core is not model.core
+    assert not clone.tree.S.flags.writeable and clone.core is not model.core
     q, v, a = _states(model)[0]
     fast = _core.rnea(clone.core, q, v, a)
     assert fast is not None

@@ -1,7 +1,7 @@
 """Contact forces of one state, from Python: :func:`contact_forces` gives the body wrenches ``f_ext`` that every
 dynamics function takes (:func:`dynamics.inverse_dynamics`, :func:`dynamics.forward_dynamics`, ...), and on
-request each active contact (:class:`ContactDetails`).  The law is :mod:`.forces`'; the same compiled
-evaluation as the simulation's right-hand side (:func:`.resolve.evaluate`)."""
+request each active contact (:class:`ContactDetails`).  The law is :mod:`.forces`'; the same evaluation in
+the core as the simulation's right-hand side (``core/contact/contact_model.cpp``)."""
 
 from typing import NamedTuple
 

@@ -1,4 +1,4 @@
-"""Contact geometry of a model and its world, packed into flat arrays for the compiled narrow phase.
+"""Contact geometry of a model and its world, packed into flat arrays for the core's narrow phase.
 
 :func:`build_scene` resolves the geometry (``model.collision_geometry`` and/or the declarations of
 :mod:`dynamics.contact.geometry`) against the model's frames, lists the candidate pairs once (the filtering
@@ -57,8 +57,7 @@ MAX_PAIRS = 100_000
 
 
 class SceneArrays(NamedTuple):
-    """The numeric part of a :class:`Scene`: what the compiled narrow phase takes (one numba type for every
-    scene, so a kernel taking it compiles once)."""
+    """The numeric part of a :class:`Scene`: what the core's narrow phase takes (``core/contact/scene.hpp``)."""
 
     body: np.ndarray
     kind: np.ndarray

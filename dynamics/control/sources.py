@@ -1,6 +1,6 @@
-"""The torque sources as users describe them (:class:`PD`, :class:`Table`, ...) and as compiled code reads them
-(:class:`Source`, one numba type for every kind but the operational space).  The table of kinds and their
-laws is in :mod:`dynamics.torques`."""
+"""The torque sources as users describe them (:class:`PD`, :class:`Table`, ...) and as checked arrays
+(:class:`Source`, from which the core's source is made).  The table of kinds and their laws is in
+:mod:`dynamics.torques`."""
 
 from typing import NamedTuple
 

@@ -39,9 +39,7 @@ def _times(name, t):
 
 
 def _read_only(frames):
-    """``model.frame_arrays`` with every array a read-only view: a model unpickled in a worker process has them
-    writable, a different numba type, and the worker would compile the simulation again instead of loading the
-    caller's from numba's cache."""
+    """``model.frame_arrays`` with every array a read-only view (a source never writes to its model's arrays)."""
     views = []
     for a in frames:
         v = a.view()

@@ -3,11 +3,11 @@
 ==================  =====================================================================================
 module              what it holds
 ==================  =====================================================================================
-``simulate``        the public entry: checks -> problem -> run -> report
-``problem``         the robot as an ODE (state layout, right-hand side, samples), by named fields
-``run``             one compiled entry point per method, the stability probe, the first-compile message
-``report``          status, switches, error estimate, energy balance
-``solvers/``        one file per method (tableau, one attempted step, dense output) and the two drivers
+``simulate``        the public entry: checks -> one run in the core -> report
+``native``          one run in the C++ core (``core/simulation/``: the problems, the methods, the drivers)
+``report``          status, switches, error estimate, energy balance, contact
+``sensitivities``   what ``sensitivities=`` asks for (the variational equations are the core's)
+``solvers``         the methods' names, options, statistics and switch records
 ==================  =====================================================================================
 """
 

@@ -22,7 +22,7 @@ PROJECT_TOL = 1e-12
 
 
 class Samples(NamedTuple):
-    """What a run wrote per sample (the report and the Trajectory read these by the names of the numba problem)."""
+    """What a run wrote per sample (the report and the Trajectory read these)."""
 
     out_t: np.ndarray
     out_q: np.ndarray

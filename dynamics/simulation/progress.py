@@ -1,6 +1,6 @@
-"""A progress bar for one long simulation, without touching the compiled loop.
+"""A progress bar for one long simulation, without touching the core's loop.
 
-The compiled run releases the GIL and writes its samples as it goes (``problem.count``), so a Python thread
+The core's run releases the GIL and writes its samples as it goes (``count``), so a Python thread
 can watch it: every 0.1 s it reads how many samples exist and the time of the last one.  The loop pays
 nothing and its numbers stay bit-identical with or without a bar.
 

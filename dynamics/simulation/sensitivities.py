@@ -49,7 +49,7 @@ and where the clamp acts), so S's error is controlled by the step size there and
 is the one-sided limit's mix.  Measured on a ball through an impact: S agrees with differences of whole runs
 to ~1e-5 relative after the impact (1e-13 in flight), a systematic limit not yet explained.
 
-The parameters are entries of the compiled torque source
+The parameters are entries of the torque source
 (:class:`dynamics.control.sources.Source`): PD's kp, kd, v_target, tau_ff (rows of ``gains``) and q_target
 (``qref``), a computed torque's kp and kd, a constant torque, a table's torques.
 """
