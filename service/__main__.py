@@ -3,7 +3,7 @@
 Options are written into the ``DYNAMICS_*`` environment variables before uvicorn starts, so that every worker
 process (``--workers N`` starts them from scratch) reads the same settings.
 
-``--warmup`` is kept for build scripts that still run it (the Docker image did, to fill numba's cache): nothing
+``--warmup`` is kept for build scripts that still run it (the Docker image once did, to fill a JIT's cache): nothing
 is compiled at run time any more, so it only checks that the library imports and the bundled robots load, says
 so, and exits 0 (refusing it would break those builds for no gain).
 """
@@ -46,7 +46,7 @@ def _parser(prog: str = "python -m service") -> argparse.ArgumentParser:
 
 
 def warmup() -> int:
-    """``--warmup``: once the numba warm-up; now a check that the library imports and the bundled robots load."""
+    """``--warmup``: once a JIT's warm-up; now a check that the library imports and the bundled robots load."""
     settings = Settings.from_env()
     store = RobotStore(settings.store_dir, settings.robots_dir)
     robots = store.bundled_ids()

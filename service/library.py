@@ -1,12 +1,12 @@
 """The server's one door to the ``dynamics`` library, which it imports in the background.
 
-The server must answer ``/v1/health`` the moment it starts, and importing the library takes about a second
-(numpy, the C++ core's extension module, and for now numba, which some modules still import: measured with
-``python -X importtime -c "import dynamics"``, see docs/architecture.md). So no module of the server imports
+The server must answer ``/v1/health`` the moment it starts, and importing the library takes a fraction of a second
+to a second on a busy machine (numpy, scipy's parts the library uses, the C++ core's extension module: measured
+with ``python -X importtime -c "import dynamics"``). So no module of the server imports
 ``dynamics`` at its top: they call :func:`lib` where they use it. The server imports the library in a thread
 at start (:mod:`service.deps`); a request that needs it earlier waits in its worker thread on Python's import
-lock, never on the event loop. The server compiles nothing (see docs/guide/service.md, "Start", for the two
-numba kernels the library still compiles at their first use until numba leaves it). Attributes are looked up at each call
+lock, never on the event loop. Nothing compiles at run time (the core is compiled at install). Attributes are
+looked up at each call
 (``lib().lock_joints``), so a test may replace one with ``monkeypatch``.
 
 Only the public API is used: ``dynamics.*``, ``dynamics.torques``, ``dynamics.parallel.deadline``.
