@@ -6,8 +6,7 @@ with ``python -X importtime -c "import dynamics"``). So no module of the server 
 ``dynamics`` at its top: they call :func:`lib` where they use it. The server imports the library in a thread
 at start (:mod:`service.deps`); a request that needs it earlier waits in its worker thread on Python's import
 lock, never on the event loop. Nothing compiles at run time (the core is compiled at install). Attributes are
-looked up at each call
-(``lib().lock_joints``), so a test may replace one with ``monkeypatch``.
+looked up at each call (``lib().lock_joints``), so a test may replace one with ``monkeypatch``.
 
 Only the public API is used: ``dynamics.*``, ``dynamics.torques``, ``dynamics.parallel.deadline``.
 """
