@@ -123,41 +123,11 @@ def bench_case(dyn, pin, name, model, source, floating, redundant, states, B, re
             "ours_b": t_ours_b / B, "pin_b": t_pin_b / B, "ours_1": t_ours_1, "pin_1": t_pin_1}
 
 
-def bench_minverse(dyn, model, states, B, repeat, rng):
-    """What the KKT needs of M, per state inside a compiled loop (no call overhead): the O(n^2)
-    articulated-body M^-1 (_minverse_into) against the CRBA and the in-kernel L^T L factor (_mass_factor, used)."""
-    from numba import njit
-
-    from dynamics.constrained_dynamics import _mass_factor
-    from dynamics.crba import _workspace as crba_ws
-    from dynamics.minverse import _minverse_into
-    from dynamics.minverse import _workspace as minv_ws
-
-    @njit
-    def minv_loop(tree, Q, ws, out):
-        for b in range(Q.shape[0]):
-            _minverse_into(tree, Q[b], ws, out)
-
-    @njit
-    def factor_loop(tree, Q, ws, out, lam):
-        for b in range(Q.shape[0]):
-            _mass_factor(tree, Q[b], ws, out, lam)
-
-    Q = states(dyn, model, B, rng)[0]
-    out, lam = np.empty((model.nv, model.nv)), np.empty(model.nv, np.int64)
-    wm, wc = minv_ws(model.nbodies, model.nv), crba_ws(model.nbodies)
-    minv_loop(model.tree, Q[:2], wm, out)
-    factor_loop(model.tree, Q[:2], wc, out, lam)
-    ta, tb = best_pair(lambda: minv_loop(model.tree, Q, wm, out), lambda: factor_loop(model.tree, Q, wc, out, lam),
-                       repeat)
-    return ta / B, tb / B
-
-
 def us(t):
     return f"{t * 1e6:.2f}"
 
 
-def table(header, rows, mrows) -> str:
+def table(header, rows) -> str:
     L = ["# Constrained dynamics benchmarks (`python -m benchmarks.constraints`)", ""] + header + [""]
     L += ["| mechanism | nv | rows | check | batched ours (us/state) | batched Pinocchio | ratio | single ours (us) "
           "| single Pinocchio | ratio |", "|---|---|---|---|---|---|---|---|---|---|"]
@@ -165,11 +135,6 @@ def table(header, rows, mrows) -> str:
         L.append(f"| {r['name']} | {r['nv']} | {r['m']} | {r['check']:.1e} | {us(r['ours_b'])} | {us(r['pin_b'])} | "
                  f"{r['ours_b'] / r['pin_b']:.2f} | {us(r['ours_1'])} | {us(r['pin_1'])} | "
                  f"{r['ours_1'] / r['pin_1']:.2f} |")
-    L += ["", "M for the KKT, per state in a compiled loop: the articulated-body M^-1 (the first version) against the "
-          "CRBA and the sparse L^T L factor (used):", "",
-          "| mechanism | articulated-body M^-1 (us) | CRBA + L^T L (us) |", "|---|---|---|"]
-    for name, ta, tb in mrows:
-        L.append(f"| {name} | {us(ta)} | {us(tb)} |")
     return "\n".join(L) + "\n"
 
 
@@ -183,14 +148,13 @@ def main(argv=None) -> int:
     import dynamics as dyn
 
     rng = np.random.default_rng(0)
-    rows, mrows = [], []
+    rows = []
     for name, model, source, floating, redundant, states in cases(dyn):
         rows.append(bench_case(dyn, pin, name, model, source, floating, redundant, states, args.batch, args.repeat,
                                rng))
-        mrows.append((name, *bench_minverse(dyn, model, states, args.batch, args.repeat, rng)))
     header = machine_header(args.batch, args.repeat)
     header[1] = re.sub(r"Pinocchio \d+ \(ModelPool\)", "Pinocchio in a Python loop over one Data", header[1])
-    text = table(header, rows, mrows)
+    text = table(header, rows)
     OUT.parent.mkdir(exist_ok=True)
     OUT.write_text(text)
     print(text)

@@ -14,7 +14,6 @@ Timings are the best of --repeat runs.  The table is printed and written to benc
 """
 
 import argparse
-import time
 from pathlib import Path
 
 import numpy as np
