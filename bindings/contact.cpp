@@ -82,8 +82,9 @@ static const core::Transform* world_poses(const Model& model, nb::handle q) {
     return data.oMi.data();
 }
 
-static Scene scene_of(const Model& model, nb::handle body, nb::handle kind, nb::handle size, nb::handle R,
-                      nb::handle p, nb::handle radius, nb::handle pair_a, nb::handle pair_b) {
+// The scene's arrays, every one checked (also bindings/contact_model.cpp's, for a run's contact).
+Scene scene_of(const Model& model, nb::handle body, nb::handle kind, nb::handle size, nb::handle R, nb::handle p,
+               nb::handle radius, nb::handle pair_a, nb::handle pair_b) {
     Scene S;
     placement_arrays(model, body, R, p, S);
     shape_arrays(kind, size, radius, S);

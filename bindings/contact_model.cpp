@@ -33,12 +33,13 @@ COut<T, N> writable(nb::handle x, const char* name) {
 
 }  // namespace
 
+ct::Scene scene_of(const Model& model, nb::handle body, nb::handle kind, nb::handle size, nb::handle R, nb::handle p,
+                   nb::handle radius, nb::handle pair_a, nb::handle pair_b);  // bindings/contact.cpp
+
 // The arrays, kept alive with the model (the core holds pointers into them).
 struct ContactHolder {
-    CIn<int64_t, 1> body, kind, pair_a, pair_b;
-    CIn<double, 2> size, p, mat;
-    CIn<double, 3> R;
-    CIn<double, 1> radius;
+    nb::tuple scene;  // body, kind, size, R, p, radius, pair_a, pair_b: read in place (scene_of checked them)
+    CIn<double, 2> mat;
     CIn<int64_t, 2> pair_body;
     COut<double, 1> track;
     COut<double, 3> out;
@@ -49,33 +50,16 @@ struct ContactHolder {
 
 namespace {
 
-// The scene's arrays checked against each other and the model: shapes, index ranges, pair order.
-ct::Scene checked_scene(const ContactHolder& h, const Model& model) {
-    const long ng = length(h.body), np = length(h.pair_a);
-    require(length(h.kind) == ng && length(h.radius) == ng, "scene: kind and radius (ng,)");
-    require(length(h.size) == ng && h.size.shape(1) == 3 && length(h.p) == ng && h.p.shape(1) == 3,
-            "scene: size and p (ng, 3)");
-    require(length(h.R) == ng && h.R.shape(1) == 3 && h.R.shape(2) == 3, "scene: R (ng, 3, 3)");
-    require(length(h.pair_b) == np, "scene: pair_a and pair_b of one length");
-    require(length(h.pair_body) == np && h.pair_body.shape(1) == 2, "pair_body: (npairs, 2)");
-    require(length(h.mat) == np && h.mat.shape(1) == ct::NMAT, "mat: (npairs, 5)");
-    for (long g = 0; g < ng; ++g) {
-        require(h.body(g) >= -1 && h.body(g) < model.nb, "scene: a geometry's body out of the model's range");
-        require(h.kind(g) >= ct::SPHERE && h.kind(g) <= ct::PLANE, "scene: an unknown geometry kind");
-    }
-    for (long k = 0; k < np; ++k) {
-        const int64_t a = h.pair_a(k), b = h.pair_b(k);
-        require(a >= 0 && a < ng && b >= 0 && b < ng, "scene: a pair's geometry out of range");
-        require(h.kind(a) <= h.kind(b) && h.kind(a) != ct::PLANE, "scene: pairs ordered by kind, no plane-plane");
+// Each pair's bodies and material row checked against the scene (already checked by scene_of).
+void require_pair_rows(const ContactHolder& h, const ct::Scene& S) {
+    require(length(h.pair_body) == S.npairs && h.pair_body.shape(1) == 2, "pair_body: (npairs, 2)");
+    require(length(h.mat) == S.npairs && h.mat.shape(1) == ct::NMAT, "mat: (npairs, 5)");
+    for (long k = 0; k < S.npairs; ++k) {
         for (int s = 0; s < 2; ++s)
-            require(h.pair_body(k, s) == h.body(s ? b : a), "pair_body: the bodies of each pair's geometries");
+            require(h.pair_body(k, s) == S.body[s ? S.pair_b[k] : S.pair_a[k]],
+                    "pair_body: the bodies of each pair's geometries");
         require(h.mat(k, ct::K_VS) > 0 && h.mat(k, ct::K_STIFF) >= 0, "mat: positive stiction velocity, stiffness");
     }
-    ct::Scene S;
-    S.ng = ng, S.npairs = np, S.body = h.body.data(), S.kind = h.kind.data(), S.size = h.size.data();
-    S.R = h.R.data(), S.p = h.p.data(), S.radius = h.radius.data(), S.pair_a = h.pair_a.data();
-    S.pair_b = h.pair_b.data();
-    return S;
 }
 
 nb::object int_array(const int64_t* x, long n) {
@@ -135,7 +119,10 @@ ct::ContactModel& contact_of(nb::handle x, const Model& model) {
     return *h->model;
 }
 
-void expose_contact_model(nb::module_& m) {
+namespace {
+
+// The force law and its derivatives on hand-made contact lists (the tests' window onto core/contact/forces.hpp).
+void expose_contact_lists(nb::module_& m) {
     using namespace nb::literals;
     // The force law on a hand-made contact list at (q, v): f_ext (nb, 6) = the body wrenches, tau += J_c^T f_c,
     // detail (K, 8) each contact's row; returns the contact power.
@@ -170,22 +157,28 @@ void expose_contact_model(nb::module_& m) {
         ct::contact_force_derivatives(model, buf.capacity(), buf, pair_body.data(), mat.data(), oMi.data(), v.data(),
                                       dq.data(), dv.data(), w);
     }, "model"_a, "q"_a, "v"_a, "pair_body"_a, "mat"_a, "point"_a, "normal"_a, "depth"_a, "dq"_a, "dv"_a);
+}
 
+}  // namespace
+
+void expose_contact_model(nb::module_& m) {
+    using namespace nb::literals;
+    expose_contact_lists(m);
     nb::class_<ContactHolder>(m, "ContactModel", "A run's contact (core/contact/contact_model.hpp).")
-        .def("__init__", [](ContactHolder* self, nb::handle model_, CIn<int64_t, 1> body, CIn<int64_t, 1> kind,
-                            CIn<double, 2> size, CIn<double, 3> R, CIn<double, 2> p, CIn<double, 1> radius,
-                            CIn<int64_t, 1> pair_a, CIn<int64_t, 1> pair_b, CIn<int64_t, 2> pair_body,
-                            CIn<double, 2> mat, long K, nb::handle track, nb::handle out, nb::handle out_n,
-                            bool exact) {
+        .def("__init__", [](ContactHolder* self, nb::handle model_, nb::handle body, nb::handle kind, nb::handle size,
+                            nb::handle R, nb::handle p, nb::handle radius, nb::handle pair_a, nb::handle pair_b,
+                            CIn<int64_t, 2> pair_body, CIn<double, 2> mat, long K, nb::handle track, nb::handle out,
+                            nb::handle out_n, bool exact) {
             const Model* pm = nullptr;
             if (!nb::try_cast(model_, pm) || !pm) throw nb::type_error("model: expected the model's core");
             const Model& model = *pm;
             // checked and made before self is: an __init__ that throws leaves self unconstructed (never destroyed)
-            ContactHolder h{body, kind, pair_a, pair_b, size, p, mat, R, radius, pair_body,
+            ContactHolder h{nb::make_tuple(body, kind, size, R, p, radius, pair_a, pair_b), mat, pair_body,
                             writable<double, 1>(track, "track"), writable<double, 3>(out, "out"),
                             writable<int64_t, 1>(out_n, "out_n"), nb::borrow(model_), nullptr};
             ct::ContactArrays a;
-            a.scene = checked_scene(h, model);
+            a.scene = scene_of(model, body, kind, size, R, p, radius, pair_a, pair_b);
+            require_pair_rows(h, a.scene);
             require(K >= 0 && K <= 8 * a.scene.npairs, "K: the scene's max_contacts, at most 8 per pair");
             require(length(h.track) == 3, "track: (3,)");
             const long T = length(h.out);

@@ -127,3 +127,13 @@ def chain_urdf(n, *, length=0.2, mass=1.0, inertia=1e-3, damping=0.0, name=None,
             f'velocity="10"/><dynamics damping="{damping}" friction="0"/></joint>')
     parts.append("</robot>")
     return "".join(parts)
+
+
+def vector_fd(f, x, step):
+    """Central differences of f at x, column k along e_k (a plain vector space: v, or q of 1-dof joints)."""
+    cols = []
+    for k in range(x.shape[0]):
+        e = np.zeros_like(x)
+        e[k] = step
+        cols.append((f(x + e) - f(x - e)) / (2 * step))
+    return np.array(cols).T

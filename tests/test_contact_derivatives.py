@@ -10,17 +10,7 @@ import pytest
 import dynamics
 from dynamics.contact.force_derivatives import force_derivatives_of
 from dynamics.contact.forces import contact_wrenches
-from robots import ALL_TYPES, random_state, random_urdf
-
-def vector_fd(f, x, step):
-    """Central differences of f at x, column k along e_k (a plain vector space: v, or q of Cartesian joints)."""
-    cols = []
-    for k in range(x.shape[0]):
-        e = np.zeros_like(x)
-        e[k] = step
-        cols.append((f(x + e) - f(x - e)) / (2 * step))
-    return np.array(cols).T
-
+from robots import ALL_TYPES, random_state, random_urdf, vector_fd
 
 #: k, d, mu_s, mu_d, v_s
 MAT = np.array([1e4, 2.0, 0.8, 0.5, 1e-2])

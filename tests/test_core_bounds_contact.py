@@ -1,6 +1,7 @@
 """A run's contact in the core (core/contact/contact_model.cpp, bindings/contact_model.cpp) made directly through
-the extension with what no public function passes: wrong shapes, output arrays of the wrong dtype, non-contiguous
-or read-only (inputs of another integer or float dtype are converted, and the copies kept with the model),
+the extension with what no public function passes: wrong shapes, arrays of the wrong dtype, non-contiguous or
+read-only outputs (the scene's arrays are read in place, checked as find_contacts checks them; the material rows
+of another dtype are converted, and the copies kept with the model),
 indices out of range, unordered pairs, a contact made for another model.  A clear error, never a crash or a read
 or write out of bounds (the sanitizer stage runs this file); and a well-made one evaluates and simulates."""
 
@@ -134,3 +135,18 @@ def test_the_simulation_refuses_a_contact_made_for_another_model(ball, monkeypat
         real(*args, "contact")
     with pytest.raises(ValueError):  # out_w without the contact's column
         real(*args[:12], args[12][:, :2].copy(), *args[13:], contact)
+
+
+def test_collide_at_refuses_bad_poses(ball):
+    """_core.collide_at (the narrow phase at given body poses): poses of the wrong shape or dtype are a clear
+    error; NaN poses give a bounded answer."""
+    model, r = ball
+    S = r.scene
+    good = np.tile(np.eye(4), (model.nbodies, 1, 1))
+    assert len(_core.collide_at(model.core, *S.arrays, good, S.max_contacts)[0]) >= 0
+    for poses in (good[:, :3], np.tile(np.eye(4), (model.nbodies + 1, 1, 1)), good.astype(np.float32),
+                  np.zeros((model.nbodies, 4, 8))[:, :, ::2]):
+        with pytest.raises(ValueError):
+            _core.collide_at(model.core, *S.arrays, poses, S.max_contacts)
+    pair = _core.collide_at(model.core, *S.arrays, np.full_like(good, np.nan), S.max_contacts)[0]
+    assert len(pair) <= S.max_contacts

@@ -160,3 +160,20 @@ def test_rotation_log_bounds():
                 np.full((3, 3), np.nan), [[1, 0, 0], [0, 1, 0], [0, 0, 1]], None):
         with pytest.raises((ValueError, TypeError)):
             _core.rotation_log(bad)
+
+
+def test_source_torques_refuses_bad_input(two_r, panda):
+    """_core.source_torques (the tests' evaluation of a source): the PD law at a good state; wrong shapes, dtypes,
+    NaN and another model's source refused with a clear error."""
+    ps, src = _core_args(two_r, PD(np.array([0.3, -0.2]), 3.0, 1.0))
+    q, v, tau = np.array([0.1, 0.2]), np.array([0.5, -0.5]), np.empty(2)
+    _core.source_torques(two_r.core, ps, src, 0.0, q, v, tau)
+    np.testing.assert_allclose(tau, 3.0 * (np.array([0.3, -0.2]) - q) - 1.0 * v, rtol=1e-15)
+    for args in [(q[:1], v, tau), (q, v.astype(np.float32), tau), (q, np.array([np.nan, 0.0]), tau),
+                 (q, v, np.empty(3)), (q, v, np.empty(4)[::2])]:
+        with pytest.raises((ValueError, TypeError)):
+            _core.source_torques(two_r.core, ps, src, 0.0, *args)
+    with pytest.raises(ValueError):
+        _core.source_torques(panda.core, ps, src, 0.0, np.zeros(panda.nq), np.zeros(panda.nv), np.empty(panda.nv))
+    with pytest.raises(ValueError):
+        _core.source_torques(two_r.core, ps, src, np.nan, q, v, tau)

@@ -174,3 +174,26 @@ def test_spectral_radius_of_a_block_diagonal_matrix_is_its_blocks():
     block = Q @ np.diag([-40.0, 3.0, -2.0, 1.0, 0.5]) @ np.linalg.inv(Q)
     A = np.kron(np.eye(4), block)
     assert np.isclose(_core.spectral_radius(A, 20), 40.0, rtol=1e-6)
+
+
+def test_the_test_hooks_refuse_bad_input():
+    """_core.solve_ode and the LU entries name what is wrong (shapes, dtypes, a failing f) and never crash."""
+    opt = S.Options(nc=1, nvel=1, ne=2, max_steps=100, nsteps=10, dt=0.1, rtol=1e-6, atol=1e-9, h0=0.0, hmax=np.inf,
+                    blowup=1e12, probe=False)._asdict()
+    z, out_t, out_z = np.array([1.0, 0.0]), np.array([0.0, 1.0]), np.zeros((2, 2))
+    stats, sw = S.new_stats(), S.new_switch_log()
+    f = lambda t, x: OSC @ x  # noqa: E731
+    for args in [("rk45", f, z, 1.0, out_t, np.zeros((3, 2))), ("rk45", f, z.astype(np.float32), 1.0, out_t, out_z),
+                 ("magic", f, z, 1.0, out_t, out_z), ("rk45", lambda t, x: np.zeros(3), z, 1.0, out_t, out_z),
+                 ("rk45", f, z, 1.0, out_t, out_z[:, ::2])]:
+        with pytest.raises((ValueError, TypeError)):
+            _core.solve_ode(*args, opt, stats, sw)
+    with pytest.raises(ZeroDivisionError):  # f's own exception, raised after the run
+        _core.solve_ode("rk45", lambda t, x: 1 / 0, z.copy(), 1.0, out_t, out_z, opt, stats, sw)
+    for call in (lambda: _core.lu_factor(np.zeros((3, 4)), np.zeros(3, np.int32)),
+                 lambda: _core.lu_factor(np.zeros((3, 3)), np.zeros(2, np.int32)),
+                 lambda: _core.lu_solve(np.eye(3), np.zeros(3, np.int32), np.zeros(2)),
+                 lambda: _core.envelope_lu_factor(np.eye(3), np.zeros(3, np.int32), np.zeros(3, np.int32)),
+                 lambda: _core.spectral_radius(np.eye(3), 4)):
+        with pytest.raises((ValueError, TypeError)):
+            call()

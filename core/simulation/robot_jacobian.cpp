@@ -179,6 +179,43 @@ void RobotProblem::chart_derivatives(const double* q, const double* delta, const
     }
 }
 
+namespace {
+// J's row of a power v . tau: d/d delta = v^T dtau/d delta, d/dv = tau + v^T dtau/dv (dd, dv: nv x nv row-major).
+void power_row(int nv, const double* v, const double* tau, const double* dd, const double* dv, double* Jr) {
+    for (int k = 0; k < nv; ++k) {
+        double pd = 0.0, pv = tau[k];
+        for (int m = 0; m < nv; ++m) {
+            pd += v[m] * dd[m * nv + k];
+            pv += v[m] * dv[m * nv + k];
+        }
+        Jr[k] = pd;
+        Jr[nv + k] = pv;
+    }
+}
+}  // namespace
+
+// J's acceleration rows: da/d delta = da/dq + M^-1 (dtau_s + dtau_c)/d delta + M^-1 dtau_p/dq, and the same in v
+// (dtc_dd, dtc_dv null without contact: no zeros are added, so the sums keep the bits of a problem that never had
+// any); NaN rows when M is singular (as the right-hand side's accelerations: the step is rejected).
+void RobotProblem::acceleration_rows(double* J, int n, bool singular, const double* dtc_dd, const double* dtc_dv) {
+    const JacobianWork& w = *jw_;
+    const int nv = nv_;
+    const double *Minv = w.Minv.data(), *dts_dd = w.dts_dd.data(), *dts_dv = w.dts_dv.data();
+    for (int r = 0; r < nv; ++r)
+        for (int k = 0; k < nv; ++k) {
+            double sd = 0.0, sv = 0.0;
+            for (int m = 0; m < nv; ++m) {
+                const int mk = m * nv + k;
+                sd += Minv[r * nv + m] * (dtc_dd ? dts_dd[mk] + dtc_dd[mk] : dts_dd[mk]);
+                sv += Minv[r * nv + m] * (dtc_dv ? dts_dv[mk] + dtc_dv[mk] : dts_dv[mk]);
+            }
+            J[(nv + r) * n + k] = w.da_dq[r * nv + k] + sd + Minv[r * nv + k] * w.dtp_dq[k];
+            J[(nv + r) * n + nv + k] = w.da_dv[r * nv + k] + sv + Minv[r * nv + k] * w.dtp_dv[k];
+        }
+    if (singular)
+        for (int r = nv; r < 2 * nv; ++r) std::fill(J + r * n, J + r * n + 2 * nv, std::nan(""));
+}
+
 // J = df/dz at (t, z) (the top comment's table, block by block; f0, mag and ne unused: the whole matrix is written).
 bool RobotProblem::jacobian(double t, const double* z, const double*, const double*, int, double* J, Stats& st) {
     if (!jw_) jw_ = std::make_unique<JacobianWork>(model_);
@@ -187,10 +224,7 @@ bool RobotProblem::jacobian(double t, const double* z, const double*, const doub
     const int nv = nv_, n = 2 * nv + nquad_;
     const double *delta = z, *v = z + nv;
     if (contact_) contact_terms(delta, v);
-    // (without contact no zeros are added: the sums keep the bits of the problem that never had any)
     const double* tau_c = contact_ ? cw_->tau_c.data() : nullptr;
-    const double* dtc_dd = contact_ ? cw_->dtc_dd.data() : nullptr;
-    const double* dtc_dv = contact_ ? cw_->dtc_dv.data() : nullptr;
     double* q = w.q.data();
     retract(model_, base_.data(), delta, q);
     control::source_torques(model_, source_, passive_, ws_source_, t, q, v, tau_s_.data());
@@ -203,42 +237,16 @@ bool RobotProblem::jacobian(double t, const double* z, const double*, const doub
     control::passive_derivatives(passive_, q, v, nv, w.dtp_dq.data(), w.dtp_dv.data());
     if (model_.nq != nv) tangent_to_chart(q, w.da_dq.data());
     chart_derivatives(q, delta, v, J, n);
-    const double *Minv = w.Minv.data(), *dts_dd = w.dts_dd.data(), *dts_dv = w.dts_dv.data();
-    for (int r = 0; r < nv; ++r)  // da/d delta, da/dv
-        for (int k = 0; k < nv; ++k) {
-            double sd = 0.0, sv = 0.0;
-            for (int m = 0; m < nv; ++m) {
-                const int mk = m * nv + k;
-                sd += Minv[r * nv + m] * (dtc_dd ? dts_dd[mk] + dtc_dd[mk] : dts_dd[mk]);
-                sv += Minv[r * nv + m] * (dtc_dv ? dts_dv[mk] + dtc_dv[mk] : dts_dv[mk]);
-            }
-            J[(nv + r) * n + k] = w.da_dq[r * nv + k] + sd + Minv[r * nv + k] * w.dtp_dq[k];
-            J[(nv + r) * n + nv + k] = w.da_dv[r * nv + k] + sv + Minv[r * nv + k] * w.dtp_dv[k];
-        }
-    if (singular >= 0)  // M singular: as the right-hand side's accelerations, NaN (the step is rejected)
-        for (int r = nv; r < 2 * nv; ++r) std::fill(J + r * n, J + r * n + 2 * nv, std::nan(""));
-    for (int k = 0; k < nv; ++k) {  // the powers v . tau_s and v . tau_p
-        double ps_d = 0.0, ps_v = tau_s_[k];
-        for (int m = 0; m < nv; ++m) {
-            ps_d += v[m] * dts_dd[m * nv + k];
-            ps_v += v[m] * dts_dv[m * nv + k];
-        }
-        J[2 * nv * n + k] = ps_d;
-        J[2 * nv * n + nv + k] = ps_v;
+    acceleration_rows(J, n, singular >= 0, contact_ ? cw_->dtc_dd.data() : nullptr,
+                      contact_ ? cw_->dtc_dv.data() : nullptr);
+    power_row(nv, v, tau_s_.data(), w.dts_dd.data(), w.dts_dv.data(), J + 2 * nv * n);  // v . tau_s
+    for (int k = 0; k < nv; ++k) {  // v . tau_p (its derivatives are diagonal)
         J[(2 * nv + 1) * n + k] = v[k] * w.dtp_dq[k];
         J[(2 * nv + 1) * n + nv + k] = w.tau_p[k] + v[k] * w.dtp_dv[k];
     }
     for (int r = 0; r < n; ++r) std::fill(J + r * n + 2 * nv, J + (r + 1) * n, 0.0);
-    for (int r = 2 * nv + 2; r < n; ++r)  // the contact power v . tau_c (zero while nothing touches)
-        for (int k = 0; k < nv; ++k) {
-            double pc_d = 0.0, pc_v = tau_c[k];
-            for (int m = 0; m < nv; ++m) {
-                pc_d += v[m] * dtc_dd[m * nv + k];
-                pc_v += v[m] * dtc_dv[m * nv + k];
-            }
-            J[r * n + k] = pc_d;
-            J[r * n + nv + k] = pc_v;
-        }
+    if (contact_)  // v . tau_c (zero while nothing touches)
+        power_row(nv, v, tau_c, cw_->dtc_dd.data(), cw_->dtc_dv.data(), J + (2 * nv + 2) * n);
     abort_if_failed();
     st.jacobian_evals += 1;
     return true;

@@ -98,6 +98,7 @@ protected:
         explicit ContactWork(const Model& model);
     };
     double contact_at(const double* q, const double* v, double* tau_c);
+    void acceleration_rows(double* J, int n, bool singular, const double* dtc_dd, const double* dtc_dv);
     void contact_terms(const double* delta, const double* v);
     void source_derivatives_chart(double t, const double* q, const double* delta, const double* v, double* dd,
                                   double* dv);
