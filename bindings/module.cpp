@@ -8,6 +8,7 @@ void expose_dynamics(nb::module_& m);
 void expose_kinematics(nb::module_& m);
 void expose_configuration(nb::module_& m);
 void expose_simulation(nb::module_& m);
+void expose_simulator(nb::module_& m);
 void expose_derivatives(nb::module_& m);
 void expose_constraints(nb::module_& m);
 void expose_contact_model(nb::module_& m);
@@ -24,6 +25,7 @@ NB_MODULE(_core, m) {
     bind::expose_kinematics(m);
     bind::expose_configuration(m);
     bind::expose_simulation(m);
+    bind::expose_simulator(m);
     bind::expose_derivatives(m);
     bind::expose_constraints(m);
     bind::expose_contact_model(m);

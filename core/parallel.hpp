@@ -37,14 +37,16 @@ constexpr long MIN_PARALLEL_BATCH = 64;
 constexpr long CHUNK = 16;
 
 // Runs kernel(b, data) -> int for b in [0, B) on up to nthreads threads; `seconds` from now is the deadline
-// (infinite: none).  The caller has released the GIL.
+// (infinite: none).  The caller has released the GIL.  min_parallel and chunk: for kernels much heavier than one
+// state's dynamics (a simulator's period), fewer states are worth a thread and a smaller chunk balances them.
 template <class Kernel>
-BatchStatus run_batch(const Model& model, long B, int nthreads, double seconds, const Kernel& kernel) {
+BatchStatus run_batch(const Model& model, long B, int nthreads, double seconds, const Kernel& kernel,
+                      long min_parallel = MIN_PARALLEL_BATCH, long chunk = CHUNK) {
     using clock = std::chrono::steady_clock;
     const bool timed = std::isfinite(seconds);
     const auto t_end = clock::now() + std::chrono::duration_cast<clock::duration>(
                                           std::chrono::duration<double>(std::min(std::max(seconds, 0.0), 1e7)));
-    const int nt = B < MIN_PARALLEL_BATCH ? 1 : static_cast<int>(std::max(1L, std::min<long>(nthreads, B)));
+    const int nt = B < min_parallel ? 1 : static_cast<int>(std::max(1L, std::min<long>(nthreads, B)));
     std::vector<Data> datas(nt, Data(model));
     std::vector<BatchStatus> status(nt);
     std::atomic<long> next{0};       // the first state no thread has taken
@@ -53,13 +55,13 @@ BatchStatus run_batch(const Model& model, long B, int nthreads, double seconds, 
         BatchStatus& s = status[t];
         Data& data = datas[t];
         for (;;) {
-            const long lo = next.fetch_add(CHUNK, std::memory_order_relaxed);
+            const long lo = next.fetch_add(chunk, std::memory_order_relaxed);
             if (lo >= first_bad.load(std::memory_order_relaxed)) return;
             if (timed && clock::now() > t_end) {
                 s.expired = true;
                 return;
             }
-            const long hi = std::min(B, lo + CHUNK);
+            const long hi = std::min(B, lo + chunk);
             for (long b = lo; b < hi; ++b) {
                 int code = kernel(b, data);
                 if (code >= 0) {

@@ -46,7 +46,7 @@ from .contact.evaluation import contact_forces
 
 from . import plot, robots, torques
 from .configuration import difference, integrate
-from .simulation import Trajectory, simulate
+from .simulation import Simulator, Trajectory, simulate
 from .simulation.work_precision import WorkPrecision, work_precision
 from .sweeps import Trajectories, map_batches, simulate_many
 
@@ -55,7 +55,7 @@ __all__ = [
     "inverse_dynamics", "gravity_torques", "bias_forces", "mass_matrix", "forward_dynamics",
     "kinetic_energy", "potential_energy", "coriolis_matrix", "lock_joints", "reorder",
     "check_inertias", "InertiaCheck",
-    "simulate", "Trajectory", "integrate", "difference", "torques", "robots", "plot",
+    "simulate", "Simulator", "Trajectory", "integrate", "difference", "torques", "robots", "plot",
     "simulate_many", "Trajectories", "map_batches", "work_precision", "WorkPrecision",
     "forward_kinematics", "frame_placement", "frame_velocity", "frame_acceleration", "frame_bias_acceleration",
     "frame_jacobian", "center_of_mass", "center_of_mass_velocity", "com_jacobian",

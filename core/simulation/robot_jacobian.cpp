@@ -227,7 +227,7 @@ bool RobotProblem::jacobian(double t, const double* z, const double*, const doub
     const double* tau_c = contact_ ? cw_->tau_c.data() : nullptr;
     double* q = w.q.data();
     retract(model_, base_.data(), delta, q);
-    control::source_torques(model_, source_, passive_, ws_source_, t, q, v, tau_s_.data());
+    source_at(t, q, v, tau_s_.data());
     control::passive_torques(passive_, q, v, nv, w.tau_p.data());
     for (int k = 0; k < nv; ++k)  // tau = passive + source (+ contact)
         tau_p_[k] = w.tau_p[k] + (tau_c ? tau_s_[k] + tau_c[k] : tau_s_[k]);

@@ -23,8 +23,14 @@ const double* RobotProblem::chart_and_velocity(const double* z, double* dz) {
     return qbuf_.data();
 }
 
+void RobotProblem::source_at(double t, const double* q, const double* v, double* tau) {
+    control::source_torques(model_, source_, passive_, ws_source_, t, q, v, tau);
+    if (held_)
+        for (int k = 0; k < nv_; ++k) tau[k] += held_[k];
+}
+
 void RobotProblem::source_and_passive(double t, const double* q, const double* v, double& power_s, double& power_p) {
-    control::source_torques(model_, source_, passive_, ws_source_, t, q, v, tau_s_.data());
+    source_at(t, q, v, tau_s_.data());
     control::passive_torques(passive_, q, v, nv_, tau_p_.data());
     power_s = 0.0, power_p = 0.0;
     for (int k = 0; k < nv_; ++k) {
@@ -86,7 +92,7 @@ void RobotProblem::emit(int64_t j, double t, const double* z) {
     retract(model_, base_.data(), z, q);
     const double* v = z + nv_;
     if (out_.keep_v) std::copy(v, v + nv_, out_.v + j * nv_);
-    if (out_.keep_tau) control::source_torques(model_, source_, passive_, ws_source_, t, q, v, out_.tau + j * nv_);
+    if (out_.keep_tau) source_at(t, q, v, out_.tau + j * nv_);
     if (contact_) contact_->emit(j, q, v);
     std::copy(z + 2 * nv_, z + 2 * nv_ + nquad_, out_.w + j * nquad_);
     energies(model_, data_, q, v, passive_.gravity, true, true, out_.e[2 * j], out_.e[2 * j + 1]);

@@ -65,6 +65,15 @@ public:
     bool jacobian(double t, const double* z, const double* f0, const double* mag, int ne, double* J,
                   Stats& st) override;
     bool aborted() const override { return aborted_; }
+    // A torque held constant over a control period of the caller's loop (core/simulation/simulator.hpp), added to
+    // the source's; null: none (a simulate run).
+    void hold(const double* tau) { held_ = tau; }
+    // The state was moved from outside (a simulator's reset, or its return to a period's start): the contact's
+    // clearance and a Python torque's failure are forgotten.
+    void restart() {
+        aborted_ = false;
+        if (contact_) contact_->rebased();
+    }
 
     const Model& model() const { return model_; }
     const double* base() const { return base_.data(); }
@@ -75,6 +84,8 @@ public:
     int nquad() const { return nquad_; }
 
 protected:
+    // tau = the source's torques at (t, q, v), plus the held torque.
+    void source_at(double t, const double* q, const double* v, double* tau);
     // qbuf = the configuration of z around base; dz's chart part = the chart rate of v.  Returns q.
     const double* chart_and_velocity(const double* z, double* dz);
     // tau_p = source + passive torques at (t, q, v) (tau_s the source's); the powers through power_s, power_p.
@@ -118,6 +129,7 @@ protected:
     std::unique_ptr<JacobianWork> jw_;
     std::unique_ptr<ContactWork> cw_;
     bool aborted_ = false;
+    const double* held_ = nullptr;
 };
 
 }  // namespace core::sim

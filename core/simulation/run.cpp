@@ -12,6 +12,12 @@ namespace core::sim {
 
 Status run_method(const char* method, Problem& p, double* z, int n, double t0, double t_end, const double* out_t,
                   int64_t T, Options opt, Stats& st, std::vector<Switch>& sw) {
+    int phase = 0;
+    return run_method(method, p, z, n, t0, t_end, out_t, T, opt, st, sw, phase);
+}
+
+Status run_method(const char* method, Problem& p, double* z, int n, double t0, double t_end, const double* out_t,
+                  int64_t T, Options opt, Stats& st, std::vector<Switch>& sw, int& phase) {
     const std::string m = method;
     if (m == "euler") return solve_fixed(p, *make_euler(opt.nc, n), z, n, t0, t_end, out_t, T, opt, st);
     if (m == "rk4") return solve_fixed(p, *make_rk4(n), z, n, t0, t_end, out_t, T, opt, st);
@@ -23,12 +29,15 @@ Status run_method(const char* method, Problem& p, double* z, int n, double t0, d
     using clock = std::chrono::steady_clock;
     const auto start = clock::now();
     const double deadline = opt.deadline;
-    bool stiff = false;
+    bool stiff = phase != 0;
     while (true) {
-        auto phase = stiff ? make_auto_radau(n) : make_auto_rk45(n);
+        auto stepper = stiff ? make_auto_radau(n) : make_auto_rk45(n);
         opt.deadline = deadline - std::chrono::duration<double>(clock::now() - start).count();
-        const Status status = solve_adaptive(p, *phase, z, n, t0, t_end, out_t, T, opt, st, sw);
-        if (status != SWITCHED) return status;
+        const Status status = solve_adaptive(p, *stepper, z, n, t0, t_end, out_t, T, opt, st, sw);
+        if (status != SWITCHED) {
+            phase = stiff;
+            return status;
+        }
         stiff = !stiff;
         t0 = st.t, opt.h0 = st.h;
     }

@@ -113,5 +113,9 @@ Status solve_adaptive(Problem& p, AdaptiveStepper& m, double* z, int n, double t
 // two phases.  The switch log is appended to sw.
 Status run_method(const char* method, Problem& p, double* z, int n, double t0, double t_end, const double* out_t,
                   int64_t T, Options opt, Stats& st, std::vector<Switch>& sw);
+// The same, auto starting in `phase` (0: non-stiff, rk45; 1: stiff, radau) and leaving there the phase it ended in:
+// a simulator stepped period by period (simulator.hpp) goes on in the phase its last period reached.
+Status run_method(const char* method, Problem& p, double* z, int n, double t0, double t_end, const double* out_t,
+                  int64_t T, Options opt, Stats& st, std::vector<Switch>& sw, int& phase);
 
 }  // namespace core::sim

@@ -1,0 +1,252 @@
+// A simulation stepped from the caller's loop (core/simulation/simulator.hpp) as the Python object _core.Simulator:
+// N environments of one model made from the run's parts (the passive torques, the torque source, a contact model
+// per environment, the constraints) and the arrays dynamics.Simulator owns and shows (time, q, v, the carried step
+// and phase, the status, the error estimate, the work and energies, the counters), every shape checked here before
+// the core holds a pointer into it.  step() releases the GIL for the whole batch; a Python torque is called back
+// with it taken (the environments are then stepped one after another).
+#include <nanobind/stl/string.h>
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "arrays.hpp"
+#include "contact/contact_model.hpp"
+#include "control/passive.hpp"
+#include "control/sources.hpp"
+#include "numpy.hpp"
+#include "simulation/constrained_problem.hpp"
+#include "simulation/simulator.hpp"
+
+namespace bind {
+
+using core::Model;
+namespace control = core::control;
+namespace sim = core::sim;
+
+void require_model(const core::Constraints& c, const Model& model);               // bindings/constraints.cpp
+core::contact::ContactModel& contact_of(nb::handle x, const Model& model);          // bindings/contact_model.cpp
+control::Source& source_of(nb::handle x, const Model& model);                       // bindings/simulation.cpp
+
+namespace {
+
+template <class T, size_t N>
+using Out = nb::ndarray<T, nb::ndim<N>, nb::c_contig, nb::device::cpu>;
+
+// An array the core writes into for the simulator's life: exactly that dtype and rank, C-contiguous, writable,
+// `rows` rows of `cols` columns (cols < 0: a 1-d array).
+template <class T, size_t N>
+Out<T, N> held_array(nb::handle x, const char* name, long rows, long cols) {
+    Out<T, N> a;
+    const bool typed = nb::try_cast(x, a, false);
+    const bool shaped = typed && static_cast<long>(a.shape(0)) == rows && (N == 1 || static_cast<long>(a.shape(1)) == cols);
+    if (!shaped)
+        throw std::invalid_argument(std::string(name) + ": expected a writable C-contiguous " +
+                                    (std::is_same_v<T, double> ? "float64" : "int64") + " array of " +
+                                    std::to_string(rows) + (N == 1 ? "" : " x " + std::to_string(cols)) + " entries");
+    return a;
+}
+
+// A Python callable f(t, q, v) -> (nv,) as the torque source of a stepped simulation: an exception (or a result of
+// another shape, refused by `check`) is kept, the period fails, and step() raises it; forgotten at the next step.
+class StepTorque : public control::TorqueCallback {
+public:
+    StepTorque(nb::object fn, nb::object check, int nq, int nv)
+        : fn_(std::move(fn)), check_(std::move(check)), nq_(nq), nv_(nv) {}
+    bool torques(double t, const double* q, const double* v, double* tau) override {
+        if (error_) return false;
+        nb::gil_scoped_acquire gil;
+        try {
+            double *pq, *pv;
+            nb::object Q = new_array(nq_, &pq), V = new_array(nv_, &pv);
+            std::copy(q, q + nq_, pq);
+            std::copy(v, v + nv_, pv);
+            nb::object out = check_(fn_(t, Q, V));
+            if (const double* r = vector_of(out, nv_)) {
+                std::copy(r, r + nv_, tau);
+                return true;
+            }
+            PyErr_SetString(PyExc_ValueError, "torque: the callable's checked result is not a (nv,) float64 array");
+            error_ = std::make_unique<nb::python_error>();
+        } catch (nb::python_error& e) {
+            error_ = std::make_unique<nb::python_error>(std::move(e));
+        }
+        return false;
+    }
+    bool failed() const override { return error_ != nullptr; }
+    void raise_if_failed() {
+        if (error_) {
+            auto e = std::move(error_);
+            e->restore();
+            throw nb::python_error();
+        }
+    }
+
+private:
+    nb::object fn_, check_;
+    int nq_, nv_;
+    std::unique_ptr<nb::python_error> error_;
+};
+
+// What the environments point into, at a fixed address for the simulator's life.
+struct Parts {
+    nb::object keep;  // the model's core, the contact models, the constraints and the arrays
+    const Model* model = nullptr;
+    control::Passive passive;
+    control::Source source;
+    std::unique_ptr<StepTorque> callback;
+    sim::StepSettings settings;
+    std::vector<sim::Environment> envs;
+    Out<double, 2> tau;  // (N, nv): zeros, the held torque of a step given none
+};
+
+struct SimulatorHolder {
+    std::unique_ptr<Parts> parts;
+};
+
+// The arrays' rows as one environment's EnvArrays.
+struct Arrays {
+    Out<double, 1> t, h, error;
+    Out<double, 2> q, v, w, e, drift, clock;
+    Out<int64_t, 1> phase, status, count;
+    Out<int64_t, 2> counters;
+    sim::EnvArrays row(long i) {
+        sim::EnvArrays a;
+        a.t = t.data() + i, a.q = q.data() + i * q.shape(1), a.v = v.data() + i * v.shape(1);
+        a.h = h.data() + i, a.phase = phase.data() + i, a.status = status.data() + i, a.error = error.data() + i;
+        a.w = w.data() + i * w.shape(1), a.e = e.data() + 2 * i, a.count = count.data() + i;
+        a.counters = counters.data() + 4 * i, a.clock = clock.data() + 2 * i;
+        return a;
+    }
+};
+
+Arrays arrays_of(const nb::dict& d, long N, const Model& model, long nquad, bool constrained) {
+    Arrays a;
+    a.t = held_array<double, 1>(d["t"], "t", N, -1), a.h = held_array<double, 1>(d["h"], "h", N, -1);
+    a.error = held_array<double, 1>(d["error"], "error", N, -1);
+    a.q = held_array<double, 2>(d["q"], "q", N, model.nq), a.v = held_array<double, 2>(d["v"], "v", N, model.nv);
+    a.w = held_array<double, 2>(d["w"], "w", N, nquad), a.e = held_array<double, 2>(d["e"], "e", N, 2);
+    a.drift = held_array<double, 2>(d["drift"], "drift", constrained ? N : 0, 3);
+    a.clock = held_array<double, 2>(d["clock"], "clock", N, 2);
+    a.phase = held_array<int64_t, 1>(d["phase"], "phase", N, -1);
+    a.status = held_array<int64_t, 1>(d["status"], "status", N, -1);
+    a.count = held_array<int64_t, 1>(d["count"], "count", N, -1);
+    a.counters = held_array<int64_t, 2>(d["counters"], "counters", N, 4);
+    return a;
+}
+
+// The settings of every period from the dict dynamics.Simulator makes.
+sim::StepSettings settings_of(const nb::dict& d, const Model& model, long nquad) {
+    sim::StepSettings s;
+    s.method = nb::cast<std::string>(d["method"]);
+    require(s.method == "euler" || s.method == "rk4" || s.method == "rk45" || s.method == "dop853" ||
+                s.method == "radau" || s.method == "auto",
+            "method: one of euler, rk4, rk45, dop853, radau, auto");
+    s.fixed = s.method == "euler" || s.method == "rk4";
+    s.dt = nb::cast<double>(d["dt"]), s.substep = nb::cast<double>(d["substep"]);
+    require(std::isfinite(s.dt) && s.dt > 0, "dt: a finite period > 0");
+    require(!s.fixed || (std::isfinite(s.substep) && s.substep > 0 && s.dt / s.substep <= 1e9),
+            "substep: a finite step > 0, at most 1e9 per period");
+    s.opt.nc = model.nv, s.opt.nvel = model.nv, s.opt.ne = 2 * model.nv;
+    s.opt.rtol = nb::cast<double>(d["rtol"]), s.opt.atol = nb::cast<double>(d["atol"]);
+    s.opt.max_steps = nb::cast<int64_t>(d["max_steps"]), s.opt.blowup = nb::cast<double>(d["blowup"]);
+    s.opt.hmax = 1e300;
+    require(s.opt.rtol > 0 && s.opt.atol >= 0 && s.opt.max_steps >= 1, "rtol > 0, atol >= 0, max_steps >= 1");
+    (void)nquad;
+    return s;
+}
+
+// The parts and environments of a simulator, every argument checked before any environment is made.
+std::unique_ptr<Parts> make_parts(nb::handle model_, const control::Passive& passive, nb::handle source,
+                                  nb::object callback, nb::object check, nb::object contacts, nb::object constrained,
+                                  const nb::dict& settings, const nb::dict& arrays) {
+    const Model* pm = nullptr;
+    if (!nb::try_cast(model_, pm) || !pm) throw nb::type_error("model: expected the model's core");
+    const Model& model = *pm;
+    auto P = std::make_unique<Parts>();
+    P->model = pm;
+    P->passive = passive;
+    P->source = source_of(source, model);
+    const long nquad = contacts.is_none() ? 2 : 3;
+    P->settings = settings_of(settings, model, nquad);
+    const long N = static_cast<long>(nb::len(nb::object(arrays["t"])));
+    require(N >= 1, "environments: at least one");
+    Arrays a = arrays_of(arrays, N, model, nquad, !constrained.is_none());
+    if (P->source.kind == control::CALLABLE) {
+        require(!callback.is_none() && !check.is_none(), "torque: a callable and its check");
+        P->callback = std::make_unique<StepTorque>(callback, check, model.nq, model.nv);
+        P->source.callback = P->callback.get();
+    }
+    std::vector<core::contact::ContactModel*> cms(N, nullptr);
+    if (!contacts.is_none()) {
+        nb::list l = nb::cast<nb::list>(contacts);
+        require(static_cast<long>(nb::len(l)) == N, "contacts: one contact model per environment");
+        for (long i = 0; i < N; ++i) cms[i] = &contact_of(l[i], model);
+        for (long i = 0; i < N; ++i)
+            for (long j = 0; j < i; ++j) require(cms[i] != cms[j], "contacts: one contact model per environment");
+    }
+    const core::Constraints* con = nullptr;
+    double alpha = 0.0, beta = 0.0;
+    bool project = false;
+    if (!constrained.is_none()) {
+        nb::tuple c = nb::cast<nb::tuple>(constrained);
+        require(c.size() == 4, "constrained: (constraints, alpha, beta, project)");
+        if (!nb::try_cast(c[0], con) || !con) throw nb::type_error("constrained: the model's core constraints");
+        require_model(*con, model);
+        alpha = nb::cast<double>(c[1]), beta = nb::cast<double>(c[2]), project = nb::cast<bool>(c[3]);
+        require(std::isfinite(alpha) && std::isfinite(beta), "constrained: finite Baumgarte gains");
+    }
+    P->tau = held_array<double, 2>(arrays["tau"], "tau", N, model.nv);
+    P->keep = nb::make_tuple(model_, contacts, constrained, arrays);
+    P->envs.reserve(N);
+    for (long i = 0; i < N; ++i) {
+        sim::EnvArrays e = a.row(i);
+        sim::Outputs out;
+        out.t = e.t, out.T = 1, out.q = e.q, out.v = e.v, out.keep_q = true, out.keep_v = true;
+        out.w = e.w, out.e = e.e, out.count = e.count;
+        std::unique_ptr<sim::RobotProblem> p;
+        if (con)
+            p = std::make_unique<sim::ConstrainedProblem>(model, *con, P->passive, P->source, e.q, out, alpha, beta,
+                                                          project, nullptr, a.drift.data() + 3 * i, cms[i]);
+        else
+            p = std::make_unique<sim::RobotProblem>(model, P->passive, P->source, e.q, out, cms[i]);
+        P->envs.emplace_back(std::move(p), e);
+    }
+    return P;
+}
+
+}  // namespace
+
+void expose_simulator(nb::module_& m) {
+    using namespace nb::literals;
+    nb::class_<SimulatorHolder>(m, "Simulator", "Environments stepped from the caller's loop (core/simulation/simulator.hpp).")
+        .def("__init__", [](SimulatorHolder* self, nb::handle model, const control::Passive& passive,
+                            nb::handle source, nb::object callback, nb::object check, nb::object contacts,
+                            nb::object constrained, nb::dict settings, nb::dict arrays) {
+            auto parts = make_parts(model, passive, source, callback, check, contacts, constrained, settings, arrays);
+            new (self) SimulatorHolder{std::move(parts)};
+        }, "model"_a, "passive"_a, "source"_a, "callback"_a.none(), "check"_a.none(), "contacts"_a.none(),
+           "constrained"_a.none(), "settings"_a, "arrays"_a)
+        // One period for every environment that is ready, under the held torques in the "tau" array (N, nv);
+        // returns (failed now, skipped, expired).  Raises a Python torque's exception after the batch.
+        .def("step", [](SimulatorHolder& h, int nthreads, double seconds) {
+            Parts& P = *h.parts;
+            const int nt = P.callback ? 1 : std::max(1, nthreads);
+            sim::StepOutcome o;
+            {
+                nb::gil_scoped_release unlocked;
+                o = sim::step_all(*P.model, P.envs, P.settings, P.tau.data(), nt, seconds);
+            }
+            if (P.callback) P.callback->raise_if_failed();
+            return nb::make_tuple(o.failed, o.skipped, o.expired);
+        }, "nthreads"_a, "seconds"_a)
+        // Environments `which` take their state (t, q, v, h, phase) from the arrays again and are ready.
+        .def("load", [](SimulatorHolder& h, Ints which) {
+            Parts& P = *h.parts;
+            const long N = static_cast<long>(P.envs.size());
+            for (size_t k = 0; k < which.shape(0); ++k) require(which(k) >= 0 && which(k) < N, "which: out of range");
+            for (size_t k = 0; k < which.shape(0); ++k) P.envs[which(k)].load();
+        }, "which"_a);
+}
+
+}  // namespace bind

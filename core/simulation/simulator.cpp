@@ -1,0 +1,91 @@
+// A simulation stepped from the caller's loop (simulator.hpp).
+#include "simulator.hpp"
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+
+#include "parallel.hpp"
+
+namespace core::sim {
+
+Environment::Environment(std::unique_ptr<RobotProblem> problem, const EnvArrays& a)
+    : p_(std::move(problem)), a_(a), nq_(p_->model().nq), nv_(p_->model().nv), n_(2 * nv_ + p_->nquad()),
+      z_(n_, 0.0), z0_(n_), base0_(nq_), held_(nv_, 0.0) {
+    p_->hold(held_.data());
+    load();
+}
+
+void Environment::load() {
+    std::copy(a_.q, a_.q + nq_, p_->base());
+    std::fill(z_.begin(), z_.end(), 0.0);
+    std::copy(a_.v, a_.v + nv_, z_.begin() + nv_);
+    *a_.status = OK;
+    p_->restart();
+}
+
+// One period: the run of the method from (t, z) to t + dt with one sample at its end (the arrays' t, q, v, work,
+// energies); on failure the state of the period's start again.
+Status Environment::step(const StepSettings& s, const double* tau, double seconds) {
+    std::copy(tau, tau + nv_, held_.begin());
+    std::fill(z_.begin() + 2 * nv_, z_.end(), 0.0);  // the period's work, from zero
+    std::copy(p_->base(), p_->base() + nq_, base0_.begin());
+    z0_ = z_;
+    const double t0 = *a_.t, t1 = a_.clock[0] + (a_.clock[1] + 1.0) * s.dt;
+    Options opt = s.opt;
+    opt.deadline = seconds;
+    if (s.fixed) {
+        opt.dt = s.substep;
+        opt.nsteps = std::max<int64_t>(1, static_cast<int64_t>(std::ceil(s.dt / s.substep * (1 - 1e-12))));
+    } else {
+        opt.h0 = *a_.h;
+    }
+    Stats st;
+    std::vector<Switch> sw;
+    int phase = static_cast<int>(*a_.phase);
+    *a_.count = 0;
+    Status status = run_method(s.method.c_str(), *p_, z_.data(), n_, t0, t1, &t1, 1, opt, st, sw, phase);
+    a_.counters[0] += st.steps, a_.counters[1] += st.rejected, a_.counters[2] += st.rhs_evals;
+    a_.counters[3] += st.jacobian_evals;
+    if (status == OK && *a_.count == 1) {
+        *a_.h = st.h, *a_.phase = phase, a_.clock[1] += 1.0;
+        *a_.error = s.fixed ? std::nan("") : st.local_error;
+        return OK;
+    }
+    if (status == OK) status = NONFINITE;  // (a run that ends OK has written its sample)
+    std::copy(base0_.begin(), base0_.end(), p_->base());
+    z_ = z0_;
+    p_->restart();
+    if (status != DEADLINE) *a_.status = status;
+    return status;
+}
+
+StepOutcome step_all(const Model& model, std::vector<Environment>& envs, const StepSettings& s, const double* TAU,
+                     int nthreads, double seconds) {
+    using clock = std::chrono::steady_clock;
+    const auto start = clock::now();
+    const long N = static_cast<long>(envs.size());
+    std::atomic<long> failed{0}, skipped{0}, expired{0};
+    auto kernel = [&](long i, Data&) {
+        Environment& env = envs[i];
+        if (!env.ready()) {
+            skipped.fetch_add(1, std::memory_order_relaxed);
+            return -1;
+        }
+        const double left = seconds - std::chrono::duration<double>(clock::now() - start).count();
+        const Status status = env.step(s, TAU + i * model.nv, left);
+        if (status == DEADLINE) {
+            expired.fetch_add(1, std::memory_order_relaxed);
+        } else if (status != OK) {
+            failed.fetch_add(1, std::memory_order_relaxed);
+        }
+        return -1;  // a failed environment does not stop the others
+    };
+    // a period weighs many states' dynamics: two environments are worth a thread, and small chunks balance them
+    const long chunk = std::max(1L, std::min(CHUNK, N / (4L * std::max(1, nthreads))));
+    const BatchStatus b = run_batch(model, N, nthreads, seconds, kernel, 2, chunk);
+    return StepOutcome{failed.load(), skipped.load(), b.expired || expired.load() > 0};
+}
+
+}  // namespace core::sim
