@@ -22,6 +22,7 @@ void Environment::load() {
     std::fill(z_.begin(), z_.end(), 0.0);
     std::copy(a_.v, a_.v + nv_, z_.begin() + nv_);
     *a_.status = OK;
+    steppers_.clear();
     p_->restart();
 }
 
@@ -43,19 +44,20 @@ Status Environment::step(const StepSettings& s, const double* tau, double second
     }
     Stats st;
     std::vector<Switch> sw;
-    int phase = static_cast<int>(*a_.phase);
+    if (steppers_.phase != *a_.phase) steppers_.clear(), steppers_.phase = static_cast<int>(*a_.phase);
     *a_.count = 0;
-    Status status = run_method(s.method.c_str(), *p_, z_.data(), n_, t0, t1, &t1, 1, opt, st, sw, phase);
+    Status status = run_method(s.method.c_str(), *p_, z_.data(), n_, t0, t1, &t1, 1, opt, st, sw, steppers_);
     a_.counters[0] += st.steps, a_.counters[1] += st.rejected, a_.counters[2] += st.rhs_evals;
     a_.counters[3] += st.jacobian_evals;
     if (status == OK && *a_.count == 1) {
-        *a_.h = st.h, *a_.phase = phase, a_.clock[1] += 1.0;
+        *a_.h = st.h, *a_.phase = steppers_.phase, a_.clock[1] += 1.0;
         *a_.error = s.fixed ? std::nan("") : st.local_error;
         return OK;
     }
     if (status == OK) status = NONFINITE;  // (a run that ends OK has written its sample)
     std::copy(base0_.begin(), base0_.end(), p_->base());
     z_ = z0_;
+    steppers_.clear();
     p_->restart();
     if (status != DEADLINE) *a_.status = status;
     return status;

@@ -63,6 +63,7 @@ private:
     EnvArrays a_;
     int nq_, nv_, n_;
     std::vector<double> z_, z0_, base0_, held_;
+    Steppers steppers_;  // the method's, kept from one period to the next (radau's Jacobian and LU)
 };
 
 // The outcome of stepping a batch.

@@ -19,6 +19,7 @@
 #pragma once
 
 #include <cstdint>
+#include <memory>
 #include <vector>
 
 namespace core::sim {
@@ -113,9 +114,16 @@ Status solve_adaptive(Problem& p, AdaptiveStepper& m, double* z, int n, double t
 // two phases.  The switch log is appended to sw.
 Status run_method(const char* method, Problem& p, double* z, int n, double t0, double t_end, const double* out_t,
                   int64_t T, Options opt, Stats& st, std::vector<Switch>& sw);
-// The same, auto starting in `phase` (0: non-stiff, rk45; 1: stiff, radau) and leaving there the phase it ended in:
-// a simulator stepped period by period (simulator.hpp) goes on in the phase its last period reached.
+// The steppers of a run, kept for the next run of the same problem (a simulator's periods, simulator.hpp): radau
+// keeps its Jacobian, its LU and its controller's memory from one period to the next, auto its phase (0: non-stiff,
+// rk45; 1: stiff, radau).  A run given an empty one makes its own, as a single run does.
+struct Steppers {
+    std::unique_ptr<FixedStepper> fixed;
+    std::unique_ptr<AdaptiveStepper> adaptive;
+    int phase = 0;
+    void clear() { fixed.reset(), adaptive.reset(), phase = 0; }
+};
 Status run_method(const char* method, Problem& p, double* z, int n, double t0, double t_end, const double* out_t,
-                  int64_t T, Options opt, Stats& st, std::vector<Switch>& sw, int& phase);
+                  int64_t T, Options opt, Stats& st, std::vector<Switch>& sw, Steppers& keep);
 
 }  // namespace core::sim

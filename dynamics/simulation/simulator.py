@@ -178,7 +178,9 @@ class Simulator:
         """A copy of the full state: (N, 1 + nq + nv + 4) rows, or one row for a single simulation, each
         [t, q, v, h, phase, t_origin, periods]: the adaptive step carried to the next period, auto's phase, and the
         time the periods are counted from with their number (period k ends at t_origin + k dt).  What
-        :meth:`set_state` takes to branch or roll back (MPC): stepping on from it gives the same bits."""
+        :meth:`set_state` takes to branch or roll back (MPC): the same state and torques give the same bits every
+        time; a fixed-step method gives the bits of the first continuation too, an adaptive one agrees with it
+        within its tolerance (it starts its step controller and radau's Newton matrix afresh)."""
         a, nq, nv = self._arrays, self.model.nq, self.model.nv
         x = np.empty((self.n, 1 + nq + nv + STATE_EXTRA))
         x[:, 0], x[:, 1:1 + nq], x[:, 1 + nq:1 + nq + nv] = a["t"], a["q"], a["v"]
