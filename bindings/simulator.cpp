@@ -107,14 +107,14 @@ struct SimulatorHolder {
 // The arrays' rows as one environment's EnvArrays.
 struct Arrays {
     Out<double, 1> t, h, error;
-    Out<double, 2> q, v, w, e, drift, clock;
+    Out<double, 2> q, v, w, drift, clock;
     Out<int64_t, 1> phase, status, count;
     Out<int64_t, 2> counters;
     sim::EnvArrays row(long i) {
         sim::EnvArrays a;
         a.t = t.data() + i, a.q = q.data() + i * q.shape(1), a.v = v.data() + i * v.shape(1);
         a.h = h.data() + i, a.phase = phase.data() + i, a.status = status.data() + i, a.error = error.data() + i;
-        a.w = w.data() + i * w.shape(1), a.e = e.data() + 2 * i, a.count = count.data() + i;
+        a.w = w.data() + i * w.shape(1), a.count = count.data() + i;
         a.counters = counters.data() + 4 * i, a.clock = clock.data() + 2 * i;
         return a;
     }
@@ -125,7 +125,7 @@ Arrays arrays_of(const nb::dict& d, long N, const Model& model, long nquad, bool
     a.t = held_array<double, 1>(d["t"], "t", N, -1), a.h = held_array<double, 1>(d["h"], "h", N, -1);
     a.error = held_array<double, 1>(d["error"], "error", N, -1);
     a.q = held_array<double, 2>(d["q"], "q", N, model.nq), a.v = held_array<double, 2>(d["v"], "v", N, model.nv);
-    a.w = held_array<double, 2>(d["w"], "w", N, nquad), a.e = held_array<double, 2>(d["e"], "e", N, 2);
+    a.w = held_array<double, 2>(d["w"], "w", N, nquad);
     a.drift = held_array<double, 2>(d["drift"], "drift", constrained ? N : 0, 3);
     a.clock = held_array<double, 2>(d["clock"], "clock", N, 2);
     a.phase = held_array<int64_t, 1>(d["phase"], "phase", N, -1);
@@ -197,13 +197,18 @@ std::unique_ptr<Parts> make_parts(nb::handle model_, const control::Passive& pas
         require(std::isfinite(alpha) && std::isfinite(beta), "constrained: finite Baumgarte gains");
     }
     P->tau = held_array<double, 2>(arrays["tau"], "tau", N, model.nv);
-    P->keep = nb::make_tuple(model_, contacts, constrained, arrays);
+    // the objects themselves, not the dict and list they came in (a later assignment there must not free them)
+    nb::list held;
+    for (const char* k : {"t", "q", "v", "h", "phase", "status", "error", "w", "count", "counters", "drift", "clock", "tau"})
+        held.append(arrays[k]);
+    P->keep = nb::make_tuple(model_, contacts.is_none() ? nb::object(nb::none()) : nb::object(nb::tuple(contacts)),
+                             constrained, nb::tuple(held));
     P->envs.reserve(N);
     for (long i = 0; i < N; ++i) {
         sim::EnvArrays e = a.row(i);
         sim::Outputs out;
         out.t = e.t, out.T = 1, out.q = e.q, out.v = e.v, out.keep_q = true, out.keep_v = true;
-        out.w = e.w, out.e = e.e, out.count = e.count;
+        out.w = e.w, out.count = e.count;  // (no energies: dynamics.Simulator.energy computes them when read)
         std::unique_ptr<sim::RobotProblem> p;
         if (con)
             p = std::make_unique<sim::ConstrainedProblem>(model, *con, P->passive, P->source, e.q, out, alpha, beta,
@@ -228,9 +233,13 @@ void expose_simulator(nb::module_& m) {
         }, "model"_a, "passive"_a, "source"_a, "callback"_a.none(), "check"_a.none(), "contacts"_a.none(),
            "constrained"_a.none(), "settings"_a, "arrays"_a)
         // One period for every environment that is ready, under the held torques in the "tau" array (N, nv);
-        // returns (failed now, skipped, expired).  Raises a Python torque's exception after the batch.
+        // returns (failed now, skipped, expired, the first non-finite torque's flat index or -1: then nothing was
+        // stepped).  Raises a Python torque's exception after the batch.
         .def("step", [](SimulatorHolder& h, int nthreads, double seconds) {
             Parts& P = *h.parts;
+            const long ntau = static_cast<long>(P.tau.size());
+            for (long k = 0; k < ntau; ++k)
+                if (!std::isfinite(P.tau.data()[k])) return nb::make_tuple(0L, 0L, false, k);
             const int nt = P.callback ? 1 : std::max(1, nthreads);
             sim::StepOutcome o;
             {
@@ -238,7 +247,7 @@ void expose_simulator(nb::module_& m) {
                 o = sim::step_all(*P.model, P.envs, P.settings, P.tau.data(), nt, seconds);
             }
             if (P.callback) P.callback->raise_if_failed();
-            return nb::make_tuple(o.failed, o.skipped, o.expired);
+            return nb::make_tuple(o.failed, o.skipped, o.expired, -1L);
         }, "nthreads"_a, "seconds"_a)
         // Environments `which` take their state (t, q, v, h, phase) from the arrays again and are ready.
         .def("load", [](SimulatorHolder& h, Ints which) {

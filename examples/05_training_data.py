@@ -19,7 +19,6 @@ lo, hi = np.nan_to_num(model.lower, neginf=-np.pi), np.nan_to_num(model.upper, p
 Q = rng.uniform(lo, hi, (n, model.nq))
 V = rng.uniform(-2, 2, (n, model.nv))
 A = rng.uniform(-5, 5, (n, model.nv))
-dynamics.inverse_dynamics(model, Q[:100], V[:100], A[:100])  # the first call compiles (cached on disk)
 t0 = time.perf_counter()
 TAU = dynamics.inverse_dynamics(model, Q, V, A)
 took = time.perf_counter() - t0

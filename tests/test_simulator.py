@@ -314,3 +314,15 @@ def test_bad_arguments(panda):
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         sim.step(np.zeros((2, model.nv)))
+
+
+def test_a_step_past_the_deadline(panda):
+    import time
+    model, q0, pd = panda
+    sim = dynamics.Simulator(model, np.stack([q0, q0]), np.zeros(model.nv), dt=1e-3, torque=pd)
+    with dynamics.parallel.deadline(time.monotonic() - 1.0):
+        with pytest.raises(dynamics.DeadlineExceeded, match="deadline"):
+            sim.step()
+    assert list(sim.t) == [0.0, 0.0] and not sim.failed.any()  # left at the period's start, not marked
+    sim.step()
+    assert list(sim.t) == [1e-3, 1e-3]

@@ -36,11 +36,14 @@ Status solve_fixed(Problem& p, FixedStepper& m, double* z, int n, double t0, dou
         }
         status = state_status(z, n, opt.nc, opt.nvel, opt.blowup);
         if (status != OK) break;
-        p.rhs(t, z, f1);
-        st.rhs_evals += 1;
-        if (state_status(f1, n, 0, 0, opt.blowup) != OK) {
-            status = p.aborted() ? ABORTED : NONFINITE;
-            break;
+        // f at the step's end: the next step's first stage, the interpolant of samples inside the step
+        if (opt.end_slope || i < opt.nsteps - 1 || (j < T && out_t[j] < t)) {
+            p.rhs(t, z, f1);
+            st.rhs_evals += 1;
+            if (state_status(f1, n, 0, 0, opt.blowup) != OK) {
+                status = p.aborted() ? ABORTED : NONFINITE;
+                break;
+            }
         }
         for (; j < T && out_t[j] <= t; ++j) {  // samples in (ta, t]
             if (out_t[j] >= t) {

@@ -95,7 +95,7 @@ void RobotProblem::emit(int64_t j, double t, const double* z) {
     if (out_.keep_tau) source_at(t, q, v, out_.tau + j * nv_);
     if (contact_) contact_->emit(j, q, v);
     std::copy(z + 2 * nv_, z + 2 * nv_ + nquad_, out_.w + j * nquad_);
-    energies(model_, data_, q, v, passive_.gravity, true, true, out_.e[2 * j], out_.e[2 * j + 1]);
+    if (out_.e) energies(model_, data_, q, v, passive_.gravity, true, true, out_.e[2 * j], out_.e[2 * j + 1]);
     __atomic_store_n(out_.count, j + 1, __ATOMIC_RELEASE);
 }
 

@@ -28,7 +28,7 @@ struct Outputs {
     double *q = nullptr, *v = nullptr, *tau = nullptr;  // (T or 0, nq / nv / nv)
     bool keep_q = false, keep_v = false, keep_tau = false;
     double* w = nullptr;  // (T, nquad): the work of the source, the passive torques (and the contact)
-    double* e = nullptr;  // (T, 2): kinetic and potential energy (the report's energy balance)
+    double* e = nullptr;  // (T, 2): kinetic and potential energy (the report's energy balance), or null: none
     int64_t* count = nullptr;  // (1,): samples written, read by the progress bar while the run goes
 };
 

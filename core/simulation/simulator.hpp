@@ -30,7 +30,6 @@ struct EnvArrays {
     int64_t* status = nullptr;   // (1,) OK, or why the last period failed (then q, v, t are the period's start)
     double* error = nullptr;     // (1,) the period's error estimate: the embedded local errors summed (NaN: none)
     double* w = nullptr;         // (nquad,) the work of the source, the passive torques (and contact) over the period
-    double* e = nullptr;         // (2,) kinetic and potential energy at t
     int64_t* count = nullptr;    // (1,) the problem's sample counter
     int64_t* counters = nullptr;  // (4,) steps, rejected steps, right-hand sides, Jacobians: totals since made
     // (2,) the time the state was loaded at and the periods since, as doubles: period k ends at origin + k dt, as a

@@ -44,6 +44,10 @@ struct Options {
     double blowup = 1e6;  // a velocity above this stops the run
     bool probe = false;   // fixed-step methods: first estimate the spectral radius of df/dz at t0 (Stats::rho0)
     double deadline = 1e300;  // seconds of wall time from the start of the run; past it the run stops (DEADLINE)
+    // fixed-step methods: f at the end of the last step, for a caller that goes on from there with another
+    // right-hand side (false: a simulator's period, whose next period starts under another held torque and
+    // evaluates f afresh; a NaN in it is then found at that next start)
+    bool end_slope = true;
 };
 
 // The solver's statistics: one record, laid out as dynamics.simulation.solvers.STATS (the same field order and

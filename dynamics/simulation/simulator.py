@@ -100,7 +100,7 @@ class Simulator:
                                      native._torque_check(model.nv) if fn is not None else None,
                                      None if self._contacts is None else [c.core for c in self._contacts],
                                      constrained, settings, a)
-        self._views = {k: _read_only(a[k]) for k in ("t", "q", "v", "error", "e", "w")}
+        self._views = {k: _read_only(a[k]) for k in ("t", "q", "v", "error", "w")}
         self._wall = 0.0
         for message in warnings:
             warn(message, SimulationWarning, stacklevel=2)
@@ -121,9 +121,11 @@ class Simulator:
         before = a["status"].copy() if self.batched else None
         tic = time.perf_counter()
         try:
-            failed, skipped, expired = self._core.step(num_threads(), seconds_left())
+            failed, skipped, expired, bad = self._core.step(num_threads(), seconds_left())
         finally:
             self._wall += time.perf_counter() - tic
+        if bad >= 0:
+            self._refuse_torque(*divmod(bad, self.model.nv))
         if expired:
             done = int(np.count_nonzero(a["count"]))
             raise DeadlineExceeded("Simulator.step ran past its deadline; environments not stepped are left at their "
@@ -139,21 +141,21 @@ class Simulator:
         else:
             want = f"({nv},)" + (f" or ({self.n}, {nv})" if self.batched else "")
             raise InputError(f"tau: expected shape {want}, got {np.shape(tau)}")
-        if not np.isfinite(a["tau"]).all():
-            i, j = np.argwhere(~np.isfinite(a["tau"]))[0]
-            where = f"environment {i}, " if self.batched else ""
-            raise InputError(f"tau: {where}velocity coordinate {j} (joint {_joint_of(self.model, j)!r}) is "
-                             f"{a['tau'][i, j]}; expected finite torques")
+
+    def _refuse_torque(self, i, j):
+        """A non-finite held torque (the core found it before stepping anything)."""
+        where = f"environment {i}, " if self.batched else ""
+        raise InputError(f"tau: {where}velocity coordinate {j} (joint {_joint_of(self.model, j)!r}) is "
+                         f"{self._arrays['tau'][i, j]}; expected finite torques")
 
     def _warn_failed(self, which):
+        """One warning per step: the environments that failed in it (the first five named)."""
         a = self._arrays
-        for i in which[:5]:
-            warn(f"{'environment ' + str(i) + ': ' if self.batched else ''}the period from t={a['t'][i]:.6g} s "
-                 f"failed, {self._reason(i)}; the state is the period's start; reset() or set_state() to go on",
-                 SimulationWarning, stacklevel=3)
-        if len(which) > 5:
-            warn(f"{len(which) - 5} more environments failed in this step (see .failed)", SimulationWarning,
-                 stacklevel=3)
+        said = [f"{'environment ' + str(i) + ': ' if self.batched else ''}the period from t={a['t'][i]:.6g} s "
+                f"failed, {self._reason(i)}" for i in which[:5]]
+        more = f" ({len(which) - 5} more environments failed in this step: see .failed)" if len(which) > 5 else ""
+        warn("; ".join(said) + more + "; left at the period's start: reset() or set_state() to go on",
+             SimulationWarning, stacklevel=3)
 
     def _reason(self, i):
         name = STATUS_NAMES[int(self._arrays["status"][i])] if self._arrays["status"][i] < 6 else "aborted"
@@ -242,8 +244,11 @@ class Simulator:
 
     @property
     def energy(self):
-        """(kinetic, potential) energy at t (J), (2,) or (N, 2); NaN before the first step."""
-        e = self._views["e"]
+        """(kinetic, potential) energy at the present state (J), (2,) or (N, 2): computed when read."""
+        from ..energy import kinetic_energy, potential_energy
+        a = self._arrays
+        e = np.stack([np.atleast_1d(kinetic_energy(self.model, a["q"], a["v"])),
+                      np.atleast_1d(potential_energy(self.model, a["q"], gravity=self._settings.gravity))], axis=1)
         return e if self.batched else e[0]
 
     @property
@@ -354,7 +359,7 @@ def _new_arrays(model, N, contact, constrained):
     nq, nv = model.nq, model.nv
     return {"t": np.zeros(N), "q": np.zeros((N, nq)), "v": np.zeros((N, nv)), "h": np.zeros(N),
             "phase": np.zeros(N, np.int64), "status": np.zeros(N, np.int64), "error": np.full(N, np.nan),
-            "w": np.zeros((N, 3 if contact else 2)), "e": np.full((N, 2), np.nan), "count": np.zeros(N, np.int64),
+            "w": np.zeros((N, 3 if contact else 2)), "count": np.zeros(N, np.int64),
             "counters": np.zeros((N, 4), np.int64), "clock": np.zeros((N, 2)), "drift": np.zeros((N if constrained else 0, 3)),
             "tau": np.zeros((N, nv))}
 
