@@ -182,6 +182,8 @@ std::unique_ptr<Parts> make_parts(nb::handle model_, const control::Passive& pas
         nb::list l = nb::cast<nb::list>(contacts);
         require(static_cast<long>(nb::len(l)) == N, "contacts: one contact model per environment");
         for (long i = 0; i < N; ++i) cms[i] = &contact_of(l[i], model);
+        // auto needs touchdown(); nothing here reads the report's tracking
+        for (long i = 0; i < N; ++i) cms[i]->set_lean(P->settings.method != "auto");
         for (long i = 0; i < N; ++i)
             for (long j = 0; j < i; ++j) require(cms[i] != cms[j], "contacts: one contact model per environment");
     }

@@ -58,6 +58,12 @@ void ContactModel::track(double t, const double* base, const double*, const doub
         tr[2] = t;
         return;
     }
+    if (lean_ && ++unmeasured_ < LEAN_MEASURE) {  // the right-hand sides look for contacts themselves
+        clear_.forget();
+        tr[2] = t;
+        return;
+    }
+    unmeasured_ = 0;
     const int64_t n = found(base);
     clear_.set_reference(a_.scene, oMi_.data());
     for (int64_t k = 0; k < n; ++k) tr[0] = std::max(tr[0], buf_.depth[k]);

@@ -55,6 +55,11 @@ public:
     bool touchdown() override;
     bool touched() override;
     bool jacobian(const Model& model, const double* q, const double* v, double* dq, double* dv) override;
+    // Lean tracking, for a simulator's periods that need neither touchdown() nor the report's largest penetration
+    // and time in contact: an accepted state that may touch something is measured (a forward pass and the narrow
+    // phase, a third of a Go1 Euler step) only every LEAN_MEASURE steps, to find the clearance again once apart.
+    void set_lean(bool lean) { lean_ = lean; }
+    static constexpr int LEAN_MEASURE = 8;
 
 private:
     int64_t found(const double* q);  // the poses (data_.X, oMi_) and the narrow phase; the number of contacts
@@ -73,6 +78,8 @@ private:
     // [0] an evaluation found a contact since touched() last looked (the Jacobian's); [1] the last accepted state
     // touches; [2] touchdown() reported the present episode of contact (auto's)
     bool found_since_ = false, touching_ = false, reported_ = false;
+    bool lean_ = false;
+    int unmeasured_ = 0;  // accepted states not measured since the last that was (lean tracking)
 };
 
 }  // namespace core::contact
