@@ -7,6 +7,7 @@
 #include <nanobind/stl/string.h>
 
 #include <memory>
+#include <mutex>
 #include <string>
 #include <vector>
 
@@ -98,6 +99,7 @@ struct Parts {
     sim::StepSettings settings;
     std::vector<sim::Environment> envs;
     Out<double, 2> tau;  // (N, nv): zeros, the held torque of a step given none
+    std::mutex busy;     // one step or load at a time (dynamics.Simulator takes turns before it gets here)
 };
 
 struct SimulatorHolder {
@@ -239,6 +241,8 @@ void expose_simulator(nb::module_& m) {
         // stepped).  Raises a Python torque's exception after the batch.
         .def("step", [](SimulatorHolder& h, int nthreads, double seconds) {
             Parts& P = *h.parts;
+            std::unique_lock<std::mutex> lock(P.busy, std::try_to_lock);
+            if (!lock) throw std::runtime_error("Simulator: stepped from two threads at once");
             const long ntau = static_cast<long>(P.tau.size());
             for (long k = 0; k < ntau; ++k)
                 if (!std::isfinite(P.tau.data()[k])) return nb::make_tuple(0L, 0L, false, k);
@@ -254,6 +258,8 @@ void expose_simulator(nb::module_& m) {
         // Environments `which` take their state (t, q, v, h, phase) from the arrays again and are ready.
         .def("load", [](SimulatorHolder& h, Ints which) {
             Parts& P = *h.parts;
+            std::unique_lock<std::mutex> lock(P.busy, std::try_to_lock);
+            if (!lock) throw std::runtime_error("Simulator: loaded while it steps in another thread");
             const long N = static_cast<long>(P.envs.size());
             for (size_t k = 0; k < which.shape(0); ++k) require(which(k) >= 0 && which(k) < N, "which: out of range");
             for (size_t k = 0; k < which.shape(0); ++k) P.envs[which(k)].load();

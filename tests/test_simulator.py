@@ -326,3 +326,19 @@ def test_a_step_past_the_deadline(panda):
     assert list(sim.t) == [0.0, 0.0] and not sim.failed.any()  # left at the period's start, not marked
     sim.step()
     assert list(sim.t) == [1e-3, 1e-3]
+
+
+def test_too_many_environments_for_the_memory_are_refused(panda, monkeypatch):
+    model, q0, pd = panda
+    monkeypatch.setattr(dynamics.simulation.simulator, "_available_memory", lambda: 2**20)  # 1 MiB available
+    with pytest.raises(dynamics.InputError, match=r"100 environments would take about .* GiB .* available"):
+        dynamics.Simulator(model, np.tile(q0, (100, 1)), np.zeros(model.nv), dt=1e-3, torque=pd, integrator="radau")
+
+
+def test_threads_take_turns_on_one_simulator(panda):
+    from concurrent.futures import ThreadPoolExecutor
+    model, q0, pd = panda
+    sim = dynamics.Simulator(model, np.tile(q0, (4, 1)), np.zeros(model.nv), dt=1e-3, torque=pd)
+    with ThreadPoolExecutor(4) as ex:
+        list(ex.map(lambda _: sim.step(), range(40)))
+    np.testing.assert_allclose(sim.t, 0.04, rtol=0, atol=1e-12)  # every step counted once, none lost or torn

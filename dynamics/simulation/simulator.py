@@ -20,6 +20,7 @@ error until ``reset`` or ``set_state``.
 """
 
 import math
+import threading
 import time
 from warnings import warn
 
@@ -88,20 +89,32 @@ class Simulator:
         a["q"][:], a["v"][:] = self._q0, self._v0
         self._contacts = None
         self._blowup = _blowup(self._v0)
+        from ..contact.resolve import core_contact
         if s.contact is not None:
-            from ..contact.resolve import core_contact
             self._contacts = [core_contact(s.contact, model) for _ in range(self.n)]
         constrained = None
         if s.constrained:
             constrained = (core_constraints(model), float(s.baumgarte[0]), float(s.baumgarte[1]), bool(s.project))
         settings = {"method": integrator, "dt": dt, "substep": substep, "rtol": s.rtol, "atol": s.atol,
                     "max_steps": int(max_steps), "blowup": self._blowup}
-        self._core = _core.Simulator(model.core, native.core_passive(model, ps), core_src, fn,
-                                     native._torque_check(model.nv) if fn is not None else None,
-                                     None if self._contacts is None else [c.core for c in self._contacts],
-                                     constrained, settings, a)
+        passive = native.core_passive(model, ps)
+        check = native._torque_check(model.nv) if fn is not None else None
+
+        def make(contacts, arrays):
+            return _core.Simulator(model.core, passive, core_src, fn, check,
+                                   None if contacts is None else [c.core for c in contacts], constrained, settings,
+                                   arrays)
+        def probe():  # one environment, stepped once (the steppers and the Jacobian's workspace are made lazily)
+            one = _new_arrays(model, 1, contact is not None, s.constrained)
+            one["q"][:], one["v"][:] = self._q0[:1], self._v0[:1]
+            sim = make(None if self._contacts is None else [core_contact(s.contact, model)], one)
+            sim.step(1, math.inf)
+            return sim
+        _refuse_unaffordable(self.n, probe)
+        self._core = make(self._contacts, a)
         self._views = {k: _read_only(a[k]) for k in ("t", "q", "v", "error", "w")}
         self._wall = 0.0
+        self._lock = threading.Lock()  # one step, reset or set_state at a time (the core's state is one)
         for message in warnings:
             warn(message, SimulationWarning, stacklevel=2)
 
@@ -109,7 +122,12 @@ class Simulator:
     # the loop
     def step(self, tau=None):
         """Advance every environment one period ``dt`` under ``tau`` held constant over it, added to the torque
-        source's: None (zero), (nv,) (every environment) or (N, nv)."""
+        source's: None (zero), (nv,) (every environment) or (N, nv).  Threads calling it on one simulator take
+        turns."""
+        with self._lock:
+            self._step(tau)
+
+    def _step(self, tau):
         a = self._arrays
         if tau is None:
             a["tau"].fill(0.0)
@@ -208,10 +226,11 @@ class Simulator:
 
     def _load(self, idx, t, Q, V, h, phase, clock):
         a = self._arrays
-        a["t"][idx], a["q"][idx], a["v"][idx], a["h"][idx], a["phase"][idx] = t, Q, V, h, phase
-        a["clock"][idx] = clock
-        a["error"][idx] = np.nan
-        self._core.load(np.ascontiguousarray(idx, np.int64))
+        with self._lock:
+            a["t"][idx], a["q"][idx], a["v"][idx], a["h"][idx], a["phase"][idx] = t, Q, V, h, phase
+            a["clock"][idx] = clock
+            a["error"][idx] = np.nan
+            self._core.load(np.ascontiguousarray(idx, np.int64))
 
     # ---------------------------------------------------------------------------------------------------------
     # what the loop reads
@@ -352,6 +371,50 @@ def _initial_states(model, q0, v0):
     if V.shape != (nv,):
         raise InputError(f"v0: expected shape ({nv},), got {V.shape}")
     return Q[None], V[None], False
+
+
+def _refuse_unaffordable(n, make_one):
+    """Refuse n environments whose workspaces would not fit in the memory available (rather than let the kernel kill
+    the process): one environment is made, stepped once, and its allocations counted (glibc's mallinfo2; elsewhere
+    no check)."""
+    used = _malloc_bytes()
+    if used is None or n < 64:
+        return
+    one = make_one()
+    each = max(_malloc_bytes() - used, 1)
+    del one
+    available = _available_memory()
+    if available is not None and n * each > 0.8 * available:
+        raise InputError(f"q0: {n} environments would take about {n * each / 2**30:.3g} GiB "
+                         f"({each / 2**10:.0f} KiB each: the integrator's and contact's workspaces), more than the "
+                         f"{available / 2**30:.3g} GiB this machine has available; step fewer at once")
+
+
+def _malloc_bytes():
+    try:
+        import ctypes
+
+        class MallInfo2(ctypes.Structure):
+            _fields_ = [(name, ctypes.c_size_t) for name in ("arena", "ordblks", "smblks", "hblks", "hblkhd",
+                                                              "usmblks", "fsmblks", "uordblks", "fordblks",
+                                                              "keepcost")]
+        libc = ctypes.CDLL(None)
+        libc.mallinfo2.restype = MallInfo2
+        info = libc.mallinfo2()
+        return int(info.uordblks) + int(info.hblkhd)
+    except (OSError, AttributeError):
+        return None
+
+
+def _available_memory():
+    try:
+        with open("/proc/meminfo") as f:
+            for line in f:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except OSError:
+        pass
+    return None
 
 
 def _new_arrays(model, N, contact, constrained):
