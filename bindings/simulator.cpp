@@ -6,6 +6,7 @@
 // with it taken (the environments are then stepped one after another).
 #include <nanobind/stl/string.h>
 
+#include <algorithm>
 #include <memory>
 #include <mutex>
 #include <string>
@@ -100,6 +101,7 @@ struct Parts {
     std::vector<sim::Environment> envs;
     Out<double, 2> tau;  // (N, nv): zeros, the held torque of a step given none
     std::mutex busy;     // one step or load at a time (dynamics.Simulator takes turns before it gets here)
+    std::vector<double> shadow_drift;  // (N, 3): a constrained shadow's drift, read by nobody
 };
 
 struct SimulatorHolder {
@@ -151,6 +153,8 @@ sim::StepSettings settings_of(const nb::dict& d, const Model& model, long nquad)
             "substep: a finite step > 0, at most 1e9 per period");
     s.opt.nc = model.nv, s.opt.nvel = model.nv, s.opt.ne = 2 * model.nv;
     s.opt.rtol = nb::cast<double>(d["rtol"]), s.opt.atol = nb::cast<double>(d["atol"]);
+    s.rerun = nb::cast<bool>(d["rerun"]), s.order = nb::cast<int>(d["order"]);
+    require(s.order >= 0 && s.order <= 8, "order: the method's order, 0 to 8");
     s.opt.max_steps = nb::cast<int64_t>(d["max_steps"]), s.opt.blowup = nb::cast<double>(d["blowup"]);
     s.opt.hmax = 1e300;
     require(s.opt.rtol > 0 && s.opt.atol >= 0 && s.opt.max_steps >= 1, "rtol > 0, atol >= 0, max_steps >= 1");
@@ -179,16 +183,21 @@ std::unique_ptr<Parts> make_parts(nb::handle model_, const control::Passive& pas
         P->callback = std::make_unique<StepTorque>(callback, check, model.nq, model.nv);
         P->source.callback = P->callback.get();
     }
-    std::vector<core::contact::ContactModel*> cms(N, nullptr);
+    // one contact model per environment (and per shadow of the error estimate's rerun): N, or 2 N
+    const long nc = P->settings.rerun ? 2 * N : N;
+    std::vector<core::contact::ContactModel*> cms(nc, nullptr);
     if (!contacts.is_none()) {
         nb::list l = nb::cast<nb::list>(contacts);
-        require(static_cast<long>(nb::len(l)) == N, "contacts: one contact model per environment");
-        for (long i = 0; i < N; ++i) cms[i] = &contact_of(l[i], model);
+        require(static_cast<long>(nb::len(l)) == nc, "contacts: one contact model per environment (and shadow)");
+        for (long i = 0; i < nc; ++i) cms[i] = &contact_of(l[i], model);
         // auto needs touchdown(); nothing here reads the report's tracking
-        for (long i = 0; i < N; ++i) cms[i]->set_lean(P->settings.method != "auto");
-        for (long i = 0; i < N; ++i)
-            for (long j = 0; j < i; ++j) require(cms[i] != cms[j], "contacts: one contact model per environment");
+        for (long i = 0; i < nc; ++i) cms[i]->set_lean(P->settings.method != "auto");
+        std::vector<core::contact::ContactModel*> sorted(cms);
+        std::sort(sorted.begin(), sorted.end());
+        require(std::adjacent_find(sorted.begin(), sorted.end()) == sorted.end(),
+                "contacts: one contact model per environment (and shadow)");
     }
+    core::contact::ContactModel** shadows = cms.data() + N;
     const core::Constraints* con = nullptr;
     double alpha = 0.0, beta = 0.0;
     bool project = false;
@@ -207,19 +216,27 @@ std::unique_ptr<Parts> make_parts(nb::handle model_, const control::Passive& pas
         held.append(arrays[k]);
     P->keep = nb::make_tuple(model_, contacts.is_none() ? nb::object(nb::none()) : nb::object(nb::tuple(contacts)),
                              constrained, nb::tuple(held));
+    auto problem = [&](const sim::Outputs& out, const double* q0, double* drift, core::contact::ContactModel* c) {
+        std::unique_ptr<sim::RobotProblem> p;
+        if (con)
+            p = std::make_unique<sim::ConstrainedProblem>(model, *con, P->passive, P->source, q0, out, alpha, beta,
+                                                          project, nullptr, drift, c);
+        else
+            p = std::make_unique<sim::RobotProblem>(model, P->passive, P->source, q0, out, c);
+        return p;
+    };
+    P->shadow_drift.assign(P->settings.rerun ? 3 * N : 0, 0.0);
     P->envs.reserve(N);
     for (long i = 0; i < N; ++i) {
         sim::EnvArrays e = a.row(i);
         sim::Outputs out;
         out.t = e.t, out.T = 1, out.q = e.q, out.v = e.v, out.keep_q = true, out.keep_v = true;
         out.w = e.w, out.count = e.count;  // (no energies: dynamics.Simulator.energy computes them when read)
-        std::unique_ptr<sim::RobotProblem> p;
-        if (con)
-            p = std::make_unique<sim::ConstrainedProblem>(model, *con, P->passive, P->source, e.q, out, alpha, beta,
-                                                          project, nullptr, a.drift.data() + 3 * i, cms[i]);
-        else
-            p = std::make_unique<sim::RobotProblem>(model, P->passive, P->source, e.q, out, cms[i]);
-        P->envs.emplace_back(std::move(p), e);
+        P->envs.emplace_back(problem(out, e.q, con ? a.drift.data() + 3 * i : nullptr, cms[i]), e);
+        if (P->settings.rerun) {
+            sim::Environment& env = P->envs.back();
+            env.set_shadow(problem(env.shadow_outputs(), e.q, con ? &P->shadow_drift[3 * i] : nullptr, shadows[i]));
+        }
     }
     return P;
 }

@@ -16,7 +16,7 @@ from robots import chain_urdf
 
 MODEL = dynamics.load_urdf(chain_urdf(3))
 SETTINGS = {"method": "rk4", "dt": 1e-3, "substep": 1e-3, "rtol": 1e-6, "atol": 1e-8, "max_steps": 100,
-            "blowup": 1e6}
+            "blowup": 1e6, "rerun": False, "order": 4}
 
 
 def parts(model=MODEL):
@@ -64,6 +64,7 @@ def test_read_only_arrays_are_refused():
 @pytest.mark.parametrize("change, match", [
     (dict(method="rk5"), "method"), (dict(dt=0.0), "dt"), (dict(dt=np.inf), "dt"), (dict(substep=0.0), "substep"),
     (dict(substep=1e-15), "substep"), (dict(rtol=0.0), "rtol"), (dict(max_steps=0), "max_steps"),
+    (dict(order=9), "order"), (dict(order=-1), "order"),
 ])
 def test_wrong_settings(change, match):
     with pytest.raises(ValueError, match=match):
@@ -79,6 +80,15 @@ def test_one_contact_model_per_environment():
         make(_new_arrays(model, 2, True, False), contacts=[one, one])
     with pytest.raises(ValueError, match="one contact model per environment"):
         make(_new_arrays(model, 2, True, False), contacts=[one])
+    # with the error estimate's rerun: one more per environment, for its shadow
+    cms = [core_contact(r, model).core for _ in range(4)]
+    with pytest.raises(ValueError, match="and shadow"):
+        make(_new_arrays(model, 2, True, False), contacts=cms[:2], settings={**SETTINGS, "rerun": True})
+    with pytest.raises(ValueError, match="and shadow"):
+        make(_new_arrays(model, 2, True, False), contacts=cms[:3] + cms[:1], settings={**SETTINGS, "rerun": True})
+    sim, a = make(_new_arrays(model, 2, True, False), contacts=cms, settings={**SETTINGS, "rerun": True})
+    sim.step(1, float("inf"))
+    assert np.all(a["error"] >= 0)
 
 
 def test_load_and_torques():

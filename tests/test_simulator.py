@@ -247,9 +247,11 @@ def test_a_ball_comes_to_rest_on_the_ground():
       <inertia ixx="2e-4" iyy="2e-4" izz="2e-4" ixy="0" ixz="0" iyz="0"/></inertial></link></robot>""",
                               floating_base=True)
     contact = dynamics.Contact(geometries=[dynamics.Sphere("ball", R)])
-    sim = dynamics.Simulator(ball, [0, 0, 0.2, 0, 0, 0, 1], np.zeros(6), dt=1e-2, contact=contact)
+    sim = dynamics.Simulator(ball, [0, 0, 0.2, 0, 0, 0, 1], np.zeros(6), dt=1e-2, contact=contact,
+                             error_estimate="rerun")
     for _ in range(150):
         sim.step()
+        assert sim.error < 1e-3  # the rerun on its own contact model
     assert sim.q[2] == pytest.approx(R, abs=2e-3)  # resting, pressed in by its weight
     f = sim.contact_forces()
     assert f[0, 2] == pytest.approx(m * G, rel=1e-2)  # the ground carries the weight (body frame = world here)
@@ -342,3 +344,29 @@ def test_threads_take_turns_on_one_simulator(panda):
     with ThreadPoolExecutor(4) as ex:
         list(ex.map(lambda _: sim.step(), range(40)))
     np.testing.assert_allclose(sim.t, 0.04, rtol=0, atol=1e-12)  # every step counted once, none lost or torn
+
+
+@pytest.mark.parametrize("integrator, substep", [("rk4", 2e-3), ("euler", 2e-4), ("auto", None), ("radau", None)])
+def test_the_rerun_estimate_measures_each_periods_error(panda, integrator, substep):
+    model, q0, pd = panda
+    v0 = np.linspace(0.2, -0.2, model.nv)
+    sim = dynamics.Simulator(model, q0, v0, dt=2e-3, substep=substep, torque=pd, integrator=integrator,
+                             error_estimate="rerun")
+    for _ in range(3):
+        ref = dynamics.Simulator(model, sim.q.copy(), sim.v.copy(), dt=2e-3, torque=pd, integrator="dop853",
+                                 rtol=1e-13, atol=1e-14)  # the same period, converged
+        ref.step()
+        sim.step()
+        true = max(dynamics.simulation.state_error(model, sim.q, sim.v, ref.q, ref.v))
+        assert 0.5 * true <= sim.error <= 2.0 * true + 1e-12
+
+
+def test_error_estimate_arguments(panda):
+    model, q0, pd = panda
+    with pytest.raises(dynamics.InputError, match="'local' needs an adaptive integrator"):
+        dynamics.Simulator(model, q0, np.zeros(model.nv), dt=1e-3, integrator="rk4", error_estimate="local")
+    with pytest.raises(dynamics.InputError, match="error_estimate"):
+        dynamics.Simulator(model, q0, np.zeros(model.nv), dt=1e-3, error_estimate="richardson")
+    sim = dynamics.Simulator(model, q0, np.zeros(model.nv), dt=1e-3, integrator="rk4", error_estimate="none")
+    sim.step()
+    assert np.isnan(sim.error) and sim.error_estimate == "none"

@@ -6,6 +6,7 @@
 #include <chrono>
 #include <cmath>
 
+#include "configuration.hpp"
 #include "parallel.hpp"
 
 namespace core::sim {
@@ -17,13 +18,60 @@ Environment::Environment(std::unique_ptr<RobotProblem> problem, const EnvArrays&
     load();
 }
 
+Outputs Environment::shadow_outputs() {
+    zs_.resize(n_), sq_.resize(nq_), sv_.resize(nv_), sw_.resize(n_ - 2 * nv_), dq_.resize(nv_), st_.resize(1);
+    scount_.resize(1);
+    Outputs out;
+    out.t = st_.data(), out.T = 1, out.q = sq_.data(), out.v = sv_.data(), out.keep_q = true, out.keep_v = true;
+    out.w = sw_.data(), out.count = scount_.data();
+    return out;
+}
+
+void Environment::set_shadow(std::unique_ptr<RobotProblem> shadow) {
+    shadow_ = std::move(shadow);
+    shadow_->hold(held_.data());
+}
+
 void Environment::load() {
     std::copy(a_.q, a_.q + nq_, p_->base());
     std::fill(z_.begin(), z_.end(), 0.0);
     std::copy(a_.v, a_.v + nv_, z_.begin() + nv_);
     *a_.status = OK;
-    steppers_.clear();
+    steppers_.clear(), shadow_steppers_.clear(), sh_ = 0.0;
     p_->restart();
+    if (shadow_) shadow_->restart();
+}
+
+double Environment::rerun(const StepSettings& s, double t0, double t1, double seconds) {
+    std::copy(base0_.begin(), base0_.end(), shadow_->base());
+    zs_ = z0_;
+    Options opt = s.opt;
+    opt.deadline = seconds, opt.end_slope = false;
+    if (s.fixed) {
+        opt.dt = s.substep / 2;
+        opt.nsteps = std::max<int64_t>(1, static_cast<int64_t>(std::ceil(s.dt / opt.dt * (1 - 1e-12))));
+        opt.max_steps = std::max(opt.max_steps, opt.nsteps);
+    } else {
+        opt.rtol = std::max(opt.rtol / 32, 1e-14), opt.atol /= 32, opt.h0 = sh_, opt.max_steps *= 4;
+    }
+    Stats st;
+    std::vector<Switch> sw;
+    scount_[0] = 0;
+    const Status status = run_method(s.method.c_str(), *shadow_, zs_.data(), n_, t0, t1, &t1, 1, opt, st, sw,
+                                     shadow_steppers_);
+    a_.counters[0] += st.steps, a_.counters[1] += st.rejected, a_.counters[2] += st.rhs_evals;  // its cost too
+    a_.counters[3] += st.jacobian_evals;
+    if (status != OK || scount_[0] != 1) {
+        shadow_steppers_.clear(), sh_ = 0.0;
+        shadow_->restart();
+        return INFINITY;
+    }
+    sh_ = st.h;
+    difference(p_->model(), sq_.data(), a_.q, dq_.data());  // the shadow's sample and the period's: q, v at t1
+    double err = 0.0;
+    for (int k = 0; k < nv_; ++k) err = std::max({err, std::abs(dq_[k]), std::abs(a_.v[k] - sv_[k])});
+    const double richardson = s.fixed ? std::ldexp(1.0, s.order) / (std::ldexp(1.0, s.order) - 1.0) : 1.0;
+    return err * richardson;
 }
 
 // One period: the run of the method from (t, z) to t + dt with one sample at its end (the arrays' t, q, v, work,
@@ -52,7 +100,7 @@ Status Environment::step(const StepSettings& s, const double* tau, double second
     a_.counters[3] += st.jacobian_evals;
     if (status == OK && *a_.count == 1) {
         *a_.h = st.h, *a_.phase = steppers_.phase, a_.clock[1] += 1.0;
-        *a_.error = s.fixed ? std::nan("") : st.local_error;
+        *a_.error = shadow_ ? rerun(s, t0, t1, seconds) : s.fixed ? std::nan("") : st.local_error;
         return OK;
     }
     if (status == OK) status = NONFINITE;  // (a run that ends OK has written its sample)

@@ -44,11 +44,19 @@ struct StepSettings {
     double dt = 0.0;       // the control period
     double substep = 0.0;  // fixed-step methods: the step (each period: ceil(dt / substep) steps, the last one landing)
     Options opt;           // sizes, tolerances, the step budget of one period, blow-up
+    // the error estimate's rerun of every period, when the environments have a shadow: half the substep (fixed
+    // steps; the difference times 2^p / (2^p - 1), Richardson) or rtol and atol / 32 (adaptive), as simulate's
+    bool rerun = false;
+    int order = 0;         // p (fixed-step methods)
 };
 
 class Environment {
 public:
     Environment(std::unique_ptr<RobotProblem> problem, const EnvArrays& a);
+    // A second problem of the same environment (its own workspaces and contact) that reruns every period at tighter
+    // settings for the error estimate (error_estimate="rerun"): made on the outputs shadow_outputs() gives.
+    Outputs shadow_outputs();
+    void set_shadow(std::unique_ptr<RobotProblem> shadow);
     // Take q and v from the arrays (the caller moved the state; t, h, phase and clock are read at every step) and
     // clear the status.
     void load();
@@ -58,11 +66,18 @@ public:
     bool ready() const { return *a_.status == OK; }
 
 private:
-    std::unique_ptr<RobotProblem> p_;
+    // The period again on the shadow from the period's start; the error estimate from the two ends.
+    double rerun(const StepSettings& s, double t0, double t1, double seconds);
+
+    std::unique_ptr<RobotProblem> p_, shadow_;
     EnvArrays a_;
     int nq_, nv_, n_;
     std::vector<double> z_, z0_, base0_, held_;
     Steppers steppers_;  // the method's, kept from one period to the next (radau's Jacobian and LU)
+    Steppers shadow_steppers_;
+    std::vector<double> zs_, sq_, sv_, sw_, dq_, st_;  // the shadow's state, its sample (t, q, v, work), a difference
+    std::vector<int64_t> scount_;
+    double sh_ = 0.0;  // the shadow's carried step
 };
 
 // The outcome of stepping a batch.

@@ -36,7 +36,7 @@ from ..parallel import num_threads, seconds_left
 from . import native
 from .report import WHY
 from .simulate import INTEGRATORS, _blowup, _check_q, _passive, _project_initial, _settings
-from .solvers import FIXED, STATUS_NAMES
+from .solvers import FIXED, ORDER, STATUS_NAMES
 
 __all__ = ["Simulator"]
 
@@ -55,12 +55,15 @@ class Simulator:
     period (s).  torque, contact, gravity, limits, limit_stiffness, limit_damping, friction_eps, baumgarte,
     project, rtol, atol: as :func:`dynamics.simulate`.  integrator: "auto" (default), "rk45", "dop853", "radau"
     (error control inside each period, ``rtol``/``atol``) or "euler", "rk4" (fixed steps of ``substep``, default
-    ``dt``).  max_steps: the step budget of one period (adaptive methods).
+    ``dt``).  max_steps: the step budget of one period (adaptive methods).  error_estimate: what :attr:`error`
+    holds after each period: "local" (the adaptive methods' default: their embedded estimates, free), "rerun" (every
+    period integrated again at half the substep, or at rtol and atol / 32, on a copy of the environment: about two
+    to three times the cost, for any method), or "none" (the fixed-step methods' default).
     """
 
     def __init__(self, model, q0, v0, *, dt, torque=None, contact=None, integrator="auto", substep=None,
                  rtol=1e-6, atol=1e-8, max_steps=100_000, gravity=None, limits=None, limit_stiffness=1e4,
-                 limit_damping=100.0, friction_eps=1e-3, baumgarte=None, project=False):
+                 limit_damping=100.0, friction_eps=1e-3, baumgarte=None, project=False, error_estimate=None):
         dt = real_number("dt", dt, lo=0.0, lo_open=True)
         if integrator not in INTEGRATORS:
             raise InputError(f"integrator: expected one of {INTEGRATORS}, got {integrator!r}")
@@ -69,6 +72,12 @@ class Simulator:
         if fixed and dt / substep > max_steps:
             raise InputError(f"substep: {substep:g} needs {math.ceil(dt / substep)} steps per period of {dt:g} s, "
                              f"more than max_steps={max_steps}")
+        if error_estimate not in (None, "local", "rerun", "none"):
+            raise InputError(f"error_estimate: expected 'local', 'rerun' or 'none', got {error_estimate!r}")
+        if error_estimate == "local" and fixed:
+            raise InputError(f"error_estimate: 'local' needs an adaptive integrator ({integrator!r} has no embedded "
+                             "estimate); 'rerun' gives one for any method")
+        self.error_estimate = error_estimate or ("none" if fixed else "local")
         Q0, V0, self.batched = _initial_states(model, q0, v0)
         warnings = []
         s = _settings(model, Q0[0], V0[0], dt, integrator, rtol, atol, substep if fixed else None, None, gravity,
@@ -90,13 +99,15 @@ class Simulator:
         self._contacts = None
         self._blowup = _blowup(self._v0)
         from ..contact.resolve import core_contact
-        if s.contact is not None:
-            self._contacts = [core_contact(s.contact, model) for _ in range(self.n)]
+        rerun = self.error_estimate == "rerun"
+        if s.contact is not None:  # one per environment, and one per shadow of the rerun
+            self._contacts = [core_contact(s.contact, model) for _ in range(self.n * (2 if rerun else 1))]
         constrained = None
         if s.constrained:
             constrained = (core_constraints(model), float(s.baumgarte[0]), float(s.baumgarte[1]), bool(s.project))
         settings = {"method": integrator, "dt": dt, "substep": substep, "rtol": s.rtol, "atol": s.atol,
-                    "max_steps": int(max_steps), "blowup": self._blowup}
+                    "max_steps": int(max_steps), "blowup": self._blowup, "rerun": rerun,
+                    "order": ORDER.get(integrator, 0)}
         passive = native.core_passive(model, ps)
         check = native._torque_check(model.nv) if fn is not None else None
 
@@ -107,7 +118,7 @@ class Simulator:
         def probe():  # one environment, stepped once (the steppers and the Jacobian's workspace are made lazily)
             one = _new_arrays(model, 1, contact is not None, s.constrained)
             one["q"][:], one["v"][:] = self._q0[:1], self._v0[:1]
-            sim = make(None if self._contacts is None else [core_contact(s.contact, model)], one)
+            sim = make(None if s.contact is None else [core_contact(s.contact, model) for _ in range(1 + rerun)], one)
             sim.step(1, math.inf)
             return sim
         _refuse_unaffordable(self.n, probe)
@@ -256,9 +267,10 @@ class Simulator:
 
     @property
     def error(self):
-        """The last period's error estimate: the embedded local errors of its accepted steps summed (adaptive
-        methods; max-norm over the components of (q, v)), NaN for the fixed-step methods (they have none: halve
-        ``substep`` to measure theirs) and before the first step."""
+        """The last period's error estimate, max-norm over the components of (q, v) at its end: with
+        ``error_estimate="local"`` the embedded local errors of its accepted steps summed, with "rerun" the
+        difference from the same period integrated again at half the substep (times 2^p / (2^p - 1)) or at rtol /
+        32; NaN with "none" and before the first step; inf when the rerun failed."""
         return self._views["error"] if self.batched else float(self._arrays["error"][0])
 
     @property
