@@ -106,7 +106,8 @@ def concurrent(client, robot_id: str, url: str, pid: int, sessions: int, rounds:
     until_empty(url)
     time.sleep(0.5)
     start = rss_kib(pid)
-    rows = ["| round | RSS before (MiB) | with the sessions held (MiB) | after they closed (MiB) | open+step+close (s) |",
+    rows = ["| round | RSS before (MiB) | with the sessions held (MiB) | after they closed (MiB) | "
+            "open+step+close (s) |",
             "|---|---|---|---|---|"]
     for k in range(rounds):
         before = rss_kib(pid)

@@ -35,7 +35,7 @@ from pydantic import BaseModel, ConfigDict, Field
 from . import contact as contacts
 from . import errors
 from . import torque as torques
-from .codec import finite_report, to_array
+from .codec import finite_report
 from .errors import InvalidInput, Problem, TooLarge, bounded, field_of, is_library_input_error
 from .library import lib, parallel
 from .models import locked_key
@@ -129,6 +129,29 @@ class ContactForces(_Message):
     type: Literal["contact_forces"]
     env: Optional[int] = Field(None, ge=0)
     details: bool = False
+
+
+class SessionInfo(BaseModel):
+    """One connection to /v1/sessions (``GET /v1/sessions``)."""
+    session: Optional[str] = Field(description="the session's id, null while it is being created")
+    state: Literal["creating", "open"]
+    robot: Optional[str] = None
+    n: Optional[int] = Field(None, description="environments")
+    nq: Optional[int] = None
+    nv: Optional[int] = None
+    dt: Optional[float] = None
+    integrator: Optional[str] = None
+    steps: Optional[int] = Field(None, description="step messages answered")
+    bytes: Optional[int] = Field(None, description="the memory estimated for its simulator")
+    age_s: float = Field(description="seconds since the connection opened")
+    idle_s: float = Field(description="seconds since its last message")
+
+
+class SessionsAnswer(BaseModel):
+    sessions: list[SessionInfo] = Field(description="the caller's connections to /v1/sessions (every one when the "
+                                                    "server has no API keys)")
+    limit: int = Field(description="DYNAMICS_MAX_SESSIONS_PER_KEY")
+    idle_timeout: float = Field(description="DYNAMICS_SESSION_IDLE_TIMEOUT, s")
 
 
 #: the JSON messages of an open session, by type

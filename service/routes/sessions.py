@@ -3,8 +3,8 @@ has the protocol's messages and the numbers; docs/guide/stepping.md documents it
 /v1/sessions``, the caller's open sessions.
 
 The connection is counted against its key from its handshake (past the limit it is refused at once: an error
-frame, 429, and closed) to its end, whatever ends it: a close message, an idle timeout, the client gone (also while a step runs in a
-thread: the answer is dropped and the session freed), a refused create. A bad message is answered by an error
+frame, 429, and closed) to its end, whatever ends it: a close message, an idle timeout, the client gone (also
+while a step runs in a thread: the answer is dropped and the session freed), a refused create. A bad message is answered by an error
 frame and the session goes on; only a refused create, an idle timeout and a bug (500) end it, each after its
 error frame, with the close code 4000 + the error's HTTP status.
 """
@@ -26,15 +26,16 @@ from ..auth import caller
 from ..codec import JSON, jsonable
 from ..compute import Budget
 from ..errors import Failed, InvalidInput, Problem
-from ..sessions import (IdleTimeout, Session, Sessions, TooManySessions, as_problem, control_message, create, deny,
-                        error_frame)
+from ..sessions import (IdleTimeout, Session, Sessions, SessionsAnswer, TooManySessions, as_problem,
+                        control_message, create, deny, error_frame)
 
 log = logging.getLogger("service")
 router = APIRouter(prefix="/v1")
 PATH = "/sessions"
 
 
-@router.get(PATH, summary="the caller's open sessions (WebSocket /v1/sessions: a simulator stepped by the client)")
+@router.get(PATH, response_model=SessionsAnswer,
+            summary="the caller's open sessions (WebSocket /v1/sessions: a simulator stepped by the client)")
 async def list_sessions(request: Request) -> Response:
     sessions: Sessions = request.app.state.sessions
     return Response(orjson.dumps(sessions.listing(caller(request))), media_type=JSON)
