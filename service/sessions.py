@@ -50,9 +50,6 @@ log = logging.getLogger("service")
 INLINE_SECONDS = 0.5e-3
 #: control messages of sessions of more environments than this run in a compute thread (reset checks every row)
 INLINE_ENVIRONMENTS = 64
-#: the columns of a state row after t, q, v (dynamics.simulation.simulator.STATE_EXTRA: h, phase, t_origin,
-#: periods), so that a client can size Simulator.state() without the library
-STATE_EXTRA = 4
 
 
 class TooManySessions(Problem):
@@ -218,6 +215,8 @@ class Session:
         self.fixed = sim.integrator in ("euler", "rk4")
         self.last_step = math.inf  # seconds of the last step: the first runs in a thread
         self.steps = 0
+        # the width of a row of Simulator.state() ([t, q, v, h, phase, t_origin, periods]), the library's own
+        self.state_size = int(np.shape(sim.state())[-1])
         n, nq, nv = self.n, self.nq, self.nv
         # the answer of a step, written in place: [t (n), q (n, nq), v (n, nv), failed (n)], float64 little-endian
         self._answer = np.zeros(n * (2 + nq + nv), dtype="<f8")
@@ -234,7 +233,7 @@ class Session:
                 "scene": self.scene, "idle_timeout": idle_timeout, "bytes": self.bytes,
                 "layout": {"dtype": "<f8", "step": [["tau", [n, nv]]],
                            "answer": [["t", [n]], ["q", [n, nq]], ["v", [n, nv]], ["failed", [n]]],
-                           "state": [["x", [n, 1 + nq + nv + STATE_EXTRA]]]}}
+                           "state": [["x", [n, self.state_size]]]}}
 
     def inline(self) -> bool:
         """Whether the next step may run on the event loop: a fixed-step method whose last step was short."""
