@@ -394,3 +394,16 @@ def test_many_sessions_at_once(server, client):
             here.step([0.1 * k, 0.0])
         assert np.array_equal(results[k], here.q)
     eventually_empty(server)
+
+
+def test_a_session_of_a_reduced_model(server, client):
+    model = dynamics.lock_joints(dynamics.load_urdf(str(ROBOTS / "planar_2r.urdf")), {"joint2": 0.3})
+    here = dynamics.Simulator(model, [0.2], [0.0], dt=0.01, integrator="rk4")
+    with client.robot("planar_2r").simulator([0.2], [0.0], dt=0.01, integrator="rk4", locked={"joint2": 0.3}) as sim:
+        assert (sim.nq, sim.nv, sim.joint_names) == (1, 1, ("joint1",))
+        assert sim.info["scene"]["locked"] == {"joint2": 0.3}
+        for _ in range(10):
+            sim.step([0.5])
+            here.step([0.5])
+        assert np.array_equal(sim.q, here.q) and np.array_equal(sim.v, here.v)
+    eventually_empty(server)
