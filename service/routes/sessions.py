@@ -72,7 +72,10 @@ async def session(ws: WebSocket) -> None:
         freed = registry.release(ticket)
         if freed and (len(registry) == 0 or freed >= memory.RELEASE_BYTES):
             # the simulator's arrays back to the system (the RSS to its baseline), once the last session is gone
-            await asyncio.shield(d.compute.run(memory.release))
+            try:
+                await asyncio.shield(d.compute.run(memory.release))
+            except RuntimeError:  # (the server is shutting down: its threads are gone)
+                pass
 
 
 async def _serve(ws: WebSocket, ticket, d, idle: float) -> None:
@@ -90,8 +93,7 @@ async def _serve(ws: WebSocket, ticket, d, idle: float) -> None:
                 control = control_message(_json(message))
                 if control.type == "close":
                     await _send(ws, b'{"type":"closed"}', text=True)
-                    await ws.close(1000)
-                    raise _Closed
+                    await _close(ws, 1000)
                 answer = s.control(control) if s.control_inline() else await d.compute.run(s.control, control)
         except _Closed:
             raise
@@ -151,8 +153,13 @@ async def _refuse(ws: WebSocket, exc: BaseException, budget: float, *, end: bool
     frame = error_frame(problem)
     await _send(ws, _dumps(frame))
     if end:
-        try:
-            await ws.close(4000 + frame["status"])
-        except (WebSocketDisconnect, OSError, RuntimeError):
-            pass
-        raise _Closed
+        await _close(ws, 4000 + frame["status"])
+
+
+async def _close(ws: WebSocket, code: int) -> None:
+    """Close the connection (if the client is still there) and end the session: raises _Closed."""
+    try:
+        await ws.close(code)
+    except (WebSocketDisconnect, OSError, RuntimeError):
+        pass
+    raise _Closed
