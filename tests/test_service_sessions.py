@@ -47,10 +47,10 @@ def server(tmp_path_factory):
 
 @pytest.fixture(scope="module")
 def keyed(tmp_path_factory):
-    """Two API keys, 2 sessions per key, a 1.5 s idle timeout."""
+    """Two API keys, 2 sessions per key, a 3 s idle timeout."""
     s = Server(tmp_path_factory.mktemp("sessions-keyed") / "store",
                env={"DYNAMICS_API_KEYS": "k1,k2", "DYNAMICS_MAX_SESSIONS_PER_KEY": "2", "DYNAMICS_SIM_WORKERS": "0",
-                    "DYNAMICS_SESSION_IDLE_TIMEOUT": "1.5"}).start()
+                    "DYNAMICS_SESSION_IDLE_TIMEOUT": "3"}).start()
     yield s
     s.stop()
 
@@ -337,17 +337,20 @@ def test_api_keys_idle_timeout_and_sessions_per_key(keyed):
             other.step()
             assert [s["session"] for s in listed(keyed, "k2")] == [other.session]
         assert {s["session"] for s in listed(keyed, "k1")} == {a.session, b.session}
-        a.step()
-        time.sleep(3.0)  # past the idle timeout (1.5 s)
+        a.close()
+        b.close()
+        b.close()  # idempotent
+        eventually_empty(keyed, "k1")
+        idle = c1.robot("planar_2r").simulator([0.3, -0.2], [0.0, 0.0], dt=0.01)
+        idle.step()
+        time.sleep(4.5)  # past the idle timeout (3 s)
         with pytest.raises(ServiceError) as e:
-            a.step()
+            idle.step()
         assert e.value.code in ("idle_timeout", "closed") and ("DYNAMICS_SESSION_IDLE_TIMEOUT" in e.value.message
                                                                or "4408" in e.value.message)
         with pytest.raises(ServiceError) as e:
-            a.step()
+            idle.step()
         assert e.value.code == "closed"
-        b.close()
-        b.close()  # idempotent
     eventually_empty(keyed, "k1")
     eventually_empty(keyed, "k2")
 
