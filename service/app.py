@@ -24,7 +24,9 @@ from .derivatives import OPERATIONS as DERIVATIVES
 from .jobs.manager import Jobs
 from .kinematics import OPERATIONS as KINEMATICS
 from .protocol import Head, Options, SecurityHeaders
-from .routes import constraints, derivatives, dynamics, health, inspect, jobs, kinematics, robots, simulate
+from .routes import (constraints, derivatives, dynamics, health, inspect, jobs, kinematics, robots, sessions,
+                     simulate)
+from .sessions import Sessions
 from .settings import Settings, configure_logging
 
 DESCRIPTION = ("Rigid-body dynamics of URDF robots: inverse and forward dynamics, mass matrix, Coriolis matrix, "
@@ -62,9 +64,11 @@ def create_app(settings: Optional[Settings] = None) -> FastAPI:
     async def lifespan(app: FastAPI):
         app.state.deps = Deps.start(settings)
         app.state.jobs = Jobs.start(settings, app.state.deps.models, app.state.deps.catalog.resolve)
+        app.state.sessions = Sessions(settings)  # the WebSocket sessions of this process (service.sessions)
         try:
             yield
         finally:
+            app.state.sessions.close()
             app.state.jobs.close()
             app.state.deps.close()
 
@@ -72,7 +76,7 @@ def create_app(settings: Optional[Settings] = None) -> FastAPI:
     # /static-offline-docs: they work without internet access (FastAPI's own pages load them from a CDN)
     app = FastAPIOffline(title="dynamics", version=__version__, lifespan=lifespan, description=DESCRIPTION)
     errors.install(app)
-    for module in (health, robots, dynamics, kinematics, constraints, derivatives, simulate, jobs):
+    for module in (health, robots, dynamics, kinematics, constraints, derivatives, simulate, jobs, sessions):
         app.include_router(module.router)
     from .routes import guide; guide.mount(app)  # the documentation site at /guide, when it has been built
     app.include_router(inspect.router)  # last: no API request is matched against the page's paths

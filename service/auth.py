@@ -1,5 +1,6 @@
-"""API keys: with keys configured, every request but the open paths (health, readiness, and the inspector page's
-files under ``/inspect``: code, no data; the page sends the key the user types with its API calls) needs a Bearer key.
+"""API keys: with keys configured, every request (and every WebSocket handshake: ``/v1/sessions``) but the open
+paths (health, readiness, and the inspector page's files under ``/inspect``: code, no data; the page sends the key
+the user types with its API calls) needs a Bearer key.
 
 Pure ASGI middleware (no per-request objects): it runs before routing and puts the caller's owner tag
 (:func:`service.store.owner_tag`, what the store remembers of a key) in the scope, read by :func:`caller`.
@@ -10,7 +11,7 @@ from __future__ import annotations
 import hmac
 from typing import Optional
 
-from starlette.requests import Request
+from starlette.requests import HTTPConnection
 
 from .errors import Unauthorized, problem_response
 from .store import owner_tag
@@ -30,7 +31,8 @@ class ApiKeys:
         self.closed_paths = frozenset(closed_paths)  # under the open prefix, yet holding data: keyed
 
     async def __call__(self, scope, receive, send):
-        if scope["type"] != "http" or not self.keys or scope["path"] in self.open_paths or self._open(scope["path"]):
+        if (scope["type"] not in ("http", "websocket") or not self.keys or scope["path"] in self.open_paths
+                or self._open(scope["path"])):
             return await self.app(scope, receive, send)
         given = b""
         for name, value in scope["headers"]:
@@ -47,6 +49,9 @@ class ApiKeys:
             detail = "Authorization: a valid 'Bearer <key>' header is required" if given else \
                 "Authorization: missing; send 'Authorization: Bearer <key>'"
             refusal = Unauthorized(detail, "Authorization", headers={"WWW-Authenticate": "Bearer"})
+            if scope["type"] == "websocket":  # (refused in the sessions' protocol: an error frame, then closed)
+                from .sessions import deny
+                return await deny(receive, send, refusal)
             return await problem_response(refusal)(scope, receive, send)
         scope[OWNER] = owner_tag(match.decode())
         return await self.app(scope, receive, send)
@@ -58,6 +63,6 @@ class ApiKeys:
                 and path not in self.closed_paths)
 
 
-def caller(request: Request) -> Optional[str]:
-    """The owner tag of the caller's API key, None when keys are off (a FastAPI dependency)."""
+def caller(request: HTTPConnection) -> Optional[str]:
+    """The owner tag of the caller's API key, None when keys are off (a FastAPI dependency; a WebSocket too)."""
     return request.scope.get(OWNER)

@@ -10,19 +10,25 @@
     ...     robot.last_scene                    # {"locked": {"joint2": 0.3}, "skipped": [...], "nv": 1, ...}
     ...     job = client.submit("planar-2r", "inverse_dynamics", {"q": Q, "v": V, "a": A})  # a job: returns at once
     ...     job.wait(progress=True); tau = job.result()["tau"]
+    ...     with robot.simulator(q0, v0, dt=0.01, integrator="rk4") as sim:   # stepped over a WebSocket
+    ...         sim.step(tau); sim.q, sim.v, sim.t           # the library's Simulator, the state on the server
 
 Batches of more than :data:`NPZ_THRESHOLD` numbers travel as ``.npz`` both ways (no JSON number formatting
 or parsing); smaller requests use JSON. Every failure raises :class:`ServiceError` with the HTTP status, the
-server's message (naming the field at fault) and its machine-readable code.
+server's message (naming the field at fault) and its machine-readable code. A :class:`Simulator` holds one
+session of ``/v1/sessions`` (a WebSocket; docs/guide/stepping.md has its protocol).
 """
 
 from __future__ import annotations
 
+import contextlib
 import io
 import json
 import os
+import socket
 import sys
 import time
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 from urllib.parse import quote
@@ -83,6 +89,8 @@ class Client:
             headers["X-Time-Budget"] = repr(float(time_budget))
         self.base_url = base_url.rstrip("/")
         self.npz_threshold = npz_threshold
+        self.timeout = timeout
+        self._key_header = {k: v for k, v in headers.items() if k == "Authorization"}  # (sessions' handshakes)
         self._http = httpx.Client(base_url=self.base_url, headers=headers, timeout=timeout)
 
     def __enter__(self) -> "Client":
@@ -431,6 +439,22 @@ class Robot:
         return Trajectory(t=ans["t"], q=ans["q"], v=ans["v"], tau=ans["tau"], report=report, lam=ans.get("lambda"),
                           contacts=contact_rows(ans), sensitivities=ans.get("sensitivities"))
 
+    def simulator(self, q0, v0, *, dt: float, torque: Any = None, contact: Any = None,
+                  integrator: Optional[str] = None, substep: Optional[float] = None, rtol: Optional[float] = None,
+                  atol: Optional[float] = None, gravity=None, limits: Optional[str] = None,
+                  limit_stiffness: Optional[float] = None, limit_damping: Optional[float] = None,
+                  friction_eps: Optional[float] = None, baumgarte=None, project: Optional[bool] = None,
+                  n: Optional[int] = None, locked=None) -> "Simulator":
+        """A ``dynamics.Simulator`` of this robot held by the service, stepped over a WebSocket (``/v1/sessions``):
+        the library's arguments (``torque`` and ``contact`` as :meth:`simulate` takes them), plus ``n`` (n
+        environments from one q0) and ``locked``. Close it (or use ``with``) to free it on the server."""
+        create = {"type": "create", "robot": self.id, "q0": _as_array(q0), "v0": _as_array(v0), "dt": float(dt),
+                  "torque": torque_spec(torque), "contact": contact_spec(contact), "integrator": integrator,
+                  "substep": substep, "rtol": rtol, "atol": atol, "gravity": self._opt(gravity), "limits": limits,
+                  "limit_stiffness": limit_stiffness, "limit_damping": limit_damping, "friction_eps": friction_eps,
+                  "baumgarte": self._opt(baumgarte), "project": project, "n": n, "locked": self._locked(locked)}
+        return Simulator(self.client, {k: v for k, v in create.items() if v is not None})
+
 
 def contact_rows(ans: Mapping[str, Any]) -> Optional[dict[str, Any]]:
     """An answer's ``contacts.<field>`` members -> {field: array}, ``pairs`` as [(a, b)] (None without them)."""
@@ -555,6 +579,217 @@ class Job:
     def cancel(self) -> dict[str, Any]:
         """Cancel it if it is queued or running; remove it (and its result) if it has finished."""
         return self.client.request("DELETE", f"/v1/jobs/{self.id}").json()
+
+
+class SimulationWarning(UserWarning):
+    """A period of a :class:`Simulator` failed on the server (as ``dynamics.SimulationWarning`` in the library):
+    the environment is marked (``failed``) and waits for ``reset`` or ``set_state``."""
+
+
+class Simulator:
+    """``dynamics.Simulator`` held by the service, stepped over one WebSocket (``Robot.simulator`` makes it).
+
+    The library's loop and names: ``step(tau)``, ``t``, ``q``, ``v`` (read-only arrays of the last answer, no
+    round trip), ``failed``, ``reset``, ``state``, ``set_state``, ``status``, ``error``, ``stats``,
+    ``contact_forces``; one environment or ``n``. Every call is one message and its answer (docs/guide/stepping.md
+    has the protocol); a refusal raises :class:`ServiceError` with the status, message and field the HTTP API
+    would give, and the session goes on. ``close()`` (or ``with``) frees the simulator on the server; so does a
+    dropped connection, and the server's idle timeout.
+    """
+
+    def __init__(self, client: Client, create: dict[str, Any]):
+        from websockets.sync.client import connect  # (only sessions need the package)
+        url = ("wss://" if client.base_url.startswith("https://") else "ws://") + \
+            client.base_url.split("://", 1)[1] + "/v1/sessions"
+        self.timeout = client.timeout
+        self._stack = contextlib.ExitStack()
+        try:
+            # no compression (torques and states do not compress; deflating them costs more than sending them)
+            self._ws = self._stack.enter_context(connect(url, additional_headers=client._key_header,
+                                                         compression=None, max_size=None,
+                                                         open_timeout=client.timeout, close_timeout=5.0))
+        except OSError as e:
+            raise ServiceError(0, f"cannot reach {client.base_url}: {e}", "unreachable") from None
+        except Exception as e:  # websockets' InvalidHandshake: not a WebSocket server, a proxy's refusal
+            raise ServiceError(0, f"{url}: the WebSocket handshake failed: {e}", "handshake") from None
+        with contextlib.suppress(OSError):  # one small frame each way per step: do not let Nagle hold it
+            self._ws.socket.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+        try:
+            self.info: dict[str, Any] = self._call(json.dumps(create, default=_plain))
+            self.session: str = self.info["session"]
+            self.n: int = self.info["n"]
+            self.nq: int = self.info["nq"]
+            self.nv: int = self.info["nv"]
+            self.dt: float = self.info["dt"]
+            self.batched: bool = self.info["batched"]
+            self.joint_names: tuple[str, ...] = tuple(self.info["joint_names"])
+            self._failed = np.zeros(self.n, dtype=bool)
+            self._read_state(self._call('{"type":"state"}', binary=True))
+        except BaseException:
+            self._stack.close()
+            raise
+
+    def __repr__(self) -> str:
+        what = f"{self.n} environments" if self.batched else f"t={self.t:.6g}"
+        return f"<service.client.Simulator {self.info['robot']!r} {self.info['integrator']} dt={self.dt:g} {what}>"
+
+    def __enter__(self) -> "Simulator":
+        return self
+
+    def __exit__(self, *exc: Any) -> None:
+        self.close()
+
+    # -- the loop ------------------------------------------------------------------------------------------------
+    def step(self, tau=None) -> None:
+        """One period ``dt`` under ``tau`` held over it (added to the torque source's): None (zero), (nv,) (every
+        environment) or (n, nv)."""
+        frame = b"" if tau is None else self._torque(tau)
+        before = self._failed
+        self._answer(self._call(frame, binary=True))
+        fresh = np.flatnonzero(self._failed & ~before)
+        if fresh.size:
+            status = self.status
+            for i in fresh[:5]:
+                why = status[i] if self.batched else status
+                warnings.warn(f"{'environment ' + str(i) + ': ' if self.batched else ''}a period failed on the "
+                              f"server ({why}); reset() or set_state() to go on", SimulationWarning, stacklevel=2)
+
+    def _torque(self, tau: Any) -> bytes:
+        x = np.asarray(tau, dtype=np.float64)
+        if x.shape != (self.nv,) and not (self.batched and x.shape == (self.n, self.nv)):
+            want = f"({self.nv},)" + (f" or ({self.n}, {self.nv})" if self.batched else "")
+            raise ValueError(f"tau: expected shape {want}, got {x.shape}")
+        return np.ascontiguousarray(x, dtype="<f8").tobytes()
+
+    def reset(self, q=None, v=None, *, which=None, t: float = 0.0) -> None:
+        """Start environments again from (q, v) at t (the initial states when None); ``which``: indices or a
+        boolean mask (then q, v have a row per chosen environment, or one row for all)."""
+        self._answer(self._call(self._message("reset", q=q, v=v, which=which, t=float(t)), binary=True))
+
+    def state(self) -> np.ndarray:
+        """The full state, as the library's: (n, 1 + nq + nv + 4) rows, or one row for a single environment."""
+        x = np.frombuffer(self._call('{"type":"state"}', binary=True), dtype="<f8").reshape(self.n, -1).copy()
+        return x if self.batched else x[0]
+
+    def set_state(self, x, *, which=None) -> None:
+        """Go back to a state :meth:`state` returned (rows for the environments ``which``)."""
+        self._answer(self._call(self._message("set_state", x=x, which=which), binary=True))
+
+    # -- what the loop reads -----------------------------------------------------------------------------------
+    @property
+    def t(self):
+        """Time (s): a float, or (n,) per environment (of the last answer: no round trip)."""
+        return self._t if self.batched else float(self._t[0])
+
+    @property
+    def q(self) -> np.ndarray:
+        """(nq,) or (n, nq), read-only."""
+        return self._q if self.batched else self._q[0]
+
+    @property
+    def v(self) -> np.ndarray:
+        """(nv,) or (n, nv), read-only."""
+        return self._v if self.batched else self._v[0]
+
+    @property
+    def failed(self):
+        """Whether an environment's last period failed (it waits for reset or set_state): bool or (n,)."""
+        return self._failed.copy() if self.batched else bool(self._failed[0])
+
+    def _status(self) -> dict[str, Any]:
+        return self._call('{"type":"status"}')
+
+    @property
+    def status(self):
+        """"ok", or why the last period failed: a str, or a list of n (one round trip)."""
+        status = self._status()["status"]
+        return status if self.batched else status[0]
+
+    @property
+    def error(self):
+        """The last period's error estimate (NaN for the fixed-step methods): a float or (n,) (one round trip)."""
+        e = np.array([np.nan if x is None else x for x in self._status()["error_estimate"]])
+        return e if self.batched else float(e[0])
+
+    @property
+    def stats(self) -> dict[str, Any]:
+        """Steps, rejected steps, right-hand sides, Jacobians and the server's wall time in step() (one round trip)."""
+        return self._status()["stats"]
+
+    def contact_forces(self, env: Optional[int] = None, *, details: bool = False):
+        """f_ext (nbodies, 6) of environment ``env`` at the present state, or (f_ext, details: a dict of arrays)
+        with ``details``, as the library's."""
+        ans = self._call(self._message("contact_forces", env=env, details=details))
+        f_ext = np.asarray(ans["f_ext"], dtype=np.float64)
+        if not details:
+            return f_ext
+        more = {k: (v if k == "pairs" or not isinstance(v, list) else np.asarray(v, dtype=np.float64))
+                for k, v in ans["details"].items()}
+        return f_ext, more
+
+    def close(self) -> None:
+        """End the session (the server frees its simulator); idempotent."""
+        if self._ws is None:
+            return
+        try:
+            with contextlib.suppress(Exception):
+                self._ws.send('{"type":"close"}')
+                self._ws.recv(timeout=5.0)
+        finally:
+            self._ws = None
+            self._stack.close()
+
+    # -- plumbing ----------------------------------------------------------------------------------------------
+    @staticmethod
+    def _message(kind: str, **fields: Any) -> str:
+        return json.dumps({"type": kind, **{k: (v.tolist() if isinstance(v, np.ndarray) else v)
+                                            for k, v in fields.items() if v is not None}}, default=_plain)
+
+    def _call(self, message: Union[str, bytes], *, binary: bool = False) -> Any:
+        """Send one message, return its answer: bytes when ``binary``, else the decoded JSON; an error frame
+        raises ServiceError."""
+        from websockets.exceptions import ConnectionClosed
+        if self._ws is None:
+            raise ServiceError(0, "session: closed; make another with robot.simulator(...)", "closed")
+        try:
+            self._ws.send(message)
+            answer = self._ws.recv(timeout=self.timeout)
+        except TimeoutError:
+            self.close()  # (an answer still on its way would answer the next message)
+            raise ServiceError(0, f"session: no answer in {self.timeout} s; the session is closed", "timeout") \
+                from None
+        except ConnectionClosed as e:
+            self._ws = None
+            self._stack.close()
+            raise ServiceError(0, f"session: the connection closed (code {e.rcvd.code if e.rcvd else 1006}"
+                                  f"{': ' + e.rcvd.reason if e.rcvd and e.rcvd.reason else ''})", "closed") from None
+        if isinstance(answer, bytes):
+            if binary:
+                return answer
+            raise ServiceError(0, "session: a binary answer to a JSON message", "protocol")
+        body = json.loads(answer)
+        if "error" in body:
+            if body.get("status") in (408, 429) or str(body.get("error")) == "internal_error":
+                self.close()
+            raise ServiceError(int(body.get("status", 0)), str(body.get("detail")), str(body["error"]),
+                               body.get("field"))
+        if binary:
+            raise ServiceError(0, f"session: a JSON answer where data was expected: {answer[:200]}", "protocol")
+        return body
+
+    def _answer(self, frame: bytes) -> None:
+        """[t (n), q (n, nq), v (n, nv), failed (n)] float64 -> read-only views."""
+        n, nq, nv = self.n, self.nq, self.nv
+        a = np.frombuffer(frame, dtype="<f8")
+        if a.size != n * (2 + nq + nv):
+            raise ServiceError(0, f"session: an answer of {a.size} numbers, expected {n * (2 + nq + nv)}", "protocol")
+        self._t, self._q = a[:n], a[n:n + n * nq].reshape(n, nq)
+        self._v, self._failed = a[n + n * nq:n * (1 + nq + nv)].reshape(n, nv), a[n * (1 + nq + nv):] != 0
+
+    def _read_state(self, frame: bytes) -> None:
+        x = np.frombuffer(frame, dtype="<f8").reshape(self.n, -1)
+        nq, nv = self.nq, self.nv
+        self._t, self._q, self._v = x[:, 0], x[:, 1:1 + nq], x[:, 1 + nq:1 + nq + nv]
 
 
 #: the library's constraint classes (dynamics.constraints) -> their HTTP type

@@ -44,6 +44,15 @@ class HeaderTimeoutProtocol(H11Protocol):
         super().on_response_complete()
         self._arm()
 
+    def handle_websocket_upgrade(self, event: h11.Request) -> None:
+        # the connection is the WebSocket protocol's from now on (/v1/sessions, with its own idle timeout): a
+        # timer left armed would keep this object, and the request it read, alive for DYNAMICS_READ_TIMEOUT (a
+        # flood of 6,000 refused sessions held 37 MB for 30 s)
+        if self._header_timer is not None:
+            self._header_timer.cancel()
+            self._header_timer = None
+        super().handle_websocket_upgrade(event)
+
     def connection_lost(self, exc: Exception | None) -> None:
         if getattr(self, "_header_timer", None) is not None:
             self._header_timer.cancel()

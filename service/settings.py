@@ -98,6 +98,13 @@ class Settings:
     job_part_seconds: float = 2.0
     # Results up to this size are answered as JSON when the caller accepts it; larger ones only as .npz.
     job_json_bytes: int = 1024 * 1024
+    # -- sessions (the WebSocket /v1/sessions: a simulator stepped by the client; service.sessions) ------------
+    # Connections to /v1/sessions open at once per API key (or for all callers without keys); 429 past it.
+    max_sessions_per_key: int = 8
+    # Seconds a session may wait for its next message before the server closes it (and frees its simulator).
+    session_idle_timeout: float = 300.0
+    # Largest session, in bytes of the simulator's arrays and workspaces as estimated before it is built.
+    max_session_bytes: int = 256 * 1024 * 1024
 
     @classmethod
     def from_env(cls) -> "Settings":
@@ -126,7 +133,7 @@ class Settings:
             sim_workers=int(_env("SIM_WORKERS", str(defaults.sim_workers))),
             api_keys=keys,
             log_level=_env("LOG_LEVEL", defaults.log_level),
-            **_job_settings(defaults),
+            **_named_settings(defaults, JOB_SETTINGS + SESSION_SETTINGS),
         )
 
     @staticmethod
@@ -136,10 +143,15 @@ class Settings:
         return {f.name: ENV_PREFIX + special.get(f.name, f.name.upper()) for f in fields(Settings)}
 
 
-def _job_settings(defaults: Settings) -> dict:
-    """The jobs' fields from ``DYNAMICS_<FIELD>`` (and ``DYNAMICS_RAY_ADDRESS``), typed like their defaults."""
-    names = ("job_workers", "ray_address", "max_job_input_bytes", "max_job_result_bytes", "max_jobs_per_key",
-             "job_quota_bytes", "job_expiry", "job_attempts", "job_part_seconds", "job_json_bytes")
+#: the fields read by :func:`_named_settings` (the jobs', and the sessions')
+JOB_SETTINGS = ("job_workers", "ray_address", "max_job_input_bytes", "max_job_result_bytes", "max_jobs_per_key",
+                "job_quota_bytes", "job_expiry", "job_attempts", "job_part_seconds", "job_json_bytes")
+SESSION_SETTINGS = ("max_sessions_per_key", "session_idle_timeout", "max_session_bytes")
+
+
+def _named_settings(defaults: Settings, names: tuple[str, ...]) -> dict:
+    """Fields from ``DYNAMICS_<FIELD>`` (``DYNAMICS_RAY_ADDRESS``, ``DYNAMICS_MAX_SESSIONS_PER_KEY``, ...), typed
+    like their defaults."""
     return {name: type(getattr(defaults, name))(_env(name.upper(), str(getattr(defaults, name)))) for name in names}
 
 
