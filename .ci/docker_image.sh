@@ -115,14 +115,17 @@ prepare() {
     grep -v "^WARNING: Location '.*' is ignored" "$DIR/wheelhouse.log" || true  # (a local pip.conf's index)
 }
 
-test_image() {
-    load_state
-    if [ -n "${SKIP:-}" ]; then say "SKIPPED: $SKIP"; return 0; fi
-    # the build sees no network: everything comes from the two images and the wheelhouse
-    timed "image built offline" $DOCKER build --network none --progress plain --tag "$IMAGE" \
+build_image() {  # the build sees no network: everything comes from the two images and the wheelhouse
+    $DOCKER build --network none --progress plain --tag "$IMAGE" \
         --build-arg BUILD_IMAGE="$BUILD" --build-arg BASE_IMAGE="$BASE" \
         --build-arg PIP_INDEX_URL="file:///context/$WHEELHOUSE/simple" . >"$DIR/build.log" 2>&1 \
         || { tail -60 "$DIR/build.log"; return 1; }
+}
+
+test_image() {
+    load_state
+    if [ -n "${SKIP:-}" ]; then say "SKIPPED: $SKIP"; return 0; fi
+    timed "image built offline" build_image
     say "image size: $($DOCKER image inspect --format '{{.Size}}' "$IMAGE" | awk '{printf "%.0f MB", $1 / 1e6}')" \
         "(base $($DOCKER image inspect --format '{{.Size}}' "$BASE" | awk '{printf "%.0f MB", $1 / 1e6}'))"
     DYNAMICS_DOCKER_IMAGE=$IMAGE DOCKER=$DOCKER timed "image tested" \

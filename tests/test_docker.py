@@ -29,7 +29,7 @@ from service_fixtures import REPO, free_port
 DOCKERFILE = REPO / "Dockerfile"
 IMAGE = os.environ.get("DYNAMICS_DOCKER_IMAGE")
 DOCKER = os.environ.get("DOCKER", "docker")
-MAX_IMAGE_MB = 450  # 375 MB at the switch to one copied virtual environment (Debian bookworm's base: 123 MB)
+MAX_IMAGE_MB = 450  # 322 MB on CI's base, Debian bookworm's minimal variant and python3 (117 MB)
 
 # the README's contact example (a 0.2 kg ball of radius 0.05 m dropped from 0.3 m)
 BALL = """<robot name="ball"><link name="ball"><inertial><mass value="0.2"/>
@@ -88,9 +88,9 @@ def container():
     args = dockerfile()["cmd"]
     args[args.index("--host") + 1] = "127.0.0.1"
     args[args.index("--port") + 1] = str(port)
-    cid = docker("run", "--detach", "--network", "host", "--read-only", "--tmpfs", "/tmp", IMAGE, *args).stdout.strip()
-    url = f"http://127.0.0.1:{port}"
-    try:
+    cid, url = f"dynamics-test-{port}", f"http://127.0.0.1:{port}"
+    try:  # (named: a container that failed to start is removed too)
+        docker("run", "--detach", "--name", cid, "--network", "host", "--read-only", "--tmpfs", "/tmp", IMAGE, *args)
         end = time.monotonic() + 120
         while True:
             state = docker("inspect", "--format", "{{.State.Running}}", cid).stdout.strip()
@@ -116,7 +116,7 @@ def test_the_image_is_lean_and_holds_what_the_wheel_must(container):
     # no compiler, no pip, no sources: the runtime runs the service and nothing else
     def run(command: str) -> str:
         return docker("exec", container["id"], "sh", "-c", command, check=False).stdout.strip()
-    assert run("command -v g++ gcc cc c++ pip pip3 apt-get >/dev/null; command -v g++ gcc cc c++ pip pip3") == ""
+    assert run("command -v g++ gcc cc c++ pip pip3 || true") == ""
     assert run("test -e /src || echo none") == "none" and run("id -u") == "10001"
     # every subpackage, the compiled core, the bundled robots and the inspector's files were installed from the
     # wheel: a file missing from it imports from the source tree in a checkout and fails only in the image
