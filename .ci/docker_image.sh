@@ -93,6 +93,9 @@ prepare() {
     if [ -f "$STATE" ]; then stop; fi
     DIR=$(mktemp -d /tmp/dynamics-docker.XXXXXX)
     echo "DIR=$DIR" >"$STATE"
+    # the daemon's files in memory (about 2 GB at the end, 8 GB at most): the build writes faster, and `stop`
+    # frees them at once, where deleting them from the disk took a minute; on the disk where tmpfs cannot be mounted
+    mount -t tmpfs -o size=8g,mode=0700 dynamics-docker "$DIR" 2>/dev/null || say "no tmpfs: the daemon's files on disk"
     export DOCKER_HOST="unix://$DIR/docker.sock"
     if ! command -v dockerd >/dev/null || ! command -v debootstrap >/dev/null || [ ! -x $DOCKER ]; then
         timed "docker.io and debootstrap installed" apt-get install -y -q --no-install-recommends docker.io debootstrap \
@@ -136,12 +139,15 @@ stop() {  # our daemon only (its pid), then its directories: every image and con
     [ -f "$STATE" ] || return 0
     # shellcheck disable=SC1090
     source "$STATE"
+    local t0=$SECONDS
     if [ -n "${DOCKERD:-}" ] && kill "$DOCKERD" 2>/dev/null; then
         for _ in $(seq 60); do kill -0 "$DOCKERD" 2>/dev/null || break; sleep 0.5; done
     fi
-    # what the daemon leaves mounted (its network namespace's file), innermost first
+    # what the daemon leaves mounted (its network namespace's file, its data), innermost first, then the tmpfs
     awk -v dir="$DIR/" 'index($2, dir) == 1 {print $2}' /proc/mounts | sort -r | xargs -r umount
+    if mountpoint -q "$DIR"; then umount "$DIR"; fi
     rm -rf "$DIR" "$STATE" "$WHEELHOUSE"
+    say "daemon stopped, its images and files gone in $((SECONDS - t0)) s"
 }
 
 case "${1:-all}" in
