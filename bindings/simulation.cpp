@@ -202,7 +202,7 @@ void expose_simulation(nb::module_& m) {
     m.def("run", [](const std::string& method, const Model& model, const control::Passive& passive, SourceHolder& src,
                     In<1> q0, nb::handle z_, double t0, double t_end, nb::handle out_t_, nb::handle out_q_,
                     nb::handle out_v_, nb::handle out_tau_, nb::handle out_w_, nb::handle out_e_, nb::handle count_,
-                    nb::dict opt_, nb::handle stats_, nb::handle sw_, nb::object sens, nb::object constrained,
+                    nb::handle opt_, nb::handle stats_, nb::handle sw_, nb::object sens, nb::object constrained,
                     nb::object contact_) {
         core::contact::ContactModel* contact = contact_.is_none() ? nullptr : &contact_of(contact_, model);
         const long nquad = contact ? 3 : 2;  // W_source, W_passive (, W_contact)
@@ -296,10 +296,9 @@ void expose_simulation(nb::module_& m) {
         if (!sw.empty())  // (memcpy from an empty vector's null data() is undefined even for 0 bytes)
             std::memcpy(sw_ptr, sw.data(), sizeof(core::sim::Switch) * std::min<size_t>(sw.size(), core::sim::MAX_SWITCHES));
         if (src.callback) src.callback->raise_if_failed();
-        std::vector<double> base(p.base(), p.base() + nq);
         double* qb;
         nb::object qbase = new_array(nq, &qb);
-        std::copy(base.begin(), base.end(), qb);
+        std::copy(p.base(), p.base() + nq, qb);
         return qbase;  // the chart's base at the end: the final q is retract(base, z[:nv])
     }, "method"_a, "model"_a, "passive"_a, "source"_a, "q0"_a, "z"_a, "t0"_a, "t_end"_a, "out_t"_a, "out_q"_a,
        "out_v"_a, "out_tau"_a, "out_w"_a, "out_e"_a, "count"_a, "options"_a, "stats"_a, "switches"_a,
