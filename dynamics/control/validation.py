@@ -82,8 +82,8 @@ def _frames_of(model):
 
 
 def _source_for(model):
-    """Source(...) with the operational-space fields set to placeholders of the right types."""
-    frames, rows, task_gains, orientation = _frames_of(model), np.zeros(0, np.int64), np.zeros((2, 6)), _IDENTITY
+    """Source(...) with the operational-space fields set to placeholders of the right types (read-only, shared)."""
+    frames, rows, task_gains, orientation = _frames_of(model), _NO_ROWS, _NO_TASK_GAINS, _IDENTITY
 
     def build(kind, times, table, gains, qref, slot):
         return Source(kind, times, table, gains, qref, slot, frames, -1, rows, task_gains, orientation, 0.0, None)
@@ -91,6 +91,9 @@ def _source_for(model):
 
 
 _IDENTITY = np.array([[1.0, 0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0]])
+_NO_ROWS, _NO_TASK_GAINS = np.zeros(0, np.int64), np.zeros((2, 6))
+for _a in (_IDENTITY, _NO_ROWS, _NO_TASK_GAINS):
+    _a.flags.writeable = False
 
 
 def _rotations(name, R, N):
