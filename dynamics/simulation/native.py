@@ -131,9 +131,10 @@ def run(method, model, passive, source, q0, z, t_end, out_t, outputs, opt, watch
     "lambda"), ``project`` whether its steps are projected onto the constraints.  ``contact``: None, or the run's
     :class:`dynamics.contact.resolve.CoreContact`."""
     nv, nq, T = model.nv, model.nq, out_t.shape[0]
-    out_q, out_v = np.zeros((T if "q" in outputs else 0, nq)), np.zeros((T if "v" in outputs else 0, nv))
-    out_tau, out_w = np.zeros((T if "tau" in outputs else 0, nv)), np.zeros((T, 2 if contact is None else 3))
-    out_e, count = np.zeros((T, 2)), np.zeros(1, np.int64)
+    # (uninitialised: the core writes every column of a sample's rows, and only the count rows written are read)
+    out_q, out_v = np.empty((T if "q" in outputs else 0, nq)), np.empty((T if "v" in outputs else 0, nv))
+    out_tau, out_w = np.empty((T if "tau" in outputs else 0, nv)), np.empty((T, 2 if contact is None else 3))
+    out_e, count = np.empty((T, 2)), np.zeros(1, np.int64)
     out_lam = drift = constrained = None
     if baumgarte is not None:
         con = core_constraints(model)

@@ -157,10 +157,12 @@ def energy_balance(model, s, e, w):
                 "work_torque": 0.0, "work_passive": 0.0, "energy_initial": nan, "energy_final": nan}
     terms = _balance_few(e, w) if len(e) <= _FEW else None
     if terms is None:
-        K, U = e[:, 0], e[:, 1]
-        E = K + U
-        resid = np.abs(E - E[0] - w.sum(axis=1))
-        terms = (float(K.max()), float(U.max() - U.min()), float(np.abs(w[-1]).max()), resid[-1], resid.max(),
+        (k_max, u_max), u_min = e.max(axis=0), e[:, 1].min()
+        E = e[:, 0] + e[:, 1]
+        resid = E - E[0]
+        resid -= w.sum(axis=1)
+        np.abs(resid, out=resid)
+        terms = (float(k_max), float(u_max - u_min), float(np.abs(w[-1]).max()), resid[-1], resid.max(),
                  float(E[0]), float(E[-1]))
     k_max, u_range, w_max, resid_last, resid_max, e_first, e_last = terms
     scale = max(k_max, u_range, w_max, robot_energy_scale(model, s.gravity))
