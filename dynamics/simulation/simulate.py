@@ -477,7 +477,9 @@ def _sample_times(duration, dt, sample_dt, fixed):
     if duration <= 0:
         return np.zeros(1)
     n = math.floor(duration / sample_dt * (1 + 1e-12))
-    t = np.arange(n + 2) * sample_dt
-    k = int(np.searchsorted(t[:n + 1], duration * (1 - 1e-12)))  # the times k sample_dt < duration (less round-off)
-    t[k] = duration
-    return t[:k + 1]
+    t = np.arange(n + 1) * sample_dt
+    k = int(np.searchsorted(t, duration * (1 - 1e-12)))  # the first k times are < duration (less round-off)
+    if k > n:  # (all of them: the end is one more sample)
+        return np.append(t, duration)
+    t[k] = duration  # (usually k = n: the last multiple is the end, within round-off)
+    return t if k == n else t[:k + 1].copy()
