@@ -35,7 +35,7 @@ from .progress import check as check_progress
 from .progress import watcher
 from .sensitivities import error_estimate as sensitivity_error
 from .sensitivities import sensitivity_spec
-from .solvers import FIXED, NONFINITE, ORDER, STABILITY_LIMIT, Options
+from .solvers import FIXED, NONFINITE, ORDER, STABILITY_LIMIT, STATS, Options
 
 __all__ = ["simulate", "Trajectory", "INTEGRATORS", "OUTPUTS", "DEFAULT_OUTPUTS"]
 
@@ -91,7 +91,7 @@ class Settings(NamedTuple):
 
 class RunResult(NamedTuple):
     problem: object  # the RobotProblem, holding the samples
-    stats: np.void  # the solver's statistics record (solvers.STATS)
+    stats: dict  # the solver's statistics record (solvers.STATS) as Python numbers by field name
     switches: np.ndarray  # the auto switch log (solvers.SWITCH rows)
     wall: float
     qf: np.ndarray  # final state
@@ -286,7 +286,8 @@ def _one_run(model, s, ps, src, dt, out_t, rtol, atol, max_steps, outputs, h0=0.
     wall = time.perf_counter() - tic
     qf = np.empty(model.nq)
     _core.retract(model.core, p.base, z[:nv], qf)
-    return RunResult(p, st, sw, wall, qf, z[nv:2 * nv].copy(), out_S, Sf, core)
+    # (the report reads a dozen fields: Python numbers once, not a numpy scalar per read)
+    return RunResult(p, dict(zip(STATS.names, st.item())), sw, wall, qf, z[nv:2 * nv].copy(), out_S, Sf, core)
 
 
 def _blowup(v0):
