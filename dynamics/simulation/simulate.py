@@ -291,8 +291,9 @@ def _one_run(model, s, ps, src, dt, out_t, rtol, atol, max_steps, outputs, h0=0.
 
 
 def _blowup(v0):
-    """The joint speed past which a run stops (status "blowup")."""
-    return max(1e6, 1e4 * max(map(abs, v0.tolist()), default=0.0))  # (v0 checked finite: max is exact either way)
+    """The joint speed past which a run stops (status "blowup"); v0: (nv,), or (n, nv) for several states."""
+    # (v0 is checked finite: Python's max is numpy's, exactly, and without its call's cost)
+    return max(1e6, 1e4 * max(map(abs, np.ravel(v0).tolist()), default=0.0))
 
 
 def _stability(s, rho, warnings):
