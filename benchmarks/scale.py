@@ -1,4 +1,4 @@
-"""Scaling out (issue: beyond one machine): `python -m benchmarks.scale [--quick]`.
+"""Scaling out (issue: beyond one machine): `python -m benchmarks.scale [--quick] [--rounds R] [--simulations-only]`.
 
 In one run, on this machine:
 
@@ -52,25 +52,36 @@ def sim_inputs(model, n, rng):
     return q0, [PD(targets[k], 200.0, 20.0, tau_ff=dynamics.gravity_torques(model, targets[k])) for k in range(n)]
 
 
-def bench_simulations(n, sample, cores):
+def bench_simulations(n, sample, cores, engines_=engines.ENGINES, rounds=1):
+    """Per round, alternately: ``sample`` runs one after the other on this thread (the single-core time per run),
+    then the N runs through simulate_many on each engine; efficiency per round against that round's single-core
+    time (a shared machine's load moves both alike), the median over rounds reported."""
     model = panda()
     rng = np.random.default_rng(0)
     q0, pds = sim_inputs(model, n, rng)
     v0 = np.zeros(model.nv)
-    opts = dict(error_estimate="none", sample_dt=0.01)
-    dynamics.simulate(model, q0[0], v0, 1.0, torque=pds[0], **opts)  # compile
-    t0 = time.perf_counter()
-    for k in range(sample):
-        dynamics.simulate(model, q0[k], v0, 1.0, torque=pds[k], **opts)
-    single = (time.perf_counter() - t0) / sample
-    rows = []
-    for engine in engines.ENGINES:
+    opts = dict(error_estimate="none", sample_dt=0.01, progress=False)
+    dynamics.simulate(model, q0[0], v0, 1.0, torque=pds[0], **opts)  # first call
+    singles, per_engine = [], {engine: [] for engine in engines_}
+    for _ in range(rounds):
         t0 = time.perf_counter()
-        out = dynamics.simulate_many(model, q0, v0, 1.0, torque=pds, engine=engine, progress=False, **opts)
-        wall = time.perf_counter() - t0
-        assert out.ok.all(), [r["status"] for r in out.reports if r["status"] != "ok"][:3]
-        rows.append({"engine": engine, "wall": wall, "throughput": n / wall, "efficiency": single * n / cores / wall})
-    return {"n": n, "single": single, "rows": rows}
+        for k in range(sample):
+            dynamics.simulate(model, q0[k], v0, 1.0, torque=pds[k], **opts)
+        single = (time.perf_counter() - t0) / sample
+        singles.append(single)
+        for engine in engines_:
+            t0 = time.perf_counter()
+            out = dynamics.simulate_many(model, q0, v0, 1.0, torque=pds, engine=engine, **opts)
+            wall = time.perf_counter() - t0
+            assert out.ok.all(), [r["status"] for r in out.reports if r["status"] != "ok"][:3]
+            per_engine[engine].append((wall, single * n / cores / wall))
+    rows = []
+    for engine, rs in per_engine.items():
+        wall = float(np.median([w for w, _ in rs]))
+        effs = [e for _, e in rs]
+        rows.append({"engine": engine, "wall": wall, "throughput": n / wall, "efficiency": float(np.median(effs)),
+                     "efficiencies": effs})
+    return {"n": n, "single": float(np.median(singles)), "rows": rows}
 
 
 def bench_inverse_dynamics(total, cores):
@@ -181,12 +192,23 @@ def main(argv=None) -> int:
     p.add_argument("--quick", action="store_true", help="1,000 simulations and 1 M states (minutes, not tens)")
     p.add_argument("--sims", type=int, default=None)
     p.add_argument("--states", type=int, default=None)
+    p.add_argument("--simulations-only", action="store_true",
+                   help="only the simulations, on threads: single core against simulate_many's threads")
+    p.add_argument("--rounds", type=int, default=1, help="rounds of the simulations' measurement (median reported)")
     args = p.parse_args(argv)
     cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
     n_sims = args.sims or (1_000 if args.quick else 10_000)
     n_states = args.states or (1_000_000 if args.quick else 10_000_000)
+    if args.simulations_only:
+        sims = bench_simulations(n_sims, min(100, n_sims), cores, ("threads",), args.rounds)
+        row = sims["rows"][0]
+        text = (f"{n_sims} Panda simulations (PD, 1 s), {cores} cores: single core {sims['single'] * 1e3:.2f} ms per run; "
+                f"threads: efficiency {row['efficiency']:.2f} (rounds: "
+                f"{', '.join(f'{e:.2f}' for e in row['efficiencies'])}), {row['efficiency'] * cores:.2f}x one core\n")
+        print(text)
+        return 0
     ray_cost = bench_ray_overheads(cores)
-    sims = bench_simulations(n_sims, min(100, n_sims), cores)
+    sims = bench_simulations(n_sims, min(100, n_sims), cores, rounds=args.rounds)
     ids = bench_inverse_dynamics(n_states, cores)
     text = report(sims, ids, ray_cost, cores)
     OUT.parent.mkdir(exist_ok=True)

@@ -6,11 +6,11 @@ Per round, in a fresh interpreter (the first calls of each kind made before timi
 ``mimic="independent"``) under PD towards a posture:
 
 * ``rk4 step``: one rk4 step, duration = dt = 0.1 ms, ``error_estimate="none"``: the whole call's wall time
-  (``call_ms``) and the part outside the core's run (``fixed_ms`` = the call less ``report["wall_time_s"]``),
-  median of --calls calls;
+  (``call_ms``), the part outside the core's run (``fixed_ms`` = the call less ``report["wall_time_s"]``) and the
+  run (``run_ms``: the binding's call, the stability probe at t0 and the step), median of --calls calls;
 * ``auto 1 ms``: the default call (``auto``, default error estimate, 1,001 samples) on a 1 ms simulation: the
-  whole call (``call_ms``), and its part neither in the run nor in its error estimate (``fixed_ms``), median of
-  --calls calls;
+  whole call (``call_ms``), its part neither in the run nor in its error estimate (``fixed_ms``) and those two
+  runs (``run_ms``), median of --calls calls;
 * ``overhead_1s``: a 1 s simulation (default error estimate): the share of the call's wall time spent neither in
   the run nor in its error estimate, median of 7; ``cost_of_estimate``: the error estimate's wall time over the
   run's; ``us_per_rhs``: the run's wall time per right-hand-side evaluation (solver work included).
@@ -56,7 +56,9 @@ med = statistics.median
 rest = lambda w, r: w - r["wall_time_s"] - r.get("error_estimate_wall_time_s", 0.0)
 print(json.dumps({
     "rk4_call_ms": med(w for w, r in rk4) * 1e3, "rk4_fixed_ms": med(rest(w, r) for w, r in rk4) * 1e3,
+    "rk4_run_ms": med(r["wall_time_s"] for w, r in rk4) * 1e3,
     "auto_call_ms": med(w for w, r in auto) * 1e3, "auto_fixed_ms": med(rest(w, r) for w, r in auto) * 1e3,
+    "auto_run_ms": med(w - rest(w, r) for w, r in auto) * 1e3,
     "overhead_1s": med(rest(w, r) / w for w, r in runs),
     "cost_of_estimate": med(r["error_estimate_wall_time_s"] / r["wall_time_s"] for w, r in runs),
     "us_per_rhs": min(r["wall_time_s"] / r["rhs_evals"] for w, r in runs) * 1e6}))
@@ -64,8 +66,8 @@ print(json.dumps({
 
 ROOT = Path(__file__).resolve().parent.parent
 OUT = ROOT / "benchmarks" / "out" / "sim_fixed_cost.md"
-KEYS = ("rk4_call_ms", "rk4_fixed_ms", "auto_call_ms", "auto_fixed_ms", "overhead_1s", "cost_of_estimate",
-        "us_per_rhs")
+KEYS = ("rk4_call_ms", "rk4_fixed_ms", "rk4_run_ms", "auto_call_ms", "auto_fixed_ms", "auto_run_ms", "overhead_1s",
+        "cost_of_estimate", "us_per_rhs")
 
 
 def _run(python, calls):

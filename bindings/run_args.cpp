@@ -5,24 +5,55 @@
 
 namespace bind {
 
-core::sim::Options options_of(const nb::dict& opt) {
+core::sim::Options options_of(nb::handle opt) {
     core::sim::Options o;
-    o.nc = nb::cast<int>(opt["nc"]), o.nvel = nb::cast<int>(opt["nvel"]), o.ne = nb::cast<int>(opt["ne"]);
-    o.max_steps = nb::cast<int64_t>(opt["max_steps"]), o.nsteps = nb::cast<int64_t>(opt["nsteps"]);
-    o.dt = nb::cast<double>(opt["dt"]), o.rtol = nb::cast<double>(opt["rtol"]);
-    o.atol = nb::cast<double>(opt["atol"]), o.h0 = nb::cast<double>(opt["h0"]);
-    o.hmax = nb::cast<double>(opt["hmax"]), o.blowup = nb::cast<double>(opt["blowup"]);
-    o.probe = nb::cast<bool>(opt["probe"]);
-    if (opt.contains("deadline")) o.deadline = nb::cast<double>(opt["deadline"]);
+    if (nb::isinstance<nb::tuple>(opt)) {
+        nb::tuple t = nb::borrow<nb::tuple>(opt);
+        require(t.size() == 12 || t.size() == 13, "options: the 12 fields of Options (and the deadline)");
+        o.nc = nb::cast<int>(t[0]), o.nvel = nb::cast<int>(t[1]), o.ne = nb::cast<int>(t[2]);
+        o.max_steps = nb::cast<int64_t>(t[3]), o.nsteps = nb::cast<int64_t>(t[4]);
+        o.dt = nb::cast<double>(t[5]), o.rtol = nb::cast<double>(t[6]), o.atol = nb::cast<double>(t[7]);
+        o.h0 = nb::cast<double>(t[8]), o.hmax = nb::cast<double>(t[9]), o.blowup = nb::cast<double>(t[10]);
+        const int probe = PyObject_IsTrue(t[11].ptr());
+        if (probe < 0) throw nb::python_error();
+        o.probe = probe != 0;
+        if (t.size() == 13) o.deadline = nb::cast<double>(t[12]);
+        return o;
+    }
+    nb::dict d;
+    if (!nb::try_cast(opt, d)) throw nb::type_error("options: a tuple of Options' fields or a dict of them");
+    o.nc = nb::cast<int>(d["nc"]), o.nvel = nb::cast<int>(d["nvel"]), o.ne = nb::cast<int>(d["ne"]);
+    o.max_steps = nb::cast<int64_t>(d["max_steps"]), o.nsteps = nb::cast<int64_t>(d["nsteps"]);
+    o.dt = nb::cast<double>(d["dt"]), o.rtol = nb::cast<double>(d["rtol"]);
+    o.atol = nb::cast<double>(d["atol"]), o.h0 = nb::cast<double>(d["h0"]);
+    o.hmax = nb::cast<double>(d["hmax"]), o.blowup = nb::cast<double>(d["blowup"]);
+    o.probe = nb::cast<bool>(d["probe"]);
+    if (d.contains("deadline")) o.deadline = nb::cast<double>(d["deadline"]);
     return o;
 }
 
-std::pair<nb::object, uint8_t*> record_of(nb::handle x, size_t size, const char* name) {
-    nb::object raw = x.attr("view")(nb::module_::import_("numpy").attr("uint8"));
-    nb::ndarray<uint8_t, nb::ndim<1>, nb::c_contig, nb::device::cpu> a;
-    if (!nb::try_cast(raw, a, false) || a.shape(0) < size)
-        throw nb::type_error((std::string(name) + ": a record array of the right dtype").c_str());
-    return {raw, a.data()};
+struct RecordBuffer {
+    Py_buffer view;
+};
+
+void RecordBufferRelease::operator()(RecordBuffer* b) const {
+    PyBuffer_Release(&b->view);
+    delete b;
+}
+
+std::pair<RecordHold, uint8_t*> record_of(nb::handle x, size_t size, const char* name) {
+    const std::string what = std::string(name) + ": a record array of the right dtype";
+    // (only numpy's arrays: a bytearray or a memoryview of the right length is no record array)
+    if (!nb::hasattr(x, "dtype")) throw nb::type_error(what.c_str());
+    auto* b = new RecordBuffer;
+    if (PyObject_GetBuffer(x.ptr(), &b->view, PyBUF_WRITABLE | PyBUF_C_CONTIGUOUS) != 0) {
+        delete b;
+        PyErr_Clear();
+        throw nb::type_error(what.c_str());
+    }
+    RecordHold hold(b);
+    if (b->view.len < static_cast<Py_ssize_t>(size)) throw nb::type_error(what.c_str());
+    return {std::move(hold), static_cast<uint8_t*>(b->view.buf)};
 }
 
 }  // namespace bind

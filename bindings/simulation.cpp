@@ -202,7 +202,7 @@ void expose_simulation(nb::module_& m) {
     m.def("run", [](const std::string& method, const Model& model, const control::Passive& passive, SourceHolder& src,
                     In<1> q0, nb::handle z_, double t0, double t_end, nb::handle out_t_, nb::handle out_q_,
                     nb::handle out_v_, nb::handle out_tau_, nb::handle out_w_, nb::handle out_e_, nb::handle count_,
-                    nb::dict opt_, nb::handle stats_, nb::handle sw_, nb::object sens, nb::object constrained,
+                    nb::handle opt_, nb::handle stats_, nb::handle sw_, nb::object sens, nb::object constrained,
                     nb::object contact_) {
         core::contact::ContactModel* contact = contact_.is_none() ? nullptr : &contact_of(contact_, model);
         const long nquad = contact ? 3 : 2;  // W_source, W_passive (, W_contact)
@@ -257,49 +257,52 @@ void expose_simulation(nb::module_& m) {
         std::memcpy(&st, stats_ptr, sizeof st);  // a resumed run goes on from its statistics
         // a constrained model: (constraints, alpha, beta, project, out_lam (T or 0, m), drift (3,): max |phi|,
         // max |Phi_q v|, failed projections), or None
-        std::unique_ptr<core::sim::RobotProblem> robot;
-        if (constrained.is_none()) {
-            robot = std::make_unique<core::sim::RobotProblem>(model, passive, src.source, q0.data(), out, contact);
-        } else {
+        const core::Constraints* pcon = nullptr;
+        double alpha = 0.0, beta = 0.0;
+        bool project = false;
+        double *lam_out = nullptr, *drift_out = nullptr;
+        if (!constrained.is_none()) {
             const char* what = "constrained: (constraints, alpha, beta, project, out_lam, drift)";
             nb::tuple c;
             if (!nb::try_cast(constrained, c) || c.size() != 6) throw nb::type_error(what);
-            const core::Constraints* pcon = nullptr;
-            double alpha = 0.0, beta = 0.0;
-            bool project = false;
             if (!nb::try_cast(c[0], pcon) || !pcon || !nb::try_cast(c[1], alpha, false) ||
                 !nb::try_cast(c[2], beta, false) || !nb::try_cast(c[3], project, false))
                 throw nb::type_error(what);
-            const core::Constraints& con = *pcon;
-            require_model(con, model);
+            require_model(*pcon, model);
             require(std::isfinite(alpha) && std::isfinite(beta), "constrained: finite Baumgarte gains");
             const Output lam = output_of(c[4], 2), drift = output_of(c[5], 1);
-            require(lam.shape(1) == con.m && (length(lam) == T || length(lam) == 0), "out_lam: (T or 0, m)");
+            require(lam.shape(1) == pcon->m && (length(lam) == T || length(lam) == 0), "out_lam: (T or 0, m)");
             require(length(drift) == 3, "drift: (3,)");
-            robot = std::make_unique<core::sim::ConstrainedProblem>(model, con, passive, src.source, q0.data(), out,
-                                                                    alpha, beta, project,
-                                                                    length(lam) && T ? lam.data() : nullptr,
-                                                                    drift.data(), contact);
+            lam_out = length(lam) && T ? lam.data() : nullptr, drift_out = drift.data();
         }
-        core::sim::RobotProblem& p = *robot;
+        // the problem is made (its workspaces allocated) and run without the GIL: it reads only the core's objects
+        // and the arrays held above, and other threads' simulations go on meanwhile
+        std::unique_ptr<core::sim::RobotProblem> robot;
         std::unique_ptr<core::sim::SensitivityProblem> ps;
-        if (!sens.is_none())
-            ps = std::make_unique<core::sim::SensitivityProblem>(p, x0, params, length(oS) ? oS.data() : nullptr, Sf.data());
         {
             nb::gil_scoped_release unlocked;
-            core::sim::Problem& run_p = ps ? static_cast<core::sim::Problem&>(*ps) : p;
+            if (pcon)
+                robot = std::make_unique<core::sim::ConstrainedProblem>(model, *pcon, passive, src.source, q0.data(),
+                                                                        out, alpha, beta, project, lam_out, drift_out,
+                                                                        contact);
+            else
+                robot = std::make_unique<core::sim::RobotProblem>(model, passive, src.source, q0.data(), out, contact);
+            if (!sens.is_none())  // (is_none reads only the handle: no reference count touched)
+                ps = std::make_unique<core::sim::SensitivityProblem>(*robot, x0, params, length(oS) ? oS.data() : nullptr,
+                                                                     Sf.data());
+            core::sim::Problem& run_p = ps ? static_cast<core::sim::Problem&>(*ps) : *robot;
             core::sim::run_method(method.c_str(), run_p, z.data(), static_cast<int>(n), t0, t_end, out_t.data(), T,
                                   opt, st, sw);
             if (ps) ps->final(z.data(), Sf.data());
         }
+        core::sim::RobotProblem& p = *robot;
         std::memcpy(stats_ptr, &st, sizeof st);
         if (!sw.empty())  // (memcpy from an empty vector's null data() is undefined even for 0 bytes)
             std::memcpy(sw_ptr, sw.data(), sizeof(core::sim::Switch) * std::min<size_t>(sw.size(), core::sim::MAX_SWITCHES));
         if (src.callback) src.callback->raise_if_failed();
-        std::vector<double> base(p.base(), p.base() + nq);
         double* qb;
         nb::object qbase = new_array(nq, &qb);
-        std::copy(base.begin(), base.end(), qb);
+        std::copy(p.base(), p.base() + nq, qb);
         return qbase;  // the chart's base at the end: the final q is retract(base, z[:nv])
     }, "method"_a, "model"_a, "passive"_a, "source"_a, "q0"_a, "z"_a, "t0"_a, "t_end"_a, "out_t"_a, "out_q"_a,
        "out_v"_a, "out_tau"_a, "out_w"_a, "out_e"_a, "count"_a, "options"_a, "stats"_a, "switches"_a,

@@ -106,6 +106,11 @@ def states(name, x, n, model=None, kind="v"):
 
 def vector(name, x, n):
     """One real vector of length n, checked like every state: a fresh C-contiguous float64 array."""
+    if type(x) is np.ndarray and x.dtype is F64 and x.shape == (n,) and x.flags.c_contiguous:
+        # the usual argument (simulate's q0, v0, a model's gravity): a copy, checked by the core's loop
+        if _first_nonfinite_k(x.reshape(1, n)) >= 0:
+            raise InputError(f"{name}: contains non-finite values (nan or inf)")
+        return x.copy()
     X, batched = states(name, x, n)
     if batched:
         raise InputError(f"{name}: expected shape ({n},), got {np.shape(x)}")
@@ -196,6 +201,9 @@ def real_number(name, x, *, lo=None, lo_open=False, hi=None, allow_none=False):
     """A finite float within [lo, hi) (or (lo, hi) with lo_open); None passes when allow_none."""
     if x is None and allow_none:
         return None
+    if type(x) is float and math.isfinite(x) and (lo is None or x > lo or (x == lo and not lo_open)) and \
+            (hi is None or x < hi):
+        return x  # the usual argument, within bounds: what the checks below return for it
     if isinstance(x, (bool, np.bool_)) or isinstance(x, (str, bytes)):
         raise InputError(f"{name}: expected a finite real number, got {x!r}")
     try:

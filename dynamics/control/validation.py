@@ -1,6 +1,9 @@
 """Building a :class:`~.sources.Source` from the user's ``torque`` argument: every input checked here, at the
 public entry, with an error that names the argument (``torque.kp``, ``torque.reference.t``, ...)."""
 
+import math
+import weakref
+
 import numpy as np
 
 from .. import _core, checks
@@ -12,6 +15,24 @@ from .sources import (CALLABLE, COMPUTED_TORQUE, CONSTANT, OPERATIONAL_SPACE, PD
 
 
 def _array(name, x, shape, *, nonneg=False):
+    """A finite float64 array of ``shape`` (a fresh C-contiguous copy; a scalar fills a vector shape)."""
+    t = type(x)
+    if (t is float or t is int) and len(shape) == 1:  # a scalar gain (PD's kp, kd): no array round trips
+        x = float(x)
+        if not math.isfinite(x):
+            raise InputError(f"{name}: contains non-finite values")
+        if nonneg and x < 0:
+            raise InputError(f"{name}: expected values >= 0")
+        a = np.empty(shape)
+        a.fill(x)
+        return a
+    if t is np.ndarray and x.dtype is checks.F64 and x.shape == shape and x.size:  # an array as the source wants it
+        a = x.copy()
+        if _first_nonfinite(a.reshape(1, -1)) >= 0:
+            raise InputError(f"{name}: contains non-finite values")
+        if nonneg and (min(a.ravel().tolist()) if a.size <= 64 else a.min()) < 0:
+            raise InputError(f"{name}: expected values >= 0")
+        return a
     try:
         a = np.array(x, dtype=np.float64)
     except (TypeError, ValueError):
@@ -48,10 +69,21 @@ def _read_only(frames):
     return type(frames)(*views)
 
 
+_first_nonfinite = _core.first_nonfinite  # the first row of a 2-D float64 array with a nan or inf, -1: none
+#: per model, its frames as read-only views (models are immutable: built once, kept while the model lives)
+_FRAMES = weakref.WeakKeyDictionary()
+
+
+def _frames_of(model):
+    frames = _FRAMES.get(model)
+    if frames is None:
+        frames = _FRAMES[model] = _read_only(model.frame_arrays)
+    return frames
+
+
 def _source_for(model):
-    """Source(...) with the operational-space fields set to placeholders of the right types."""
-    frames, rows, task_gains, orientation = _read_only(model.frame_arrays), np.zeros(0, np.int64), np.zeros((2, 6)), \
-        _IDENTITY
+    """Source(...) with the operational-space fields set to placeholders of the right types (read-only, shared)."""
+    frames, rows, task_gains, orientation = _frames_of(model), _NO_ROWS, _NO_TASK_GAINS, _IDENTITY
 
     def build(kind, times, table, gains, qref, slot):
         return Source(kind, times, table, gains, qref, slot, frames, -1, rows, task_gains, orientation, 0.0, None)
@@ -59,6 +91,9 @@ def _source_for(model):
 
 
 _IDENTITY = np.array([[1.0, 0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0]])
+_NO_ROWS, _NO_TASK_GAINS = np.zeros(0, np.int64), np.zeros((2, 6))
+for _a in (_IDENTITY, _NO_ROWS, _NO_TASK_GAINS):
+    _a.flags.writeable = False
 
 
 def _rotations(name, R, N):
@@ -128,7 +163,7 @@ def _operational_space_source(model, spec):
         gains[1] = 2.0 * np.sqrt(gains[0] * np.diag(mass_matrix(model, qref)))
     damping = checks.real_number("torque.damping", spec.damping, lo=0.0)
     return Source(OPERATIONAL_SPACE, times, np.ascontiguousarray(np.concatenate([p, pd, pdd], 1)), gains, qref,
-                  -1, _read_only(model.frame_arrays), f, rows.astype(np.int64), task_gains, otab, float(damping), None)
+                  -1, _frames_of(model), f, rows.astype(np.int64), task_gains, otab, float(damping), None)
 
 
 def make_source(model, torque):

@@ -3,6 +3,7 @@ samples as the core reads and writes them; a constrained model's run is the core
 (``core/simulation/constrained_problem.hpp``), a run with contact takes the core's ContactModel
 (``core/contact/contact_model.hpp``)."""
 
+import weakref
 from typing import NamedTuple
 
 import numpy as np
@@ -41,10 +42,31 @@ class Samples(NamedTuple):
     contact: object = None
 
 
+#: per model, the core's Passive made of the model's own (read-only) arrays, by the run's parameters: {(friction_eps,
+#: limits, k_limit, b_limit, gravity bytes): (qpos, core Passive)}; the core only reads it, from any thread
+_PASSIVE = weakref.WeakKeyDictionary()
+
+
 def core_passive(model, ps):
     """The core's passive torques for :class:`dynamics.control.passive.Passive`."""
-    return _core.Passive(model.core, ps.damping, ps.friction, float(ps.friction_eps), ps.limits == 1, ps.lower,
+    own = (ps.damping is model.damping and ps.friction is model.friction and ps.lower is model.lower
+           and ps.upper is model.upper and not ps.qpos.flags.writeable)  # (then nothing can change them)
+    if own:
+        cache = _PASSIVE.get(model)
+        if cache is None:
+            cache = _PASSIVE[model] = {}
+        key = (float(ps.friction_eps), ps.limits, float(ps.k_limit), float(ps.b_limit),
+               np.asarray(ps.gravity, float).tobytes())
+        hit = cache.get(key)
+        if hit is not None and hit[0] is ps.qpos:
+            return hit[1]
+    core = _core.Passive(model.core, ps.damping, ps.friction, float(ps.friction_eps), ps.limits == 1, ps.lower,
                          ps.upper, ps.qpos, float(ps.k_limit), float(ps.b_limit), ps.gravity)
+    if own:
+        if len(cache) >= 16:  # (a few gravities and limit settings per model at most, in practice)
+            cache.clear()
+        cache[key] = (ps.qpos, core)
+    return core
 
 
 def _torque_check(nv):
@@ -64,7 +86,7 @@ def core_source(model, src):
         orientation = np.zeros((src.times.shape[0], 12))
     return _core.Source(model.core, int(src.kind), src.times, np.asarray(src.table, float), src.gains, src.qref,
                         int(src.frame), np.asarray(src.rows, np.int64), np.asarray(src.task_gains, float),
-                        orientation, float(src.damping), fn, _torque_check(model.nv))
+                        orientation, float(src.damping), fn, None if fn is None else _torque_check(model.nv))
 
 
 def chart_matrix(model, q, delta):
@@ -95,6 +117,11 @@ def initial_state(model, q0, v0, x0, ncol, nquad=2):
     return z
 
 
+#: a fresh run's statistics record as bytes: a run's record is a new array over a copy of them (numpy copies a
+#: record array field by field, 4 us; a bytearray, then a view, 0.6 us)
+_STATS0 = solvers.new_stats().tobytes()
+
+
 def run(method, model, passive, source, q0, z, t_end, out_t, outputs, opt, watch=None, t0=0.0, sens=None,
         baumgarte=None, project=False, contact=None):
     """Run ``method`` from (t0, z) to t_end (z advanced in place), samples at out_t keeping ``outputs``; returns
@@ -104,35 +131,37 @@ def run(method, model, passive, source, q0, z, t_end, out_t, outputs, opt, watch
     "lambda"), ``project`` whether its steps are projected onto the constraints.  ``contact``: None, or the run's
     :class:`dynamics.contact.resolve.CoreContact`."""
     nv, nq, T = model.nv, model.nq, out_t.shape[0]
-    p = Samples(out_t, np.zeros((T if "q" in outputs else 0, nq)), np.zeros((T if "v" in outputs else 0, nv)),
-                np.zeros((T if "tau" in outputs else 0, nv)), np.zeros((T, 2 + (contact is not None))),
-                np.zeros((T, 2)), np.zeros(1, np.int64), None, contact=contact)
-    constrained = None
+    # (uninitialised: the core writes every column of a sample's rows, and only the count rows written are read)
+    out_q, out_v = np.empty((T if "q" in outputs else 0, nq)), np.empty((T if "v" in outputs else 0, nv))
+    out_tau, out_w = np.empty((T if "tau" in outputs else 0, nv)), np.empty((T, 2 if contact is None else 3))
+    out_e, count = np.empty((T, 2)), np.zeros(1, np.int64)
+    out_lam = drift = constrained = None
     if baumgarte is not None:
         con = core_constraints(model)
         drift = np.zeros(3)  # max |phi|, max |Phi_q v|, failed projections (the core's one array)
-        p = p._replace(out_lam=np.zeros((T if "lambda" in outputs else 0, con.m)), drift=drift[:2],
-                       project_failures=drift[2:])
-        constrained = (con, float(baumgarte[0]), float(baumgarte[1]), bool(project), p.out_lam, drift)
-    stats, sw = solvers.new_stats(), solvers.new_switch_log()
-    options = {k: getattr(opt, k) for k in opt._fields}
-    options["probe"] = bool(opt.probe)
-    options["deadline"] = seconds_left()  # the core stops past it (status DEADLINE)
+        out_lam = np.zeros((T if "lambda" in outputs else 0, con.m))
+        constrained = (con, float(baumgarte[0]), float(baumgarte[1]), bool(project), out_lam, drift)
+    stats, sw = np.frombuffer(bytearray(_STATS0), solvers.STATS), np.zeros(solvers.MAX_SWITCHES, solvers.SWITCH)
+    # the options as the core's Options reads them, in its field order, then the deadline (the core stops past it,
+    # status DEADLINE): a tuple, not a dict parsed by name on every call
+    options = (*opt, seconds_left())
 
     def call():
-        return _core.run(method, model.core, passive, source, q0, z, float(t0), float(t_end), p.out_t, p.out_q,
-                         p.out_v, p.out_tau, p.out_w, p.out_e, p.count, options, stats, sw, sens, constrained,
+        return _core.run(method, model.core, passive, source, q0, z, float(t0), float(t_end), out_t, out_q, out_v,
+                         out_tau, out_w, out_e, count, options, stats, sw, sens, constrained,
                          None if contact is None else contact.core)
     if watch is None:
         base = call()
     else:
-        with watch(p):
+        with watch(Samples(out_t, out_q, out_v, out_tau, out_w, out_e, count, None)):
             base = call()
     st = stats[0]
     if st["status"] == DEADLINE:
         raise DeadlineExceeded(f"simulate ran past its deadline at t={float(st['t']):.6g} s of {float(t_end):g} s",
                                done=int(st["samples"]), total=out_t.shape[0])
-    return p._replace(base=base), st, sw[:st["switches"]]
+    p = Samples(out_t, out_q, out_v, out_tau, out_w, out_e, count, base, out_lam,
+                None if drift is None else drift[:2], None if drift is None else drift[2:], contact)
+    return p, st, sw[:st["switches"]]
 
 
 #: the core's statuses beyond the solvers' (core/simulation/solver.hpp): a Python torque raised (its exception is

@@ -50,6 +50,7 @@ than step points).  The scale used is reported as ``energy_scale`` (J).
 """
 
 import math
+import weakref
 
 import numpy as np
 
@@ -150,30 +151,66 @@ def energy_balance(model, s, e, w):
     per_sample = "q" in s.outputs and "v" in s.outputs
     if not per_sample and cnt:
         e, w = e[[0, cnt - 1]], w[[0, cnt - 1]]
-    K, U = e[:, 0], e[:, 1]
-    E = K + U
-    W = w.sum(axis=1) if cnt else np.zeros(0)
-    scale = float("nan")
-    if cnt:
-        scale = max(float(K.max()), float(U.max() - U.min()), float(np.abs(w[-1]).max()),
-                    robot_energy_scale(model, s.gravity))
-        resid = np.abs(E - E[0] - W)
-        drift, drift_max = float(resid[-1] / scale), float(resid.max() / scale)
-    else:
-        drift = drift_max = float("nan")
+    if not cnt:
+        nan = float("nan")
+        return {"energy_drift": nan, "energy_drift_max": nan if per_sample else None, "energy_scale": nan,
+                "work_torque": 0.0, "work_passive": 0.0, "energy_initial": nan, "energy_final": nan}
+    terms = _balance_few(e, w) if len(e) <= _FEW else None
+    if terms is None:
+        (k_max, u_max), u_min = e.max(axis=0), e[:, 1].min()
+        E = e[:, 0] + e[:, 1]
+        resid = E - E[0]
+        resid -= w.sum(axis=1)
+        np.abs(resid, out=resid)
+        terms = (float(k_max), float(u_max - u_min), float(np.abs(w[-1]).max()), resid[-1], resid.max(),
+                 float(E[0]), float(E[-1]))
+    k_max, u_range, w_max, resid_last, resid_max, e_first, e_last = terms
+    scale = max(k_max, u_range, w_max, robot_energy_scale(model, s.gravity))
+    drift, drift_max = float(resid_last / scale), float(resid_max / scale)
     return {"energy_drift": drift, "energy_drift_max": drift_max if per_sample else None, "energy_scale": scale,
-            "work_torque": float(w[-1, 0]) if cnt else 0.0, "work_passive": float(w[-1, 1]) if cnt else 0.0,
-            "energy_initial": float(E[0]) if cnt else float("nan"),
-            "energy_final": float(E[-1]) if cnt else float("nan")}
+            "work_torque": float(w[-1, 0]), "work_passive": float(w[-1, 1]),
+            "energy_initial": e_first, "energy_final": e_last}
+
+
+#: up to this many samples the energy balance is summed in Python floats (numpy's calls cost more than the sums)
+_FEW = 16
+
+
+def _balance_few(e, w):
+    """energy_balance's terms for a few samples, in Python floats: the same operations in the same order as numpy's
+    (E = K + U, W = w_0 + w_1 (+ w_2), |(E - E_0) - W|), so the same bits; None when a value is not finite (numpy's
+    max and min treat a NaN otherwise than Python's, so those take numpy's way)."""
+    K, U = e[:, 0].tolist(), e[:, 1].tolist()
+    rows = w.tolist()
+    if not math.isfinite(sum(K) + sum(U) + sum(map(sum, rows))):  # (a finite sum: every term is finite)
+        return None
+    E = [k + u for k, u in zip(K, U)]
+    W = [r[0] + r[1] if len(r) == 2 else r[0] + r[1] + r[2] for r in rows]
+    resid = [abs(x - E[0] - y) for x, y in zip(E, W)]
+    return max(K), max(U) - min(U), max(map(abs, rows[-1])), resid[-1], max(resid), E[0], E[-1]
+
+
+#: per model: its total mass and size (robot_energy_scale), and the scales of the gravities asked for
+_ENERGY = weakref.WeakKeyDictionary()
 
 
 def robot_energy_scale(model, gravity):
     """m L max(|g|, 1 m/s^2) (J): total mass, size = sum of joint offsets + the largest centre-of-mass offset."""
-    tree = model.tree
-    mass = float(np.sum(tree.mass))
-    com = np.linalg.norm(tree.h, axis=1) / np.maximum(tree.mass, 1e-300) if len(tree.mass) else np.zeros(1)
-    size = float(np.sum(np.linalg.norm(tree.Xpos, axis=1))) + float(np.max(com, initial=0.0))
-    return max(mass * size * max(float(np.linalg.norm(gravity)), 1.0), 1e-300)
+    facts = _ENERGY.get(model)
+    if facts is None:
+        tree = model.tree
+        mass = float(np.sum(tree.mass))
+        com = np.linalg.norm(tree.h, axis=1) / np.maximum(tree.mass, 1e-300) if len(tree.mass) else np.zeros(1)
+        size = float(np.sum(np.linalg.norm(tree.Xpos, axis=1))) + float(np.max(com, initial=0.0))
+        facts = _ENERGY[model] = (mass, size, {})
+    mass, size, scales = facts
+    key = np.asarray(gravity, float).tobytes()
+    scale = scales.get(key)
+    if scale is None:
+        scale = max(mass * size * max(float(np.linalg.norm(gravity)), 1.0), 1e-300)
+        if len(scales) < 16:
+            scales[key] = scale
+    return scale
 
 
 def accuracy_warnings(s, fields, qf, vf, warnings):

@@ -9,6 +9,7 @@ back, with the GIL taken, once per right-hand-side evaluation.
 
 import math
 import time
+import weakref
 from typing import NamedTuple
 from warnings import warn
 
@@ -28,12 +29,13 @@ from ..control.validation import make_source
 from . import report as R
 from ..constrained_dynamics import DEFAULT_BAUMGARTE, baumgarte_gains, project_velocity
 from ..constraints import core_constraints, warn_drift, warn_off_manifold
+from . import native
 from .native import NQUAD, PROJECT_TOL
 from .progress import check as check_progress
 from .progress import watcher
 from .sensitivities import error_estimate as sensitivity_error
 from .sensitivities import sensitivity_spec
-from .solvers import FIXED, NONFINITE, ORDER, STABILITY_LIMIT, Options
+from .solvers import FIXED, NONFINITE, ORDER, STABILITY_LIMIT, STATS, Options
 
 __all__ = ["simulate", "Trajectory", "INTEGRATORS", "OUTPUTS", "DEFAULT_OUTPUTS"]
 
@@ -89,13 +91,14 @@ class Settings(NamedTuple):
 
 class RunResult(NamedTuple):
     problem: object  # the RobotProblem, holding the samples
-    stats: np.void  # the solver's statistics record (solvers.STATS)
+    stats: dict  # the solver's statistics record (solvers.STATS) as Python numbers by field name
     switches: np.ndarray  # the auto switch log (solvers.SWITCH rows)
     wall: float
     qf: np.ndarray  # final state
     vf: np.ndarray
     S: object = None  # sensitivities: per sample (T, 2 nv, ncol) and at the end (2 nv, ncol), or None
     Sf: object = None
+    core: object = None  # the core's (Passive, Source) the run used: the error estimate's rerun uses them again
 
 
 def simulate(model, q0, v0, duration, *, torque=None, integrator="auto", rtol=1e-6, atol=1e-8, dt=None,
@@ -148,7 +151,8 @@ def simulate(model, q0, v0, duration, *, torque=None, integrator="auto", rtol=1e
                   error_estimate, outputs, warnings, baumgarte, project, contact)
     ps = _passive(model, s, limits, limit_stiffness, limit_damping, friction_eps)
     src = make_source(model, torque)
-    s = s._replace(sens=sensitivity_spec(model, src, sensitivities, s.integrator, s.project))
+    if sensitivities is not None:
+        s = s._replace(sens=sensitivity_spec(model, src, sensitivities, s.integrator, s.project))
     try:
         main = _one_run(model, s, ps, src, s.dt, s.out_t, s.rtol, s.atol, max_steps, s.outputs,
                         h0=s.dt if not s.fixed else 0.0, watch=watcher(progress, s.duration), probe=True)
@@ -183,7 +187,7 @@ def _trajectory(model, s, ps, src, main, stability, warnings):
     reruns = []
 
     def rerun(dt, rtol, atol, max_steps):
-        reruns.append(_one_run(model, s, ps, src, dt, np.array([0.0]), rtol, atol, max_steps, ()))
+        reruns.append(_one_run(model, s, ps, src, dt, np.array([0.0]), rtol, atol, max_steps, (), core=main.core))
         return reruns[-1]
 
     errors = R.error_estimate(model, s, main, rerun, ORDER.get(s.integrator, 0), warnings)
@@ -191,7 +195,7 @@ def _trajectory(model, s, ps, src, main, stability, warnings):
         report["sensitivities"] = _sensitivity_report(s, main, reruns, errors)
     R.accuracy_warnings(s, errors, main.qf, main.vf, warnings)
     report.update(errors)
-    t, q, v, tau, w = p.out_t[:cnt], p.out_q[:cnt], p.out_v[:cnt], p.out_tau[:cnt], p.out_w[:cnt]
+    w = p.out_w[:cnt]
     report.update(R.energy_balance(model, s, p.out_e[:cnt], w))
     lam = None
     if s.constrained:
@@ -211,7 +215,14 @@ def _trajectory(model, s, ps, src, main, stability, warnings):
         contacts = contact_samples(s.contact, p.contact, cnt)
     report["warnings"] = warnings
     S = main.S[:cnt].copy() if s.sens is not None else None
-    return Trajectory(t.copy(), q.copy(), v.copy(), tau.copy(), R.json_safe(report), lam, contacts, S)
+    return Trajectory(_rows(p.out_t, cnt), _rows(p.out_q, cnt), _rows(p.out_v, cnt), _rows(p.out_tau, cnt),
+                      R.json_safe(report), lam, contacts, S)
+
+
+def _rows(a, cnt):
+    """The first cnt rows of a run's output as an array of its own: the array itself when it has exactly those
+    rows (the run made it for this call, nothing else holds it), else a copy of them."""
+    return a if a.shape[0] == cnt else a[:cnt].copy()
 
 
 def _sensitivity_report(s, main, reruns, errors):
@@ -242,9 +253,10 @@ def _why_nonfinite(model, s, src, main):
     return None
 
 
-def _one_run(model, s, ps, src, dt, out_t, rtol, atol, max_steps, outputs, h0=0.0, watch=None, probe=False):
-    """One run of s.integrator in the C++ core from (q0, v0); samples kept at out_t (``outputs`` of q, v, tau)."""
-    from . import native
+def _one_run(model, s, ps, src, dt, out_t, rtol, atol, max_steps, outputs, h0=0.0, watch=None, probe=False,
+             core=None):
+    """One run of s.integrator in the C++ core from (q0, v0); samples kept at out_t (``outputs`` of q, v, tau).
+    ``core``: the core's (Passive, Source) of ps and src when made already (they are only read by a run)."""
     nv = model.nv
     contact = None
     if s.contact is not None:
@@ -265,20 +277,23 @@ def _one_run(model, s, ps, src, dt, out_t, rtol, atol, max_steps, outputs, h0=0.
     opt = Options(nc=nv, nvel=nv, ne=ne, max_steps=int(max_steps), nsteps=nsteps, dt=float(dt or 0.0),
                   rtol=float(rtol), atol=float(atol), h0=float(h0 or 0.0), hmax=np.inf, blowup=_blowup(s.v0),
                   probe=int(probe and s.fixed and s.duration > 0))
+    if core is None:
+        core = (native.core_passive(model, ps), native.core_source(model, src))
     tic = time.perf_counter()
-    p, st, sw = native.run(s.integrator, model, native.core_passive(model, ps), native.core_source(model, src), s.q0,
-                           z, s.duration, out_t, outputs, opt, watch=watch, sens=sens,
-                           baumgarte=s.baumgarte if s.constrained else None, project=s.project, contact=contact)
+    p, st, sw = native.run(s.integrator, model, core[0], core[1], s.q0, z, s.duration, out_t, outputs, opt,
+                           watch=watch, sens=sens, baumgarte=s.baumgarte if s.constrained else None,
+                           project=s.project, contact=contact)
     wall = time.perf_counter() - tic
     qf = np.empty(model.nq)
     _core.retract(model.core, p.base, z[:nv], qf)
-    if sens is None:
-        return RunResult(p, st, sw, wall, qf, z[nv:2 * nv].copy())
-    return RunResult(p, st, sw, wall, qf, z[nv:2 * nv].copy(), out_S, Sf)
+    # (the report reads a dozen fields: Python numbers once, not a numpy scalar per read)
+    return RunResult(p, dict(zip(STATS.names, st.item())), sw, wall, qf, z[nv:2 * nv].copy(), out_S, Sf, core)
 
 
 def _blowup(v0):
-    return max(1e6, 1e4 * float(np.max(np.abs(v0), initial=0.0)))
+    """The joint speed past which a run stops (status "blowup"); v0: (nv,), or (n, nv) for several states."""
+    # (v0 is checked finite: Python's max is numpy's, exactly, and without its call's cost)
+    return max(1e6, 1e4 * max(map(abs, np.ravel(v0).tolist()), default=0.0))
 
 
 def _stability(s, rho, warnings):
@@ -297,6 +312,41 @@ def _stability(s, rho, warnings):
 
 # ---------------------------------------------------------------------------------------------------
 # checks
+#: the Baumgarte gains of ``baumgarte=None``, checked once
+_DEFAULT_GAINS = baumgarte_gains(DEFAULT_BAUMGARTE)
+_OUTPUT_SET = frozenset(OUTPUTS)
+
+
+class _Facts(NamedTuple):
+    """What simulate reads of a model on every call and that never changes (models are immutable)."""
+
+    units: tuple  # per unit block of q (a quaternion, a planar joint's (cos, sin)): (start, size, what, joint name)
+    qpos: np.ndarray  # (nv,) int64, read-only: _qpos_map
+    passive: tuple  # damping, friction, lower, upper: the model's (nv,) arrays as C-contiguous float64
+
+
+#: per model, its _Facts (kept while the model lives)
+_FACTS = weakref.WeakKeyDictionary()
+
+
+def _facts(model):
+    facts = _FACTS.get(model)
+    if facts is None:
+        tree, units = model.tree, []
+        for i, code in enumerate(tree.jtype):
+            kind = KINDS[int(code)]
+            if kind.unit:
+                n = kind.unit[1]
+                units.append((int(tree.q_idx[i]) + kind.unit[0], n,
+                              "quaternion (x, y, z, w)" if n == 4 else "(cos theta, sin theta)", model.joint_names[i]))
+        qpos = _qpos_map(model)
+        qpos.flags.writeable = False
+        # (a model's arrays are read-only, contiguous float64 already: these are the model's own arrays)
+        passive = tuple(np.ascontiguousarray(a, float) for a in (model.damping, model.friction, model.lower, model.upper))
+        facts = _FACTS[model] = _Facts(tuple(units), qpos, passive)
+    return facts
+
+
 def _settings(model, q0, v0, duration, integrator, rtol, atol, dt, sample_dt, gravity, max_steps,
               error_estimate, outputs, warnings, baumgarte, project, contact=None):
     """Check every argument once, with an error that names it; returns :class:`Settings`."""
@@ -317,7 +367,7 @@ def _settings(model, q0, v0, duration, integrator, rtol, atol, dt, sample_dt, gr
     g = vector("gravity", model.gravity if gravity is None else gravity, 3)
     if isinstance(max_steps, bool) or not isinstance(max_steps, (int, np.integer)) or max_steps < 1:
         raise InputError(f"max_steps: expected a positive int, got {max_steps!r}")
-    if isinstance(outputs, str) or not set(outputs) <= set(OUTPUTS):
+    if outputs is not DEFAULT_OUTPUTS and (isinstance(outputs, str) or not set(outputs) <= _OUTPUT_SET):
         raise InputError(f"outputs: expected a subset of {OUTPUTS}, got {outputs!r}")
     if error_estimate not in ("rerun", "local", "none"):
         raise InputError(f"error_estimate: expected 'rerun', 'local' or 'none', got {error_estimate!r}")
@@ -327,7 +377,7 @@ def _settings(model, q0, v0, duration, integrator, rtol, atol, dt, sample_dt, gr
             raise InputError(f"max_steps: dt={dt:g} needs {nsteps} steps over {duration:g} s, more than "
                              f"max_steps={max_steps}")
     constrained = bool(getattr(model, "constraints", ()))
-    gains = baumgarte_gains(DEFAULT_BAUMGARTE if baumgarte is None else baumgarte)
+    gains = _DEFAULT_GAINS if baumgarte is None else baumgarte_gains(baumgarte)
     if not isinstance(project, (bool, np.bool_)):
         raise InputError(f"project: expected True or False, got {project!r}")
     if constrained and project:
@@ -338,8 +388,8 @@ def _settings(model, q0, v0, duration, integrator, rtol, atol, dt, sample_dt, gr
     if contact is not None:
         from ..contact.resolve import resolve
         resolved = resolve(contact, model, g)
-    return Settings(integrator, fixed, q0, v0, duration, rtol, atol, dt, g, int(max_steps),
-                    tuple(o for o in OUTPUTS if o in outputs), error_estimate,
+    kept = DEFAULT_OUTPUTS if outputs is DEFAULT_OUTPUTS else tuple(o for o in OUTPUTS if o in outputs)
+    return Settings(integrator, fixed, q0, v0, duration, rtol, atol, dt, g, int(max_steps), kept, error_estimate,
                     _sample_times(duration, dt, sample_dt, fixed), constrained, gains, bool(project), resolved)
 
 
@@ -365,20 +415,27 @@ def _check_not_singular(model, q0, v0, g):
     refuse_singular(model, q0, "q0")
 
 
+#: Passive.f_ext: no external forces (read-only, shared)
+_NO_FORCES = np.zeros((0, 6))
+_NO_FORCES.flags.writeable = False
+
+
 def _passive(model, s, limits, limit_stiffness, limit_damping, friction_eps):
     if limits not in (None, "spring"):
         raise InputError(f"limits: expected None or 'spring', got {limits!r}")
     limit_stiffness = real_number("limit_stiffness", limit_stiffness, lo=0.0)
     limit_damping = real_number("limit_damping", limit_damping, lo=0.0)
     friction_eps = real_number("friction_eps", friction_eps, lo=0.0, lo_open=True)
-    return Passive(np.ascontiguousarray(model.damping, float), np.ascontiguousarray(model.friction, float),
-                   friction_eps, 1 if limits == "spring" else 0, np.ascontiguousarray(model.lower, float),
-                   np.ascontiguousarray(model.upper, float), _qpos_map(model), limit_stiffness, limit_damping,
-                   s.gravity, np.zeros((0, 6)))
+    facts = _facts(model)
+    damping, friction, lower, upper = facts.passive
+    return Passive(damping, friction, friction_eps, 1 if limits == "spring" else 0, lower, upper, facts.qpos,
+                   limit_stiffness, limit_damping, s.gravity, _NO_FORCES)
 
 
 def _not_a_batch(model, q0, v0):
     """A batch of initial states (B, nq) is a mistake here: say so and point to simulate_many."""
+    if type(q0) is np.ndarray and q0.ndim == 1 and type(v0) is np.ndarray and v0.ndim == 1:
+        return  # (the usual call)
     for name, x, n in (("q0", q0, model.nq), ("v0", v0, model.nv)):
         shape = np.shape(x) if isinstance(x, (np.ndarray, list, tuple)) else ()
         if len(shape) == 2 and shape[1] == n:
@@ -389,18 +446,12 @@ def _not_a_batch(model, q0, v0):
 def _check_q(model, q0, warnings):
     """q0 checked, its unit blocks (quaternions, a planar joint's (cos, sin)) normalised with a warning."""
     q = vector("q0", q0, model.nq)
-    tree = model.tree
-    for i, code in enumerate(tree.jtype):
-        kind = KINDS[int(code)]
-        if not kind.unit:
-            continue
-        k, n = int(tree.q_idx[i]) + kind.unit[0], kind.unit[1]
-        what = "quaternion (x, y, z, w)" if n == 4 else "(cos theta, sin theta)"
+    for k, n, what, joint in _facts(model).units:
         nrm = float(np.linalg.norm(q[k:k + n]))
         if nrm < 1e-6:
-            raise InputError(f"q0: the {what} q0[{k}:{k + n}] of joint {model.joint_names[i]!r} is zero")
+            raise InputError(f"q0: the {what} q0[{k}:{k + n}] of joint {joint!r} is zero")
         if abs(nrm - 1.0) > 1e-6:
-            warnings.append(f"q0: {what} of joint {model.joint_names[i]!r} had norm {nrm:.6g}; normalised")
+            warnings.append(f"q0: {what} of joint {joint!r} had norm {nrm:.6g}; normalised")
         q[k:k + n] /= nrm
     return q
 
@@ -419,11 +470,18 @@ def _sample_times(duration, dt, sample_dt, fixed):
     if sample_dt is None:
         if fixed:
             n = max(1, math.ceil(duration / dt * (1 - 1e-12))) if duration > 0 else 0
+            if n <= 16:  # (a few steps: the same products k dt, without numpy's calls)
+                return np.array([min(k * dt, duration) for k in range(n)] + [duration])
             t = np.minimum(np.arange(n + 1) * dt, duration)
             t[-1] = duration
             return t
         sample_dt = duration / 1000 if duration > 0 else 1.0
+    if duration <= 0:
+        return np.zeros(1)
     n = math.floor(duration / sample_dt * (1 + 1e-12))
     t = np.arange(n + 1) * sample_dt
-    t = t[t < duration * (1 - 1e-12)] if duration > 0 else t[:1]
-    return np.append(t, duration) if duration > 0 else t
+    k = int(np.searchsorted(t, duration * (1 - 1e-12)))  # the first k times are < duration (less round-off)
+    if k > n:  # (all of them: the end is one more sample)
+        return np.append(t, duration)
+    t[k] = duration  # (usually k = n: the last multiple is the end, within round-off)
+    return t if k == n else t[:k + 1].copy()
