@@ -236,7 +236,7 @@ double spectral_radius(const double* J, int n, int ne) {
 double jacobian_spectral_radius(Problem& p, double t, const double* z, const double* f0, int n, int ne) {
     std::vector<double> J(static_cast<size_t>(n) * n), mag(n, 0.0);
     Stats scratch;
-    fd_jacobian(p, t, z, f0, mag.data(), n, ne, J.data(), scratch);
+    problem_jacobian(p, t, z, f0, mag.data(), n, ne, J.data(), scratch);  // analytical where the problem has one
     return spectral_radius(J.data(), n, ne);
 }
 
