@@ -121,7 +121,7 @@ class Simulator:
             sim = make(None if s.contact is None else [core_contact(s.contact, model) for _ in range(1 + rerun)], one)
             sim.step(1, math.inf)
             return sim
-        _refuse_unaffordable(self.n, probe)
+        _refuse_unaffordable(self.n, probe, _workspace_guess(model, contact is not None, rerun))
         self._core = make(self._contacts, a)
         self._views = {k: _read_only(a[k]) for k in ("t", "q", "v", "error", "w")}
         self._wall = 0.0
@@ -385,16 +385,26 @@ def _initial_states(model, q0, v0):
     return Q[None], V[None], False
 
 
-def _refuse_unaffordable(n, make_one):
+def _workspace_guess(model, contact, rerun):
+    """A generous guess of one environment's bytes where the allocator cannot be asked (not glibc's, or under a
+    sanitizer): the workspaces per body and the integrator's matrices of the state's size."""
+    nb, n = model.tree.parents.shape[0], 2 * model.nv + 3
+    each = 8 * (40 * 36 * nb + 12 * n * n) + (64 * 1024 if contact else 0)
+    return each * (2 if rerun else 1)
+
+
+def _refuse_unaffordable(n, make_one, guess):
     """Refuse n environments whose workspaces would not fit in the memory available (rather than let the kernel kill
-    the process): one environment is made, stepped once, and its allocations counted (glibc's mallinfo2; elsewhere
-    no check)."""
-    used = _malloc_bytes()
-    if used is None or n < 64:
+    the process): one environment is made, stepped once, and its allocations counted (glibc's mallinfo2), or
+    ``guess`` bytes each where they cannot be counted."""
+    if n < 64:
         return
+    used = _malloc_bytes()
     one = make_one()
-    each = max(_malloc_bytes() - used, 1)
+    each = _malloc_bytes() - used if used is not None else 0
     del one
+    if each < 4096:  # the allocator does not count (another allocator, a sanitizer's): the guess
+        each = guess
     available = _available_memory()
     if available is not None and n * each > 0.8 * available:
         raise InputError(f"q0: {n} environments would take about {n * each / 2**30:.3g} GiB "
