@@ -41,4 +41,11 @@ void rnea_derivatives(const Model& model, DerivativesData& data, const double* q
 void derivatives_forward_pass(const Model& model, DerivativesData& data, const double* q, const double* v,
                               const double* a, const Vec3& gravity, const double* f_ext);
 
+// dtau_dq and dtau_dv alone (M is not written) at the world poses oM (nb) and motion axes J (nv, J_k = oX_i S_k) of
+// q that a caller has (inverse_mass_matrix leaves them in Data::oMi and Data::Sw): the same numbers as
+// rnea_derivatives() without the poses' second computation.
+void rnea_derivatives_at_poses(const Model& model, DerivativesData& data, const Transform* oM, const Motion* J,
+                               const double* v, const double* a, const Vec3& gravity, const double* f_ext,
+                               double* dtau_dq, double* dtau_dv);
+
 }  // namespace core
