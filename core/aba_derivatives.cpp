@@ -13,18 +13,20 @@ namespace core {
 // oX = -Minv X and oY = -Minv Y (n x n, row-major): each entry the sum over k in increasing order, starting from
 // +0, as the plain loop o -= Minv[i, k] X[k, j] makes it, so the bits are the textbook product's.  Two shortcuts
 // keep those bits:
-// - a block of 4 columns of 2 rows is summed in registers, X's and Y's rows read once for both rows;
+// - a block of 4 columns of R rows is summed in registers, X's and Y's rows read once for the R rows;
 // - a k whose entries of X and Y in the block are all zero is left out: its terms are +-0, which change no sum
 //   (a sum that starts at +0 is never -0).  dtau/dq and dtau/dv are zero between coordinates of different
 //   branches, so on a tree with limbs most of the k go (Talos: about 60 %).
-// X and Y are read up to 3 entries past their end (DerivativesData pads them); K: n ints of scratch.  On x86-64
-// Linux an AVX2 copy is compiled beside the portable one and chosen at load time by the CPU: AVX2 has no fused
-// multiply-add (that is FMA, not asked for), so both copies make the same products and differences, the same bits.
-#if defined(__x86_64__) && defined(__linux__) && defined(__GNUC__)
-__attribute__((target_clones("avx2", "default")))
+// X and Y are read up to 3 entries past their end (DerivativesData pads them); K: n ints of scratch.
+#if defined(__GNUC__)
+#define ALWAYS_INLINE inline __attribute__((always_inline))
+#else
+#define ALWAYS_INLINE inline
 #endif
-static void minus_minv_times(const double* Minv, const double* X, const double* Y, int n, int* K, double* oX,
-                             double* oY) {
+
+template <int R>
+ALWAYS_INLINE void minus_minv_times_rows(const double* Minv, const double* X, const double* Y, int n, int* K,
+                                         double* oX, double* oY) {
     for (int j0 = 0; j0 < n; j0 += 4) {
         const int w = std::min(4, n - j0);
         int m = 0;
@@ -33,26 +35,41 @@ static void minus_minv_times(const double* Minv, const double* X, const double* 
             for (int c = 0; c < w; ++c) nonzero |= X[k * n + j0 + c] != 0.0 || Y[k * n + j0 + c] != 0.0;
             if (nonzero) K[m++] = k;
         }
-        for (int i = 0; i < n; i += 2) {
-            const int i1 = std::min(i + 1, n - 1);  // n odd: the last row twice, stored once
-            const double *r0 = Minv + static_cast<long>(i) * n, *r1 = Minv + static_cast<long>(i1) * n;
-            double x0[4] = {0.0, 0.0, 0.0, 0.0}, x1[4] = {0.0, 0.0, 0.0, 0.0};
-            double y0[4] = {0.0, 0.0, 0.0, 0.0}, y1[4] = {0.0, 0.0, 0.0, 0.0};
+        for (int i = 0; i < n; i += R) {
+            long row[R];  // rows i .. i + R - 1; past the last, the last again (computed twice, stored the same)
+            for (int r = 0; r < R; ++r) row[r] = static_cast<long>(std::min(i + r, n - 1)) * n;
+            double x[R][4] = {}, y[R][4] = {};
             for (int t = 0; t < m; ++t) {
                 const int k = K[t];
-                const double a0 = r0[k], a1 = r1[k];
                 const double *bx = X + static_cast<long>(k) * n + j0, *by = Y + static_cast<long>(k) * n + j0;
-                for (int c = 0; c < 4; ++c) {
-                    x0[c] -= a0 * bx[c], x1[c] -= a1 * bx[c];
-                    y0[c] -= a0 * by[c], y1[c] -= a1 * by[c];
+                for (int r = 0; r < R; ++r) {
+                    const double a = Minv[row[r] + k];
+                    for (int c = 0; c < 4; ++c) x[r][c] -= a * bx[c], y[r][c] -= a * by[c];
                 }
             }
-            for (int c = 0; c < w; ++c) {
-                oX[static_cast<long>(i) * n + j0 + c] = x0[c], oY[static_cast<long>(i) * n + j0 + c] = y0[c];
-                oX[static_cast<long>(i1) * n + j0 + c] = x1[c], oY[static_cast<long>(i1) * n + j0 + c] = y1[c];
-            }
+            for (int r = 0; r < R; ++r)
+                for (int c = 0; c < w; ++c) oX[row[r] + j0 + c] = x[r][c], oY[row[r] + j0 + c] = y[r][c];
         }
     }
+}
+
+// On x86-64 with GCC or Clang an AVX2 copy (4 rows at a time: 8 accumulators of 4 numbers) is compiled beside the
+// portable one (2 rows: SSE2 has 16 registers of 2) and chosen by the CPU.  AVX2 has no fused multiply-add (that
+// is FMA, not asked for), so both make the same products and differences: the same bits on every CPU.
+#if defined(__x86_64__) && defined(__GNUC__)
+__attribute__((target("avx2"))) static void minus_minv_times_avx2(const double* Minv, const double* X,
+                                                                  const double* Y, int n, int* K, double* oX,
+                                                                  double* oY) {
+    minus_minv_times_rows<4>(Minv, X, Y, n, K, oX, oY);
+}
+#endif
+
+static void minus_minv_times(const double* Minv, const double* X, const double* Y, int n, int* K, double* oX,
+                             double* oY) {
+#if defined(__x86_64__) && defined(__GNUC__)
+    if (__builtin_cpu_supports("avx2")) return minus_minv_times_avx2(Minv, X, Y, n, K, oX, oY);
+#endif
+    minus_minv_times_rows<2>(Minv, X, Y, n, K, oX, oY);
 }
 
 int aba_derivatives(const Model& model, Data& data, DerivativesData& dd, const double* q, const double* v,
