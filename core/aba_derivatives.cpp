@@ -5,7 +5,7 @@
 
 #include "aba.hpp"
 #include "checks.hpp"
-#include "minverse.hpp"
+#include "minverse_passes.hpp"
 #include "rnea_derivatives.hpp"
 
 namespace core {
@@ -75,13 +75,23 @@ static void minus_minv_times(const double* Minv, const double* X, const double* 
 int aba_derivatives(const Model& model, Data& data, DerivativesData& dd, const double* q, const double* v,
                     const double* tau, const Vec3& gravity, const double* f_ext, double* da_dq, double* da_dv,
                     double* Minv) {
-    const int nv = model.nv;
+    const int nb = model.nb, nv = model.nv;
     double* a = dd.qdd.data();
-    int singular = aba(model, data, q, v, tau, gravity, f_ext, any_nonzero(v, nv), a);
-    if (singular < 0) singular = inverse_mass_matrix(model, data, q, Minv);
+    int singular = aba(model, data, q, v, tau, gravity, f_ext, any_nonzero(v, nv), a);  // leaves X_i in data.X
     if (singular >= 0) return singular;
-    rnea_derivatives_at_poses(model, dd, data.oMi.data(), data.Sw.data(), v, a, gravity, f_ext, dd.dtau_dq.data(),
-                              dd.dtau_dv.data());
+    // pass 1, forward: world poses, axes, velocities, accelerations at a, inertias and forces (the RNEA
+    // derivatives' forward pass), and M^-1's inputs from them: the axes, each body's inertia, the subtree sizes
+    derivatives_forward_pass(model, dd, data.X.data(), v, a, gravity, f_ext);
+    for (int k = 0; k < nv; ++k) data.Sw[k] = dd.J[k];
+    for (int i = 0; i < nb; ++i) data.IA[i] = to_matrix(dd.Y[i]), data.nsub[i] = model.nv_j[i];
+    for (int i = nb - 1; i >= 0; --i)
+        if (model.parents[i] >= 0) data.nsub[model.parents[i]] += data.nsub[i];
+    // pass 2, backward: M^-1's rows with the articulated inertias; pass 3, backward: the RNEA derivatives' blocks
+    // with the composite inertias; pass 4, forward: M^-1's columns
+    singular = minverse_backward_pass(model, data, Minv);
+    if (singular >= 0) return singular;
+    rnea_derivatives_backward_pass(model, dd, dd.dtau_dq.data(), dd.dtau_dv.data());
+    minverse_forward_pass(model, data, Minv);
     minus_minv_times(Minv, dd.dtau_dq.data(), dd.dtau_dv.data(), nv, dd.K.data(), da_dq, da_dv);
     return -1;
 }

@@ -120,17 +120,21 @@ void rnea_derivatives(const Model& model, DerivativesData& d, const double* q, c
     backward_pass<true>(model, d, dtau_dq, dtau_dv, M);
 }
 
-void rnea_derivatives_at_poses(const Model& model, DerivativesData& d, const Transform* oM, const Motion* J,
-                               const double* v, const double* a, const Vec3& gravity, const double* f_ext,
-                               double* dtau_dq, double* dtau_dv) {
-    const long nn = static_cast<long>(model.nv) * model.nv;
-    std::fill(dtau_dq, dtau_dq + nn, 0.0), std::fill(dtau_dv, dtau_dv + nn, 0.0);
+void derivatives_forward_pass(const Model& model, DerivativesData& d, const Transform* X, const double* v,
+                              const double* a, const Vec3& gravity, const double* f_ext) {
     const Motion a0 = {{}, -gravity};
     for (int i = 0; i < model.nb; ++i) {
-        d.oM[i] = oM[i];
-        for (int k = model.v_idx[i]; k < model.v_idx[i] + model.nv_j[i]; ++k) d.J[k] = J[k];
+        const int par = model.parents[i];
+        const Transform& oM = d.oM[i] = par < 0 ? X[i] : compose(d.oM[par], X[i]);
+        for (int k = model.v_idx[i]; k < model.v_idx[i] + model.nv_j[i]; ++k)
+            d.J[k] = motion_to_parent(oM, model.S[k]);
         forward_body(model, d, i, v, a, a0, f_ext);
     }
+}
+
+void rnea_derivatives_backward_pass(const Model& model, DerivativesData& d, double* dtau_dq, double* dtau_dv) {
+    const long nn = static_cast<long>(model.nv) * model.nv;
+    std::fill(dtau_dq, dtau_dq + nn, 0.0), std::fill(dtau_dv, dtau_dv + nn, 0.0);
     backward_pass<false>(model, d, dtau_dq, dtau_dv, nullptr);
 }
 
