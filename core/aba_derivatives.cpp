@@ -5,6 +5,7 @@
 
 #include "aba.hpp"
 #include "checks.hpp"
+#include "cpu_dispatch.hpp"
 #include "minverse_passes.hpp"
 #include "rnea_derivatives.hpp"
 
@@ -18,11 +19,6 @@ namespace core {
 //   (a sum that starts at +0 is never -0).  dtau/dq and dtau/dv are zero between coordinates of different
 //   branches, so on a tree with limbs most of the k go (Talos: about 60 %).
 // X and Y are read up to 3 entries past their end (DerivativesData pads them); K: n ints of scratch.
-#if defined(__GNUC__)
-#define ALWAYS_INLINE inline __attribute__((always_inline))
-#else
-#define ALWAYS_INLINE inline
-#endif
 
 template <int R>
 ALWAYS_INLINE void minus_minv_times_rows(const double* Minv, const double* X, const double* Y, int n, int* K,
@@ -56,7 +52,7 @@ ALWAYS_INLINE void minus_minv_times_rows(const double* Minv, const double* X, co
 // On x86-64 with GCC or Clang an AVX2 copy (4 rows at a time: 8 accumulators of 4 numbers) is compiled beside the
 // portable one (2 rows: SSE2 has 16 registers of 2) and chosen by the CPU.  AVX2 has no fused multiply-add (that
 // is FMA, not asked for), so both make the same products and differences: the same bits on every CPU.
-#if defined(__x86_64__) && defined(__GNUC__)
+#if HAVE_AVX2_CLONES
 __attribute__((target("avx2"))) static void minus_minv_times_avx2(const double* Minv, const double* X,
                                                                   const double* Y, int n, int* K, double* oX,
                                                                   double* oY) {
@@ -66,7 +62,7 @@ __attribute__((target("avx2"))) static void minus_minv_times_avx2(const double* 
 
 static void minus_minv_times(const double* Minv, const double* X, const double* Y, int n, int* K, double* oX,
                              double* oY) {
-#if defined(__x86_64__) && defined(__GNUC__)
+#if HAVE_AVX2_CLONES
     if (__builtin_cpu_supports("avx2")) return minus_minv_times_avx2(Minv, X, Y, n, K, oX, oY);
 #endif
     minus_minv_times_rows<2>(Minv, X, Y, n, K, oX, oY);

@@ -3,6 +3,8 @@
 // 6-vectors in locals; the others the general ones.
 #include "minverse_passes.hpp"
 
+#include "cpu_dispatch.hpp"
+
 namespace core {
 
 namespace {
@@ -22,7 +24,7 @@ Six six(const Motion& m) {
 }
 
 // The backward pass at a 1-dof joint: U = I^A s, D = s . U, its row of M^-1, F_p and I^A_p.
-bool backward_1dof(const Model& model, Data& d, double* Minv, int i, int k0, int ns, int par) {
+ALWAYS_INLINE bool backward_1dof(const Model& model, Data& d, double* Minv, int i, int k0, int ns, int par) {
     const int nv = model.nv;
     const Six s = six(d.Sw[k0]);
     const Mat6& IA = d.IA[i];
@@ -64,7 +66,7 @@ bool backward_1dof(const Model& model, Data& d, double* Minv, int i, int k0, int
 }
 
 // The backward pass at a joint of nj > 1 coordinates.
-bool backward_joint(const Model& model, Data& d, double* Minv, int i, int k0, int nj, int ns, int par) {
+ALWAYS_INLINE bool backward_joint(const Model& model, Data& d, double* Minv, int i, int k0, int nj, int ns, int par) {
     const int nv = model.nv;
     const Mat6& IA = d.IA[i];
     double U[6][6], UD[6][6], S[6][6], D[36], scratch[6];
@@ -129,7 +131,7 @@ bool backward_joint(const Model& model, Data& d, double* Minv, int i, int k0, in
 }
 
 // The forward pass at body i (its parent done): its rows of M^-1 from column k0 on, and A_i if it has children.
-void forward_joint(const Model& model, Data& d, double* Minv, int i, int k0, int nj, int ns, int par) {
+ALWAYS_INLINE void forward_joint(const Model& model, Data& d, double* Minv, int i, int k0, int nj, int ns, int par) {
     const int nv = model.nv;
     double* A = d.F.data();  // F is spent: its memory holds the accelerations A_i
     auto Aat = [&](int b, int c) { return A + (static_cast<long>(b) * nv + c) * 6; };
@@ -168,7 +170,7 @@ void forward_joint(const Model& model, Data& d, double* Minv, int i, int k0, int
 
 }  // namespace
 
-int minverse_backward_pass(const Model& model, Data& d, double* Minv) {
+AVX2_CLONE int minverse_backward_pass(const Model& model, Data& d, double* Minv) {
     d.F.resize(static_cast<size_t>(model.nb) * model.nv * 6);
     for (int i = model.nb - 1; i >= 0; --i) {
         const int k0 = model.v_idx[i], nj = model.nv_j[i];
@@ -179,7 +181,7 @@ int minverse_backward_pass(const Model& model, Data& d, double* Minv) {
     return -1;
 }
 
-void minverse_forward_pass(const Model& model, Data& d, double* Minv) {
+AVX2_CLONE void minverse_forward_pass(const Model& model, Data& d, double* Minv) {
     const int nv = model.nv;
     for (int i = 0; i < model.nb; ++i)  // columns c >= k0
         forward_joint(model, d, Minv, i, model.v_idx[i], model.nv_j[i], d.nsub[i], model.parents[i]);

@@ -1,0 +1,20 @@
+// AVX2_CLONE: an AVX2 copy of a hot function beside the portable one, chosen once by the CPU when the library loads
+// (GCC and Clang on x86-64 Linux: target_clones, an ifunc).  The numbers are the same bits in both: AVX2 has no
+// fused multiply-add (FMA is a feature of its own, not asked for) and the compiler never reorders floating-point
+// sums (no -ffast-math), so only the registers change: three-operand instructions spare the copies SSE2 makes.
+// ALWAYS_INLINE: a step inlined into its caller, so that the caller's copy compiles it for its own CPU.
+#pragma once
+
+#if defined(__x86_64__) && defined(__linux__) && defined(__GNUC__)
+#define AVX2_CLONE __attribute__((target_clones("avx2", "default")))
+#define HAVE_AVX2_CLONES 1
+#else
+#define AVX2_CLONE
+#define HAVE_AVX2_CLONES 0
+#endif
+
+#if defined(__GNUC__)
+#define ALWAYS_INLINE inline __attribute__((always_inline))
+#else
+#define ALWAYS_INLINE inline
+#endif
