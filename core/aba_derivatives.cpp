@@ -50,8 +50,9 @@ ALWAYS_INLINE void minus_minv_times_rows(const double* Minv, const double* X, co
 }
 
 // On x86-64 with GCC or Clang an AVX2 copy (4 rows at a time: 8 accumulators of 4 numbers) is compiled beside the
-// portable one (2 rows: SSE2 has 16 registers of 2) and chosen by the CPU.  AVX2 has no fused multiply-add (that
-// is FMA, not asked for), so both make the same products and differences: the same bits on every CPU.
+// portable one (2 rows: SSE2 has 16 registers of 2) and chosen by the CPU.  AVX2 does not include fused
+// multiply-add (FMA is a feature of its own, not asked for), so both make the same products and differences: the
+// same bits on every CPU.
 #if HAVE_AVX2_CLONES
 __attribute__((target("avx2"))) static void minus_minv_times_avx2(const double* Minv, const double* X,
                                                                   const double* Y, int n, int* K, double* oX,
