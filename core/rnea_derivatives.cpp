@@ -100,8 +100,8 @@ ALWAYS_INLINE void backward_pass(const Model& model, DerivativesData& d, double*
 
 }  // namespace
 
-AVX2_CLONE void derivatives_forward_pass(const Model& model, DerivativesData& d, const double* q,
-                                         const double* v, const double* a, const Vec3& gravity, const double* f_ext) {
+void derivatives_forward_pass(const Model& model, DerivativesData& d, const double* q, const double* v,
+                              const double* a, const Vec3& gravity, const double* f_ext) {
     const Motion a0 = {{}, -gravity};  // the world accelerates up
     for (int i = 0; i < model.nb; ++i) {  // poses and axes, then velocities, accelerations, their variations, f_i
         const int par = model.parents[i];
@@ -113,9 +113,8 @@ AVX2_CLONE void derivatives_forward_pass(const Model& model, DerivativesData& d,
     }
 }
 
-AVX2_CLONE void rnea_derivatives(const Model& model, DerivativesData& d, const double* q, const double* v,
-                                 const double* a, const Vec3& gravity, const double* f_ext, double* dtau_dq,
-                                 double* dtau_dv, double* M) {
+void rnea_derivatives(const Model& model, DerivativesData& d, const double* q, const double* v, const double* a,
+                      const Vec3& gravity, const double* f_ext, double* dtau_dq, double* dtau_dv, double* M) {
     const long nn = static_cast<long>(model.nv) * model.nv;
     std::fill(dtau_dq, dtau_dq + nn, 0.0), std::fill(dtau_dv, dtau_dv + nn, 0.0), std::fill(M, M + nn, 0.0);
     derivatives_forward_pass(model, d, q, v, a, gravity, f_ext);
