@@ -15,6 +15,8 @@
 
 #if defined(__GNUC__)
 #define ALWAYS_INLINE inline __attribute__((always_inline))
+#define FLATTEN __attribute__((flatten))
 #else
 #define ALWAYS_INLINE inline
+#define FLATTEN
 #endif

@@ -27,7 +27,7 @@ Mat3 velocity_variation(const Inertia& Y, const Motion& ov, const Vec3& hn) {
 Force dY_times(const Mat3& B, const Vec3& hf, const Vec3& w) { return {rot(B, w), -2.0 * cross(hf, w)}; }
 
 // Body i's step of the forward pass, its world pose d.oM[i] and axes d.J[k] written (its parent's step done).
-ALWAYS_INLINE void forward_body(const Model& model, DerivativesData& d, int i, const double* v, const double* a,
+inline void forward_body(const Model& model, DerivativesData& d, int i, const double* v, const double* a,
                          const Motion& a0, const double* f_ext) {
     const int par = model.parents[i], k0 = model.v_idx[i], k1 = k0 + model.nv_j[i];
     const Transform& oM = d.oM[i];
@@ -55,7 +55,7 @@ ALWAYS_INLINE void forward_body(const Model& model, DerivativesData& d, int i, c
 
 // The backward pass: with_M = false leaves M alone (the ABA derivatives do not need it).
 template <bool with_M>
-ALWAYS_INLINE void backward_pass(const Model& model, DerivativesData& d, double* dtau_dq, double* dtau_dv, double* M) {
+inline void backward_pass(const Model& model, DerivativesData& d, double* dtau_dq, double* dtau_dv, double* M) {
     const int nv = model.nv;
     for (int i = model.nb - 1; i >= 0; --i) {  // backward: i's rows and columns against itself and its ancestors
         const int par = model.parents[i], k0 = model.v_idx[i], k1 = k0 + model.nv_j[i];
@@ -121,7 +121,7 @@ void rnea_derivatives(const Model& model, DerivativesData& d, const double* q, c
     backward_pass<true>(model, d, dtau_dq, dtau_dv, M);
 }
 
-AVX2_CLONE void derivatives_forward_pass(const Model& model, DerivativesData& d, const Transform* X,
+AVX2_CLONE FLATTEN void derivatives_forward_pass(const Model& model, DerivativesData& d, const Transform* X,
                                          const double* v, const double* a, const Vec3& gravity, const double* f_ext) {
     const Motion a0 = {{}, -gravity};
     for (int i = 0; i < model.nb; ++i) {
@@ -133,7 +133,7 @@ AVX2_CLONE void derivatives_forward_pass(const Model& model, DerivativesData& d,
     }
 }
 
-AVX2_CLONE void rnea_derivatives_backward_pass(const Model& model, DerivativesData& d, double* dtau_dq,
+AVX2_CLONE FLATTEN void rnea_derivatives_backward_pass(const Model& model, DerivativesData& d, double* dtau_dq,
                                                double* dtau_dv) {
     const long nn = static_cast<long>(model.nv) * model.nv;
     std::fill(dtau_dq, dtau_dq + nn, 0.0), std::fill(dtau_dv, dtau_dv + nn, 0.0);
