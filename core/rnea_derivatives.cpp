@@ -122,7 +122,8 @@ void rnea_derivatives(const Model& model, DerivativesData& d, const double* q, c
 }
 
 AVX2_CLONE FLATTEN void derivatives_forward_pass(const Model& model, DerivativesData& d, const Transform* X,
-                                         const double* v, const double* a, const Vec3& gravity, const double* f_ext) {
+                                                const double* v, const double* a, const Vec3& gravity,
+                                                const double* f_ext) {
     const Motion a0 = {{}, -gravity};
     for (int i = 0; i < model.nb; ++i) {
         const int par = model.parents[i];
@@ -134,7 +135,7 @@ AVX2_CLONE FLATTEN void derivatives_forward_pass(const Model& model, Derivatives
 }
 
 AVX2_CLONE FLATTEN void rnea_derivatives_backward_pass(const Model& model, DerivativesData& d, double* dtau_dq,
-                                               double* dtau_dv) {
+                                                      double* dtau_dv) {
     const long nn = static_cast<long>(model.nv) * model.nv;
     std::fill(dtau_dq, dtau_dq + nn, 0.0), std::fill(dtau_dv, dtau_dv + nn, 0.0);
     backward_pass<false>(model, d, dtau_dq, dtau_dv, nullptr);
