@@ -159,6 +159,7 @@ def main(argv=None):
     ap.add_argument("--batch", type=int, default=10_000)
     ap.add_argument("--repeat", type=int, default=5)
     ap.add_argument("--constrained-only", action="store_true", help="only the constrained dynamics table")
+    ap.add_argument("--no-constrained", action="store_true", help="only the robots' table (ID and FD derivatives)")
     args = ap.parse_args(argv)
     import pinocchio as pin
 
@@ -172,9 +173,11 @@ def main(argv=None):
             continue
         rows.append(bench_robot(dyn, pin, robot, args.batch, args.repeat, rng))
         print(rows[-1]["robot"], "done", flush=True)
-    text = table(rows, num_threads()) + "\n\n" if rows else ""
-    text += constrained_table(bench_constrained(dyn, pin, min(args.batch, 2000), args.repeat, rng),
-                                       num_threads())
+    text = table(rows, num_threads()) if rows else ""
+    if not args.no_constrained:
+        text += "\n\n" if text else ""
+        text += constrained_table(bench_constrained(dyn, pin, min(args.batch, 2000), args.repeat, rng),
+                                  num_threads())
     print(text)
     OUT.parent.mkdir(exist_ok=True)
     OUT.write_text(f"# Derivatives benchmark (`python -m benchmarks.derivatives`)\n\n{text}\n")

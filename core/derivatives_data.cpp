@@ -8,9 +8,9 @@ void DerivativesData::resize(const Model& model) {
     nb = model.nb, nv = model.nv;
     oM.resize(nb), ov.resize(nb), oa.resize(nb), Y.resize(nb), B.resize(nb), hf.resize(nb), F.resize(nb);
     J.resize(nv), dV.resize(nv), dAq.resize(nv), dAv.resize(nv), Fa.resize(nv), Fv.resize(nv), Fq.resize(nv);
-    lv.resize(nv), qdd.resize(nv);
+    lv.resize(nv), qdd.resize(nv), K.resize(nv);
     const size_t nn = static_cast<size_t>(nv) * nv;
-    dtau_dq.resize(nn), dtau_dv.resize(nn), M.resize(nn);
+    dtau_dq.resize(nn + 4), dtau_dv.resize(nn + 4), M.resize(nn);
 }
 
 DerivativesData& thread_derivatives_data(const Model& model) {

@@ -36,8 +36,10 @@ struct DerivativesData {
     std::vector<Force> Fq;    // nv: dY_i dV_k + Y_i dAq_k (+ J_k x* F_i once i's own rows are done)
     std::vector<Vec3> lv;     // nv: the angular half of dY_i^T J_k (its linear half is zero)
 
-    // the ABA derivatives: the acceleration (nv) and the RNEA derivatives at it (nv x nv each, row-major)
+    // the ABA derivatives: the acceleration (nv) and the RNEA derivatives at it (nv x nv each, row-major, then 4
+    // zeros: the product with M^-1 reads a block of 4 columns past the last), the product's row list K (nv)
     std::vector<double> qdd, dtau_dq, dtau_dv, M;
+    std::vector<int> K;
 
     DerivativesData() = default;
     explicit DerivativesData(const Model& model) { resize(model); }

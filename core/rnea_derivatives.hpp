@@ -41,4 +41,13 @@ void rnea_derivatives(const Model& model, DerivativesData& data, const double* q
 void derivatives_forward_pass(const Model& model, DerivativesData& data, const double* q, const double* v,
                               const double* a, const Vec3& gravity, const double* f_ext);
 
+// The forward pass with each body's joint transform X_i (nb, body i in its parent) given, as the ABA's first pass
+// leaves them in Data::X: the same numbers, without computing them again (aba_derivatives.cpp).
+void derivatives_forward_pass(const Model& model, DerivativesData& data, const Transform* X, const double* v,
+                              const double* a, const Vec3& gravity, const double* f_ext);
+
+// The backward pass after a forward one: dtau_dq and dtau_dv (every entry written), not M (the ABA derivatives
+// have no use for it).  It sums the subtrees' Y, dY and F into the workspace's per-body fields.
+void rnea_derivatives_backward_pass(const Model& model, DerivativesData& data, double* dtau_dq, double* dtau_dv);
+
 }  // namespace core

@@ -165,3 +165,49 @@ def test_bad_inputs_name_the_argument(panda):
     with pytest.raises(dynamics.InputError, match="constraints"):
         dynamics.forward_dynamics_derivatives(coupled, coupled.neutral(), np.zeros(coupled.nv),
                                               np.zeros(coupled.nv))
+
+
+def _minus_product(Minv, X):
+    """-Minv X as the textbook loop sums it: each entry from +0, k in increasing order, o -= Minv[i, k] X[k, j]
+    (Python floats are the kernel's doubles, so the bits are comparable)."""
+    n = X.shape[0]
+    A, B = Minv.tolist(), X.tolist()
+    out = np.empty((n, n))
+    for i in range(n):
+        row = A[i]
+        for j in range(n):
+            o = 0.0
+            for k in range(n):
+                o -= row[k] * B[k][j]
+            out[i, j] = o
+    return out
+
+
+@pytest.mark.parametrize("case", ["talos", "tree-floating", "tree-fext"])
+def test_forward_derivatives_are_the_textbook_product_bit_for_bit(case):
+    """core/aba_derivatives.cpp's product (register blocks, rows of zeros between branches left out, an AVX2 copy)
+    gives the plain loop's bits: da/dq = -M^-1 dtau/dq and da/dv = -M^-1 dtau/dv at a = forward_dynamics(q, v,
+    tau), with M^-1, a and dtau from the public functions, which compute them with the same operations."""
+    rng = np.random.default_rng({"talos": 7, "tree-floating": 8, "tree-fext": 9}[case])
+    F = g = None
+    if case == "talos":
+        model = dynamics.load_urdf(erd("talos_data/robots/talos_full_v2.urdf"), floating_base=True,
+                                   mimic="independent")  # 50 coordinates, four limbs: many zero blocks
+    else:
+        model = dynamics.load_urdf(random_urdf(rng, n_links=13, types=ALL_TYPES, branching=0.6),
+                                   floating_base=case == "tree-floating")
+        if case == "tree-fext":
+            F, g = rng.normal(size=(model.nbodies, 6)), rng.normal(size=3)
+    q, v, _ = random_state(model, rng)
+    tau = 5.0 * rng.normal(size=model.nv)
+    da_dq, da_dv, Minv = dynamics.forward_dynamics_derivatives(model, q, v, tau, f_ext=F, gravity=g)
+    a = dynamics.forward_dynamics(model, q, v, tau, f_ext=F, gravity=g)
+    dtau_dq, dtau_dv, _ = dynamics.inverse_dynamics_derivatives(model, q, v, a, f_ext=F, gravity=g)
+    np.testing.assert_array_equal(Minv, dynamics.inverse_mass_matrix(model, q))
+    assert (dtau_dq == 0).any(), "no zero block: the test would not see rows left out"
+    np.testing.assert_array_equal(da_dq, _minus_product(Minv, dtau_dq))
+    np.testing.assert_array_equal(da_dv, _minus_product(Minv, dtau_dv))
+    batch = dynamics.forward_dynamics_derivatives(model, q[None], v[None], tau[None],
+                                                  f_ext=None if F is None else F[None], gravity=g)
+    for got, ref in zip(batch, (da_dq, da_dv, Minv)):
+        np.testing.assert_array_equal(got[0], ref)
