@@ -1,7 +1,6 @@
 // M^-1's two passes (minverse.hpp has the equations) over world axes and inertias a caller has computed: the fused
-// ABA derivatives (aba_derivatives.cpp) have them from their own forward pass, so M^-1 costs no second one.  The
-// steps are inverse_mass_matrix()'s, operation for operation (the same bits): minverse.cpp could run these after its
-// world pass instead of its own copy.
+// ABA derivatives (aba_derivatives.cpp) have them from their own forward pass, so M^-1 costs no second one;
+// inverse_mass_matrix() (minverse.cpp) runs them after its own world pass.
 #pragma once
 
 #include "data.hpp"

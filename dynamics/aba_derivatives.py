@@ -14,17 +14,20 @@ frame), as Pinocchio's.
 The public function is the core's (``core/aba_derivatives.cpp``): the ABA, M^-1 and the RNEA derivatives at
 the ABA's acceleration, then the two products; this module checks the arguments and calls it.
 
-The core's kernel takes four passes over the tree, all in the world frame, sharing what each computes:
+The core's kernel (``core/aba_derivatives.cpp``) runs the ABA in the body frame (the one ``forward_dynamics``
+runs, so the acceleration it differentiates at is the same bits), then four passes over the tree sharing what each
+computes:
 
-1. forward: the RNEA derivatives' velocity part (world poses, axes J, ov, dV, dAv, world inertias, dY) and
-   the ABA's bias forces pA_i = ov_i x* I_i ov_i - f_ext_i and velocity products c_i = ov_i x (J_i qd_i);
-2. backward: the articulated inertias and M^-1's rows (:mod:`dynamics.minverse`), with the ABA's
-   u_i = tau_i - J_i^T pA_i and pA_p += pA_i + I^A_i c_i + U_i D_i^-1 (u_i - U_i^T c_i);
-3. forward: M^-1's columns, the acceleration qdd_i = D_i^-1 u_i - (U_i D_i^-1)^T (oa_p + c_i) (oa_0 = -g),
-   oa_i and the RNEA derivatives' acceleration part at it;
-4. backward: the RNEA derivatives' composites and their blocks;
+1. forward: one world pass from the ABA's joint transforms: world poses, axes, velocities and the RNEA
+   derivatives' velocity part, each body's inertia about the world origin;
+2. backward: M^-1's rows and the articulated inertias (``core/minverse_passes.cpp``, the steps of
+   :mod:`dynamics.minverse`);
+3. backward: the RNEA derivatives' composites and their blocks at the ABA's acceleration (no M: it is not needed);
+4. forward: M^-1's columns;
 
-then the products -M^-1 dtau/dq, -M^-1 dtau/dv, in one workspace per thread (``core/derivatives_data.hpp``).
+then one product da/dq = -M^-1 dtau/dq, da/dv = -M^-1 dtau/dv that skips the zero blocks between branches, each
+entry summed in the textbook order (the same bits as the plain loop), in one workspace per thread
+(``core/derivatives_data.hpp``).
 """
 
 
