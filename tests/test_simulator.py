@@ -370,3 +370,21 @@ def test_error_estimate_arguments(panda):
     sim = dynamics.Simulator(model, q0, np.zeros(model.nv), dt=1e-3, integrator="rk4", error_estimate="none")
     sim.step()
     assert np.isnan(sim.error) and sim.error_estimate == "none"
+
+
+def test_auto_stays_stiff_while_a_quadruped_stands():
+    """A period caps radau's step, so h rho looks small while the feet's friction is as stiff as ever: auto must not
+    hand a standing robot to rk45, which would crawl at the friction's stability limit (here ~90x the work)."""
+    from benchmarks.contact import ours_contact, ours_initial, ours_model, ours_torque, quadruped_scene
+    scene = quadruped_scene()
+    model, contact = ours_model(scene), ours_contact(scene)
+    q0, v0 = ours_initial(scene, model)
+    torque = ours_torque(scene, model, q0)  # PD to the posture, released 0.02 rad away from it
+    q0 = q0 + np.r_[np.zeros(7), np.random.default_rng(0).uniform(-0.02, 0.02, (91, model.nq - 7))[90]]
+    kw = dict(dt=2e-3, torque=torque, contact=contact, rtol=1e-3, atol=1e-5)
+    auto, radau = (dynamics.Simulator(model, q0, v0, integrator=i, **kw) for i in ("auto", "radau"))
+    for _ in range(100):
+        auto.step()
+        radau.step()
+    assert auto.stats["rhs_evals"] < 2 * radau.stats["rhs_evals"]
+    assert max(dynamics.simulation.state_error(model, auto.q, auto.v, radau.q, radau.v)) < 1e-2

@@ -53,6 +53,7 @@ public:
     void track(double t, const double* base, const double* v, const double* delta) override;
     void rebased() override { clear_.forget(); }
     bool touchdown() override;
+    bool touching() const override { return touching_; }
     bool touched() override;
     bool jacobian(const Model& model, const double* q, const double* v, double* dq, double* dv) override;
     // Lean tracking, for a simulator's periods that need neither touchdown() nor the report's largest penetration

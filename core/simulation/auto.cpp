@@ -61,7 +61,8 @@ public:
         const double rho = m_.rho();
         if (accepted && rho >= 0) {
             calm_ = h * rho < NONSTIFF_HRHO ? calm_ + 1 : 0;
-            if (calm_ >= NONSTIFF_STEPS && log_switch(sw, st, t + h, TO_RK45, SWITCH_NONSTIFF, h * rho)) {
+            if (calm_ >= NONSTIFF_STEPS && !(opt.stay_stiff_in_contact && p.touching()) &&
+                log_switch(sw, st, t + h, TO_RK45, SWITCH_NONSTIFF, h * rho)) {
                 st.switch_request = 1;
                 h_next = h;
             }

@@ -47,6 +47,7 @@ public:
     virtual void rebased() {}                                                // a projection moved the base
     virtual bool touchdown() = 0;  // the last accepted state touches something after touching nothing (once)
     virtual bool touched() = 0;    // an evaluation found a contact since the last call (the Jacobian's test)
+    virtual bool touching() const = 0;  // the last accepted state touches something
     // dv = d tau_c/dv, dq = the stiffness part of d tau_c/dq at (q, v) (nv x nv, tangent space); returns whether the
     // run needs d tau_c/dq exact (then the caller differences it: a run with sensitivities).
     virtual bool jacobian(const Model& model, const double* q, const double* v, double* dq, double* dv) = 0;
@@ -61,6 +62,7 @@ public:
     void euler_config(double* z, double h) override;
     void emit(int64_t j, double t, const double* z) override;
     bool touchdown() override { return contact_ && contact_->touchdown(); }
+    bool touching() const override { return contact_ && contact_->touching(); }
     // J = df/dz assembled from the parts' derivatives (robot_jacobian.cpp).
     bool jacobian(double t, const double* z, const double* f0, const double* mag, int ne, double* J,
                   Stats& st) override;

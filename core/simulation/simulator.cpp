@@ -46,7 +46,7 @@ double Environment::rerun(const StepSettings& s, double t0, double t1, double se
     std::copy(base0_.begin(), base0_.end(), shadow_->base());
     zs_ = z0_;
     Options opt = s.opt;
-    opt.deadline = seconds, opt.end_slope = false;
+    opt.deadline = seconds, opt.end_slope = false, opt.stay_stiff_in_contact = true;
     if (s.fixed) {
         opt.dt = s.substep / 2;
         opt.nsteps = std::max<int64_t>(1, static_cast<int64_t>(std::ceil(s.dt / opt.dt * (1 - 1e-12))));
@@ -85,6 +85,7 @@ Status Environment::step(const StepSettings& s, const double* tau, double second
     Options opt = s.opt;
     opt.deadline = seconds;
     opt.end_slope = false;  // the next period evaluates f afresh under its own held torque
+    opt.stay_stiff_in_contact = true;
     if (s.fixed) {
         opt.dt = s.substep;
         opt.nsteps = std::max<int64_t>(1, static_cast<int64_t>(std::ceil(s.dt / s.substep * (1 - 1e-12))));

@@ -48,6 +48,10 @@ struct Options {
     // right-hand side (false: a simulator's period, whose next period starts under another held torque and
     // evaluates f afresh; a NaN in it is then found at that next start)
     bool end_slope = true;
+    // auto: no switch from radau back to rk45 while the accepted state touches something (a simulator's periods cap
+    // radau's step, so h rho looks small while the contact is as stiff as ever; rk45 would then crawl at the
+    // friction's stability limit, its own stiffness test blind to it)
+    bool stay_stiff_in_contact = false;
 };
 
 // The solver's statistics: one record, laid out as dynamics.simulation.solvers.STATS (the same field order and
@@ -77,6 +81,7 @@ public:
     virtual void euler_config(double* z, double h) = 0;
     virtual void emit(int64_t j, double t, const double* z) = 0;
     virtual bool touchdown() { return false; }
+    virtual bool touching() const { return false; }  // the last accepted state touches something
     virtual bool jacobian(double /*t*/, const double* /*z*/, const double* /*f0*/, const double* /*mag*/, int /*ne*/,
                           double* /*J*/, Stats& /*st*/) {
         return false;
