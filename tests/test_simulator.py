@@ -388,3 +388,22 @@ def test_auto_stays_stiff_while_a_quadruped_stands():
         radau.step()
     assert auto.stats["rhs_evals"] < 2 * radau.stats["rhs_evals"]
     assert max(dynamics.simulation.state_error(model, auto.q, auto.v, radau.q, radau.v)) < 1e-2
+
+
+def test_a_reset_starts_a_new_episode_of_contact():
+    """After reset, auto must see the first touch again (touchdown) and go stiff, as a fresh simulator does: the
+    same right-hand sides, the same bits."""
+    from benchmarks.contact import ours_contact, ours_initial, ours_model, ours_torque, quadruped_scene
+    scene = quadruped_scene()
+    model, contact = ours_model(scene), ours_contact(scene)
+    q0, v0 = ours_initial(scene, model)
+    kw = dict(dt=2e-3, torque=ours_torque(scene, model, q0), contact=contact, rtol=1e-3, atol=1e-5)
+    sim = dynamics.Simulator(model, q0, v0, **kw)
+    for _ in range(20):
+        sim.step()
+    first, rhs = sim.state(), sim.stats["rhs_evals"]
+    sim.reset()
+    for _ in range(20):
+        sim.step()
+    np.testing.assert_array_equal(sim.state(), first)
+    assert sim.stats["rhs_evals"] == 2 * rhs

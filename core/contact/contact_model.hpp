@@ -52,6 +52,10 @@ public:
     void emit(int64_t j, const double* q, const double* v) override;
     void track(double t, const double* base, const double* v, const double* delta) override;
     void rebased() override { clear_.forget(); }
+    void restart() override {
+        clear_.forget();
+        found_since_ = touching_ = reported_ = false, unmeasured_ = 0;
+    }
     bool touchdown() override;
     bool touching() const override { return touching_; }
     bool touched() override;

@@ -45,6 +45,8 @@ public:
     virtual void emit(int64_t j, const double* q, const double* v) = 0;      // the active contacts of sample j
     virtual void track(double t, const double* base, const double* v, const double* delta) = 0;  // after a step
     virtual void rebased() {}                                                // a projection moved the base
+    // the state was set from outside (a simulator's reset): also forget the episode of contact (touchdown's)
+    virtual void restart() { rebased(); }
     virtual bool touchdown() = 0;  // the last accepted state touches something after touching nothing (once)
     virtual bool touched() = 0;    // an evaluation found a contact since the last call (the Jacobian's test)
     virtual bool touching() const = 0;  // the last accepted state touches something
@@ -74,7 +76,7 @@ public:
     // clearance and a Python torque's failure are forgotten.
     void restart() {
         aborted_ = false;
-        if (contact_) contact_->rebased();
+        if (contact_) contact_->restart();
     }
 
     const Model& model() const { return model_; }
