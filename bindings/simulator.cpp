@@ -253,14 +253,25 @@ void expose_simulator(nb::module_& m) {
             new (self) SimulatorHolder{std::move(parts)};
         }, "model"_a, "passive"_a, "source"_a, "callback"_a.none(), "check"_a.none(), "contacts"_a.none(),
            "constrained"_a.none(), "settings"_a, "arrays"_a)
-        // One period for every environment that is ready, under the held torques in the "tau" array (N, nv);
-        // returns (failed now, skipped, expired, the first non-finite torque's flat index or -1: then nothing was
-        // stepped).  Raises a Python torque's exception after the batch.
-        .def("step", [](SimulatorHolder& h, int nthreads, double seconds) {
+        // One period for every environment that is ready, under the held torques in the "tau" array (N, nv), copied
+        // first from `tau` when given: exactly a float64 C-contiguous array of N nv numbers, or nv for every
+        // environment (the fast path of a loop's numpy torques).  Returns (failed now, skipped, expired, the first
+        // non-finite torque's flat index or -1; -2: `tau` not taken, the caller copies it itself; nothing was
+        // stepped when >= 0 or -2).  Raises a Python torque's exception after the batch.
+        .def("step", [](SimulatorHolder& h, int nthreads, double seconds, nb::handle tau) {
             Parts& P = *h.parts;
             std::unique_lock<std::mutex> lock(P.busy, std::try_to_lock);
             if (!lock) throw std::runtime_error("Simulator: stepped from two threads at once");
-            const long ntau = static_cast<long>(P.tau.size());
+            const long ntau = static_cast<long>(P.tau.size()), nv = P.model->nv;
+            if (!tau.is_none()) {
+                if (const double* all = vector_of(tau, ntau)) {
+                    std::copy(all, all + ntau, P.tau.data());
+                } else if (const double* one = vector_of(tau, nv)) {
+                    for (long k = 0; k < ntau; k += nv) std::copy(one, one + nv, P.tau.data() + k);
+                } else {
+                    return nb::make_tuple(0L, 0L, false, -2L);  // not taken: nothing stepped
+                }
+            }
             for (long k = 0; k < ntau; ++k)
                 if (!std::isfinite(P.tau.data()[k])) return nb::make_tuple(0L, 0L, false, k);
             const int nt = P.callback ? 1 : std::max(1, nthreads);
@@ -271,7 +282,7 @@ void expose_simulator(nb::module_& m) {
             }
             if (P.callback) P.callback->raise_if_failed();
             return nb::make_tuple(o.failed, o.skipped, o.expired, -1L);
-        }, "nthreads"_a, "seconds"_a)
+        }, "nthreads"_a, "seconds"_a, "tau"_a.none() = nb::none())
         // Environments `which` take their state (t, q, v, h, phase) from the arrays again and are ready.
         .def("load", [](SimulatorHolder& h, Ints which) {
             Parts& P = *h.parts;

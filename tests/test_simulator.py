@@ -407,3 +407,19 @@ def test_a_reset_starts_a_new_episode_of_contact():
         sim.step()
     np.testing.assert_array_equal(sim.state(), first)
     assert sim.stats["rhs_evals"] == 2 * rhs
+
+
+def test_torque_layouts_give_the_same_bits(panda):
+    model, q0, pd = panda
+    tau = np.linspace(-1, 1, 2 * model.nv).reshape(2, model.nv)
+    out = []
+    for t in (tau, np.asfortranarray(tau), tau.tolist(), np.repeat(tau, 2, axis=1)[:, ::2]):
+        sim = dynamics.Simulator(model, np.stack([q0, q0]), np.zeros(model.nv), dt=1e-3, torque=pd)
+        sim.step(t)
+        out.append(sim.q.copy())
+    for q in out[1:]:
+        np.testing.assert_array_equal(q, out[0])
+    one = dynamics.Simulator(model, np.stack([q0, q0]), np.zeros(model.nv), dt=1e-3, torque=pd)
+    one.step(tau[0][::1])  # (nv,): every environment
+    np.testing.assert_array_equal(one.q[0], one.q[1])
+    np.testing.assert_array_equal(one.q[0], out[0][0])

@@ -126,6 +126,8 @@ class Simulator:
         self._views = {k: _read_only(a[k]) for k in ("t", "q", "v", "error", "w")}
         self._wall = 0.0
         self._lock = threading.Lock()  # one step, reset or set_state at a time (the core's state is one)
+        self._tau, self._status = a["tau"], a["status"]
+        self._tau_shapes = ((model.nv,), (self.n, model.nv)) if self.batched else ((model.nv,),)
         for message in warnings:
             warn(message, SimulationWarning, stacklevel=2)
 
@@ -136,25 +138,32 @@ class Simulator:
         source's: None (zero), (nv,) (every environment) or (N, nv).  Threads calling it on one simulator take
         turns."""
         with self._lock:
-            self._step(tau)
+            if tau is None:
+                self._tau.fill(0.0)
+            elif type(tau) is not np.ndarray or tau.dtype != np.float64 or tau.shape not in self._tau_shapes:
+                self._held(tau)  # (checked and copied here; else the core copies it: a float64 array of its size)
+                tau = None
+            before = self._status.copy() if self.batched else None
+            tic = time.perf_counter()
+            try:
+                failed, skipped, expired, bad = self._core.step(num_threads(), seconds_left(), tau)
+                if bad == -2:  # not C-contiguous: copied here
+                    self._held(tau)
+                    failed, skipped, expired, bad = self._core.step(num_threads(), seconds_left(), None)
+            finally:
+                self._wall += time.perf_counter() - tic
+            if bad >= 0 or expired or failed or (skipped and not self.batched):
+                self._after_step(failed, skipped, expired, bad, before)
 
-    def _step(self, tau):
+    def _after_step(self, failed, skipped, expired, bad, before):
+        """What a step that did not simply succeed says: a non-finite torque, a single simulation stepped after its
+        failure, the deadline, the environments that failed in it."""
         a = self._arrays
-        if tau is None:
-            a["tau"].fill(0.0)
-        else:
-            self._held(tau)
-        if not self.batched and a["status"][0]:
-            raise InputError(f"step: the simulation failed at t={a['t'][0]:.6g} s ({self.status}); call reset() "
-                             "or set_state() before stepping again")
-        before = a["status"].copy() if self.batched else None
-        tic = time.perf_counter()
-        try:
-            failed, skipped, expired, bad = self._core.step(num_threads(), seconds_left())
-        finally:
-            self._wall += time.perf_counter() - tic
         if bad >= 0:
             self._refuse_torque(*divmod(bad, self.model.nv))
+        if skipped and not self.batched:
+            raise InputError(f"step: the simulation failed at t={a['t'][0]:.6g} s ({self.status}); call reset() "
+                             "or set_state() before stepping again")
         if expired:
             done = int(np.count_nonzero(a["count"]))
             raise DeadlineExceeded("Simulator.step ran past its deadline; environments not stepped are left at their "
@@ -164,7 +173,7 @@ class Simulator:
 
     def _held(self, tau):
         a, nv = self._arrays, self.model.nv
-        x = np.asarray(tau, dtype=np.float64) if not isinstance(tau, np.ndarray) else tau
+        x = np.asarray(tau, dtype=np.float64)
         if x.shape == (nv,) or (self.batched and x.shape == (self.n, nv)):
             np.copyto(a["tau"], x, casting="same_kind")
         else:
