@@ -423,3 +423,17 @@ def test_torque_layouts_give_the_same_bits(panda):
     one.step(tau[0][::1])  # (nv,): every environment
     np.testing.assert_array_equal(one.q[0], one.q[1])
     np.testing.assert_array_equal(one.q[0], out[0][0])
+
+
+def test_a_torque_callable_is_not_called_before_the_first_step(panda):
+    model, q0, pd = panda
+    calls = []
+
+    def torque(t, q, v):
+        calls.append(t)
+        return np.zeros(model.nv)
+
+    sim = dynamics.Simulator(model, np.tile(q0, (64, 1)), np.zeros(model.nv), dt=1e-3, torque=torque)
+    assert calls == []  # (the memory check makes an environment but does not step it)
+    sim.step()
+    assert calls and 0.0 <= min(calls) and max(calls) <= 1e-3  # all within the first period

@@ -119,7 +119,8 @@ class Simulator:
             one = _new_arrays(model, 1, contact is not None, s.constrained)
             one["q"][:], one["v"][:] = self._q0[:1], self._v0[:1]
             sim = make(None if s.contact is None else [core_contact(s.contact, model) for _ in range(1 + rerun)], one)
-            sim.step(1, math.inf)
+            if fn is None:  # (a torque callable is not called before the loop asks: made only, the rest guessed)
+                sim.step(1, math.inf)
             return sim
         _refuse_unaffordable(self.n, probe, _workspace_guess(model, contact is not None, rerun))
         self._core = make(self._contacts, a)
@@ -414,6 +415,7 @@ def _refuse_unaffordable(n, make_one, guess):
     del one
     if each < 4096:  # the allocator does not count (another allocator, a sanitizer's): the guess
         each = guess
+    each = max(each, guess // 4)  # (a probe not stepped has made no stepper yet)
     available = _available_memory()
     if available is not None and n * each > 0.8 * available:
         raise InputError(f"q0: {n} environments would take about {n * each / 2**30:.3g} GiB "
