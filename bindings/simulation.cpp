@@ -11,6 +11,7 @@
 #include "control/passive.hpp"
 #include "control/sources.hpp"
 #include "numpy.hpp"
+#include "py_torque.hpp"
 #include "run_args.hpp"
 #include "simulation/constrained_problem.hpp"
 #include "simulation/robot_problem.hpp"
@@ -29,47 +30,6 @@ template <class A>
 std::vector<double> copy_of(const A& a) {
     return std::vector<double>(a.data(), a.data() + a.size());
 }
-
-// A Python callable f(t, q, v) -> (nv,) as a torque source: called with the GIL taken; an exception (or a result of
-// another shape) is kept and the run stops (it is raised after the run).
-class PyTorque : public core::control::TorqueCallback {
-public:
-    PyTorque(nb::object fn, int nq, int nv) : fn_(std::move(fn)), nq_(nq), nv_(nv) {}
-    bool torques(double t, const double* q, const double* v, double* tau) override {
-        if (failed_) return false;
-        nb::gil_scoped_acquire gil;
-        try {
-            double *pq, *pv;
-            nb::object Q = new_array(nq_, &pq), V = new_array(nv_, &pv);
-            std::copy(q, q + nq_, pq);
-            std::copy(v, v + nv_, pv);
-            nb::object out = check_(fn_(t, Q, V));
-            const double* r = vector_of(out, nv_);
-            std::copy(r, r + nv_, tau);
-            return true;
-        } catch (nb::python_error& e) {
-            error_ = std::make_unique<nb::python_error>(std::move(e));
-        }
-        failed_ = true;
-        return false;
-    }
-    bool failed() const override { return failed_; }
-    void set_check(nb::object check) { check_ = std::move(check); }
-    // raise the kept exception, if any
-    void raise_if_failed() {
-        if (error_) {
-            auto e = std::move(error_);
-            e->restore();
-            throw nb::python_error();
-        }
-    }
-
-private:
-    nb::object fn_, check_;
-    int nq_, nv_;
-    bool failed_ = false;
-    std::unique_ptr<nb::python_error> error_;
-};
 
 // The source and its callback, kept together (the source points at the callback), and the model it was made for
 // (its address and sizes: bindings/control.cpp refuses a source of another model).
@@ -170,8 +130,7 @@ void expose_simulation(nb::module_& m) {
             }
             if (kind == control::CALLABLE) {
                 require(!callback.is_none(), "source: a callable");
-                self->callback = std::make_unique<PyTorque>(callback, model.nq, model.nv);
-                self->callback->set_check(check);
+                self->callback = std::make_unique<PyTorque>(callback, check, model.nq, model.nv);
                 s.callback = self->callback.get();
             }
         }, "model"_a, "kind"_a, "times"_a, "table"_a, "gains"_a, "qref"_a, "frame"_a, "rows"_a, "task_gains"_a,

@@ -17,6 +17,7 @@
 #include "control/passive.hpp"
 #include "control/sources.hpp"
 #include "numpy.hpp"
+#include "py_torque.hpp"
 #include "simulation/constrained_problem.hpp"
 #include "simulation/simulator.hpp"
 
@@ -49,54 +50,13 @@ Out<T, N> held_array(nb::handle x, const char* name, long rows, long cols) {
     return a;
 }
 
-// A Python callable f(t, q, v) -> (nv,) as the torque source of a stepped simulation: an exception (or a result of
-// another shape, refused by `check`) is kept, the period fails, and step() raises it; forgotten at the next step.
-class StepTorque : public control::TorqueCallback {
-public:
-    StepTorque(nb::object fn, nb::object check, int nq, int nv)
-        : fn_(std::move(fn)), check_(std::move(check)), nq_(nq), nv_(nv) {}
-    bool torques(double t, const double* q, const double* v, double* tau) override {
-        if (error_) return false;
-        nb::gil_scoped_acquire gil;
-        try {
-            double *pq, *pv;
-            nb::object Q = new_array(nq_, &pq), V = new_array(nv_, &pv);
-            std::copy(q, q + nq_, pq);
-            std::copy(v, v + nv_, pv);
-            nb::object out = check_(fn_(t, Q, V));
-            if (const double* r = vector_of(out, nv_)) {
-                std::copy(r, r + nv_, tau);
-                return true;
-            }
-            PyErr_SetString(PyExc_ValueError, "torque: the callable's checked result is not a (nv,) float64 array");
-            error_ = std::make_unique<nb::python_error>();
-        } catch (nb::python_error& e) {
-            error_ = std::make_unique<nb::python_error>(std::move(e));
-        }
-        return false;
-    }
-    bool failed() const override { return error_ != nullptr; }
-    void raise_if_failed() {
-        if (error_) {
-            auto e = std::move(error_);
-            e->restore();
-            throw nb::python_error();
-        }
-    }
-
-private:
-    nb::object fn_, check_;
-    int nq_, nv_;
-    std::unique_ptr<nb::python_error> error_;
-};
-
 // What the environments point into, at a fixed address for the simulator's life.
 struct Parts {
     nb::object keep;  // the model's core, the contact models, the constraints and the arrays
     const Model* model = nullptr;
     control::Passive passive;
     control::Source source;
-    std::unique_ptr<StepTorque> callback;
+    std::unique_ptr<PyTorque> callback;
     sim::StepSettings settings;
     std::vector<sim::Environment> envs;
     Out<double, 2> tau;  // (N, nv): zeros, the held torque of a step given none
@@ -162,6 +122,24 @@ sim::StepSettings settings_of(const nb::dict& d, const Model& model, long nquad)
     return s;
 }
 
+// One distinct contact model per environment, then one per shadow of the error estimate's rerun (N or 2 N), lean
+// unless auto needs touchdown(); all null without contact.
+std::vector<core::contact::ContactModel*> contact_models(nb::object contacts, const Model& model, long N,
+                                                         const sim::StepSettings& s) {
+    const long nc = s.rerun ? 2 * N : N;
+    std::vector<core::contact::ContactModel*> cms(nc, nullptr);
+    if (contacts.is_none()) return cms;
+    nb::list l = nb::cast<nb::list>(contacts);
+    require(static_cast<long>(nb::len(l)) == nc, "contacts: one contact model per environment (and shadow)");
+    for (long i = 0; i < nc; ++i) cms[i] = &contact_of(l[i], model);
+    std::vector<core::contact::ContactModel*> sorted(cms);
+    std::sort(sorted.begin(), sorted.end());
+    require(std::adjacent_find(sorted.begin(), sorted.end()) == sorted.end(),
+            "contacts: one contact model per environment (and shadow)");
+    for (long i = 0; i < nc; ++i) cms[i]->set_lean(s.method != "auto");  // nothing here reads the report's tracking
+    return cms;
+}
+
 // The parts and environments of a simulator, every argument checked before any environment is made.
 std::unique_ptr<Parts> make_parts(nb::handle model_, const control::Passive& passive, nb::handle source,
                                   nb::object callback, nb::object check, nb::object contacts, nb::object constrained,
@@ -180,23 +158,10 @@ std::unique_ptr<Parts> make_parts(nb::handle model_, const control::Passive& pas
     Arrays a = arrays_of(arrays, N, model, nquad, !constrained.is_none());
     if (P->source.kind == control::CALLABLE) {
         require(!callback.is_none() && !check.is_none(), "torque: a callable and its check");
-        P->callback = std::make_unique<StepTorque>(callback, check, model.nq, model.nv);
+        P->callback = std::make_unique<PyTorque>(callback, check, model.nq, model.nv);
         P->source.callback = P->callback.get();
     }
-    // one contact model per environment (and per shadow of the error estimate's rerun): N, or 2 N
-    const long nc = P->settings.rerun ? 2 * N : N;
-    std::vector<core::contact::ContactModel*> cms(nc, nullptr);
-    if (!contacts.is_none()) {
-        nb::list l = nb::cast<nb::list>(contacts);
-        require(static_cast<long>(nb::len(l)) == nc, "contacts: one contact model per environment (and shadow)");
-        for (long i = 0; i < nc; ++i) cms[i] = &contact_of(l[i], model);
-        // auto needs touchdown(); nothing here reads the report's tracking
-        for (long i = 0; i < nc; ++i) cms[i]->set_lean(P->settings.method != "auto");
-        std::vector<core::contact::ContactModel*> sorted(cms);
-        std::sort(sorted.begin(), sorted.end());
-        require(std::adjacent_find(sorted.begin(), sorted.end()) == sorted.end(),
-                "contacts: one contact model per environment (and shadow)");
-    }
+    std::vector<core::contact::ContactModel*> cms = contact_models(contacts, model, N, P->settings);
     core::contact::ContactModel** shadows = cms.data() + N;
     const core::Constraints* con = nullptr;
     double alpha = 0.0, beta = 0.0;
