@@ -378,7 +378,8 @@ def ours_torque(scene: Scene, model, q0):
     return PD(q0, kp, 0.0)
 
 
-def ours_runner(scene: Scene, rtol: float, integrator: str = "auto") -> Callable[[], State]:
+def ours_runner(scene: Scene, rtol: float, integrator: str = "auto", dt=None) -> Callable[[], State]:
+    """A simulate run of ours: adaptive at rtol (atol = rtol / 100), or a fixed-step integrator at dt."""
     import dynamics
     model = ours_model(scene)
     contact = ours_contact(scene)
@@ -387,7 +388,7 @@ def ours_runner(scene: Scene, rtol: float, integrator: str = "auto") -> Callable
 
     def go() -> State:
         traj = dynamics.simulate(model, q0, v0, scene.duration, torque=torque, contact=contact, rtol=rtol,
-                                 atol=rtol * 1e-2, integrator=integrator, error_estimate="none",
+                                 atol=rtol * 1e-2, integrator=integrator, dt=dt, error_estimate="none",
                                  sample_dt=scene.duration, progress=False)
         return ours_state(model, contact, traj.q[-1], traj.v[-1], scene)
     return go
@@ -423,6 +424,8 @@ class Job(NamedTuple):
 #: per scene: MuJoCo steps, Drake accuracies, our rtols, and each tool's tightest setting (its converged answer).
 #: Drake's continuous-time RK3 takes ~20 s per simulated second on the incline at 1e-4 and a minute or more on Go1
 #: at 1e-2 here, so its settings stop where a run costs minutes
+#: our implicit_euler's steps (every scene): MuJoCo's default and two below it
+IMPLICIT_DTS = (2e-3, 1e-3, 5e-4)
 SETTINGS = {
     "ball": ((2e-3, 1e-3, 5e-4, 2e-4, 1e-4), (1e-1, 1e-2, 1e-3, 1e-4, 1e-5), (1e-3, 1e-4, 1e-5, 1e-6, 1e-7),
              (1e-5, 1e-7, 1e-10)),
@@ -442,6 +445,8 @@ def jobs_for(scene: Scene, quick: bool, tools=("ours", "MuJoCo", "Drake")) -> li
         out.append(Job(scene.name, "Drake", "Drake RK3", f"accuracy {acc_ref:.0e}", drake_runner(scene, acc_ref),
                        True))
     out += [Job(scene.name, "ours", "ours auto", f"rtol {r:.0e}", ours_runner(scene, r)) for r in rtols]
+    out += [Job(scene.name, "ours", "ours implicit_euler", f"dt {dt:.0e}",
+                ours_runner(scene, 1e-3, "implicit_euler", dt)) for dt in (dts[:2] if quick else IMPLICIT_DTS)]
     out.append(Job(scene.name, "ours", "ours auto", f"rtol {rtol_ref:.0e}", ours_runner(scene, rtol_ref), True))
     return out
 

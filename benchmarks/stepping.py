@@ -138,7 +138,8 @@ def _mujoco_force(m, x):
 
 #: our settings in the Go1 table: the accurate default and two fixed-step ones at MuJoCo's error level
 GO1_OURS = (("auto, rtol 1e-3", dict(rtol=1e-3, atol=1e-5)), ("rk4, 2 ms", dict(integrator="rk4")),
-            ("euler, 0.5 ms substeps", dict(integrator="euler", substep=5e-4)))
+            ("euler, 0.5 ms substeps", dict(integrator="euler", substep=5e-4)),
+            ("implicit_euler, 2 ms", dict(integrator="implicit_euler")))
 #: environments whose end state is compared with each tool's converged answer
 CHECKED = 10
 

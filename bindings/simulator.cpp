@@ -103,10 +103,9 @@ Arrays arrays_of(const nb::dict& d, long N, const Model& model, long nquad, bool
 sim::StepSettings settings_of(const nb::dict& d, const Model& model, long nquad) {
     sim::StepSettings s;
     s.method = nb::cast<std::string>(d["method"]);
-    require(s.method == "euler" || s.method == "rk4" || s.method == "rk45" || s.method == "dop853" ||
-                s.method == "radau" || s.method == "auto",
-            "method: one of euler, rk4, rk45, dop853, radau, auto");
-    s.fixed = s.method == "euler" || s.method == "rk4";
+    s.fixed = s.method == "euler" || s.method == "implicit_euler" || s.method == "rk4";
+    require(s.fixed || s.method == "rk45" || s.method == "dop853" || s.method == "radau" || s.method == "auto",
+            "method: one of euler, implicit_euler, rk4, rk45, dop853, radau, auto");
     s.dt = nb::cast<double>(d["dt"]), s.substep = nb::cast<double>(d["substep"]);
     require(std::isfinite(s.dt) && s.dt > 0, "dt: a finite period > 0");
     require(!s.fixed || (std::isfinite(s.substep) && s.substep > 0 && s.dt / s.substep <= 1e9),

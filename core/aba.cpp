@@ -108,6 +108,20 @@ void aba_acceleration_pass(const Model& model, Data& data, const Vec3& gravity, 
     }
 }
 
+void aba_bias_pass(const Model& model, Data& data, const Vec3& gravity, double* b) {
+    const Motion a0 = {{}, -gravity};
+    for (int i = 0; i < model.nb; ++i) {
+        const int par = model.parents[i];
+        data.a[i] = motion_to_child(data.X[i], par < 0 ? a0 : data.a[par]) + data.c[i];
+        data.f[i] = model.I[i] * data.a[i] + data.pA[i];
+    }
+    for (int i = model.nb - 1; i >= 0; --i) {
+        for (int k = model.v_idx[i]; k < model.v_idx[i] + model.nv_j[i]; ++k) b[k] = dot(model.S[k], data.f[i]);
+        const int par = model.parents[i];
+        if (par >= 0) data.f[par] = data.f[par] + force_to_parent(data.X[i], data.f[i]);
+    }
+}
+
 int aba(const Model& model, Data& data, const double* q, const double* v, const double* tau, const Vec3& gravity,
         const double* f_ext, bool with_v, double* qdd) {
     aba_rigid_body_pass(model, data, q, v, f_ext, with_v);

@@ -26,6 +26,11 @@ void aba_rigid_body_pass(const Model& model, Data& data, const double* q, const 
                          bool with_v);
 int aba_articulated_pass(const Model& model, Data& data, const double* tau);
 void aba_acceleration_pass(const Model& model, Data& data, const Vec3& gravity, double* qdd);
+// Instead of the other two: the RNEA's torques at zero joint accelerations from the first pass's X, c and p^A
+// (with what was subtracted from p^A since), b = C(q, v) v + g(q) - sum_i J_i^T f_i:
+//     a_i = X_i a_p + c_i  (a_0 = (0, -g)),   f_i = I_i a_i + p^A_i,   b_i = S_i^T f_i,   f_p += X_i^T f_i
+// (the implicit Euler's M a = tau - b: a step that factors M needs no articulated inertias).  Writes data.a, data.f.
+void aba_bias_pass(const Model& model, Data& data, const Vec3& gravity, double* b);
 
 // IA[par] += X^T Ia X for a 6x6 (articulated) inertia Ia given in the child frame.  With Ia = [[A, B], [B^T, C]],
 // A' = R A R^T, B' = R B R^T, C' = R C R^T and P = [p]x:

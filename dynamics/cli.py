@@ -34,7 +34,7 @@ from .simulation import simulate
 from .torques import PD
 from .urdf import load_urdf
 
-INTEGRATORS = ("auto", "rk45", "dop853", "radau", "rk4", "euler")
+INTEGRATORS = ("auto", "rk45", "dop853", "radau", "rk4", "euler", "implicit_euler")
 CONTACT_HELP = ("contact with a ground plane, the robot's URDF collision primitives touching it: 'ground' (z = 0, "
                 "the default material) or 'ground:mu=M,height=H,normal=NX,NY,NZ,stiffness=K,dissipation=D,"
                 "allowance=DELTA' (any of them; see the contact guide)")

@@ -412,9 +412,9 @@ class SimulateRequest(_Request):
     v0: Array
     duration: float = Field(gt=0, description="seconds of simulated time")
     torque: Optional[TorqueSpec] = None
-    integrator: Optional[Literal["euler", "rk4", "rk45", "dop853", "radau", "auto"]] = Field(
+    integrator: Optional[Literal["euler", "implicit_euler", "rk4", "rk45", "dop853", "radau", "auto"]] = Field(
         None, description="default 'auto' (adaptive, switches to radau when stiff); dop853: Hairer's order 8, for "
-                          "tight tolerances; euler and rk4 need dt")
+                          "tight tolerances; euler, implicit_euler (contact and stiff gains at a fixed step) and rk4 need dt")
     rtol: Optional[float] = Field(None, gt=0, description="adaptive methods, default 1e-6")
     atol: Optional[float] = Field(None, ge=0, description="adaptive methods, default 1e-8")
     dt: Optional[float] = Field(None, gt=0, description="step of fixed-step integrators (first step otherwise), s")
@@ -443,7 +443,7 @@ class SimulateRequest(_Request):
                           "the same error control: true (x0), or names among 'x0' and the torque's parameters (pd: "
                           "kp, kd, q_target, v_target, tau_ff; computed_torque: kp, kd; constant and table: tau); "
                           "answered as 'sensitivities' (K, 2 nv, ncol), the columns named in "
-                          "report.sensitivities.columns. Robots of 1-dof joints; not with euler or project")
+                          "report.sensitivities.columns. Robots of 1-dof joints; not with euler, implicit_euler or project")
 
 
 #: the SimulateRequest fields passed on to dynamics.simulate as keyword arguments (None = library default)

@@ -84,8 +84,8 @@ class SessionRequest(_Message):
     dt: float = Field(gt=0, description="the control period, s")
     torque: Optional[TorqueSpec] = None
     contact: Optional[ContactSpec] = None
-    integrator: Optional[Literal["euler", "rk4", "rk45", "dop853", "radau", "auto"]] = None
-    substep: Optional[float] = Field(None, gt=0, description="euler and rk4: the step inside a period, default dt")
+    integrator: Optional[Literal["euler", "implicit_euler", "rk4", "rk45", "dop853", "radau", "auto"]] = None
+    substep: Optional[float] = Field(None, gt=0, description="euler, implicit_euler and rk4: the step inside a period, default dt")
     rtol: Optional[float] = Field(None, gt=0)
     atol: Optional[float] = Field(None, ge=0)
     gravity: Optional[Vec3] = None
@@ -212,7 +212,7 @@ class Session:
         model = sim.model
         self.n, self.nq, self.nv, self.batched = sim.n, model.nq, model.nv, sim.batched
         self.budget = settings.time_budget
-        self.fixed = sim.integrator in ("euler", "rk4")
+        self.fixed = sim.integrator in ("euler", "implicit_euler", "rk4")
         self.last_step = math.inf  # seconds of the last step: the first runs in a thread
         self.steps = 0
         # the width of a row of Simulator.state() ([t, q, v, h, phase, t_origin, periods]), the library's own

@@ -3,17 +3,21 @@
 #include "contact/contact_model.hpp"
 
 #include <algorithm>
+#include <cmath>
 
 namespace core::contact {
 
 ContactModel::ContactModel(const Model& model, const ContactArrays& arrays, bool exact)
     : model_(model), a_(arrays), exact_(exact), buf_(arrays.K), detail_(arrays.K * NDETAIL), data_(model),
-      oMi_(model.nb), fb_(model.nb), clear_(model), fdw_(model.nv), scratch_(model.nv) {}
+      oMi_(model.nb), fb_(model.nb), clear_(model), fdw_(model.nv), scratch_(model.nv),
+      last_q_(model.nq, std::nan("")) {}
 
 int64_t ContactModel::found(const double* q) {
     for (int i = 0; i < model_.nb; ++i) forward_body(model_, data_, i, q, nullptr, false);
     world_poses(model_, data_.X.data(), oMi_.data());
-    return collide(a_.scene, oMi_.data(), buf_);
+    const int64_t n = collide(a_.scene, oMi_.data(), buf_);
+    stamp(q, n);
+    return n;
 }
 
 double ContactModel::evaluate(const double* q, const double* v, double* tau, double* f_ext, int64_t& n) {
@@ -33,10 +37,11 @@ double ContactModel::torques(const Model&, const double* q, const double* v, dou
 
 // After the ABA's first pass at (q, v): pA_i -= every body's contact wrench (the ABA's other passes take them as
 // external forces), from that pass's poses and velocities; nothing at all while the robot is clear of everything.
-double ContactModel::bias(const Model&, Data& data, const double*, const double*, const double* delta) {
+double ContactModel::bias(const Model&, Data& data, const double* q, const double*, const double* delta) {
     if (clear_.apart(delta)) return 0.0;
     world_poses(model_, data.X.data(), oMi_.data());
     const int64_t n = collide(a_.scene, oMi_.data(), buf_);
+    stamp(q, n);
     if (n == 0) return 0.0;
     found_since_ = true;
     std::fill(fb_.begin(), fb_.end(), Force{});
@@ -92,7 +97,7 @@ bool ContactModel::touchdown() {
 }
 
 bool ContactModel::jacobian(const Model&, const double* q, const double* v, double* dq, double* dv) {
-    const int64_t n = found(q);
+    const int64_t n = std::equal(q, q + model_.nq, last_q_.begin()) ? last_n_ : found(q);
     contact_force_derivatives(model_, n, buf_, a_.pair_body, a_.mat, oMi_.data(), v, dq, dv, fdw_);
     return exact_;
 }

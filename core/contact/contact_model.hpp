@@ -68,6 +68,12 @@ public:
 
 private:
     int64_t found(const double* q);  // the poses (data_.X, oMi_) and the narrow phase; the number of contacts
+    // buf_ and oMi_ now hold the n contacts of q (the narrow phase's last state, which jacobian() takes again
+    // rather than repeat it when asked at the same q: the implicit Euler's, after the step's first evaluation)
+    void stamp(const double* q, int64_t n) {
+        std::copy(q, q + model_.nq, last_q_.begin());
+        last_n_ = n;
+    }
 
     const Model& model_;
     ContactArrays a_;
@@ -85,6 +91,8 @@ private:
     bool found_since_ = false, touching_ = false, reported_ = false;
     bool lean_ = false;
     int unmeasured_ = 0;  // accepted states not measured since the last that was (lean tracking)
+    std::vector<double> last_q_;  // nq: the configuration of buf_ and oMi_ (NaN: none yet)
+    int64_t last_n_ = 0;
 };
 
 }  // namespace core::contact

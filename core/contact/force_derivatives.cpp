@@ -81,20 +81,30 @@ void contact_force_derivatives(const Model& model, int64_t n, const ContactBuffe
         std::fill(A, A + 3 * nv, 0.0);
         point_jacobian(model, oMi, pair_body[2 * j], P, 1.0, A, nv);
         point_jacobian(model, oMi, pair_body[2 * j + 1], P, -1.0, A, nv);
-        Vec3 vrel;
+        // the dofs that move the point (the others' columns of A are zero: their terms would add zeros, which
+        // change no bit of a finite sum)
+        int* dofs = w.dofs.data();
+        int nd = 0;
         for (int c = 0; c < nv; ++c)
+            if (A[c] != 0.0 || A[nv + c] != 0.0 || A[2 * nv + c] != 0.0) dofs[nd++] = c;
+        Vec3 vrel;
+        for (int i = 0; i < nd; ++i) {
+            const int c = dofs[i];
             vrel = {vrel.x + A[c] * v[c], vrel.y + A[nv + c] * v[c], vrel.z + A[2 * nv + c] * v[c]};
+        }
         force_derivatives(nrm, buf.depth[k], vrel, mat + NMAT * j, G, Fx);
-        for (int c = 0; c < nv; ++c) {
+        for (int i = 0; i < nd; ++i) {
+            const int c = dofs[i];
             for (int m = 0; m < 3; ++m)
                 GA[m * nv + c] = G[3 * m] * A[c] + G[3 * m + 1] * A[nv + c] + G[3 * m + 2] * A[2 * nv + c];
             nA[c] = nrm.x * A[c] + nrm.y * A[nv + c] + nrm.z * A[2 * nv + c];
         }
-        for (int r = 0; r < nv; ++r) {
+        for (int i = 0; i < nd; ++i) {
+            const int r = dofs[i];
             const double a0 = A[r], a1 = A[nv + r], a2 = A[2 * nv + r];
-            if (a0 == 0.0 && a1 == 0.0 && a2 == 0.0) continue;  // a dof that does not move the point
             const double ax = a0 * Fx[0] + a1 * Fx[1] + a2 * Fx[2];
-            for (int c = 0; c < nv; ++c) {
+            for (int l = 0; l < nd; ++l) {
+                const int c = dofs[l];
                 dv[r * nv + c] += a0 * GA[c] + a1 * GA[nv + c] + a2 * GA[2 * nv + c];
                 dq[r * nv + c] -= ax * nA[c];
             }

@@ -17,7 +17,8 @@ namespace core::contact {
 // The scratch of contact_force_derivatives for nv velocities.
 struct ForceDerivativesWork {
     std::vector<double> A, GA, nA;  // 3 x nv, 3 x nv, nv
-    explicit ForceDerivativesWork(int nv = 0) : A(3 * nv), GA(3 * nv), nA(nv) {}
+    std::vector<int> dofs;          // nv: the dofs that move a contact's point
+    explicit ForceDerivativesWork(int nv = 0) : A(3 * nv), GA(3 * nv), nA(nv), dofs(nv) {}
 };
 
 // dv = d tau_c/dv and dq = its stiffness part of d tau_c/dq (nv x nv, row-major, tangent space) of contacts 0..n-1

@@ -32,6 +32,10 @@ public:
     void rebase(double t, double* z, double* dz, double* mag) override;
     void emit(int64_t j, double t, const double* z) override;
     // No analytical Jacobian (the numba ConstrainedProblem has none either): the solvers difference f.
+    // the loops' forces are not in the implicit Euler's matrices: it steps as symplectic Euler
+    bool implicit_terms(double, const double*, double*, double*, double*, double*, double*, const int*&) override {
+        return false;
+    }
     bool jacobian(double, const double*, const double*, const double*, int, double*, Stats&) override {
         return false;
     }

@@ -16,10 +16,14 @@ Status solve_fixed(Problem& p, FixedStepper& m, double* z, int n, double t0, dou
     std::vector<double> buf(4 * static_cast<size_t>(n));
     double *mag = buf.data(), *f0 = mag + n, *f1 = f0 + n, *z0 = f1 + n;
     std::vector<double> zi(n);
-    p.rhs(t0, z, f0);
-    st.rhs_evals += 1;
-    Status status = state_status(f0, n, 0, 0, opt.blowup) == OK ? OK : NONFINITE;
-    if (opt.probe && status == OK) st.rho0 = jacobian_spectral_radius(p, t0, z, f0, n, opt.ne);
+    const bool slope = m.needs_slope();  // (implicit_euler: no slopes; a non-finite state is found after its step)
+    Status status = OK;
+    if (slope) {
+        p.rhs(t0, z, f0);
+        st.rhs_evals += 1;
+        status = state_status(f0, n, 0, 0, opt.blowup) == OK ? OK : NONFINITE;
+    }
+    if (opt.probe && slope && status == OK) st.rho0 = jacobian_spectral_radius(p, t0, z, f0, n, opt.ne);
     int64_t j = 0;
     for (; j < T && out_t[j] <= t0; ++j) p.emit(j, t0, z);  // the initial state, also when f(t0, z0) is not finite
     double t = t0;
@@ -28,7 +32,7 @@ Status solve_fixed(Problem& p, FixedStepper& m, double* z, int n, double t0, dou
         t = i == opt.nsteps - 1 ? t_end : std::min(t0 + (i + 1) * opt.dt, t_end);
         const double h = t - ta;
         std::copy(z, z + n, z0);
-        m.step(p, ta, h, z, f0, st);
+        m.step(p, ta, h, z, slope ? f0 : nullptr, st);
         st.steps += 1;
         if (p.aborted()) {
             status = ABORTED;
@@ -37,7 +41,7 @@ Status solve_fixed(Problem& p, FixedStepper& m, double* z, int n, double t0, dou
         status = state_status(z, n, opt.nc, opt.nvel, opt.blowup);
         if (status != OK) break;
         // f at the step's end: the next step's first stage, the interpolant of samples inside the step
-        if (opt.end_slope || i < opt.nsteps - 1 || (j < T && out_t[j] < t)) {
+        if (slope && (opt.end_slope || i < opt.nsteps - 1 || (j < T && out_t[j] < t))) {
             p.rhs(t, z, f1);
             st.rhs_evals += 1;
             if (state_status(f1, n, 0, 0, opt.blowup) != OK) {

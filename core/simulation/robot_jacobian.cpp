@@ -27,6 +27,8 @@
 #include <cmath>
 
 #include "aba_derivatives.hpp"
+#include "aba.hpp"
+#include "crba.hpp"
 #include "configuration.hpp"
 #include "control/derivatives.hpp"
 #include "control/passive.hpp"
@@ -44,6 +46,25 @@ RobotProblem::JacobianWork::JacobianWork(const Model& model)
       dts_dd(da_dq.size()), dts_dv(da_dq.size()), Ti(da_dq.size()), dtp_dq(model.nv), dtp_dv(model.nv),
       tau_p(model.nv), e(model.nv, 0.0), dt(model.nv), vt(model.nv), tp(model.nv), tm(model.nv), cp(model.nv),
       cm(model.nv), row(model.nv), sub(model.nv), q(model.nq), qt(model.nq), piv(model.nv) {}
+
+RobotProblem::ImplicitWork::ImplicitWork(const Model& model, const control::Source& source)
+    : sq(static_cast<size_t>(model.nv) * model.nv), sv(sq.size()), pq(model.nv), pv(model.nv), b(model.nv),
+      lam(model.nv), on_path(sq.size(), 0) {
+    const int nv = model.nv;
+    pd_diagonal = source.kind == control::PD;  // no position gain on a joint of several coordinates
+    for (int i = 0; i < model.nb && pd_diagonal; ++i)
+        for (int k = model.v_idx[i]; k < model.v_idx[i] + model.nv_j[i] && model.nv_j[i] > 1; ++k)
+            pd_diagonal = pd_diagonal && source.gains[k] == 0.0;
+    for (int i = 0; i < model.nb; ++i) {  // lambda over coordinates: the previous one of the joint, else the parent's last
+        const int p = model.parents[i];
+        int prev = p >= 0 ? model.v_idx[p] + model.nv_j[p] - 1 : -1;
+        for (int k = model.v_idx[i]; k < model.v_idx[i] + model.nv_j[i]; ++k) lam[k] = prev, prev = k;
+    }
+    for (int k = 0; k < nv; ++k) {
+        on_path[k * nv + k] = 1;
+        for (int j = lam[k]; j >= 0; j = lam[j]) on_path[k * nv + j] = on_path[j * nv + k] = 1;
+    }
+}
 
 RobotProblem::ContactWork::ContactWork(const Model& model)
     : tau_c(model.nv), dtc_dd(static_cast<size_t>(model.nv) * model.nv), dtc_dv(dtc_dd.size()) {}
@@ -249,6 +270,55 @@ bool RobotProblem::jacobian(double t, const double* z, const double*, const doub
         power_row(nv, v, tau_c, cw_->dtc_dd.data(), cw_->dtc_dv.data(), J + (2 * nv + 2) * n);
     abort_if_failed();
     st.jacobian_evals += 1;
+    return true;
+}
+
+// The linearly implicit Euler's terms at (t, z) (implicit_euler.cpp), in tangent coordinates at q = retract(base,
+// delta) (z's delta is zero at a step's start: the chart's coordinates are the tangent's there).
+//     r = tau_s + tau_p - RNEA(q, v, 0, f_c)          (= M a: the ABA's first pass and the contact's forces as
+//                                                        the right-hand side has them, then aba_bias_pass)
+// D = d tau/dv and K = d tau/dq sum the contact's (d tau_c/dq its stiffness part, as radau's), the passive torques'
+// and a PD source's.  lam when D and K keep to the paths to the root (a contact between two of the robot's
+// branches does not): then M's, D's and K's entries off them are not written.
+bool RobotProblem::implicit_terms(double t, const double* z, double* r, double* w, double* M, double* D, double* K,
+                                  const int*& lam) {
+    if (!iw_) iw_ = std::make_unique<ImplicitWork>(model_, source_);
+    ImplicitWork& iw = *iw_;
+    const int nv = nv_;
+    const size_t n2 = static_cast<size_t>(nv) * nv;
+    const double* v = z + nv;
+    double* q = qbuf_.data();
+    retract(model_, base_.data(), z, q);
+    double power_s, power_p, power_c = 0.0;
+    source_and_passive(t, q, v, power_s, power_p);  // tau_p_ = source + passive
+    aba_rigid_body_pass(model_, data_, q, v, nullptr, true);
+    if (contact_) power_c = contact_->bias(model_, data_, q, v, z);
+    aba_bias_pass(model_, data_, passive_.gravity, iw.b.data());
+    for (int k = 0; k < nv; ++k) r[k] = tau_p_[k] - iw.b[k];
+    const bool touching = contact_ && contact_->touched();
+    quadratures(w, power_s, power_p, power_c);
+    if (touching) {
+        contact_->jacobian(model_, q, v, K, D);  // (at the q just evaluated: its contacts again, not found again)
+    } else {
+        std::fill(D, D + n2, 0.0), std::fill(K, K + n2, 0.0);
+    }
+    if (source_.kind == control::PD && iw.pd_diagonal) {  // d tau/dq = -kp, d tau/dv = -kd (pd_derivatives')
+        const double *kp = source_.gains.data(), *kd = kp + nv;
+        for (int k = 0; k < nv; ++k) K[k * (nv + 1)] -= kp[k], D[k * (nv + 1)] -= kd[k];
+    } else if (source_.kind == control::PD) {
+        control::source_derivatives(model_, source_, passive_, ws_source_, t, q, v, iw.sq.data(), iw.sv.data());
+        for (size_t k = 0; k < n2; ++k) K[k] += iw.sq[k], D[k] += iw.sv[k];
+    }
+    control::passive_derivatives(passive_, q, v, nv, iw.pq.data(), iw.pv.data());
+    for (int k = 0; k < nv; ++k) K[k * (nv + 1)] += iw.pq[k], D[k * (nv + 1)] += iw.pv[k];
+    lam = iw.lam.data();
+    for (size_t k = 0; k < n2; ++k)
+        if (!iw.on_path[k] && (D[k] != 0.0 || K[k] != 0.0)) {
+            lam = nullptr;
+            std::fill(M, M + n2, 0.0);
+            break;
+        }
+    crba(model_, data_, q, M);
     return true;
 }
 

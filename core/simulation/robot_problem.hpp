@@ -68,6 +68,11 @@ public:
     // J = df/dz assembled from the parts' derivatives (robot_jacobian.cpp).
     bool jacobian(double t, const double* z, const double* f0, const double* mag, int ne, double* J,
                   Stats& st) override;
+    // The linearly implicit Euler's terms (robot_jacobian.cpp): r by the RNEA, M by the CRBA; D, K from the contact
+    // (when it touches something), the passive torques and a PD source (the other sources stay explicit: their
+    // derivatives cost more than the step).
+    bool implicit_terms(double t, const double* z, double* r, double* w, double* M, double* D, double* K,
+                        const int*& lam) override;
     bool aborted() const override { return aborted_; }
     // A torque held constant over a control period of the caller's loop (core/simulation/simulator.hpp), added to
     // the source's; null: none (a simulate run).
@@ -112,6 +117,16 @@ protected:
         std::vector<double> tau_c, dtc_dd, dtc_dv;  // nv, nv x nv, nv x nv
         explicit ContactWork(const Model& model);
     };
+    // The implicit Euler's scratch: the source's derivatives (nv x nv), the passive's (diagonal), the bias torques
+    // (nv); Featherstone's lambda (nv) and whether each pair of coordinates lies on one path to the root (nv x nv);
+    // whether a PD source's derivatives are its gains on the diagonal (no position gain on a multi-dof joint).
+    struct ImplicitWork {
+        std::vector<double> sq, sv, pq, pv, b;
+        std::vector<int> lam;
+        std::vector<char> on_path;
+        bool pd_diagonal = false;
+        ImplicitWork(const Model& model, const control::Source& source);
+    };
     double contact_at(const double* q, const double* v, double* tau_c);
     void acceleration_rows(double* J, int n, bool singular, const double* dtc_dd, const double* dtc_dv);
     void contact_terms(const double* delta, const double* v);
@@ -132,6 +147,7 @@ protected:
     Data data_;  // the ABA's workspace
     std::unique_ptr<JacobianWork> jw_;
     std::unique_ptr<ContactWork> cw_;
+    std::unique_ptr<ImplicitWork> iw_;
     bool aborted_ = false;
     const double* held_ = nullptr;
 };

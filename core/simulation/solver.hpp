@@ -13,6 +13,7 @@
 //   emit(j, t, z)            record output sample j at time t (z in the chart of the current step)
 //   touchdown()              true once when the last accepted state touches something after touching nothing
 //   jacobian(...)            J = df/dz analytically; false: the solvers take finite differences
+//   implicit_terms(...)      the linearly implicit Euler's terms (implicit_euler.cpp), without f; false: none
 //   aborted()                the problem cannot go on (a Python torque callback raised): the driver stops
 // State layout: z = [configuration part (nc), velocity part (nvel), quadratures]; only the first ne components
 // enter error norms and Newton tests (the rest are quadratures f does not depend on).
@@ -87,6 +88,16 @@ public:
         return false;
     }
     virtual bool aborted() const { return false; }
+    // The linearly implicit Euler's terms at (t, z), z at the start of a step (its chart part zero), in place of f:
+    // r = M a, the generalised force the accelerations answer (tau - C v - g + J_c^T f_c); w (n) the quadratures'
+    // rates in its components 2 nv and up; M (nv x nv) the mass matrix; D = d tau/dv and K = d tau/dq, the stiff forces' derivatives in tangent
+    // coordinates (zero where nothing stiff acts); lam: Featherstone's lambda over the velocity coordinates when
+    // every nonzero of M, D and K lies on a path to the root (then only those entries are written), else null.
+    // false: the problem has no such form (a generic ODE, closed loops), and the step takes f.
+    virtual bool implicit_terms(double /*t*/, const double* /*z*/, double* /*r*/, double* /*w*/, double* /*M*/,
+                                double* /*D*/, double* /*K*/, const int*& /*lam*/) {
+        return false;
+    }
 };
 
 // An adaptive method (adaptive.cpp drives it).
@@ -108,6 +119,8 @@ public:
 class FixedStepper {
 public:
     virtual ~FixedStepper() = default;
+    // false: step() is given no f0 (null) and the driver evaluates no slopes (implicit_euler's terms replace them)
+    virtual bool needs_slope() const { return true; }
     virtual void step(Problem& p, double t, double h, double* z, const double* f0, Stats& st) = 0;
     virtual void dense(double x, double h, const double* z0, const double* f0, const double* z1, const double* f1,
                        double* out) = 0;
@@ -119,7 +132,7 @@ Status solve_fixed(Problem& p, FixedStepper& m, double* z, int n, double t0, dou
 Status solve_adaptive(Problem& p, AdaptiveStepper& m, double* z, int n, double t0, double t_end, const double* out_t,
                       int64_t T, const Options& opt, Stats& st, std::vector<Switch>& sw);
 
-// A method by name ("euler", "rk4", "rk45", "dop853", "radau", "auto") over the problem; auto alternates its
+// A method by name ("euler", "implicit_euler", "rk4", "rk45", "dop853", "radau", "auto") over the problem; auto alternates its
 // two phases.  The switch log is appended to sw.
 Status run_method(const char* method, Problem& p, double* z, int n, double t0, double t_end, const double* out_t,
                   int64_t T, Options opt, Stats& st, std::vector<Switch>& sw);

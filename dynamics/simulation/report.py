@@ -22,7 +22,7 @@ It is measured, not modelled, by a second run of the same method on the same pro
 * adaptive methods (``rk45``, ``dop853``, ``radau``, ``auto``): a second run with rtol and atol divided by 32.
   With tolerance proportionality (global error ~ C tol^a, a in [0.8, 1] for these methods) the tighter run's
   error is 16-32x smaller, so ``|y(tol) - y(tol/32)|`` is the error of y(tol) to within ~6%.
-* fixed-step methods (``euler``, ``rk4``, order p = 1, 4): a second run with dt/2, and Richardson's estimate
+* fixed-step methods (``euler``, ``implicit_euler``, ``rk4``, order p = 1, 1, 4): a second run with dt/2, and Richardson's estimate
   ``|y(dt) - y(dt/2)| * 2^p / (2^p - 1)``.
 
 The second run costs 1-3x the first (Panda under PD, 1 s, auto: ~2x) and is timed separately
@@ -246,9 +246,12 @@ def json_safe(report):
 
 
 def state_error(model, q1, v1, q2, v2):
-    """(max |q1 - q2| on the manifold, max |v1 - v2|) between two states (the error estimate's, and tests' and
-    benchmarks'): the core's configuration difference."""
+    """(max |q1 - q2| on the manifold, max |v1 - v2|) between two states, or the largest over two batches of
+    states (rows; the error estimate's, and tests' and benchmarks'): the core's configuration difference."""
     q1, q2 = np.ascontiguousarray(q1, float), np.ascontiguousarray(q2, float)
+    if q1.ndim == 2 and model.nq != model.nv:
+        errs = [state_error(model, a, va, b, vb) for a, va, b, vb in zip(q1, np.atleast_2d(v1), q2, np.atleast_2d(v2))]
+        return max(e[0] for e in errs), max(e[1] for e in errs)
     if model.nq == model.nv:  # 1-dof joints only: the difference is q1 - q2
         d = q1 - q2
     else:
@@ -313,8 +316,10 @@ def contact_stability(model, s, stability, warnings):
     """Fixed-step methods with contact: dt against the stiffness contact adds (:func:`contact_spectral_radius`),
     which the probe at t0 misses when nothing touches yet; a warning when dt * rho exceeds the method's limit."""
     from .solvers import STABILITY_LIMIT
+    limit = STABILITY_LIMIT.get(s.integrator)
+    if limit is None:  # implicit_euler: the contact's stiffness is in its implicit part
+        return stability
     rho = contact_spectral_radius(model, s.contact)
-    limit = STABILITY_LIMIT[s.integrator]
     stability = dict(stability or {}, contact_spectral_radius=rho, dt_times_contact_spectral_radius=s.dt * rho,
                      limit=limit)
     if s.dt * rho > limit:

@@ -114,8 +114,8 @@ def sensitivity_spec(model, src, sensitivities, integrator, project):
         raise InputError("sensitivities: 'q_target' is for models of 1-dof joints only (nq == nv): this model has a "
                          "free, spherical or planar joint, whose target configuration is no vector of nv entries; "
                          "ask for 'x0', 'kp', 'kd', 'v_target' or 'tau_ff'")
-    if integrator == "euler":
-        raise InputError("sensitivities: not with integrator='euler'; use 'rk4', 'rk45', 'dop853', 'radau' or 'auto'")
+    if integrator in ("euler", "implicit_euler"):
+        raise InputError(f"sensitivities: not with integrator={integrator!r}; use 'rk4', 'rk45', 'dop853', 'radau' or 'auto'")
     if project:
         raise InputError("sensitivities: not with project=True (the projection is not differentiated)")
     nv = model.nv

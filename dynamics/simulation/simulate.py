@@ -39,7 +39,7 @@ from .solvers import FIXED, NONFINITE, ORDER, STABILITY_LIMIT, STATS, Options
 
 __all__ = ["simulate", "Trajectory", "INTEGRATORS", "OUTPUTS", "DEFAULT_OUTPUTS"]
 
-INTEGRATORS = ("euler", "rk4", "rk45", "radau", "auto", "dop853")
+INTEGRATORS = ("euler", "implicit_euler", "rk4", "rk45", "radau", "auto", "dop853")
 #: what a simulation can keep per sample (besides t); "lambda": the multipliers of a constrained model
 OUTPUTS = ("q", "v", "tau", "lambda")
 DEFAULT_OUTPUTS = ("q", "v", "tau")
@@ -110,8 +110,10 @@ def simulate(model, q0, v0, duration, *, torque=None, integrator="auto", rtol=1e
 
     torque: None, an (nv,) constant, :class:`dynamics.torques.Table`, :class:`~dynamics.torques.PD`,
         :class:`~dynamics.torques.ComputedTorque`, or a callable f(t, q, v) -> (nv,) (module docs).
-    integrator: "euler" | "rk4" (fixed step ``dt``, required) | "rk45" | "dop853" | "radau" | "auto" (adaptive,
-        ``rtol`` and ``atol`` on each component of (q, v); ``dt`` if given is the first step).
+    integrator: "euler" | "implicit_euler" | "rk4" (fixed step ``dt``, required) | "rk45" | "dop853" | "radau" |
+        "auto" (adaptive, ``rtol`` and ``atol`` on each component of (q, v); ``dt`` if given is the first step).
+        ``implicit_euler``: symplectic Euler with the contact, the passive torques and a PD source linearly implicit,
+        one solve per step (MuJoCo's step; docs/guide/integrators.md).
     sample_dt: output spacing (the last sample is always t = duration).  Default: every step for fixed-step
         methods, duration/1000 for adaptive ones (dense output between steps).
     gravity: (3,) world gravity, default ``model.gravity``.  max_steps: budget of attempted steps.
@@ -276,7 +278,7 @@ def _one_run(model, s, ps, src, dt, out_t, rtol, atol, max_steps, outputs, h0=0.
     nsteps = max(1, math.ceil(s.duration / dt * (1 - 1e-12))) if s.fixed and s.duration > 0 else 0
     opt = Options(nc=nv, nvel=nv, ne=ne, max_steps=int(max_steps), nsteps=nsteps, dt=float(dt or 0.0),
                   rtol=float(rtol), atol=float(atol), h0=float(h0 or 0.0), hmax=np.inf, blowup=_blowup(s.v0),
-                  probe=int(probe and s.fixed and s.duration > 0))
+                  probe=int(probe and s.integrator in STABILITY_LIMIT and s.duration > 0))
     if core is None:
         core = (native.core_passive(model, ps), native.core_source(model, src))
     tic = time.perf_counter()
@@ -302,7 +304,9 @@ def _stability(s, rho, warnings):
     if not s.fixed or s.duration <= 0 or not rho >= 0:
         return None
     rho = float(rho)
-    limit = STABILITY_LIMIT[s.integrator]
+    limit = STABILITY_LIMIT.get(s.integrator)
+    if limit is None:  # implicit_euler: no limit on the stiff forces it treats implicitly
+        return None
     if s.dt * rho > limit:
         warnings.insert(0, f"dt={s.dt:g} exceeds the stability limit of {s.integrator} for this problem at t=0 "
                         f"(dt * spectral radius = {s.dt * rho:.3g} > {limit}): expect blow-up; use "

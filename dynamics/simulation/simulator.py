@@ -54,8 +54,8 @@ class Simulator:
     q0 (nq,) or (N, nq) and v0 (nv,) or (N, nv) (a single v0 is shared): one environment, or N.  dt: the control
     period (s).  torque, contact, gravity, limits, limit_stiffness, limit_damping, friction_eps, baumgarte,
     project, rtol, atol: as :func:`dynamics.simulate`.  integrator: "auto" (default), "rk45", "dop853", "radau"
-    (error control inside each period, ``rtol``/``atol``) or "euler", "rk4" (fixed steps of ``substep``, default
-    ``dt``).  max_steps: the step budget of one period (adaptive methods).  error_estimate: what :attr:`error`
+    (error control inside each period, ``rtol``/``atol``) or "euler", "implicit_euler", "rk4" (fixed steps of
+    ``substep``, default ``dt``; ``implicit_euler`` for contact and stiff gains at MuJoCo's 2 ms).  max_steps: the step budget of one period (adaptive methods).  error_estimate: what :attr:`error`
     holds after each period: "local" (the adaptive methods' default: their embedded estimates, free), "rerun" (every
     period integrated again at half the substep, or at rtol and atol / 32, on a copy of the environment: about two
     to three times the cost, for any method), or "none" (the fixed-step methods' default).

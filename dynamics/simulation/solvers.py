@@ -5,6 +5,7 @@ records the core writes (``core/simulation/solver.hpp``: the same field order an
 method      what it is (``core/simulation/<method>.cpp``)
 ==========  =================================================================================================
 euler       semi-implicit (symplectic) Euler, fixed step, order 1
+implicit_euler  symplectic Euler with the stiff forces (contact, passive, PD) linearly implicit, fixed step, order 1
 rk4         classical Runge-Kutta, fixed step, order 4, Hermite samples
 rk45        Dormand-Prince 5(4), PI control, quartic dense output, stiffness test
 dop853      Hairer's DOP853, 7th-order dense output
@@ -20,10 +21,11 @@ from typing import NamedTuple
 
 import numpy as np
 
-FIXED = ("euler", "rk4")
+FIXED = ("euler", "implicit_euler", "rk4")
 ADAPTIVE = ("rk45", "dop853", "radau", "auto")
-ORDER = {"euler": 1, "rk4": 4}
-#: stability limits of the explicit methods along the negative real axis (|h lambda| <= limit)
+ORDER = {"euler": 1, "implicit_euler": 1, "rk4": 4}
+#: stability limits of the explicit methods along the negative real axis (|h lambda| <= limit); implicit_euler has
+#: none for the forces it treats implicitly
 STABILITY_LIMIT = {"euler": 2.0, "rk4": 2.785, "rk45": 3.3}
 
 OK, NONFINITE, BLOWUP, MAX_STEPS, STEP_TOO_SMALL, SWITCHED = 0, 1, 2, 3, 4, 5
