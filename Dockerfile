@@ -31,14 +31,13 @@ COPY dynamics/ dynamics/
 COPY service/ service/
 COPY robots/ robots/
 # pip builds the wheel in an isolated environment (PIP_INDEX_URL reaches it too) and installs it; then pip and
-# setuptools leave the environment (nothing in the runtime installs anything), and so do NumPy's and SciPy's own
-# test suites (50 MB of the image's 370)
+# setuptools leave the environment (nothing in the runtime installs anything), and so does NumPy's own test
+# suite
 RUN --mount=type=bind,target=/context \
     python3 -m venv /opt/venv \
     && /opt/venv/bin/pip install --no-cache-dir . \
     && /opt/venv/bin/pip uninstall --yes pip setuptools \
-    && find /opt/venv/lib/python3*/site-packages/numpy /opt/venv/lib/python3*/site-packages/scipy \
-        -depth -type d -name tests -exec rm -rf {} +
+    && find /opt/venv/lib/python3*/site-packages/numpy -depth -type d -name tests -exec rm -rf {} +
 
 FROM ${BASE_IMAGE}
 ENV PYTHONDONTWRITEBYTECODE=1 \

@@ -18,3 +18,14 @@ def rpy_to_matrix(rpy):
         [cp * sy, sp * (sr * sy) + cr * cy, sp * (cr * sy) - sr * cy],
         [-sp, cp * sr, cp * cr],
     ])
+
+
+def matrix_to_rpy(R):
+    """A rotation matrix to URDF roll-pitch-yaw (the inverse of :func:`rpy_to_matrix`; pitch in [-pi/2, pi/2]).  At
+    pitch = +-pi/2 (gimbal lock) roll and yaw share one axis: roll is 0 and yaw takes the whole angle."""
+    R = np.asarray(R, dtype=float)
+    sp = -R[2, 0]
+    p = np.arctan2(sp, np.hypot(R[0, 0], R[1, 0]))
+    if np.hypot(R[0, 0], R[1, 0]) < 1e-12:  # gimbal lock: R = Rz(yaw) Ry(+-pi/2) with the roll folded into yaw
+        return np.array([0.0, p, np.arctan2(-R[0, 1], R[1, 1])])
+    return np.array([np.arctan2(R[2, 1], R[2, 2]), p, np.arctan2(R[1, 0], R[0, 0])])

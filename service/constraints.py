@@ -20,7 +20,6 @@ from typing import Any, Optional
 
 import numpy as np
 from lxml import etree
-from scipy.spatial.transform import Rotation
 
 from . import schemas
 from .compute import Endpoint, Operation
@@ -109,7 +108,7 @@ def _write(root, model, links: set, k: int, c) -> None:
     for tag, link, T in (("link_a", la, Ta), ("link_b", lb, Tb)):
         attrs = {"name": link, "xyz": _numbers(T[:3, 3])}
         if not np.array_equal(T[:3, :3], np.eye(3)):
-            attrs["rpy"] = _numbers(Rotation.from_matrix(T[:3, :3]).as_euler("xyz"))  # URDF: extrinsic x, y, z
+            attrs["rpy"] = _numbers(lib().spatial.matrix_to_rpy(T[:3, :3]))  # URDF: extrinsic x, y, z
         etree.SubElement(loop, tag, **attrs)
     if u is not None:
         etree.SubElement(loop, "axis", xyz=_numbers(u))

@@ -1,7 +1,7 @@
 """The server's one door to the ``dynamics`` library, which it imports in the background.
 
 The server must answer ``/v1/health`` the moment it starts, and importing the library takes a fraction of a second
-to a second on a busy machine (numpy, scipy's parts the library uses, the C++ core's extension module: measured
+to a second on a busy machine (numpy, lxml, the C++ core's extension module: measured
 with ``python -X importtime -c "import dynamics"``). So no module of the server imports
 ``dynamics`` at its top: they call :func:`lib` where they use it. The server imports the library in a thread
 at start (:mod:`service.deps`); a request that needs it earlier waits in its worker thread on Python's import

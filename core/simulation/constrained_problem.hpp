@@ -32,6 +32,8 @@ public:
     void rebase(double t, double* z, double* dz, double* mag) override;
     void emit(int64_t j, double t, const double* z) override;
     // No analytical Jacobian (the numba ConstrainedProblem has none either): the solvers difference f.
+    // its Jacobian (finite differences of the KKT right-hand side) keeps no velocity structure to reduce to
+    const std::vector<int>* second_order_blocks() const override { return nullptr; }
     // the loops' forces are not in the implicit Euler's matrices: it steps as symplectic Euler
     bool implicit_terms(double, const double*, double*, double*, double*, double*, double*, const int*&) override {
         return false;

@@ -55,6 +55,7 @@ bool Radau::attempt(Problem& p, double t, double h, const double* z, const doubl
                     double* errv, const double* mag, const Options& opt, Stats& st, std::vector<Switch>&, bool,
                     double& h_next) {
     const int n = n_;
+    if (!asked_blocks_) blocks_ = p.second_order_blocks(), asked_blocks_ = true;
     bool converged;
     while (true) {
         if (need_jac_) {
@@ -106,11 +107,19 @@ bool Radau::attempt(Problem& p, double t, double h, const double* z, const doubl
     return true;
 }
 
-// LU of mu_real/h - J and of mu_complex/h - J (the two blocks of the transformed stage system).
+// LU of mu_real/h - J and of mu_complex/h - J (the two blocks of the transformed stage system), reduced to the
+// velocities for a second-order problem.
 void Radau::factor(double h, Stats& st) {
     const int n = n_;
     const double mr = MU_REAL / h;
     const std::complex<double> mc = std::complex<double>(MU_CRE, MU_CIM) / h;
+    st.lu_decompositions += 2;
+    have_lu_ = true;
+    if (blocks_) {
+        Sr_.factor(J_.data(), n, *blocks_, mr);
+        Sc_.factor(J_.data(), n, *blocks_, mc);
+        return;
+    }
     for (int r = 0; r < n; ++r) {
         for (int k = 0; k < n; ++k) LUr_[r * n + k] = -J_[r * n + k], LUc_[r * n + k] = -J_[r * n + k];
         LUr_[r * n + r] += mr;
@@ -118,8 +127,20 @@ void Radau::factor(double h, Stats& st) {
     }
     envelope_lu_factor(LUr_.data(), n, pivr_.data(), envr_.data());
     envelope_lu_factor(LUc_.data(), n, pivc_.data(), envc_.data());
-    st.lu_decompositions += 2;
-    have_lu_ = true;
+}
+
+void Radau::solve_real(double* b) {
+    if (blocks_)
+        Sr_.solve(b);
+    else
+        envelope_lu_solve(LUr_.data(), n_, pivr_.data(), envr_.data(), b);
+}
+
+void Radau::solve_complex(std::complex<double>* b) {
+    if (blocks_)
+        Sc_.solve(b);
+    else
+        envelope_lu_solve(LUc_.data(), n_, pivc_.data(), envc_.data(), b);
 }
 
 // Simplified Newton iterations on the transformed stage system ([HW] IV.8, eqs. 8.14-8.16), from the last step's
@@ -149,8 +170,8 @@ bool Radau::newton(Problem& p, double t, double h, const double* z, const double
             dWc_[r] = std::complex<double>(TI[1][0], TI[2][0]) * F0 + std::complex<double>(TI[1][1], TI[2][1]) * F1 +
                       std::complex<double>(TI[1][2], TI[2][2]) * F2 - mc * std::complex<double>(W_[n + r], W_[2 * n + r]);
         }
-        envelope_lu_solve(LUr_.data(), n, pivr_.data(), envr_.data(), dWr_.data());
-        envelope_lu_solve(LUc_.data(), n, pivc_.data(), envc_.data(), dWc_.data());
+        solve_real(dWr_.data());
+        solve_complex(dWc_.data());
         double acc = 0.0;
         for (int r = 0; r < opt.ne; ++r) {
             const double sc = opt.atol + opt.rtol * (std::abs(z[r]) + mag[r]);
@@ -196,7 +217,7 @@ double Radau::error(double h, const double* z, const double* znew, const double*
                     const Options& opt) {
     const int n = n_;
     for (int r = 0; r < n; ++r) errv[r] = f0[r] + (Z_[r] * E[0] + Z_[n + r] * E[1] + Z_[2 * n + r] * E[2]) / h;
-    envelope_lu_solve(LUr_.data(), n, pivr_.data(), envr_.data(), errv);
+    solve_real(errv);
     return scaled_rms(errv, z, znew, mag, opt.ne, opt.rtol, opt.atol);
 }
 

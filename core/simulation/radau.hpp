@@ -4,6 +4,7 @@
 #include <complex>
 #include <vector>
 
+#include "second_order.hpp"
 #include "solver.hpp"
 
 namespace core::sim {
@@ -24,6 +25,8 @@ public:
 
 private:
     void factor(double h, Stats& st);
+    void solve_real(double* b);
+    void solve_complex(std::complex<double>* b);
     bool newton(Problem& p, double t, double h, const double* z, const double* mag, const Options& opt, Stats& st);
     void initial_guess(double h);
     double error(double h, const double* z, const double* znew, const double* f0, double* errv, const double* mag,
@@ -36,6 +39,11 @@ private:
     std::vector<int> pivr_, pivc_, envr_, envc_;  // the two LUs' pivots and envelopes
     std::vector<double> Z_, W_, F_, Qd_, zs_, dWr_;  // (3, n) increments, T^-1 Z, f at the stages; (n, 3) dense
     std::vector<std::complex<double>> dWc_;
+    // a second-order problem's systems reduced to its velocities (second_order.hpp): the joints' blocks, or null
+    const std::vector<int>* blocks_ = nullptr;
+    bool asked_blocks_ = false;
+    ReducedSystem<double> Sr_;
+    ReducedSystem<std::complex<double>> Sc_;
     bool need_jac_, current_jac_, have_lu_, have_sol_;
     double h_sol_, h_abs_old_, err_norm_old_, rho_, rate_ = -1.0;
     int n_iter_ = 0;

@@ -43,9 +43,15 @@ constexpr double FD_STEP = 6e-6;  // central differences (relative, ~ eps^(1/3))
 
 RobotProblem::JacobianWork::JacobianWork(const Model& model)
     : dd(model), da_dq(static_cast<size_t>(model.nv) * model.nv), da_dv(da_dq.size()), Minv(da_dq.size()),
-      dts_dd(da_dq.size()), dts_dv(da_dq.size()), Ti(da_dq.size()), dtp_dq(model.nv), dtp_dv(model.nv),
+      dts_dd(da_dq.size()), dts_dv(da_dq.size()), dtp_dq(model.nv), dtp_dv(model.nv),
       tau_p(model.nv), e(model.nv, 0.0), dt(model.nv), vt(model.nv), tp(model.nv), tm(model.nv), cp(model.nv),
-      cm(model.nv), row(model.nv), sub(model.nv), q(model.nq), qt(model.nq), piv(model.nv) {}
+      cm(model.nv), row(model.nv), sub(model.nv), q(model.nq), qt(model.nq), tq(model.nq, std::nan("")),
+      tbase(model.nq, std::nan("")), piv(model.nv) {
+    size_t blocks = 0;
+    for (int i = 0; i < model.nb; ++i)
+        if (model.nv_j[i] > 1) blocks += static_cast<size_t>(model.nv_j[i]) * model.nv_j[i];
+    Tb.resize(blocks);
+}
 
 RobotProblem::ImplicitWork::ImplicitWork(const Model& model, const control::Source& source)
     : sq(static_cast<size_t>(model.nv) * model.nv), sv(sq.size()), pq(model.nv), pv(model.nv), b(model.nv),
@@ -108,26 +114,49 @@ void RobotProblem::contact_terms(const double* delta, const double* v) {
     contact_->touched();  // forget the differences' own contacts
 }
 
-// A (nv x nv, tangent columns at q) <- A T, T = d(tangent)/d delta, from T^-1 = d delta/d e by central differences
-// of chart_difference from base along integrate; X T^-1 = A solved as T^-T X^T = A^T, one row of A at a time.
+// A (nv x nv, tangent columns at q) <- A T, T = d(tangent)/d delta.  T is block-diagonal (a joint's tangent moves
+// its own chart coordinates only) and the identity on 1-dof joints: only the columns of the joints of several
+// coordinates change, X T_j^-1 = A_j solved as T_j^-T X^T = A_j^T one row of A at a time (chart_blocks: T_j^-1).
 void RobotProblem::tangent_to_chart(const double* q, double* A) {
     JacobianWork& w = *jw_;
-    const int nv = nv_;
-    double* Ti = w.Ti.data();  // stored transposed: Ti[k, r] = (T^-1)[r, k]
-    for (int k = 0; k < nv; ++k) {
-        w.e[k] = 1.0;
-        integrate(model_, q, w.e.data(), FD_STEP, w.sub.data(), w.qt.data());
-        chart_difference(model_, base_.data(), w.qt.data(), w.cp.data());
-        integrate(model_, q, w.e.data(), -FD_STEP, w.sub.data(), w.qt.data());
-        chart_difference(model_, base_.data(), w.qt.data(), w.cm.data());
-        w.e[k] = 0.0;
-        for (int r = 0; r < nv; ++r) Ti[k * nv + r] = (w.cp[r] - w.cm[r]) / (2 * FD_STEP);
+    const int nv = nv_, nq = model_.nq;
+    if (!std::equal(q, q + nq, w.tq.begin()) || !std::equal(base_.begin(), base_.end(), w.tbase.begin())) {
+        chart_blocks(q);
+        std::copy(q, q + nq, w.tq.begin()), std::copy(base_.begin(), base_.end(), w.tbase.begin());
     }
-    lu_factor(Ti, nv, w.piv.data());
-    for (int r = 0; r < nv; ++r) {
-        std::copy(A + r * nv, A + (r + 1) * nv, w.row.begin());
-        lu_solve(Ti, nv, w.piv.data(), w.row.data());
-        std::copy(w.row.begin(), w.row.end(), A + r * nv);
+    size_t off = 0;
+    for (int i = 0; i < model_.nb; ++i) {
+        const int k0 = model_.v_idx[i], m = model_.nv_j[i];
+        if (m < 2) continue;
+        for (int r = 0; r < nv; ++r) {
+            std::copy(A + r * nv + k0, A + r * nv + k0 + m, w.row.begin());
+            lu_solve(w.Tb.data() + off, m, w.piv.data() + k0, w.row.data());
+            std::copy(w.row.begin(), w.row.begin() + m, A + r * nv + k0);
+        }
+        off += static_cast<size_t>(m) * m;
+    }
+}
+
+// For each joint of several coordinates, T_j^-1 = d delta_j/d e_j at q by central differences of chart_difference
+// from base along integrate, stored transposed and factored (w.Tb, w.piv).
+void RobotProblem::chart_blocks(const double* q) {
+    JacobianWork& w = *jw_;
+    size_t off = 0;
+    for (int i = 0; i < model_.nb; ++i) {
+        const int k0 = model_.v_idx[i], m = model_.nv_j[i];
+        if (m < 2) continue;
+        double* Ti = w.Tb.data() + off;  // Ti[a, b] = (T^-1)[b, a]
+        for (int a = 0; a < m; ++a) {
+            w.e[k0 + a] = 1.0;
+            integrate(model_, q, w.e.data(), FD_STEP, w.sub.data(), w.qt.data());
+            chart_difference(model_, base_.data(), w.qt.data(), w.cp.data());
+            integrate(model_, q, w.e.data(), -FD_STEP, w.sub.data(), w.qt.data());
+            chart_difference(model_, base_.data(), w.qt.data(), w.cm.data());
+            w.e[k0 + a] = 0.0;
+            for (int b = 0; b < m; ++b) Ti[a * m + b] = (w.cp[k0 + b] - w.cm[k0 + b]) / (2 * FD_STEP);
+        }
+        lu_factor(Ti, m, w.piv.data() + k0);
+        off += static_cast<size_t>(m) * m;
     }
 }
 

@@ -74,6 +74,7 @@ public:
     bool implicit_terms(double t, const double* z, double* r, double* w, double* M, double* D, double* K,
                         const int*& lam) override;
     bool aborted() const override { return aborted_; }
+    const std::vector<int>* second_order_blocks() const override { return &blocks_; }
     // A torque held constant over a control period of the caller's loop (core/simulation/simulator.hpp), added to
     // the source's; null: none (a simulate run).
     void hold(const double* tau) { held_ = tau; }
@@ -106,9 +107,10 @@ protected:
     // methods never need it): nv x nv row-major matrices and nv (or nq) vectors.
     struct JacobianWork {
         DerivativesData dd;
-        std::vector<double> da_dq, da_dv, Minv, dts_dd, dts_dv, Ti;  // nv x nv
+        std::vector<double> da_dq, da_dv, Minv, dts_dd, dts_dv;  // nv x nv
         std::vector<double> dtp_dq, dtp_dv, tau_p, e, dt, vt, tp, tm, cp, cm, row, sub;  // nv
-        std::vector<double> q, qt;                                                      // nq
+        std::vector<double> q, qt, tq, tbase;  // nq (tq, tbase: the q and base of Tb)
+        std::vector<double> Tb;  // the transposed T_j^-1 of the joints of several coordinates, factored (packed)
         std::vector<int> piv;                                                           // nv
         explicit JacobianWork(const Model& model);
     };
@@ -135,6 +137,7 @@ protected:
     void source_differences(double t, const double* delta, const double* v, double* dd, double* dv);
     void chart_derivatives(const double* q, const double* delta, const double* v, double* J, int n);
     void tangent_to_chart(const double* q, double* A);
+    void chart_blocks(const double* q);
 
     const Model& model_;
     const control::Passive& passive_;
@@ -144,6 +147,7 @@ protected:
     Outputs out_;
     int nv_, nquad_;
     std::vector<double> base_, qbuf_, tau_s_, tau_p_;
+    std::vector<int> blocks_;  // the first velocity coordinate of each joint, then nv
     Data data_;  // the ABA's workspace
     std::unique_ptr<JacobianWork> jw_;
     std::unique_ptr<ContactWork> cw_;

@@ -88,6 +88,10 @@ public:
         return false;
     }
     virtual bool aborted() const { return false; }
+    // A second-order problem whose implicit solvers may reduce their linear systems to the velocities
+    // (second_order.hpp): z = [delta (nv), v (nv), quadratures], the chart rate of each joint's coordinates a
+    // function of its own delta and v only.  The first velocity coordinate of each joint, then nv; null: not so.
+    virtual const std::vector<int>* second_order_blocks() const { return nullptr; }
     // The linearly implicit Euler's terms at (t, z), z at the start of a step (its chart part zero), in place of f:
     // r = M a, the generalised force the accelerations answer (tau - C v - g + J_c^T f_c); w (n) the quadratures'
     // rates in its components 2 nv and up; M (nv x nv) the mass matrix; D = d tau/dv and K = d tau/dq, the stiff forces' derivatives in tangent
