@@ -1,6 +1,7 @@
 // The solvers on plain ODEs, and their linear algebra, for the tests (tests/test_simulate_solvers.py): a Python
 // f(t, z) -> dz as the problem (called with the GIL taken), so that each method is checked against closed forms
 // and scipy apart from any robot.
+#include <nanobind/stl/complex.h>
 #include <nanobind/stl/string.h>
 
 #include <complex>
@@ -10,6 +11,7 @@
 #include "numpy.hpp"
 #include "run_args.hpp"
 #include "simulation/linalg.hpp"
+#include "simulation/second_order.hpp"
 #include "simulation/solver.hpp"
 
 namespace bind {
@@ -89,6 +91,18 @@ void expose_lu(nb::module_& m) {
     m.def("envelope_lu_solve", [](Square<T> LU, Vector<int> piv, Vector<int> env, Vector<T> b) {
         const int n = square(LU, {piv.shape(0), env.shape(0) / 3, b.shape(0)});
         core::sim::envelope_lu_solve(LU.data(), n, piv.data(), env.data(), b.data());
+    });
+    // b <- (mu I - J)^-1 b by the reduction to the velocities (radau's, second_order.hpp); blocks: the joints' first
+    // velocity coordinates, then nv
+    m.def("reduced_solve", [](Square<double> J, Vector<int> blocks_, T mu, Vector<T> b) {
+        const int n = square(J, {b.shape(0)});
+        std::vector<int> blocks(blocks_.data(), blocks_.data() + blocks_.shape(0));
+        require(blocks.size() >= 2 && blocks.front() == 0 && 2 * blocks.back() <= n,
+                "blocks: 0, the joints' first velocity coordinates, then nv (2 nv <= n)");
+        for (size_t j = 0; j + 1 < blocks.size(); ++j) require(blocks[j] < blocks[j + 1], "blocks: increasing");
+        core::sim::ReducedSystem<T> S;
+        S.factor(J.data(), n, blocks, mu);
+        S.solve(b.data());
     });
 }
 

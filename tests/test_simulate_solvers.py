@@ -197,3 +197,43 @@ def test_the_test_hooks_refuse_bad_input():
                  lambda: _core.spectral_radius(np.eye(3), 4)):
         with pytest.raises((ValueError, TypeError)):
             call()
+
+
+def _second_order_jacobian(rng, blocks, nw):
+    """A Jacobian with the robot's structure: z = [delta, v, w], the chart rows per joint (Jcd, Jcv block-diagonal,
+    a 1-dof joint's zero and one), dense acceleration rows, quadrature rows, zero w columns."""
+    nv = blocks[-1]
+    n = 2 * nv + nw
+    J = np.zeros((n, n))
+    for k0, k1 in zip(blocks, blocks[1:]):
+        m = k1 - k0
+        if m == 1:
+            J[k0, nv + k0] = 1.0
+        else:
+            J[k0:k1, k0:k1] = 0.3 * rng.normal(size=(m, m))
+            J[k0:k1, nv + k0:nv + k1] = np.eye(m) + 0.2 * rng.normal(size=(m, m))
+    J[nv:, :2 * nv] = 5.0 * rng.normal(size=(nv + nw, 2 * nv))
+    return J
+
+
+@pytest.mark.parametrize("mu", [3.6, 2.7 - 3.1j, 1e4])
+def test_reduced_solve_is_the_whole_systems_solution(mu):
+    """radau's systems reduced to the velocities (core/simulation/second_order.hpp) against numpy's solve of the
+    whole (2 nv + nw) system: a floating base (6), 1-dof joints and a spherical joint, real and complex shifts."""
+    rng = np.random.default_rng(7)
+    blocks = [0, 6, 7, 8, 11, 12]
+    J = _second_order_jacobian(rng, blocks, 3)
+    n = J.shape[0]
+    dtype = np.complex128 if isinstance(mu, complex) else np.float64
+    b = (rng.normal(size=n) + (1j * rng.normal(size=n) if dtype is np.complex128 else 0)).astype(dtype)
+    x = b.copy()
+    _core.reduced_solve(J, np.array(blocks, np.int32), mu, x)
+    want = np.linalg.solve(mu * np.eye(n) - J, b)
+    np.testing.assert_allclose(x, want, rtol=1e-11, atol=1e-12 * np.abs(want).max())
+
+
+def test_reduced_solve_refuses_bad_blocks():
+    J = np.eye(6)
+    for blocks in ([1, 3], [0, 2, 2], [0, 4], [0]):
+        with pytest.raises(ValueError, match="blocks"):
+            _core.reduced_solve(J, np.array(blocks, np.int32), 1.0, np.zeros(6))

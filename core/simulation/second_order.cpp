@@ -14,11 +14,15 @@ void ReducedSystem<T>::factor(const double* J, int n, const std::vector<int>& bl
     const int nj = static_cast<int>(blocks.size()) - 1;
     off_.resize(nj + 1);
     off_[0] = 0;
-    for (int j = 0; j < nj; ++j) off_[j + 1] = off_[j] + (blocks[j + 1] - blocks[j]) * (blocks[j + 1] - blocks[j]);
+    int mmax = 0;
+    for (int j = 0; j < nj; ++j) {
+        const int m = blocks[j + 1] - blocks[j];
+        off_[j + 1] = off_[j] + m * m, mmax = std::max(mmax, m);
+    }
     Binv_.assign(off_[nj], T(0)), G_.assign(off_[nj], T(0));
-    S_.resize(static_cast<size_t>(nv) * nv), y_.resize(n), piv_.resize(std::max(nv, 6));
-    std::vector<T> B(36);
-    for (int j = 0; j < nj; ++j) {  // B^-1 and G = B^-1 Jcv, joint by joint (m <= 6)
+    S_.resize(static_cast<size_t>(nv) * nv), y_.resize(n), piv_.resize(nv);
+    std::vector<T> B(static_cast<size_t>(mmax) * mmax);
+    for (int j = 0; j < nj; ++j) {  // B^-1 and G = B^-1 Jcv, joint by joint
         const int k0 = blocks[j], m = blocks[j + 1] - k0;
         T *Bi = &Binv_[off_[j]], *Gj = &G_[off_[j]];
         for (int r = 0; r < m; ++r)
