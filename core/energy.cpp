@@ -3,20 +3,25 @@
 
 namespace core {
 
+// One loop over the bodies: each body's transform, its velocity (kinetic) and world pose (potential), and its terms;
+// the forward pass's arithmetic (forward_body) without its velocity-product accelerations, which the energies do
+// not read (a simulation's samples call this once each).
 void energies(const Model& model, Data& data, const double* q, const double* v, const Vec3& gravity, bool kinetic,
               bool potential, double& T, double& U) {
-    forward_pass(model, data, q, v, kinetic);
     T = 0.0, U = 0.0;
     for (int i = 0; i < model.nb; ++i) {
         const Inertia& I = model.I[i];
+        const int par = model.parents[i];
+        const Transform X = joint_transform(model, i, q);
+        data.X[i] = X;
         if (kinetic) {
-            const Motion& vi = data.v[i];
+            const Motion vi = motion_to_child(X, par < 0 ? Motion{} : data.v[par]) + joint_motion(model, i, v);
+            data.v[i] = vi;
             const Force h = I * vi;
             T += 0.5 * (dot(vi.w, h.n) + dot(vi.v, h.f));
         }
         if (potential) {
-            const int par = model.parents[i];
-            const Transform oM = par < 0 ? data.X[i] : compose(data.oMi[par], data.X[i]);
+            const Transform oM = par < 0 ? X : compose(data.oMi[par], X);
             data.oMi[i] = oM;
             U -= I.m * dot(gravity, oM.p) + dot(gravity, rot(oM.R, I.h));  // m g . (p + R c)
         }
