@@ -11,11 +11,15 @@
 
 namespace core::control {
 
-SourceWorkspace::SourceWorkspace(const Model& model)
-    : data(model), e(model.nv), qr(model.nv), vr(model.nv), ar(model.nv), pas(model.nv), J(6 * model.nv),
-      Minv(static_cast<size_t>(model.nv) * model.nv), JM(6 * model.nv), tp(model.nv), zero(model.nv, 0.0), dd(model),
-      M(static_cast<size_t>(model.nv) * model.nv), DM(static_cast<size_t>(model.nv) * model.nv), pq(model.nv),
-      pv(model.nv) {}
+SourceWorkspace::SourceWorkspace(const Model& model, int kind)
+    : e(model.nv), qr(model.nv), vr(model.nv), ar(model.nv), pas(model.nv) {
+    if (kind >= 0 && kind != COMPUTED_TORQUE && kind != OPERATIONAL_SPACE) return;
+    const size_t nv = model.nv, n2 = nv * nv;
+    data.resize(model);
+    J.assign(6 * nv, 0.0), Minv.assign(n2, 0.0), JM.assign(6 * nv, 0.0), tp.assign(nv, 0.0), zero.assign(nv, 0.0);
+    dd.resize(model);
+    M.assign(n2, 0.0), DM.assign(n2, 0.0), pq.assign(nv, 0.0), pv.assign(nv, 0.0);
+}
 
 namespace {
 
