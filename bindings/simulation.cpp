@@ -138,30 +138,36 @@ void expose_simulation(nb::module_& m) {
            "orientation"_a, "damping"_a, "callback"_a.none(), "check"_a.none());
 
     // The energy balance's terms over a run's samples (dynamics/simulation/report.py, energy_balance): e (T, 2) the
-    // kinetic and potential energies, ws (T,) each sample's work summed over its quadratures, w_last the last
-    // sample's works.  Returns (max K, max U - min U, max |w_last|, r_T, max_i r_i, E_0, E_T) with E = K + U and
-    // r_i = |(E_i - E_0) - ws_i|: numpy's elementwise operations in its order, and its rule for a max or min (a NaN
-    // anywhere is the result), so the same numbers as numpy's, in one pass instead of a dozen numpy calls.
-    m.def("energy_balance_terms", [](In<2> e, In<1> ws, In<1> w_last) {
-        const long T = length(e);
-        require(T >= 1 && e.shape(1) == 2 && length(ws) == T && length(w_last) >= 1, "energy_balance_terms: shapes");
-        const double *E2 = e.data(), *W = ws.data();
+    // kinetic and potential energies, w (T, nquad) the works.  Returns (max K, max U - min U, max_k |w_Tk|, r_T,
+    // max_i r_i, E_0, E_T) with E = K + U, W_i = (w_i0 + w_i1) (+ w_i2) and r_i = |(E_i - E_0) - W_i|: numpy's
+    // elementwise operations and its row sum in its order, and its rule for a max or min (a NaN anywhere is the
+    // result), so the same numbers as numpy's, in one pass instead of a dozen numpy calls.
+    m.def("energy_balance_terms", [](In<2> e, In<2> w) {
+        const long T = length(e), nq = static_cast<long>(w.shape(1));
+        require(T >= 1 && e.shape(1) == 2 && length(w) == T && nq >= 1, "energy_balance_terms: e (T, 2), w (T, nquad)");
+        const double *E2 = e.data(), *W = w.data();
         // numpy's maximum and minimum: (a >= x || isnan(a)) ? a : x, the accumulator a first
         auto max = [](double a, double x) { return a >= x || std::isnan(a) ? a : x; };
         auto min = [](double a, double x) { return a <= x || std::isnan(a) ? a : x; };
+        auto work = [&](long i) {
+            double s = W[i * nq];
+            for (long k = 1; k < nq; ++k) s += W[i * nq + k];
+            return s;
+        };
         const double e0 = E2[0] + E2[1];
-        double k_max = E2[0], u_max = E2[1], u_min = E2[1], r = std::abs((e0 - e0) - W[0]), r_max = r;
+        double k_max = E2[0], u_max = E2[1], u_min = E2[1], r = std::abs((e0 - e0) - work(0)), r_max = r;
         for (long i = 1; i < T; ++i) {
             const double K = E2[2 * i], U = E2[2 * i + 1];
             k_max = max(k_max, K), u_max = max(u_max, U), u_min = min(u_min, U);
-            r = std::abs((K + U - e0) - W[i]);
+            r = std::abs((K + U - e0) - work(i));
             r_max = max(r_max, r);
         }
-        double w_max = std::abs(w_last.data()[0]);
-        for (long k = 1; k < length(w_last); ++k) w_max = max(w_max, std::abs(w_last.data()[k]));
+        const double* wl = W + (T - 1) * nq;
+        double w_max = std::abs(wl[0]);
+        for (long k = 1; k < nq; ++k) w_max = max(w_max, std::abs(wl[k]));
         const double e_last = E2[2 * (T - 1)] + E2[2 * (T - 1) + 1];
         return nb::make_tuple(k_max, u_max - u_min, w_max, r, r_max, e0, e_last);
-    }, "e"_a, "ws"_a, "w_last"_a);
+    }, "e"_a, "w"_a);
 
     // f(t, z) into dz and the robot problem's analytical Jacobian df/dz into J ((n, n), n = 2 nv + 2, + 1 with
     // contact; z = [delta, v, W_source, W_passive (, W_contact)] in the chart around q0): a test's window onto the

@@ -156,8 +156,8 @@ def energy_balance(model, s, e, w):
         return {"energy_drift": nan, "energy_drift_max": nan if per_sample else None, "energy_scale": nan,
                 "work_torque": 0.0, "work_passive": 0.0, "energy_initial": nan, "energy_final": nan}
     terms = _balance_few(e, w) if len(e) <= _FEW else None
-    if terms is None:  # (numpy's sum of the works per sample, then the rest in one pass in the core)
-        terms = _core.energy_balance_terms(e, w.sum(axis=1), w[-1])
+    if terms is None:  # (numpy's operations, in one pass in the core)
+        terms = _core.energy_balance_terms(e, w)
     k_max, u_range, w_max, resid_last, resid_max, e_first, e_last = terms
     scale = max(k_max, u_range, w_max, robot_energy_scale(model, s.gravity))
     drift, drift_max = float(resid_last / scale), float(resid_max / scale)
