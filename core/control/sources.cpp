@@ -6,6 +6,7 @@
 
 #include "configuration.hpp"
 #include "interpolation.hpp"
+#include "joints.hpp"
 #include "operational_space.hpp"
 #include "rnea.hpp"
 
@@ -45,7 +46,19 @@ void table_torques(const Source& src, int nv, double t, double* tau) {
 void pd_torques(const Model& model, const Source& src, SourceWorkspace& ws, const double* q, const double* v,
                 double* tau) {
     const int nv = model.nv;
-    chart_difference(model, q, src.qref.data(), ws.e.data());
+    // chart_difference(model, q, qref, e), its 1-dof joints' qref - q inline (a call per joint per evaluation: the
+    // right-hand side's and every sample's)
+    const double* qref = src.qref.data();
+    double* e = ws.e.data();
+    for (int i = 0; i < model.nb; ++i) {
+        const int type = model.jtype[i];
+        if (type == JOINT_REVOLUTE || type == JOINT_PRISMATIC) {
+            const int kq = model.q_idx[i];
+            e[model.v_idx[i]] = qref[kq] - q[kq];
+        } else {
+            joint_difference(model, i, q, qref, e);
+        }
+    }
     const double* g = src.gains.data();
     for (int i = 0; i < nv; ++i) tau[i] = g[i] * ws.e[i] + g[nv + i] * (g[2 * nv + i] - v[i]) + g[3 * nv + i];
 }
