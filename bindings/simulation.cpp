@@ -6,8 +6,10 @@
 #include <cmath>
 #include <cstring>
 #include <memory>
+#include <vector>
 
 #include "arrays.hpp"
+#include "configuration.hpp"
 #include "contact/contact_model.hpp"
 #include "control/passive.hpp"
 #include "control/sources.hpp"
@@ -168,6 +170,22 @@ void expose_simulation(nb::module_& m) {
         const double e_last = E2[2 * (T - 1)] + E2[2 * (T - 1) + 1];
         return nb::make_tuple(k_max, u_max - u_min, w_max, r, r_max, e0, e_last);
     }, "e"_a, "w"_a);
+
+    // (max_k |difference(q2, q1)_k|, max_k |v1_k - v2_k|): dynamics.simulation.state_error's numbers (numpy's max
+    // with initial 0: a NaN anywhere is the result), for the error estimate's comparison of two final states.
+    m.def("state_error", [](const Model& model, In<1> q1, In<1> v1, In<1> q2, In<1> v2) {
+        require(length(q1) == model.nq && length(q2) == model.nq && length(v1) == model.nv && length(v2) == model.nv,
+                "state_error: q (nq,), v (nv,)");
+        std::vector<double> d(model.nv);
+        core::difference(model, q2.data(), q1.data(), d.data());
+        auto max = [](double a, double x) { return a >= x || std::isnan(a) ? a : x; };
+        double eq = 0.0, ev = 0.0;
+        for (long k = 0; k < model.nv; ++k) {
+            eq = max(eq, std::abs(d[k]));
+            ev = max(ev, std::abs(v1.data()[k] - v2.data()[k]));
+        }
+        return nb::make_tuple(eq, ev);
+    }, "model"_a, "q1"_a, "v1"_a, "q2"_a, "v2"_a);
 
     // f(t, z) into dz and the robot problem's analytical Jacobian df/dz into J ((n, n), n = 2 nv + 2, + 1 with
     // contact; z = [delta, v, W_source, W_passive (, W_contact)] in the chart around q0): a test's window onto the

@@ -128,7 +128,7 @@ def error_estimate(model, s, run, rerun, order, warnings):
                 warnings.append(f"error_estimate: the tighter rerun failed ({STATUS_NAMES[r2.stats['status']]}); "
                                 "estimate set to inf")
             else:
-                eq, ev = state_error(model, run.qf, run.vf, r2.qf, r2.vf)
+                eq, ev = _core.state_error(model.core, run.qf, run.vf, r2.qf, r2.vf)  # (state_error's numbers)
                 est_q, est_v = eq * factor, ev * factor
                 est = max(est_q, est_v)
     elif method == "local" and not s.fixed:
