@@ -212,8 +212,8 @@ def accuracy_warnings(s, fields, qf, vf, warnings):
     est, est_q, est_v = fields["error_estimate"], fields.get("error_estimate_q"), fields.get("error_estimate_v")
     if est is None or not math.isfinite(est):
         return
-    vsize = max(1.0, float(np.max(np.abs(vf), initial=0.0)))
-    size = max(vsize, float(np.max(np.abs(qf), initial=0.0)))  # the magnitude rtol is relative to
+    vsize = max(1.0, _abs_max(vf))
+    size = max(vsize, _abs_max(qf))  # the magnitude rtol is relative to
     if est_q is not None and est_v is not None:
         order_one = est_q >= 0.1 or est_v >= 0.1 * vsize  # q: rad or m, absolute (angles wrap)
     else:
@@ -228,6 +228,15 @@ def accuracy_warnings(s, fields, qf, vf, warnings):
         warnings.append(f"error_estimate = {est:.3g} is {est / tol:.3g} times the asked tolerance (atol + rtol |y| = "
                         f"{tol:.3g}): the dynamics amplify errors (chaotic or near-unstable motion, impacts); "
                         "tighten rtol/atol to get the accuracy asked")
+
+
+def _abs_max(x):
+    """float(np.max(np.abs(x), initial=0.0)) of a float vector: in Python floats when every value is finite (the
+    same number, without numpy's calls), numpy's way otherwise (its NaN rule)."""
+    values = x.tolist()
+    if math.isfinite(sum(values)):
+        return max(map(abs, values), default=0.0)
+    return float(np.max(np.abs(x), initial=0.0))
 
 
 def _g(x):
