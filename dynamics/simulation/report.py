@@ -85,6 +85,8 @@ def run_status(st, s, blowup, stability, warnings, why=None):
 
 def switches(log):
     """The auto switch log as a list of dicts (time, from, to, reason)."""
+    if not len(log):  # (the usual run: no switch, and no iteration over an empty record array)
+        return []
     out = []
     for rec in log:
         to = "radau" if rec["to"] == RADAU else "rk45"
