@@ -1,6 +1,7 @@
 // Kinetic and potential energy (energy.hpp has the equations).
 #include "energy.hpp"
 
+#include <cmath>
 #include <new>
 
 namespace core {
@@ -25,8 +26,16 @@ void energies(const Model& model, Data& data, const double* q, const double* v, 
     for (int i = 0; i < model.nb; ++i) {
         const Inertia& I = model.I[i];
         const int par = model.parents[i];
-        // (constructed in place: joint_transform writes its result into data.X[i], not into a copy on the stack)
-        const Transform& X = *new (&data.X[i]) Transform(joint_transform(model, i, q));
+        // joint_transform(model, i, q), its revolute case written here (the compiler keeps joint_transform out of
+        // line, its result returned through memory); the others constructed in place in data.X[i]
+        Transform& X = data.X[i];
+        if (model.jtype[i] == JOINT_REVOLUTE) {
+            const int k = model.q_idx[i];
+            X.R = rodrigues(model, i, std::sin(q[k]), 1.0 - std::cos(q[k]));
+            X.p = model.Xpos[i];
+        } else {
+            new (&X) Transform(joint_transform(model, i, q));
+        }
         if (kinetic) {
             const Motion vi = motion_to_child(X, par < 0 ? Motion{} : data.v[par]) + joint_motion(model, i, v);
             store(data.v[i], vi);
