@@ -160,3 +160,27 @@ def test_repeated_calls_give_the_same_bits(panda):
     keep = {k: v for k, v in a.report.items() if "wall_time" not in k and k != "cost_of_estimate"}
     assert keep == {k: b.report[k] for k in keep}
     assert runs[1].report["energy_scale"] != runs[0].report["energy_scale"]
+
+
+@pytest.mark.parametrize("nquad", [2, 3])
+def test_the_many_samples_balance_is_numpys(nquad):
+    """The core's one pass (_core.energy_balance_terms) against numpy's operations, bit for bit: zeros of either
+    sign, NaN and inf included (numpy's max and min: a NaN anywhere is the result)."""
+    from dynamics import _core
+    rng = np.random.default_rng(11)
+    for trial in range(600):
+        cnt = int(rng.integers(1, 300))
+        scale = 10.0 ** rng.integers(-8, 8, size=(cnt, 1))
+        e = rng.normal(size=(cnt, 2)) * scale
+        w = rng.normal(size=(cnt, nquad)) * scale
+        if trial % 5 == 0:
+            e[:, 0] = np.abs(e[:, 0])
+            e[0] = -0.0
+        if trial % 7 == 0:
+            for _ in range(int(rng.integers(1, 3))):
+                a = e if rng.random() < 0.5 else w
+                a.flat[int(rng.integers(a.size))] = rng.choice([np.nan, np.inf, -np.inf])
+        with np.errstate(invalid="ignore", over="ignore"):
+            want = _numpy_terms(e, w)
+        got = _core.energy_balance_terms(e, w)
+        assert np.array(got).tobytes() == np.array(want).tobytes()

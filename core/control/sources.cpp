@@ -6,16 +6,21 @@
 
 #include "configuration.hpp"
 #include "interpolation.hpp"
+#include "joints.hpp"
 #include "operational_space.hpp"
 #include "rnea.hpp"
 
 namespace core::control {
 
-SourceWorkspace::SourceWorkspace(const Model& model)
-    : data(model), e(model.nv), qr(model.nv), vr(model.nv), ar(model.nv), pas(model.nv), J(6 * model.nv),
-      Minv(static_cast<size_t>(model.nv) * model.nv), JM(6 * model.nv), tp(model.nv), zero(model.nv, 0.0), dd(model),
-      M(static_cast<size_t>(model.nv) * model.nv), DM(static_cast<size_t>(model.nv) * model.nv), pq(model.nv),
-      pv(model.nv) {}
+SourceWorkspace::SourceWorkspace(const Model& model, int kind)
+    : e(model.nv), qr(model.nv), vr(model.nv), ar(model.nv), pas(model.nv) {
+    if (kind >= 0 && kind != COMPUTED_TORQUE && kind != OPERATIONAL_SPACE) return;
+    const size_t nv = model.nv, n2 = nv * nv;
+    data.resize(model);
+    J.assign(6 * nv, 0.0), Minv.assign(n2, 0.0), JM.assign(6 * nv, 0.0), tp.assign(nv, 0.0), zero.assign(nv, 0.0);
+    dd.resize(model);
+    M.assign(n2, 0.0), DM.assign(n2, 0.0), pq.assign(nv, 0.0), pv.assign(nv, 0.0);
+}
 
 namespace {
 
@@ -41,7 +46,19 @@ void table_torques(const Source& src, int nv, double t, double* tau) {
 void pd_torques(const Model& model, const Source& src, SourceWorkspace& ws, const double* q, const double* v,
                 double* tau) {
     const int nv = model.nv;
-    chart_difference(model, q, src.qref.data(), ws.e.data());
+    // chart_difference(model, q, qref, e), its 1-dof joints' qref - q inline (a call per joint per evaluation: the
+    // right-hand side's and every sample's)
+    const double* qref = src.qref.data();
+    double* e = ws.e.data();
+    for (int i = 0; i < model.nb; ++i) {
+        const int type = model.jtype[i];
+        if (type == JOINT_REVOLUTE || type == JOINT_PRISMATIC) {
+            const int kq = model.q_idx[i];
+            e[model.v_idx[i]] = qref[kq] - q[kq];
+        } else {
+            joint_difference(model, i, q, qref, e);
+        }
+    }
     const double* g = src.gains.data();
     for (int i = 0; i < nv; ++i) tau[i] = g[i] * ws.e[i] + g[nv + i] * (g[2 * nv + i] - v[i]) + g[3 * nv + i];
 }

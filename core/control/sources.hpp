@@ -56,7 +56,11 @@ struct SourceWorkspace {
     double jdv[6] = {}, y[6] = {}, Lam[36] = {}, A[36] = {};  // Jdot v, the task's y, Lambda, J M^-1 J^T + d 1
     DerivativesData dd;                         // the derivatives': the RNEA derivatives' workspace
     std::vector<double> M, DM, pq, pv;          // M, d(M s)/dq (nv x nv), the passive derivatives' diagonals
-    explicit SourceWorkspace(const Model& model);
+    // kind: the source kind it serves; the RNEA's, M^-1's, the operational space's and the derivatives' workspaces
+    // (data, J .. zero, dd, M .. pv) are made only for the kinds that read them (computed torque, operational
+    // space) or for any kind (-1: closed_loop_derivatives reads data and dd whatever the source): a run of a PD or
+    // a table makes only the (nv,) vectors
+    explicit SourceWorkspace(const Model& model, int kind = -1);
 };
 
 // tau (nv) = the source's torques at (t, q, v).  The computed torque and the operational-space controller read the

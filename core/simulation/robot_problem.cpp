@@ -13,7 +13,7 @@ namespace core::sim {
 
 RobotProblem::RobotProblem(const Model& model, const control::Passive& passive, control::Source& source,
                            const double* q0, const Outputs& out, ContactHooks* contact)
-    : model_(model), passive_(passive), source_(source), ws_source_(model), contact_(contact), out_(out),
+    : model_(model), passive_(passive), source_(source), ws_source_(model, source.kind), contact_(contact), out_(out),
       nv_(model.nv), nquad_(contact ? 3 : 2), base_(q0, q0 + model.nq), qbuf_(model.nq), tau_s_(model.nv),
       tau_p_(model.nv), data_(model) {
     for (int i = 0; i < model.nb; ++i)

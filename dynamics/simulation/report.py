@@ -85,6 +85,8 @@ def run_status(st, s, blowup, stability, warnings, why=None):
 
 def switches(log):
     """The auto switch log as a list of dicts (time, from, to, reason)."""
+    if not len(log):  # (the usual run: no switch, and no iteration over an empty record array)
+        return []
     out = []
     for rec in log:
         to = "radau" if rec["to"] == RADAU else "rk45"
@@ -128,7 +130,7 @@ def error_estimate(model, s, run, rerun, order, warnings):
                 warnings.append(f"error_estimate: the tighter rerun failed ({STATUS_NAMES[r2.stats['status']]}); "
                                 "estimate set to inf")
             else:
-                eq, ev = state_error(model, run.qf, run.vf, r2.qf, r2.vf)
+                eq, ev = _core.state_error(model.core, run.qf, run.vf, r2.qf, r2.vf)  # (state_error's numbers)
                 est_q, est_v = eq * factor, ev * factor
                 est = max(est_q, est_v)
     elif method == "local" and not s.fixed:
@@ -156,14 +158,8 @@ def energy_balance(model, s, e, w):
         return {"energy_drift": nan, "energy_drift_max": nan if per_sample else None, "energy_scale": nan,
                 "work_torque": 0.0, "work_passive": 0.0, "energy_initial": nan, "energy_final": nan}
     terms = _balance_few(e, w) if len(e) <= _FEW else None
-    if terms is None:
-        (k_max, u_max), u_min = e.max(axis=0), e[:, 1].min()
-        E = e[:, 0] + e[:, 1]
-        resid = E - E[0]
-        resid -= w.sum(axis=1)
-        np.abs(resid, out=resid)
-        terms = (float(k_max), float(u_max - u_min), float(np.abs(w[-1]).max()), resid[-1], resid.max(),
-                 float(E[0]), float(E[-1]))
+    if terms is None:  # (numpy's operations, in one pass in the core)
+        terms = _core.energy_balance_terms(e, w)
     k_max, u_range, w_max, resid_last, resid_max, e_first, e_last = terms
     scale = max(k_max, u_range, w_max, robot_energy_scale(model, s.gravity))
     drift, drift_max = float(resid_last / scale), float(resid_max / scale)
@@ -218,8 +214,8 @@ def accuracy_warnings(s, fields, qf, vf, warnings):
     est, est_q, est_v = fields["error_estimate"], fields.get("error_estimate_q"), fields.get("error_estimate_v")
     if est is None or not math.isfinite(est):
         return
-    vsize = max(1.0, float(np.max(np.abs(vf), initial=0.0)))
-    size = max(vsize, float(np.max(np.abs(qf), initial=0.0)))  # the magnitude rtol is relative to
+    vsize = max(1.0, _abs_max(vf))
+    size = max(vsize, _abs_max(qf))  # the magnitude rtol is relative to
     if est_q is not None and est_v is not None:
         order_one = est_q >= 0.1 or est_v >= 0.1 * vsize  # q: rad or m, absolute (angles wrap)
     else:
@@ -234,6 +230,15 @@ def accuracy_warnings(s, fields, qf, vf, warnings):
         warnings.append(f"error_estimate = {est:.3g} is {est / tol:.3g} times the asked tolerance (atol + rtol |y| = "
                         f"{tol:.3g}): the dynamics amplify errors (chaotic or near-unstable motion, impacts); "
                         "tighten rtol/atol to get the accuracy asked")
+
+
+def _abs_max(x):
+    """float(np.max(np.abs(x), initial=0.0)) of a float vector: in Python floats when every value is finite (the
+    same number, without numpy's calls), numpy's way otherwise (its NaN rule)."""
+    values = x.tolist()
+    if math.isfinite(sum(values)):
+        return max(map(abs, values), default=0.0)
+    return float(np.max(np.abs(x), initial=0.0))
 
 
 def _g(x):

@@ -295,7 +295,8 @@ def _one_run(model, s, ps, src, dt, out_t, rtol, atol, max_steps, outputs, h0=0.
 def _blowup(v0):
     """The joint speed past which a run stops (status "blowup"); v0: (nv,), or (n, nv) for several states."""
     # (v0 is checked finite: Python's max is numpy's, exactly, and without its call's cost)
-    return max(1e6, 1e4 * max(map(abs, np.ravel(v0).tolist()), default=0.0))
+    values = v0.tolist() if type(v0) is np.ndarray and v0.ndim == 1 else np.ravel(v0).tolist()
+    return max(1e6, 1e4 * max(map(abs, values), default=0.0))
 
 
 def _stability(s, rho, warnings):
