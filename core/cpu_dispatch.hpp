@@ -3,8 +3,9 @@
 // fused multiply-add (FMA is a feature of its own, not asked for) and the compiler never reorders floating-point
 // sums (no -ffast-math), so only the registers change: three-operand instructions spare the copies SSE2 makes.
 // ALWAYS_INLINE and FLATTEN (every call inside inlined): a step compiled into each copy of its caller, for that
-// copy's CPU.  Used where it was measured to pay: the forward dynamics derivatives' passes (aba_derivatives.hpp);
-// the inverse dynamics derivatives ran fewer instructions as an AVX2 copy but were not faster, so they have none.
+// copy's CPU.  Used where it was measured to pay: the forward dynamics derivatives' passes (aba_derivatives.hpp),
+// RNEA (rnea.cpp) and the CRBA (crba.cpp); the inverse dynamics derivatives ran fewer instructions as an AVX2 copy
+// but were not faster, so they have none.
 #pragma once
 
 #if defined(__x86_64__) && defined(__linux__) && defined(__GNUC__)

@@ -1,11 +1,13 @@
 // The mass matrix by the CRBA (crba.hpp has the equations).
 #include "crba.hpp"
 
+#include "cpu_dispatch.hpp"
 #include "joints.hpp"
 
 namespace core {
 
-void crba(const Model& model, Data& data, const double* q, double* M) {
+// Compiled twice, portable and AVX2 (no FMA: the same bits), as rnea() is (cpu_dispatch.hpp).
+AVX2_CLONE FLATTEN void crba(const Model& model, Data& data, const double* q, double* M) {
     const int nv = model.nv;
     for (int i = 0; i < model.nb; ++i) {
         data.X[i] = joint_transform(model, i, q);

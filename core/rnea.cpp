@@ -1,11 +1,14 @@
 // Inverse dynamics (RNEA) and the gravity torques (rnea.hpp has the equations).
 #include "rnea.hpp"
 
+#include "cpu_dispatch.hpp"
 #include "joints.hpp"
 
 namespace core {
 
-void rnea(const Model& model, Data& data, const double* q, const double* v, const double* a, const Vec3& gravity,
+// Compiled twice, portable and AVX2 (no FMA: the same bits), the CPU choosing when the library loads
+// (cpu_dispatch.hpp); the forward pass and the spatial algebra are flattened into each copy.
+AVX2_CLONE FLATTEN void rnea(const Model& model, Data& data, const double* q, const double* v, const double* a, const Vec3& gravity,
           const double* f_ext, bool with_v, bool with_a, double* tau) {
     const Motion a0 = {{}, -gravity};  // the world accelerates up
     for (int i = 0; i < model.nb; ++i) {
