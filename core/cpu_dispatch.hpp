@@ -8,7 +8,8 @@
 // but were not faster, so they have none.
 #pragma once
 
-#if defined(__x86_64__) && defined(__linux__) && defined(__GNUC__)
+// -DDYNAMICS_PORTABLE_ONLY: the portable copies alone (to check that both copies give the same bits).
+#if defined(__x86_64__) && defined(__linux__) && defined(__GNUC__) && !defined(DYNAMICS_PORTABLE_ONLY)
 #define AVX2_CLONE __attribute__((target_clones("avx2", "default")))
 #define HAVE_AVX2_CLONES 1
 #else
