@@ -6,8 +6,9 @@
 
 namespace core {
 
-// Compiled twice, portable and AVX2 (no FMA: the same bits), as rnea() is (cpu_dispatch.hpp).
-AVX2_CLONE FLATTEN void crba(const Model& model, Data& data, const double* q, double* M) {
+// Compiled three times, portable, AVX2 and AVX-512F (no fused multiply-add: the same bits), as rnea() is
+// (cpu_dispatch.hpp).
+AVX512_CLONE FLATTEN void crba(const Model& model, Data& data, const double* q, double* M) {
     const int nv = model.nv;
     for (int i = 0; i < model.nb; ++i) {
         data.X[i] = joint_transform(model, i, q);

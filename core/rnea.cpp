@@ -59,10 +59,10 @@ ALWAYS_INLINE void rnea_body(const Model& model, Data& data, int i, const double
 
 }  // namespace
 
-// Compiled twice, portable and AVX2 (no FMA: the same bits), the CPU choosing when the library loads
-// (cpu_dispatch.hpp); the steps and the spatial algebra are flattened into each copy.
-AVX2_CLONE FLATTEN void rnea(const Model& model, Data& data, const double* q, const double* v, const double* a,
-                             const Vec3& gravity, const double* f_ext, bool with_v, bool with_a, double* tau) {
+// Compiled three times, portable, AVX2 and AVX-512F (no fused multiply-add: the same bits), the CPU choosing when
+// the library loads (cpu_dispatch.hpp); the steps and the spatial algebra are flattened into each copy.
+AVX512_CLONE FLATTEN void rnea(const Model& model, Data& data, const double* q, const double* v, const double* a,
+                               const Vec3& gravity, const double* f_ext, bool with_v, bool with_a, double* tau) {
     const Motion a0 = {{}, -gravity};  // the world accelerates up
     for (int i = 0; i < model.nb; ++i) {
         switch (model.axis_k[i]) {
