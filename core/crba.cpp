@@ -1,11 +1,14 @@
 // The mass matrix by the CRBA (crba.hpp has the equations).
 #include "crba.hpp"
 
+#include "cpu_dispatch.hpp"
 #include "joints.hpp"
 
 namespace core {
 
-void crba(const Model& model, Data& data, const double* q, double* M) {
+// Compiled three times, portable, AVX2 and AVX-512F (no fused multiply-add: the same bits), as rnea() is
+// (cpu_dispatch.hpp).
+AVX512_CLONE FLATTEN void crba(const Model& model, Data& data, const double* q, double* M) {
     const int nv = model.nv;
     for (int i = 0; i < model.nb; ++i) {
         data.X[i] = joint_transform(model, i, q);
