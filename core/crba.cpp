@@ -6,14 +6,12 @@
 
 namespace core {
 
-// Compiled three times, portable, AVX2 and AVX-512F (no fused multiply-add: the same bits), as rnea() is
-// (cpu_dispatch.hpp).
-AVX512_CLONE FLATTEN void crba(const Model& model, Data& data, const double* q, double* M) {
+namespace {
+
+// The composite inertias and M from data.X.
+ALWAYS_INLINE void composite_pass(const Model& model, Data& data, double* M) {
     const int nv = model.nv;
-    for (int i = 0; i < model.nb; ++i) {
-        data.X[i] = joint_transform(model, i, q);
-        data.Ic[i] = model.I[i];
-    }
+    for (int i = 0; i < model.nb; ++i) data.Ic[i] = model.I[i];
     for (int i = model.nb - 1; i >= 0; --i) {
         const Inertia Ic = data.Ic[i];
         const int par = model.parents[i];
@@ -39,6 +37,19 @@ AVX512_CLONE FLATTEN void crba(const Model& model, Data& data, const double* q, 
             }
         }
     }
+}
+
+}  // namespace
+
+// Compiled three times, portable, AVX2 and AVX-512F (no fused multiply-add: the same bits), as rnea() is
+// (cpu_dispatch.hpp).
+AVX512_CLONE FLATTEN void crba(const Model& model, Data& data, const double* q, double* M) {
+    for (int i = 0; i < model.nb; ++i) data.X[i] = joint_transform(model, i, q);
+    composite_pass(model, data, M);
+}
+
+AVX512_CLONE FLATTEN void crba_from_placements(const Model& model, Data& data, double* M) {
+    composite_pass(model, data, M);
 }
 
 }  // namespace core

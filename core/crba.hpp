@@ -14,5 +14,7 @@ namespace core {
 // M (nv x nv, row-major) at q.  Entries between coordinates on different branches are not written: the
 // caller zeroes M.
 void crba(const Model& model, Data& data, const double* q, double* M);
+// The same from the joint transforms a forward pass at q left in data.X (aba_rigid_body_pass's): the same bits.
+void crba_from_placements(const Model& model, Data& data, double* M);
 
 }  // namespace core

@@ -347,7 +347,7 @@ bool RobotProblem::implicit_terms(double t, const double* z, double* r, double* 
             std::fill(M, M + n2, 0.0);
             break;
         }
-    crba(model_, data_, q, M);
+    crba_from_placements(model_, data_, M);  // (data_.X: the first pass's, at this q)
     return true;
 }
 
