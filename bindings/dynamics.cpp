@@ -129,7 +129,9 @@ void expose_dynamics(nb::module_& m) {
         return status(s);
     });
 
-    m.def("crba_batch", [](const Model& model, In<2> Q, nb::handle out_, int nthreads, double seconds) {
+    // zeroed: out is all zeros already (numpy's zeros: fresh pages the kernel zeroes on first touch, in the threads
+    // that write them), so the entries between branches, which the CRBA does not write, are not filled again
+    m.def("crba_batch", [](const Model& model, In<2> Q, nb::handle out_, int nthreads, double seconds, bool zeroed) {
         const Output out = output_of(out_, 3);
         const long B = length(out), nv = model.nv;
         require_rows(Q, B, model.nq, "q"), require_out(out, B, {nv, nv}, "M");
@@ -138,13 +140,13 @@ void expose_dynamics(nb::module_& m) {
             nb::gil_scoped_release unlocked;
             s = core::run_batch(model, B, nthreads, seconds, [&](long b, Data& d) {
                 double* M = out.data() + b * nv * nv;
-                std::fill(M, M + nv * nv, 0.0);
+                if (!zeroed) std::fill(M, M + nv * nv, 0.0);
                 core::crba(model, d, row(Q, b), M);
                 return -1;
             });
         }
         return status(s);
-    });
+    }, nb::arg("model"), nb::arg("q"), nb::arg("out"), nb::arg("nthreads"), nb::arg("seconds"), nb::arg("zeroed") = false);
 
     m.def("aba_batch", [](const Model& model, In<2> Q, In<2> V, In<2> T, In<3> F, In<1> gravity, bool with_v,
                           nb::handle out_, int nthreads, double seconds) {

@@ -26,5 +26,12 @@ def mass_matrix(model, q):
         pass
     checks.check_model(model)
     Q, batched = checks.configurations(model, q)
-    out = run(_core.crba_batch, model, Q, out=np.empty((Q.shape[0], model.nv, model.nv)))
+    # numpy's zeros: fresh pages, zeroed by the kernel where the threads first write them; the CRBA leaves the
+    # entries between branches alone, so nothing fills the output a second time
+    out = run(_zeroed_crba_batch, model, Q, out=np.zeros((Q.shape[0], model.nv, model.nv)))
     return out if batched else out[0]
+
+
+def _zeroed_crba_batch(core, Q, out, threads, seconds):
+    return _core.crba_batch(core, Q, out, threads, seconds, True)
+
