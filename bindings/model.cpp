@@ -110,10 +110,7 @@ void expose_model(nb::module_& mod) {
 
     // the general path's input checks (dynamics/checks.py): the first row of X holding a nan or an inf, or -1
     mod.def("first_nonfinite", [](const In<2>& X) -> long {
-        const long B = static_cast<long>(X.shape(0)), n = static_cast<long>(X.shape(1));
-        for (long b = 0; b < B; ++b)
-            if (!core::all_finite(X.data() + b * n, n)) return b;
-        return -1;
+        return core::first_nonfinite_row(X.data(), static_cast<long>(X.shape(0)), static_cast<long>(X.shape(1)));
     }, nb::arg("X"));
 
     // the row r of blocks (start, size in q) of the first zero unit block (a quaternion, a planar joint's

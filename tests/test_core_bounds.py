@@ -123,3 +123,19 @@ def test_an_inconsistent_model_is_refused_before_any_algorithm_runs(model):
     for key, value in bad.items():
         with pytest.raises(ValueError):
             _core.Model(**{**good, key: value})
+
+
+def test_first_nonfinite_finds_the_first_bad_row():
+    """The batch checks' scan (core/checks.hpp: 64 rows at a time by the exponent bits, then row by row) against
+    numpy: every kind of non-finite number in every position of a block, none among the extreme finite ones."""
+    rng = np.random.default_rng(0)
+    X = rng.normal(size=(300, 7))
+    assert _core.first_nonfinite(X) == -1
+    extremes = np.array([[5e-324, -5e-324, 1.7976931348623157e308, -1.7976931348623157e308, -0.0, 0.0, 2.2e-308]])
+    assert _core.first_nonfinite(extremes) == -1
+    for row, col, bad in [(0, 0, np.nan), (63, 6, np.inf), (64, 0, -np.inf), (299, 6, -np.nan), (150, 3, np.inf)]:
+        Y = X.copy()
+        Y[row, col] = bad
+        Y[-1, -1] = np.nan  # a later one too: the first is reported
+        assert _core.first_nonfinite(Y) == min(row, 299) == int(np.flatnonzero(~np.isfinite(Y).all(1))[0])
+    assert _core.first_nonfinite(np.empty((0, 3))) == -1
