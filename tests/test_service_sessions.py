@@ -106,7 +106,7 @@ def test_a_panda_session_is_the_library_bit_for_bit(server, panda):
     pd = dynamics.torques.PD(kp=50.0, kd=5.0, q_target=PANDA_Q0 + 0.2)
     v0 = np.linspace(-0.3, 0.3, model.nv)
     rng = np.random.default_rng(4)
-    for integrator in ("rk4", "auto"):
+    for integrator in ("rk4", "auto", "implicit_euler"):
         here = dynamics.Simulator(model, PANDA_Q0, v0, dt=1e-3, torque=pd, integrator=integrator)
         with robot.simulator(PANDA_Q0, v0, dt=1e-3, torque=pd, integrator=integrator) as sim:
             assert (sim.n, sim.nq, sim.nv, sim.batched, sim.joint_names) == (1, 9, 9, False, model.joint_names)
