@@ -146,7 +146,8 @@ void expose_dynamics(nb::module_& m) {
             });
         }
         return status(s);
-    }, nb::arg("model"), nb::arg("q"), nb::arg("out"), nb::arg("nthreads"), nb::arg("seconds"), nb::arg("zeroed") = false);
+    }, nb::arg("model"), nb::arg("q"), nb::arg("out"), nb::arg("nthreads"), nb::arg("seconds"),
+       nb::arg("zeroed") = false);
 
     m.def("aba_batch", [](const Model& model, In<2> Q, In<2> V, In<2> T, In<3> F, In<1> gravity, bool with_v,
                           nb::handle out_, int nthreads, double seconds) {

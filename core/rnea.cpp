@@ -9,9 +9,10 @@ namespace core {
 namespace {
 
 // Body i's step of the forward pass (data.hpp's forward_body) and RNEA's forward step in one, so that v_i and c_i
-// stay in registers (c_i is not stored; X_i, v_i, a_i and f_i are).  K: the body axis of a revolute joint about one (Model::axis_k), fixed at compile
-// time so that joint_motion's, velocity_product's and joint_project's choices of the axis fold away; -1 for any
-// other joint (their general paths).  The same operations in the same order as the separate steps: the same bits.
+// stay in registers (c_i is not stored; X_i, v_i, a_i and f_i are).  K: the body axis of a revolute joint about
+// one (Model::axis_k), fixed at compile time so that joint_motion's, velocity_product's and joint_project's choices
+// of the axis fold away; -1 for any other joint (their general paths).  The same operations in the same order as
+// the separate steps: the same bits.
 template <int K>
 ALWAYS_INLINE void rnea_body(const Model& model, Data& data, int i, const double* q, const double* v,
                              const double* a, const Motion& a0, const double* f_ext, bool with_v, bool with_a) {

@@ -1,5 +1,5 @@
-// The methods, one file each (euler.cpp, implicit_euler.cpp, rk4.cpp, rk45.cpp, dop853.cpp, radau.cpp, auto.cpp): each its tableau,
-// one attempted step and its dense output, as scipy's _ivp and Drake's integrators are laid out.
+// The methods, one file each (euler.cpp, implicit_euler.cpp, rk4.cpp, rk45.cpp, dop853.cpp, radau.cpp, auto.cpp):
+// each its tableau, one attempted step and its dense output, as scipy's _ivp and Drake's integrators are laid out.
 #pragma once
 
 #include <memory>
@@ -8,7 +8,8 @@
 
 namespace core::sim {
 
-constexpr int RK45_ORDER = 5, RADAU_ORDER = 3, DOP853_ORDER = 8, EULER_ORDER = 1, RK4_ORDER = 4, IMPLICIT_EULER_ORDER = 1;
+constexpr int RK45_ORDER = 5, RADAU_ORDER = 3, DOP853_ORDER = 8, EULER_ORDER = 1, RK4_ORDER = 4,
+              IMPLICIT_EULER_ORDER = 1;
 // |h lambda| on the negative real axis beyond which the explicit methods are unstable
 constexpr double EULER_STABILITY = 2.0, RK4_STABILITY = 2.785, RK45_STABILITY = 3.3;
 

@@ -61,7 +61,8 @@ RobotProblem::ImplicitWork::ImplicitWork(const Model& model, const control::Sour
     for (int i = 0; i < model.nb && pd_diagonal; ++i)
         for (int k = model.v_idx[i]; k < model.v_idx[i] + model.nv_j[i] && model.nv_j[i] > 1; ++k)
             pd_diagonal = pd_diagonal && source.gains[k] == 0.0;
-    for (int i = 0; i < model.nb; ++i) {  // lambda over coordinates: the previous one of the joint, else the parent's last
+    // lambda over coordinates: the previous one of the joint, else the parent's last
+    for (int i = 0; i < model.nb; ++i) {
         const int p = model.parents[i];
         int prev = p >= 0 ? model.v_idx[p] + model.nv_j[p] - 1 : -1;
         for (int k = model.v_idx[i]; k < model.v_idx[i] + model.nv_j[i]; ++k) lam[k] = prev, prev = k;

@@ -21,7 +21,9 @@ Status run_method(const char* method, Problem& p, double* z, int n, double t0, d
     const std::string m = method;
     if (m == "euler" || m == "rk4" || m == "implicit_euler") {
         if (!keep.fixed)
-            keep.fixed = m == "euler" ? make_euler(opt.nc, n) : m == "rk4" ? make_rk4(n) : make_implicit_euler(opt.nc, n);
+            keep.fixed = m == "euler" ? make_euler(opt.nc, n)
+                         : m == "rk4" ? make_rk4(n)
+                                      : make_implicit_euler(opt.nc, n);
         return solve_fixed(p, *keep.fixed, z, n, t0, t_end, out_t, T, opt, st);
     }
     if (m == "rk45" || m == "dop853" || m == "radau") {

@@ -94,9 +94,10 @@ public:
     virtual const std::vector<int>* second_order_blocks() const { return nullptr; }
     // The linearly implicit Euler's terms at (t, z), z at the start of a step (its chart part zero), in place of f:
     // r = M a, the generalised force the accelerations answer (tau - C v - g + J_c^T f_c); w (n) the quadratures'
-    // rates in its components 2 nv and up; M (nv x nv) the mass matrix; D = d tau/dv and K = d tau/dq, the stiff forces' derivatives in tangent
-    // coordinates (zero where nothing stiff acts); lam: Featherstone's lambda over the velocity coordinates when
-    // every nonzero of M, D and K lies on a path to the root (then only those entries are written), else null.
+    // rates in its components 2 nv and up; M (nv x nv) the mass matrix; D = d tau/dv and K = d tau/dq, the stiff
+    // forces' derivatives in tangent coordinates (zero where nothing stiff acts); lam: Featherstone's lambda over
+    // the velocity coordinates when every nonzero of M, D and K lies on a path to the root (then only those entries
+    // are written), else null.
     // false: the problem has no such form (a generic ODE, closed loops), and the step takes f.
     virtual bool implicit_terms(double /*t*/, const double* /*z*/, double* /*r*/, double* /*w*/, double* /*M*/,
                                 double* /*D*/, double* /*K*/, const int*& /*lam*/) {
@@ -136,8 +137,8 @@ Status solve_fixed(Problem& p, FixedStepper& m, double* z, int n, double t0, dou
 Status solve_adaptive(Problem& p, AdaptiveStepper& m, double* z, int n, double t0, double t_end, const double* out_t,
                       int64_t T, const Options& opt, Stats& st, std::vector<Switch>& sw);
 
-// A method by name ("euler", "implicit_euler", "rk4", "rk45", "dop853", "radau", "auto") over the problem; auto alternates its
-// two phases.  The switch log is appended to sw.
+// A method by name ("euler", "implicit_euler", "rk4", "rk45", "dop853", "radau", "auto") over the problem; auto
+// alternates its two phases.  The switch log is appended to sw.
 Status run_method(const char* method, Problem& p, double* z, int n, double t0, double t_end, const double* out_t,
                   int64_t T, Options opt, Stats& st, std::vector<Switch>& sw);
 // The steppers of a run, kept for the next run of the same problem (a simulator's periods, simulator.hpp): radau
