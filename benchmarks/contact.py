@@ -209,10 +209,9 @@ def _quat_between(a, b) -> list[float]:
     return list(q / np.linalg.norm(q))
 
 
-def mujoco_runner(scene: Scene, dt: float) -> Callable[[], State]:
+def mujoco_initial_state(scene: Scene, m) -> np.ndarray:
+    """The scene's initial state in MuJoCo's model m, as its FULLPHYSICS state vector (time, then qpos, ...)."""
     import mujoco
-    from mujoco import rollout
-    m = mujoco_model(scene, dt)
     d = mujoco.MjData(m)
     d.qpos[:3], d.qpos[3:7] = scene.p0, scene.quat0
     for name, value in scene.joints0.items():
@@ -220,6 +219,16 @@ def mujoco_runner(scene: Scene, dt: float) -> Callable[[], State]:
     spec = mujoco.mjtState.mjSTATE_FULLPHYSICS
     x0 = np.empty(mujoco.mj_stateSize(m, spec))
     mujoco.mj_getState(m, d, x0, spec)
+    return x0
+
+
+def mujoco_runner(scene: Scene, dt: float) -> Callable[[], State]:
+    import mujoco
+    from mujoco import rollout
+    m = mujoco_model(scene, dt)
+    d = mujoco.MjData(m)
+    x0 = mujoco_initial_state(scene, m)
+    spec = mujoco.mjtState.mjSTATE_FULLPHYSICS
     nstep = int(round(scene.duration / dt))
 
     def go() -> State:

@@ -20,7 +20,6 @@ Run: ``python -m benchmarks.stepping [--rounds 5] [--steps 2000] [--envs 1000] [
 from __future__ import annotations
 
 import argparse
-import re
 import statistics
 import time
 from pathlib import Path
@@ -42,21 +41,9 @@ def panda():
 
 
 def mujoco_panda(urdf, model, q_target, kp, kd, integrator, dt):
-    import mujoco
-    mujoco.set_mju_user_warning(lambda msg: None)
-    txt = re.sub(r"<visual>.*?</visual>|<collision>.*?</collision>", "", urdf, flags=re.S)
-    txt = re.sub(r"<mimic[^>]*/>", "", txt)
-    txt = txt.replace("</robot>", '<mujoco><compiler discardvisual="true" fusestatic="false" '
-                                  'balanceinertia="false"/></mujoco></robot>')
-    m = mujoco.MjModel.from_xml_string(txt)
-    dis = mujoco.mjtDisableBit
-    m.opt.disableflags |= dis.mjDSBL_LIMIT | dis.mjDSBL_CONTACT | dis.mjDSBL_EQUALITY
-    m.opt.timestep = dt
-    m.opt.integrator = {"rk4": mujoco.mjtIntegrator.mjINT_RK4, "euler": mujoco.mjtIntegrator.mjINT_EULER}[integrator]
-    m.jnt_stiffness[:] = kp
-    m.qpos_spring[:] = q_target
-    m.dof_damping[:] = np.asarray(model.damping) + kd
-    return m
+    from benchmarks.work_precision import mujoco_from_urdf
+    return mujoco_from_urdf(urdf, {"rk4": "RK4", "euler": "Euler"}[integrator], dt, (q_target, kp, kd),
+                            model.damping, strip_mimic=True)
 
 
 def single_step_table(rounds, steps):
@@ -151,8 +138,8 @@ def go1_table(envs, rounds, seconds=0.2):
     import mujoco
 
     import dynamics
-    from benchmarks.contact import (mujoco_model, ours_contact, ours_initial, ours_model, ours_torque,
-                                    quadruped_scene)
+    from benchmarks.contact import (mujoco_initial_state, mujoco_model, ours_contact, ours_initial, ours_model,
+                                    ours_torque, quadruped_scene)
     scene = quadruped_scene()
     dt = 2e-3
     nstep = int(round(seconds / dt))
@@ -175,14 +162,7 @@ def go1_table(envs, rounds, seconds=0.2):
     f_ref = ours_forces(ref)
 
     m = mujoco_model(scene, dt)
-    d = mujoco.MjData(m)
-    d.qpos[:3], d.qpos[3:7] = scene.p0, scene.quat0
-    for name, value in scene.joints0.items():
-        d.qpos[m.joint(name).qposadr[0]] = value
-    spec = mujoco.mjtState.mjSTATE_FULLPHYSICS
-    x = np.empty(mujoco.mj_stateSize(m, spec))
-    mujoco.mj_getState(m, d, x, spec)
-    X0 = np.repeat(x[None], envs, axis=0)
+    X0 = np.repeat(mujoco_initial_state(scene, m)[None], envs, axis=0)
     joints = [m.joint(name).qposadr[0] for name in scene.joints0]  # (state: time, then qpos)
     ours_joints = [model.q_index[model.joint_names.index(name)] for name in scene.joints0]
     X0[:, 1 + np.array(joints)] = Q0[:, ours_joints]

@@ -173,26 +173,35 @@ def run_scipy(p, method, tol):
 
 
 # -- MuJoCo -----------------------------------------------------------------------------------------------
-def mujoco_model(p, integrator, dt):
+def mujoco_from_urdf(urdf, integrator, dt, pd=None, damping=None, strip_mimic=False):
+    """MuJoCo's own URDF compiler on ``urdf`` (visuals and collisions stripped; limits, contact and equalities
+    off), at step dt with ``integrator`` ("RK4", "implicitfast" or "Euler"); pd = (q_target, kp, kd): a PD law as
+    joint springs and extra damping on top of ``damping`` (passive forces, inside every stage)."""
     import mujoco
     # MuJoCo reports instability at large steps by a warning and a reset (it shows up as a large error);
     # the default handler would also write MUJOCO_LOG.TXT into the working directory
     mujoco.set_mju_user_warning(lambda msg: None)
-    txt = re.sub(r"<visual>.*?</visual>|<collision>.*?</collision>", "", p.urdf, flags=re.S)
+    txt = re.sub(r"<visual>.*?</visual>|<collision>.*?</collision>", "", urdf, flags=re.S)
+    if strip_mimic:
+        txt = re.sub(r"<mimic[^>]*/>", "", txt)
     txt = txt.replace("</robot>", '<mujoco><compiler discardvisual="true" fusestatic="false" '
                                   'balanceinertia="false"/></mujoco></robot>')
     m = mujoco.MjModel.from_xml_string(txt)
     dis = mujoco.mjtDisableBit
     m.opt.disableflags |= dis.mjDSBL_LIMIT | dis.mjDSBL_CONTACT | dis.mjDSBL_EQUALITY
     m.opt.timestep = dt
-    m.opt.integrator = {"RK4": mujoco.mjtIntegrator.mjINT_RK4,
+    m.opt.integrator = {"RK4": mujoco.mjtIntegrator.mjINT_RK4, "Euler": mujoco.mjtIntegrator.mjINT_EULER,
                         "implicitfast": mujoco.mjtIntegrator.mjINT_IMPLICITFAST}[integrator]
-    if p.pd is not None:  # PD law as joint springs and extra damping (passive forces, inside every stage)
-        qt, kp, kd = p.pd
+    if pd is not None:
+        qt, kp, kd = pd
         m.jnt_stiffness[:] = kp
         m.qpos_spring[:] = qt
-        m.dof_damping[:] = np.asarray(p.model.damping) + kd
+        m.dof_damping[:] = np.asarray(damping) + kd
     return m
+
+
+def mujoco_model(p, integrator, dt):
+    return mujoco_from_urdf(p.urdf, integrator, dt, p.pd, p.model.damping)
 
 
 def mujoco_check(p):

@@ -76,6 +76,62 @@ void require_passive(const core::control::Passive& p, const Model& model) {
     require(ok, "passive: made for another model");
 }
 
+namespace {
+
+// The report's numbers computed in one core pass each (dynamics/simulation/report.py).
+void expose_report_terms(nb::module_& m) {
+    using namespace nb::literals;
+    // The energy balance's terms over a run's samples (dynamics/simulation/report.py, energy_balance): e (T, 2) the
+    // kinetic and potential energies, w (T, nquad) the works.  Returns (max K, max U - min U, max_k |w_Tk|, r_T,
+    // max_i r_i, E_0, E_T) with E = K + U, W_i = (w_i0 + w_i1) (+ w_i2) and r_i = |(E_i - E_0) - W_i|: numpy's
+    // elementwise operations and its row sum in its order, and its rule for a max or min (a NaN anywhere is the
+    // result), so the same numbers as numpy's, in one pass instead of a dozen numpy calls.
+    m.def("energy_balance_terms", [](In<2> e, In<2> w) {
+        const long T = length(e), nq = static_cast<long>(w.shape(1));
+        require(T >= 1 && e.shape(1) == 2 && length(w) == T && nq >= 1, "energy_balance_terms: e (T, 2), w (T, nquad)");
+        const double *E2 = e.data(), *W = w.data();
+        // numpy's maximum and minimum: (a >= x || isnan(a)) ? a : x, the accumulator a first
+        auto max = [](double a, double x) { return a >= x || std::isnan(a) ? a : x; };
+        auto min = [](double a, double x) { return a <= x || std::isnan(a) ? a : x; };
+        auto work = [&](long i) {
+            double s = W[i * nq];
+            for (long k = 1; k < nq; ++k) s += W[i * nq + k];
+            return s;
+        };
+        const double e0 = E2[0] + E2[1];
+        double k_max = E2[0], u_max = E2[1], u_min = E2[1], r = std::abs((e0 - e0) - work(0)), r_max = r;
+        for (long i = 1; i < T; ++i) {
+            const double K = E2[2 * i], U = E2[2 * i + 1];
+            k_max = max(k_max, K), u_max = max(u_max, U), u_min = min(u_min, U);
+            r = std::abs((K + U - e0) - work(i));
+            r_max = max(r_max, r);
+        }
+        const double* wl = W + (T - 1) * nq;
+        double w_max = std::abs(wl[0]);
+        for (long k = 1; k < nq; ++k) w_max = max(w_max, std::abs(wl[k]));
+        const double e_last = E2[2 * (T - 1)] + E2[2 * (T - 1) + 1];
+        return nb::make_tuple(k_max, u_max - u_min, w_max, r, r_max, e0, e_last);
+    }, "e"_a, "w"_a);
+
+    // (max_k |difference(q2, q1)_k|, max_k |v1_k - v2_k|): dynamics.simulation.state_error's numbers (numpy's max
+    // with initial 0: a NaN anywhere is the result), for the error estimate's comparison of two final states.
+    m.def("state_error", [](const Model& model, In<1> q1, In<1> v1, In<1> q2, In<1> v2) {
+        require(length(q1) == model.nq && length(q2) == model.nq && length(v1) == model.nv && length(v2) == model.nv,
+                "state_error: q (nq,), v (nv,)");
+        std::vector<double> d(model.nv);
+        core::difference(model, q2.data(), q1.data(), d.data());
+        auto max = [](double a, double x) { return a >= x || std::isnan(a) ? a : x; };
+        double eq = 0.0, ev = 0.0;
+        for (long k = 0; k < model.nv; ++k) {
+            eq = max(eq, std::abs(d[k]));
+            ev = max(ev, std::abs(v1.data()[k] - v2.data()[k]));
+        }
+        return nb::make_tuple(eq, ev);
+    }, "model"_a, "q1"_a, "v1"_a, "q2"_a, "v2"_a);
+}
+
+}  // namespace
+
 void expose_simulation(nb::module_& m) {
     using namespace nb::literals;
     namespace control = core::control;
@@ -139,53 +195,7 @@ void expose_simulation(nb::module_& m) {
         }, "model"_a, "kind"_a, "times"_a, "table"_a, "gains"_a, "qref"_a, "frame"_a, "rows"_a, "task_gains"_a,
            "orientation"_a, "damping"_a, "callback"_a.none(), "check"_a.none());
 
-    // The energy balance's terms over a run's samples (dynamics/simulation/report.py, energy_balance): e (T, 2) the
-    // kinetic and potential energies, w (T, nquad) the works.  Returns (max K, max U - min U, max_k |w_Tk|, r_T,
-    // max_i r_i, E_0, E_T) with E = K + U, W_i = (w_i0 + w_i1) (+ w_i2) and r_i = |(E_i - E_0) - W_i|: numpy's
-    // elementwise operations and its row sum in its order, and its rule for a max or min (a NaN anywhere is the
-    // result), so the same numbers as numpy's, in one pass instead of a dozen numpy calls.
-    m.def("energy_balance_terms", [](In<2> e, In<2> w) {
-        const long T = length(e), nq = static_cast<long>(w.shape(1));
-        require(T >= 1 && e.shape(1) == 2 && length(w) == T && nq >= 1, "energy_balance_terms: e (T, 2), w (T, nquad)");
-        const double *E2 = e.data(), *W = w.data();
-        // numpy's maximum and minimum: (a >= x || isnan(a)) ? a : x, the accumulator a first
-        auto max = [](double a, double x) { return a >= x || std::isnan(a) ? a : x; };
-        auto min = [](double a, double x) { return a <= x || std::isnan(a) ? a : x; };
-        auto work = [&](long i) {
-            double s = W[i * nq];
-            for (long k = 1; k < nq; ++k) s += W[i * nq + k];
-            return s;
-        };
-        const double e0 = E2[0] + E2[1];
-        double k_max = E2[0], u_max = E2[1], u_min = E2[1], r = std::abs((e0 - e0) - work(0)), r_max = r;
-        for (long i = 1; i < T; ++i) {
-            const double K = E2[2 * i], U = E2[2 * i + 1];
-            k_max = max(k_max, K), u_max = max(u_max, U), u_min = min(u_min, U);
-            r = std::abs((K + U - e0) - work(i));
-            r_max = max(r_max, r);
-        }
-        const double* wl = W + (T - 1) * nq;
-        double w_max = std::abs(wl[0]);
-        for (long k = 1; k < nq; ++k) w_max = max(w_max, std::abs(wl[k]));
-        const double e_last = E2[2 * (T - 1)] + E2[2 * (T - 1) + 1];
-        return nb::make_tuple(k_max, u_max - u_min, w_max, r, r_max, e0, e_last);
-    }, "e"_a, "w"_a);
-
-    // (max_k |difference(q2, q1)_k|, max_k |v1_k - v2_k|): dynamics.simulation.state_error's numbers (numpy's max
-    // with initial 0: a NaN anywhere is the result), for the error estimate's comparison of two final states.
-    m.def("state_error", [](const Model& model, In<1> q1, In<1> v1, In<1> q2, In<1> v2) {
-        require(length(q1) == model.nq && length(q2) == model.nq && length(v1) == model.nv && length(v2) == model.nv,
-                "state_error: q (nq,), v (nv,)");
-        std::vector<double> d(model.nv);
-        core::difference(model, q2.data(), q1.data(), d.data());
-        auto max = [](double a, double x) { return a >= x || std::isnan(a) ? a : x; };
-        double eq = 0.0, ev = 0.0;
-        for (long k = 0; k < model.nv; ++k) {
-            eq = max(eq, std::abs(d[k]));
-            ev = max(ev, std::abs(v1.data()[k] - v2.data()[k]));
-        }
-        return nb::make_tuple(eq, ev);
-    }, "model"_a, "q1"_a, "v1"_a, "q2"_a, "v2"_a);
+    expose_report_terms(m);
 
     // f(t, z) into dz and the robot problem's analytical Jacobian df/dz into J ((n, n), n = 2 nv + 2, + 1 with
     // contact; z = [delta, v, W_source, W_passive (, W_contact)] in the chart around q0): a test's window onto the

@@ -18,16 +18,6 @@ void ConstrainedData::resize(const Model& model, const Constraints& con) {
     dq.resize(nv), delta.resize(nv), qn.resize(model.nq);
 }
 
-// lam[k]: Featherstone's lambda over coordinates (the previous coordinate of a multi-coordinate joint, else the
-// parent joint's last; -1 at the root).
-static void dof_parents(const Model& model, int* lam) {
-    for (int i = 0; i < model.nb; ++i) {
-        const int p = model.parents[i];
-        int prev = p >= 0 ? model.v_idx[p] + model.nv_j[p] - 1 : -1;
-        for (int k = model.v_idx[i]; k < model.v_idx[i] + model.nv_j[i]; ++k) lam[k] = prev, prev = k;
-    }
-}
-
 // M(q) = L^T L (Table 6.3, the LTL factorisation), cost sum_k depth(k)^2.  Returns -1, or the body whose joint
 // has a non-positive pivot.
 int mass_factor(const Model& model, Data& data, const double* q, double* L, int* lam) {

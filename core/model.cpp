@@ -28,6 +28,14 @@ static int revolute_axis_index(const Model& m, int i) {
     return -1;
 }
 
+void dof_parents(const Model& model, int* lam) {
+    for (int i = 0; i < model.nb; ++i) {
+        const int p = model.parents[i];
+        int prev = p >= 0 ? model.v_idx[p] + model.nv_j[p] - 1 : -1;
+        for (int k = model.v_idx[i]; k < model.v_idx[i] + model.nv_j[i]; ++k) lam[k] = prev, prev = k;
+    }
+}
+
 void check(Model& m) {
     require(m.nb >= 0 && m.nq >= 0 && m.nv >= 0, "negative sizes");
     for (auto* a : {&m.parents, &m.jtype, &m.q_idx, &m.v_idx, &m.nv_j}) require_size(a->size(), m.nb, "a per-body array");

@@ -57,4 +57,9 @@ struct Model {
 // throws std::invalid_argument naming the first inconsistency.  After it, no algorithm reads out of bounds.
 void check(Model& model);
 
+// lam[k]: Featherstone's lambda over velocity coordinates (the previous coordinate of a multi-coordinate joint, else
+// the parent joint's last; -1 at the root): the branch-induced sparsity of M, whose nonzeros (k, j) have j on k's
+// chain or k on j's.
+void dof_parents(const Model& model, int* lam);
+
 }  // namespace core

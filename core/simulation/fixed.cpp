@@ -9,6 +9,34 @@
 
 namespace core::sim {
 
+namespace {
+
+// f(t, z) into f (a slope the stepper needs: the first stage, the interpolant); OK, or why the run stops.
+Status slope_at(Problem& p, double t, const double* z, double* f, int n, const Options& opt, Stats& st) {
+    p.rhs(t, z, f);
+    st.rhs_evals += 1;
+    if (state_status(f, n, 0, 0, opt.blowup) == OK) return OK;
+    return p.aborted() ? ABORTED : NONFINITE;
+}
+
+// Samples j.. in (ta, t] of the step ta -> t (z0 -> z, slopes f0, f1), from the stepper's interpolant; returns the
+// next sample's index.
+int64_t emit_step(Problem& p, FixedStepper& m, int64_t j, int64_t T, const double* out_t, double ta, double t,
+                  const double* z0, const double* f0, const double* z, const double* f1, double* zi) {
+    const double h = t - ta;
+    for (; j < T && out_t[j] <= t; ++j) {
+        if (out_t[j] >= t) {
+            p.emit(j, t, z);
+        } else {
+            m.dense((out_t[j] - ta) / h, h, z0, f0, z, f1, zi);
+            p.emit(j, out_t[j], zi);
+        }
+    }
+    return j;
+}
+
+}  // namespace
+
 Status solve_fixed(Problem& p, FixedStepper& m, double* z, int n, double t0, double t_end, const double* out_t,
                    int64_t T, const Options& opt, Stats& st) {
     using clock = std::chrono::steady_clock;
@@ -17,12 +45,7 @@ Status solve_fixed(Problem& p, FixedStepper& m, double* z, int n, double t0, dou
     double *mag = buf.data(), *f0 = mag + n, *f1 = f0 + n, *z0 = f1 + n;
     std::vector<double> zi(n);
     const bool slope = m.needs_slope();  // (implicit_euler: no slopes; a non-finite state is found after its step)
-    Status status = OK;
-    if (slope) {
-        p.rhs(t0, z, f0);
-        st.rhs_evals += 1;
-        status = state_status(f0, n, 0, 0, opt.blowup) == OK ? OK : NONFINITE;
-    }
+    Status status = slope && slope_at(p, t0, z, f0, n, opt, st) != OK ? NONFINITE : OK;
     if (opt.probe && slope && status == OK) st.rho0 = jacobian_spectral_radius(p, t0, z, f0, n, opt.ne);
     int64_t j = 0;
     for (; j < T && out_t[j] <= t0; ++j) p.emit(j, t0, z);  // the initial state, also when f(t0, z0) is not finite
@@ -30,33 +53,17 @@ Status solve_fixed(Problem& p, FixedStepper& m, double* z, int n, double t0, dou
     for (int64_t i = 0; i < (status == OK ? opt.nsteps : 0); ++i) {
         const double ta = t;  // this step: from ta to t
         t = i == opt.nsteps - 1 ? t_end : std::min(t0 + (i + 1) * opt.dt, t_end);
-        const double h = t - ta;
         std::copy(z, z + n, z0);
-        m.step(p, ta, h, z, slope ? f0 : nullptr, st);
+        m.step(p, ta, t - ta, z, slope ? f0 : nullptr, st);
         st.steps += 1;
-        if (p.aborted()) {
-            status = ABORTED;
-            break;
-        }
-        status = state_status(z, n, opt.nc, opt.nvel, opt.blowup);
+        status = p.aborted() ? ABORTED : state_status(z, n, opt.nc, opt.nvel, opt.blowup);
         if (status != OK) break;
         // f at the step's end: the next step's first stage, the interpolant of samples inside the step
         if (slope && (opt.end_slope || i < opt.nsteps - 1 || (j < T && out_t[j] < t))) {
-            p.rhs(t, z, f1);
-            st.rhs_evals += 1;
-            if (state_status(f1, n, 0, 0, opt.blowup) != OK) {
-                status = p.aborted() ? ABORTED : NONFINITE;
-                break;
-            }
+            status = slope_at(p, t, z, f1, n, opt, st);
+            if (status != OK) break;
         }
-        for (; j < T && out_t[j] <= t; ++j) {  // samples in (ta, t]
-            if (out_t[j] >= t) {
-                p.emit(j, t, z);
-            } else {
-                m.dense((out_t[j] - ta) / h, h, z0, f0, z, f1, zi.data());
-                p.emit(j, out_t[j], zi.data());
-            }
-        }
+        j = emit_step(p, m, j, T, out_t, ta, t, z0, f0, z, f1, zi.data());
         p.rebase(t, z, f1, mag);
         std::copy(f1, f1 + n, f0);
         if ((i & 63) == 63 && std::chrono::duration<double>(clock::now() - start).count() > opt.deadline) {

@@ -55,7 +55,7 @@ bool Radau::attempt(Problem& p, double t, double h, const double* z, const doubl
                     double* errv, const double* mag, const Options& opt, Stats& st, std::vector<Switch>&, bool,
                     double& h_next) {
     const int n = n_;
-    if (!asked_blocks_) blocks_ = p.second_order_blocks(), asked_blocks_ = true;
+    blocks_ = p.second_order_blocks();  // (the factorisation's structure: a pointer the problem keeps)
     bool converged;
     while (true) {
         if (need_jac_) {

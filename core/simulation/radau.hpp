@@ -41,7 +41,6 @@ private:
     std::vector<std::complex<double>> dWc_;
     // a second-order problem's systems reduced to its velocities (second_order.hpp): the joints' blocks, or null
     const std::vector<int>* blocks_ = nullptr;
-    bool asked_blocks_ = false;
     ReducedSystem<double> Sr_;
     ReducedSystem<std::complex<double>> Sc_;
     bool need_jac_, current_jac_, have_lu_, have_sol_;
