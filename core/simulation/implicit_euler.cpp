@@ -63,10 +63,23 @@ void tree_lu_solve(const double* A, const int* lam, int n, double* b) {
     }
 }
 
+// M, D, K and A (nv x nv): a step's scratch, nothing kept from one step to the next, so one per thread rather than
+// per environment (a batch of a thousand Go1 then steps in 10 KB of matrices that stay in cache, not 10 MB).
+struct Matrices {
+    std::vector<double> M, D, K, A;
+};
+
+Matrices& matrices(int nv) {
+    thread_local Matrices w;
+    const size_t n2 = static_cast<size_t>(nv) * nv;
+    if (w.M.size() != n2) w.M.assign(n2, 0.0), w.D.assign(n2, 0.0), w.K.assign(n2, 0.0), w.A.assign(n2, 0.0);
+    return w;
+}
+
 class ImplicitEuler : public FixedStepper {
 public:
     ImplicitEuler(int nv, int n)
-        : nv_(nv), n_(n), M_(static_cast<size_t>(nv) * nv), D_(M_.size()), K_(M_.size()), A_(M_.size()), b_(nv),
+        : nv_(nv), n_(n), b_(nv),
           Kv_(nv), f_(n), piv_(nv) {}
 
     bool needs_slope() const override { return false; }
@@ -75,8 +88,9 @@ public:
         double* v = z + nv;
         const int* lam = nullptr;
         st.rhs_evals += 1;
-        if (p.implicit_terms(t, z, b_.data(), f_.data(), M_.data(), D_.data(), K_.data(), lam)) {
-            solve(h, v, lam);
+        Matrices& w = matrices(nv);
+        if (p.implicit_terms(t, z, b_.data(), f_.data(), w.M.data(), w.D.data(), w.K.data(), lam)) {
+            solve(w, h, v, lam);
             st.jacobian_evals += 1, st.lu_decompositions += 1;
             for (int r = 0; r < nv; ++r) v[r] += b_[r];
         } else {  // symplectic Euler
@@ -94,10 +108,10 @@ public:
 private:
     // b_ = dv = A^-1 h (r + h K v) (r = M a on entry), A = M - h D - h^2 K: along the tree when lam is given and
     // every pivot is positive, else dense (a singular A: inf/nan in dv, and the driver stops with NONFINITE).
-    void solve(double h, const double* v, const int* lam) {
+    void solve(Matrices& w, double h, const double* v, const int* lam) {
         const int nv = nv_;
-        const double *M = M_.data(), *D = D_.data(), *K = K_.data();
-        double* A = A_.data();
+        const double *M = w.M.data(), *D = w.D.data(), *K = w.K.data();
+        double* A = w.A.data();
         if (lam) {
             tree_product(K, lam, nv, v, Kv_.data());
         } else {
@@ -109,24 +123,24 @@ private:
         }
         for (int r = 0; r < nv; ++r) b_[r] = h * (b_[r] + h * Kv_[r]);
         if (lam) {
-            assemble(h, lam);
+            assemble(w, h, lam);
             if (tree_lu_factor(A, lam, nv)) {
                 tree_lu_solve(A, lam, nv, b_.data());
                 return;
             }
-            std::fill(A_.begin(), A_.end(), 0.0);  // (the entries off the paths: zero in M, D and K)
-            assemble(h, lam);
+            std::fill(w.A.begin(), w.A.end(), 0.0);  // (the entries off the paths: zero in M, D and K)
+            assemble(w, h, lam);
         } else {
-            for (size_t k = 0; k < A_.size(); ++k) A[k] = M[k] - h * D[k] - h * h * K[k];
+            for (size_t k = 0; k < w.A.size(); ++k) A[k] = M[k] - h * D[k] - h * h * K[k];
         }
         lu_factor(A, nv, piv_.data());
         lu_solve(A, nv, piv_.data(), b_.data());
     }
     // A's entries on the paths to the root
-    void assemble(double h, const int* lam) {
+    void assemble(Matrices& w, double h, const int* lam) const {
         const int nv = nv_;
-        const double *M = M_.data(), *D = D_.data(), *K = K_.data();
-        double* A = A_.data();
+        const double *M = w.M.data(), *D = w.D.data(), *K = w.K.data();
+        double* A = w.A.data();
         const double h2 = h * h;
         for (int k = 0; k < nv; ++k) {
             const int kk = k * nv + k;
@@ -140,7 +154,7 @@ private:
     }
 
     int nv_, n_;
-    std::vector<double> M_, D_, K_, A_, b_, Kv_, f_;  // nv x nv; nv; n (the quadratures' rates, or f)
+    std::vector<double> b_, Kv_, f_;  // nv; nv; n (the quadratures' rates, or f)
     std::vector<int> piv_;
 };
 

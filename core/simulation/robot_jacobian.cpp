@@ -54,19 +54,15 @@ RobotProblem::JacobianWork::JacobianWork(const Model& model)
 }
 
 RobotProblem::ImplicitWork::ImplicitWork(const Model& model, const control::Source& source)
-    : sq(static_cast<size_t>(model.nv) * model.nv), sv(sq.size()), pq(model.nv), pv(model.nv), b(model.nv),
-      lam(model.nv), on_path(sq.size(), 0) {
+    : pq(model.nv), pv(model.nv), b(model.nv), lam(model.nv),
+      on_path(static_cast<size_t>(model.nv) * model.nv, 0) {
     const int nv = model.nv;
+    dof_parents(model, lam.data());
     pd_diagonal = source.kind == control::PD;  // no position gain on a joint of several coordinates
     for (int i = 0; i < model.nb && pd_diagonal; ++i)
         for (int k = model.v_idx[i]; k < model.v_idx[i] + model.nv_j[i] && model.nv_j[i] > 1; ++k)
             pd_diagonal = pd_diagonal && source.gains[k] == 0.0;
-    // lambda over coordinates: the previous one of the joint, else the parent's last
-    for (int i = 0; i < model.nb; ++i) {
-        const int p = model.parents[i];
-        int prev = p >= 0 ? model.v_idx[p] + model.nv_j[p] - 1 : -1;
-        for (int k = model.v_idx[i]; k < model.v_idx[i] + model.nv_j[i]; ++k) lam[k] = prev, prev = k;
-    }
+    if (source.kind == control::PD && !pd_diagonal) sq.resize(on_path.size()), sv.resize(on_path.size());
     for (int k = 0; k < nv; ++k) {
         on_path[k * nv + k] = 1;
         for (int j = lam[k]; j >= 0; j = lam[j]) on_path[k * nv + j] = on_path[j * nv + k] = 1;

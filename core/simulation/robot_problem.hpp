@@ -119,9 +119,10 @@ protected:
         std::vector<double> tau_c, dtc_dd, dtc_dv;  // nv, nv x nv, nv x nv
         explicit ContactWork(const Model& model);
     };
-    // The implicit Euler's scratch: the source's derivatives (nv x nv), the passive's (diagonal), the bias torques
-    // (nv); Featherstone's lambda (nv) and whether each pair of coordinates lies on one path to the root (nv x nv);
-    // whether a PD source's derivatives are its gains on the diagonal (no position gain on a multi-dof joint).
+    // The implicit Euler's scratch: a PD source's derivatives (nv x nv, when not diagonal), the passive's
+    // (diagonal), the bias torques (nv); Featherstone's lambda (nv) and whether each pair of coordinates lies on one
+    // path to the root (nv x nv); whether a PD source's derivatives are its gains on the diagonal (no position gain
+    // on a multi-dof joint).
     struct ImplicitWork {
         std::vector<double> sq, sv, pq, pv, b;
         std::vector<int> lam;
