@@ -200,13 +200,14 @@ void problem_jacobian(Problem& p, double t, const double* z, const double* f0, c
 
 double spectral_radius(const double* J, int n, int ne) {
     const int m = ne;
-    std::vector<int> first(m), last(m);  // each row's first and last nonzero column: the products skip the zeros
+    thread_local std::vector<int> first, last;  // each row's first and last nonzero column: the products skip zeros
+    thread_local std::vector<double> x, y;      // (the thread's: a probe per run allocates nothing once warm)
+    first.resize(m), last.resize(m), x.resize(m), y.resize(m);
     for (int r = 0; r < m; ++r) {
         first[r] = m, last[r] = -1;
         for (int c = 0; c < m; ++c)
             if (J[r * n + c] != 0) first[r] = std::min(first[r], c), last[r] = c;
     }
-    std::vector<double> x(m), y(m);
     double nrm = 0.0;
     for (int i = 0; i < m; ++i) {
         x[i] = 1.0 + 0.1 * ((i * 7919) % 13);  // a fixed, generic start vector
@@ -234,7 +235,8 @@ double spectral_radius(const double* J, int n, int ne) {
 }
 
 double jacobian_spectral_radius(Problem& p, double t, const double* z, const double* f0, int n, int ne) {
-    std::vector<double> J(static_cast<size_t>(n) * n), mag(n, 0.0);
+    thread_local std::vector<double> J, mag;  // (the thread's scratch, as spectral_radius's)
+    J.resize(static_cast<size_t>(n) * n), mag.assign(n, 0.0);
     Stats scratch;
     problem_jacobian(p, t, z, f0, mag.data(), n, ne, J.data(), scratch);  // analytical where the problem has one
     return spectral_radius(J.data(), n, ne);

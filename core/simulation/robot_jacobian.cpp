@@ -41,16 +41,18 @@ namespace {
 constexpr double FD_STEP = 6e-6;  // central differences (relative, ~ eps^(1/3)), as jacobian.py's
 }
 
-RobotProblem::JacobianWork::JacobianWork(const Model& model)
-    : dd(model), da_dq(static_cast<size_t>(model.nv) * model.nv), da_dv(da_dq.size()), Minv(da_dq.size()),
-      dts_dd(da_dq.size()), dts_dv(da_dq.size()), dtp_dq(model.nv), dtp_dv(model.nv),
-      tau_p(model.nv), e(model.nv, 0.0), dt(model.nv), vt(model.nv), tp(model.nv), tm(model.nv), cp(model.nv),
-      cm(model.nv), row(model.nv), sub(model.nv), q(model.nq), qt(model.nq), tq(model.nq, std::nan("")),
-      tbase(model.nq, std::nan("")), piv(model.nv) {
+void RobotProblem::JacobianWork::reset(const Model& model) {
+    const size_t nv = model.nv, nn = nv * nv;
+    dd.resize(model);
+    for (auto* x : {&da_dq, &da_dv, &Minv, &dts_dd, &dts_dv}) x->assign(nn, 0.0);  // (as made new: zeros)
+    for (auto* x : {&dtp_dq, &dtp_dv, &tau_p, &e, &dt, &vt, &tp, &tm, &cp, &cm, &row, &sub}) x->assign(nv, 0.0);
+    q.assign(model.nq, 0.0), qt.assign(model.nq, 0.0);
+    tq.assign(model.nq, std::nan("")), tbase.assign(model.nq, std::nan(""));  // (no chart blocks yet)
+    piv.assign(nv, 0);
     size_t blocks = 0;
     for (int i = 0; i < model.nb; ++i)
         if (model.nv_j[i] > 1) blocks += static_cast<size_t>(model.nv_j[i]) * model.nv_j[i];
-    Tb.resize(blocks);
+    Tb.assign(blocks, 0.0);
 }
 
 RobotProblem::ImplicitWork::ImplicitWork(const Model& model, const control::Source& source)
@@ -265,7 +267,7 @@ void RobotProblem::acceleration_rows(double* J, int n, bool singular, const doub
 
 // J = df/dz at (t, z) (the top comment's table, block by block; f0, mag and ne unused: the whole matrix is written).
 bool RobotProblem::jacobian(double t, const double* z, const double*, const double*, int, double* J, Stats& st) {
-    if (!jw_) jw_ = std::make_unique<JacobianWork>(model_);
+    if (!jw_) jw_ = from_pool<JacobianWork>(), jw_->reset(model_);
     if (contact_ && !cw_) cw_ = std::make_unique<ContactWork>(model_);
     JacobianWork& w = *jw_;
     const int nv = nv_, n = 2 * nv + nquad_;

@@ -15,7 +15,8 @@ RobotProblem::RobotProblem(const Model& model, const control::Passive& passive, 
                            const double* q0, const Outputs& out, ContactHooks* contact)
     : model_(model), passive_(passive), source_(source), ws_source_(model, source.kind), contact_(contact), out_(out),
       nv_(model.nv), nquad_(contact ? 3 : 2), base_(q0, q0 + model.nq), qbuf_(model.nq), tau_s_(model.nv),
-      tau_p_(model.nv), data_(model) {
+      tau_p_(model.nv), pooled_data_(from_pool<Data>()), data_(*pooled_data_) {
+    data_.resize(model);
     for (int i = 0; i < model.nb; ++i)
         if (model.nv_j[i] > 0) blocks_.push_back(model.v_idx[i]);
     std::sort(blocks_.begin(), blocks_.end());

@@ -17,6 +17,7 @@
 #include "data.hpp"
 #include "derivatives_data.hpp"
 #include "solver.hpp"
+#include "workspace_pool.hpp"
 
 namespace core::sim {
 
@@ -103,8 +104,9 @@ protected:
     void quadratures(double* dz, double power_s, double power_p, double power_c) const;
     void abort_if_failed();
 
-    // The Jacobian's pieces (robot_jacobian.cpp) and its workspace, made at the first Jacobian (the explicit
-    // methods never need it): nv x nv row-major matrices and nv (or nq) vectors.
+    // The Jacobian's pieces (robot_jacobian.cpp) and its workspace, taken from the thread's pool at the first
+    // Jacobian (the explicit methods' only one is the stability probe): nv x nv row-major matrices and nv (or nq)
+    // vectors.
     struct JacobianWork {
         DerivativesData dd;
         std::vector<double> da_dq, da_dv, Minv, dts_dd, dts_dv;  // nv x nv
@@ -112,7 +114,7 @@ protected:
         std::vector<double> q, qt, tq, tbase;  // nq (tq, tbase: the q and base of Tb)
         std::vector<double> Tb;  // the transposed T_j^-1 of the joints of several coordinates, factored (packed)
         std::vector<int> piv;                                                           // nv
-        explicit JacobianWork(const Model& model);
+        void reset(const Model& model);  // sized for model, its cache of Tb emptied (capacity kept)
     };
     // The contact's part (robot_jacobian.cpp): tau_c and its derivatives in the chart coordinates.
     struct ContactWork {
@@ -149,8 +151,9 @@ protected:
     int nv_, nquad_;
     std::vector<double> base_, qbuf_, tau_s_, tau_p_;
     std::vector<int> blocks_;  // the first velocity coordinate of each joint, then nv
-    Data data_;  // the ABA's workspace
-    std::unique_ptr<JacobianWork> jw_;
+    Pooled<Data> pooled_data_;  // the ABA's workspace, from the thread's pool
+    Data& data_;
+    Pooled<JacobianWork> jw_;
     std::unique_ptr<ContactWork> cw_;
     std::unique_ptr<ImplicitWork> iw_;
     bool aborted_ = false;
