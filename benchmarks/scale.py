@@ -21,10 +21,12 @@ From the measured per-chunk costs it derives what N machines would give, and whe
 from __future__ import annotations
 
 import argparse
+import fcntl
 import json
 import os
 import subprocess
 import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -70,8 +72,10 @@ def bench_simulations(n, sample, cores, engines_=engines.ENGINES, rounds=1, ceil
     need 1.7 % fewer evaluations than the 1,000 on average; unscaled, that read as 1.7 % of lost efficiency.)
 
     ``ceiling``: in each round, next to the engines (before them in odd rounds, after them in even ones), the same N
-    runs split among ``cores`` fresh processes (run k in process k mod cores), each single-threaded and sharing no
-    GIL, started at once: what this machine allows two CPU-bound processes, against the same ideal.  ``solo``: one
+    runs in ``cores`` fresh processes, each single-threaded and sharing no GIL, started at once and taking the next
+    run as they free up: what this machine allows CPU-bound processes, against the same ideal.  (A fixed split,
+    runs k mod 2, left the larger half 2.1 % more work than an equal share on the 1,000 runs; the threads balance
+    as they go.)  ``solo``: one
     fresh process runs all N one after the other, to check that the sample's scaled time is a fresh process's."""
     model = panda()
     rng = np.random.default_rng(0)
@@ -82,18 +86,19 @@ def bench_simulations(n, sample, cores, engines_=engines.ENGINES, rounds=1, ceil
     singles, per_engine, ceilings = [], {engine: [] for engine in engines_}, []
     for r in range(rounds):
         load = os.getloadavg()[0]
-        t0 = time.perf_counter()
+        c0, t0 = time.process_time(), time.perf_counter()
         work = 0
         for k in range(sample):
             work += dynamics.simulate(model, q0[k], v0, 1.0, torque=pds[k], **opts).report["rhs_evals"]
         single = (time.perf_counter() - t0) / sample
+        single_cpu = (time.process_time() - c0) / sample
         singles.append(single)
         measured, evals = {}, None
         order = (["ceiling"] if ceiling and r % 2 else []) + list(engines_)
         order += ["ceiling"] if ceiling and not r % 2 else []
         for engine in order:
             if engine == "ceiling":
-                measured[engine] = _in_processes(n, cores, [[i] for i in range(cores)])
+                measured[engine] = _in_processes(n, cores)
                 continue
             steal0, c0, t0 = _cpu_stat(), time.process_time(), time.perf_counter()
             out = dynamics.simulate_many(model, q0, v0, 1.0, torque=pds, engine=engine, **opts)
@@ -109,18 +114,17 @@ def bench_simulations(n, sample, cores, engines_=engines.ENGINES, rounds=1, ceil
             per_engine[engine].append((m["wall"], one_core / cores / m["wall"], single * n / cores / m["wall"]))
         if ceiling:
             m = measured["ceiling"]
-            for i, part in enumerate(m["parts"]):  # the processes ran the runs the engines ran, bit for bit
-                assert part["evals"] == sum(evals[i::cores]), (i, part["evals"], sum(evals[i::cores]))
-            c = {"load": load, "single": single, "one_core": one_core, "threads": None,
+            assert m["evals"] == evals  # the processes ran the runs the engines ran, bit for bit
+            c = {"load": load, "single": single, "single_cpu": single_cpu, "one_core": one_core, "threads": None,
                  "ceiling": one_core / cores / m["wall"], "pair": m,
                  "first": "ceiling" if r % 2 else "+".join(engines_),
-                 "imbalance": max(q["evals"] for q in m["parts"]) / (sum(evals) / cores)}
+                 "runs_per_process": [q["count"] for q in m["parts"]]}
             if "threads" in measured:
                 c["threads"] = per_engine["threads"][-1][1]
                 c["threads_m"] = measured["threads"]
             if solo:
-                c["solo"] = _in_processes(n, cores, [list(range(cores))])
-                assert c["solo"]["parts"][0]["evals"] == sum(evals)
+                c["solo"] = _in_processes(n, 1)
+                assert c["solo"]["evals"] == evals
             ceilings.append(c)
     rows = []
     for engine, rs in per_engine.items():
@@ -131,57 +135,68 @@ def bench_simulations(n, sample, cores, engines_=engines.ENGINES, rounds=1, ceil
     return {"n": n, "single": float(np.median(singles)), "rows": rows, "ceilings": ceilings, "cores": cores}
 
 
-def _in_processes(n, stride, parts_per_process):
-    """The N runs' parts (part i: runs i, i + stride, i + 2 stride, ...) in fresh Python processes,
-    one per list, each single-threaded: every process builds the same inputs (``sim_inputs``, seed 0), warms up,
-    says it is ready, and times its own parts from the moment it reads "go" (sent to all at once) to its last run.
-    Returns the slowest process's time (the wall time of the whole), each process's time, CPU time and
-    evaluations, and the machine's steal over the measurement."""
+def _in_processes(n, processes):
+    """The N runs in ``processes`` fresh Python processes, each single-threaded: every process builds the same inputs
+    (``sim_inputs``, seed 0), warms up, says it is ready, and from the moment it reads "go" (sent to all at once)
+    takes the next run from a shared counter (a file under a lock, as the threads take the next chunk) until none is
+    left.  Returns the slowest process's time (the wall time of the whole), the processes' CPU time, each
+    process's own figures, every run's evaluations (by run), and the machine's steal over the measurement."""
     env = dict(os.environ, DYNAMICS_NUM_THREADS="1")
-    procs = [subprocess.Popen([sys.executable, "-m", "benchmarks.scale", "--worker", str(n), str(stride),
-                               ",".join(map(str, parts))], stdin=subprocess.PIPE, stdout=subprocess.PIPE,
-                              text=True, env=env, cwd=ROOT) for parts in parts_per_process]
-    try:
-        for p in procs:
-            line = p.stdout.readline()
-            if line.strip() != "ready":
-                raise RuntimeError(f"benchmark worker failed before its runs (exit {p.wait()}): {line!r}")
-        steal0, t0 = _cpu_stat(), time.perf_counter()
-        for p in procs:
-            p.stdin.write("go\n")
-            p.stdin.flush()
-        parts = [json.loads(p.stdout.readline()) for p in procs]
-        steal = _steal(steal0, time.perf_counter() - t0)
-    finally:
-        for p in procs:
-            p.stdin.close()
-            p.wait()
+    with tempfile.TemporaryDirectory() as tmp:
+        counter = Path(tmp) / "next_run"
+        counter.write_bytes((0).to_bytes(8, "little"))
+        procs = [subprocess.Popen([sys.executable, "-m", "benchmarks.scale", "--worker", str(n), str(counter)],
+                                  stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True, env=env, cwd=ROOT)
+                 for _ in range(processes)]
+        try:
+            for p in procs:
+                line = p.stdout.readline()
+                if line.strip() != "ready":
+                    raise RuntimeError(f"benchmark worker failed before its runs (exit {p.wait()}): {line!r}")
+            steal0, t0 = _cpu_stat(), time.perf_counter()
+            for p in procs:
+                p.stdin.write("go\n")
+                p.stdin.flush()
+            parts = [json.loads(p.stdout.readline()) for p in procs]
+            steal = _steal(steal0, time.perf_counter() - t0)
+        finally:
+            for p in procs:
+                p.stdin.close()
+                p.wait()
+    evals = [None] * n
+    for part in parts:
+        for k, e in part.pop("runs"):
+            assert evals[k] is None, f"run {k} twice"
+            evals[k] = e
+    assert None not in evals, "a run left out"
     return {"wall": max(q["wall"] for q in parts), "cpu": sum(q["cpu"] for q in parts), "parts": parts,
-            "evals": _interleave([q["evals_each"] for q in parts]) if len(parts) > 1 else None, "steal": steal}
+            "evals": evals, "steal": steal}
 
 
-def _interleave(lists):
-    out = [0] * sum(len(x) for x in lists)
-    for i, x in enumerate(lists):
-        out[i::len(lists)] = x
-    return out
-
-
-def _worker(n, stride, parts):
-    """One process of ``_in_processes``: runs ``part, part + stride, ...`` for each part, one after the other."""
+def _worker(n, counter):
+    """One process of ``_in_processes``: the next run from ``counter`` (8 bytes, locked while read and bumped)."""
     model = panda()
     q0, pds = sim_inputs(model, n, np.random.default_rng(0))
     v0 = np.zeros(model.nv)
     opts = {"error_estimate": "none", "sample_dt": 0.01, "progress": False}  # as bench_simulations'
-    runs = [k for part in parts for k in range(part, n, stride)]
-    for k in runs[:5]:  # warm-up: the first call, and caches
+    for k in range(min(5, n)):  # warm-up: the first call, and caches
         dynamics.simulate(model, q0[k], v0, 1.0, torque=pds[k], **opts)
+    fd = os.open(counter, os.O_RDWR)
     print("ready", flush=True)
     sys.stdin.readline()
     c0, t0 = time.process_time(), time.perf_counter()
-    each = [dynamics.simulate(model, q0[k], v0, 1.0, torque=pds[k], **opts).report["rhs_evals"] for k in runs]
+    runs = []
+    while True:
+        fcntl.flock(fd, fcntl.LOCK_EX)
+        k = int.from_bytes(os.pread(fd, 8, 0), "little")
+        os.pwrite(fd, (k + 1).to_bytes(8, "little"), 0)
+        fcntl.flock(fd, fcntl.LOCK_UN)
+        if k >= n:
+            break
+        runs.append((k, dynamics.simulate(model, q0[k], v0, 1.0, torque=pds[k], **opts).report["rhs_evals"]))
     wall, cpu = time.perf_counter() - t0, time.process_time() - c0
-    print(json.dumps({"wall": wall, "cpu": cpu, "evals": sum(each), "evals_each": each}), flush=True)
+    os.close(fd)
+    print(json.dumps({"wall": wall, "cpu": cpu, "count": len(runs), "runs": runs}), flush=True)
 
 
 def _cpu_stat():
@@ -287,12 +302,13 @@ def ceiling_table(sims):
     if not cs:
         return []
     cores, solo = sims["cores"], any("solo" in c for c in cs)
-    note = (f"Each round: the single-core sample, then threads and {cores} fresh single-threaded processes (run k in "
-            f"process k mod {cores}, started at once after their warm-up), in the order given; both against the same "
+    note = (f"Each round: the single-core sample, then threads and {cores} fresh single-threaded processes (started "
+            "at once after their warm-up, each taking the next run as it frees up, as the threads do), in the order "
+            "given; both against the same "
             "ideal (the sample's time scaled to the N runs / cores). CPU/wall: CPU seconds the measurement got per "
             "second (threads: the whole process; processes: their sum over the slowest one's time); steal: the "
             "machine's CPU time the hypervisor gave elsewhere meanwhile.")
-    head = ["round", "first", "load (1 min)", "single core (ms/run)", "threads", "processes (ceiling)",
+    head = ["round", "first", "load (1 min)", "single core: ms/run (CPU/wall)", "threads", "processes (ceiling)",
             "threads / ceiling", "CPU/wall threads", "CPU/wall processes", "steal % threads / processes"]
     if solo:
         head.append("one fresh process, all N / sample's scaled time")
@@ -300,16 +316,14 @@ def ceiling_table(sims):
          "| " + " | ".join(head) + " |", "|---:|---|" + "---:|" * (len(head) - 2)]
     for i, c in enumerate(cs, 1):
         t, m, tm = c["threads"], c["pair"], c.get("threads_m")
-        cells = [str(i), c["first"], f"{c['load']:.2f}", f"{c['single'] * 1e3:.2f}", _fmt(t), f"{c['ceiling']:.2f}",
+        cells = [str(i), c["first"], f"{c['load']:.2f}", f"{c['single'] * 1e3:.2f} ({c['single_cpu'] / c['single']:.2f})", _fmt(t), f"{c['ceiling']:.2f}",
                  _fmt(t and t / c["ceiling"]), _fmt(tm and tm["cpu"] / tm["wall"]), f"{m['cpu'] / m['wall']:.2f}",
                  f"{_pct(tm and tm['steal'])} / {_pct(m['steal'])}"]
         if solo:
             cells.append(f"{c['solo']['wall'] / c['one_core']:.3f}")
         L.append("| " + " | ".join(cells) + " |")
     med = ceiling_medians(sims)
-    L += ["", (f"The processes' parts differ in work: the largest is {cs[0]['imbalance']:.3f}x an equal share (by "
-               "right-hand-side evaluations; the threads take runs as they free up). "
-               f"Medians over {len(cs)} rounds: threads {_fmt(med['threads'])} ({_fmt(med['threads'], cores)}x one "
+    L += ["", (f"Medians over {len(cs)} rounds: threads {_fmt(med['threads'])} ({_fmt(med['threads'], cores)}x one "
                f"core), the {cores} processes' ceiling {med['ceiling']:.2f} ({med['ceiling'] * cores:.2f}x), threads / "
                f"ceiling {_fmt(med['ratio'])}."), ""]
     return L
@@ -367,10 +381,10 @@ def main(argv=None) -> int:
     p.add_argument("--rounds", type=int, default=1, help="rounds of the simulations' measurement (median reported)")
     p.add_argument("--no-ceiling", action="store_true",
                    help="skip the machine's ceiling (the same runs in one single-threaded process per core)")
-    p.add_argument("--worker", nargs=3, metavar=("N", "STRIDE", "PARTS"), help=argparse.SUPPRESS)
+    p.add_argument("--worker", nargs=2, metavar=("N", "COUNTER"), help=argparse.SUPPRESS)
     args = p.parse_args(argv)
     if args.worker:  # one process of the ceiling's measurement
-        _worker(int(args.worker[0]), int(args.worker[1]), [int(x) for x in args.worker[2].split(",")])
+        _worker(int(args.worker[0]), args.worker[1])
         return 0
     cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
     n_sims = args.sims or (1_000 if args.quick else 10_000)
