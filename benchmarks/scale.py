@@ -307,11 +307,13 @@ def ceiling_table(sims):
             "given; both against the same "
             "ideal (the sample's time scaled to the N runs / cores). CPU/wall: CPU seconds the measurement got per "
             "second (threads: the whole process; processes: their sum over the slowest one's time); steal: the "
-            "machine's CPU time the hypervisor gave elsewhere meanwhile.")
+            "machine's CPU time the hypervisor gave elsewhere meanwhile."
+            + (f" Last, one fresh process runs all N alone: its time against the sample's scaled time, and the "
+               f"{cores} processes against it (its time / {cores} / theirs), which needs no sample." if solo else ""))
     head = ["round", "first", "load (1 min)", "single core: ms/run (CPU/wall)", "threads", "processes (ceiling)",
             "threads / ceiling", "CPU/wall threads", "CPU/wall processes", "steal % threads / processes"]
     if solo:
-        head.append("one fresh process, all N / sample's scaled time")
+        head += ["one fresh process, all N / sample's scaled time", "processes against that one alone"]
     L = [f"## The machine's ceiling: {sims['n']} Panda simulations in {cores} processes sharing no GIL", "", note, "",
          "| " + " | ".join(head) + " |", "|---:|---|" + "---:|" * (len(head) - 2)]
     for i, c in enumerate(cs, 1):
@@ -320,12 +322,14 @@ def ceiling_table(sims):
                  _fmt(t and t / c["ceiling"]), _fmt(tm and tm["cpu"] / tm["wall"]), f"{m['cpu'] / m['wall']:.2f}",
                  f"{_pct(tm and tm['steal'])} / {_pct(m['steal'])}"]
         if solo:
-            cells.append(f"{c['solo']['wall'] / c['one_core']:.3f}")
+            cells += [f"{c['solo']['wall'] / c['one_core']:.3f}", f"{c['solo']['wall'] / cores / c['pair']['wall']:.2f}"]
         L.append("| " + " | ".join(cells) + " |")
     med = ceiling_medians(sims)
     L += ["", (f"Medians over {len(cs)} rounds: threads {_fmt(med['threads'])} ({_fmt(med['threads'], cores)}x one "
                f"core), the {cores} processes' ceiling {med['ceiling']:.2f} ({med['ceiling'] * cores:.2f}x), threads / "
-               f"ceiling {_fmt(med['ratio'])}."), ""]
+               f"ceiling {_fmt(med['ratio'])}.")
+          + (f" The {cores} processes against one alone: "
+             f"{np.median([c['solo']['wall'] / cores / c['pair']['wall'] for c in cs]):.2f}." if solo else ""), ""]
     return L
 
 
