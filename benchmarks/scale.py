@@ -10,9 +10,9 @@ In one run, on this machine:
   (it runs "processes" on threads),
   in blocks of 1 M states (inputs are generated per block: 10 M states of q, v, a are ~9 GB);
 * Ray's start-up time and its per-task overhead (empty tasks), and the cost of moving one chunk's result;
-* the machine's own ceiling for the simulations, alternated with the threads in each round: the same N runs split
-  among ``cores`` fresh single-threaded processes (no GIL shared) started at once, and (with --simulations-only)
-  one fresh process running all N one after the other.
+* the machine's own ceiling for the simulations, alternated with the threads in each round: the same N runs in
+  ``cores`` fresh single-threaded processes (no GIL shared) started at once, each taking the next run as it frees
+  up, and (with --simulations-only) one fresh process running all N alone.
 
 From the measured per-chunk costs it derives what N machines would give, and where the bottleneck moves
 (printed under the tables).  Tables go to stdout and benchmarks/out/scale.md.
@@ -71,12 +71,12 @@ def bench_simulations(n, sample, cores, engines_=engines.ENGINES, rounds=1, ceil
     x (evaluations of the N runs / evaluations of the sample) / cores.  (The first 100 of benchmarks' 1,000 runs
     need 1.7 % fewer evaluations than the 1,000 on average; unscaled, that read as 1.7 % of lost efficiency.)
 
-    ``ceiling``: in each round, next to the engines (before them in odd rounds, after them in even ones), the same N
-    runs in ``cores`` fresh processes, each single-threaded and sharing no GIL, started at once and taking the next
-    run as they free up: what this machine allows CPU-bound processes, against the same ideal.  (A fixed split,
+    ``ceiling``: in each round, next to the engines (after them in the first round, before them in the second, ...),
+    the same N runs in ``cores`` fresh processes, each single-threaded and sharing no GIL, started at once and taking
+    the next run as they free up: what this machine allows CPU-bound processes, against the same ideal.  (A fixed split,
     runs k mod 2, left the larger half 2.1 % more work than an equal share on the 1,000 runs; the threads balance
-    as they go.)  ``solo``: one
-    fresh process runs all N one after the other, to check that the sample's scaled time is a fresh process's."""
+    as they go.)  ``solo``: one fresh process runs all N one after the other, to check that the sample's scaled
+    time is a fresh process's, and to give the processes' ceiling against it (no sample needed)."""
     model = panda()
     rng = np.random.default_rng(0)
     q0, pds = sim_inputs(model, n, rng)
@@ -318,11 +318,14 @@ def ceiling_table(sims):
          "| " + " | ".join(head) + " |", "|---:|---|" + "---:|" * (len(head) - 2)]
     for i, c in enumerate(cs, 1):
         t, m, tm = c["threads"], c["pair"], c.get("threads_m")
-        cells = [str(i), c["first"], f"{c['load']:.2f}", f"{c['single'] * 1e3:.2f} ({c['single_cpu'] / c['single']:.2f})", _fmt(t), f"{c['ceiling']:.2f}",
+        single = f"{c['single'] * 1e3:.2f} ({c['single_cpu'] / c['single']:.2f})"
+        cells = [str(i), c["first"], f"{c['load']:.2f}", single,
+                 _fmt(t), f"{c['ceiling']:.2f}",
                  _fmt(t and t / c["ceiling"]), _fmt(tm and tm["cpu"] / tm["wall"]), f"{m['cpu'] / m['wall']:.2f}",
                  f"{_pct(tm and tm['steal'])} / {_pct(m['steal'])}"]
         if solo:
-            cells += [f"{c['solo']['wall'] / c['one_core']:.3f}", f"{c['solo']['wall'] / cores / c['pair']['wall']:.2f}"]
+            solo_wall = c["solo"]["wall"]
+            cells += [f"{solo_wall / c['one_core']:.3f}", f"{solo_wall / cores / c['pair']['wall']:.2f}"]
         L.append("| " + " | ".join(cells) + " |")
     med = ceiling_medians(sims)
     L += ["", (f"Medians over {len(cs)} rounds: threads {_fmt(med['threads'])} ({_fmt(med['threads'], cores)}x one "
