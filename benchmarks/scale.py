@@ -9,7 +9,10 @@ In one run, on this machine:
 * inverse dynamics: S Talos states (floating base, nv = 38) through ``dynamics.map_batches`` on threads and Ray
   (it runs "processes" on threads),
   in blocks of 1 M states (inputs are generated per block: 10 M states of q, v, a are ~9 GB);
-* Ray's start-up time and its per-task overhead (empty tasks), and the cost of moving one chunk's result.
+* Ray's start-up time and its per-task overhead (empty tasks), and the cost of moving one chunk's result;
+* the machine's own ceiling for the simulations, alternated with the threads in each round: the same N runs in
+  ``cores`` fresh single-threaded processes (no GIL shared) started at once, each taking the next run as it frees
+  up, and (with --simulations-only) one fresh process running all N alone.
 
 From the measured per-chunk costs it derives what N machines would give, and where the bottleneck moves
 (printed under the tables).  Tables go to stdout and benchmarks/out/scale.md.
@@ -18,7 +21,12 @@ From the measured per-chunk costs it derives what N machines would give, and whe
 from __future__ import annotations
 
 import argparse
+import fcntl
+import json
 import os
+import subprocess
+import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -29,6 +37,7 @@ from dynamics import engines, parallel
 from dynamics.torques import PD
 
 OUT = Path(__file__).resolve().parent / "out" / "scale.md"
+ROOT = Path(__file__).resolve().parent.parent
 BLOCK = 1_000_000
 
 
@@ -52,7 +61,7 @@ def sim_inputs(model, n, rng):
     return q0, [PD(targets[k], 200.0, 20.0, tau_ff=dynamics.gravity_torques(model, targets[k])) for k in range(n)]
 
 
-def bench_simulations(n, sample, cores, engines_=engines.ENGINES, rounds=1):
+def bench_simulations(n, sample, cores, engines_=engines.ENGINES, rounds=1, ceiling=True, solo=False):
     """Per round, alternately: ``sample`` runs one after the other on this thread (the single-core time), then the
     N runs through simulate_many on each engine; efficiency per round against that round's single-core time (a
     shared machine's load moves both alike), the median over rounds reported.
@@ -60,35 +69,152 @@ def bench_simulations(n, sample, cores, engines_=engines.ENGINES, rounds=1):
     The runs differ in length (3-20 ms: the steps each needs), so the sample's time is scaled to the N runs by
     their right-hand-side evaluations (the same on every engine: the runs are bit-identical): ideal = sample time
     x (evaluations of the N runs / evaluations of the sample) / cores.  (The first 100 of benchmarks' 1,000 runs
-    need 1.7 % fewer evaluations than the 1,000 on average; unscaled, that read as 1.7 % of lost efficiency.)"""
+    need 1.7 % fewer evaluations than the 1,000 on average; unscaled, that read as 1.7 % of lost efficiency.)
+
+    ``ceiling``: in each round, next to the engines (after them in the first round, before them in the second, ...),
+    the same N runs in ``cores`` fresh processes, each single-threaded and sharing no GIL, started at once and taking
+    the next run as they free up: what this machine allows CPU-bound processes, against the same ideal.  (A fixed split,
+    runs k mod 2, left the larger half 2.1 % more work than an equal share on the 1,000 runs; the threads balance
+    as they go.)  ``solo``: one fresh process runs all N one after the other, to check that the sample's scaled
+    time is a fresh process's, and to give the processes' ceiling against it (no sample needed)."""
     model = panda()
     rng = np.random.default_rng(0)
     q0, pds = sim_inputs(model, n, rng)
     v0 = np.zeros(model.nv)
     opts = dict(error_estimate="none", sample_dt=0.01, progress=False)
     dynamics.simulate(model, q0[0], v0, 1.0, torque=pds[0], **opts)  # first call
-    singles, per_engine = [], {engine: [] for engine in engines_}
-    for _ in range(rounds):
-        t0 = time.perf_counter()
+    singles, per_engine, ceilings = [], {engine: [] for engine in engines_}, []
+    for r in range(rounds):
+        load = os.getloadavg()[0]
+        c0, t0 = time.process_time(), time.perf_counter()
         work = 0
         for k in range(sample):
             work += dynamics.simulate(model, q0[k], v0, 1.0, torque=pds[k], **opts).report["rhs_evals"]
         single = (time.perf_counter() - t0) / sample
+        single_cpu = (time.process_time() - c0) / sample
         singles.append(single)
-        for engine in engines_:
-            t0 = time.perf_counter()
+        measured, evals = {}, None
+        order = (["ceiling"] if ceiling and r % 2 else []) + list(engines_)
+        order += ["ceiling"] if ceiling and not r % 2 else []
+        for engine in order:
+            if engine == "ceiling":
+                measured[engine] = _in_processes(n, cores)
+                continue
+            steal0, c0, t0 = _cpu_stat(), time.process_time(), time.perf_counter()
             out = dynamics.simulate_many(model, q0, v0, 1.0, torque=pds, engine=engine, **opts)
             wall = time.perf_counter() - t0
+            measured[engine] = {"wall": wall, "cpu": time.process_time() - c0, "steal": _steal(steal0, wall)}
             assert out.ok.all(), [r["status"] for r in out.reports if r["status"] != "ok"][:3]
-            scale = sum(r["rhs_evals"] for r in out.reports) / (work * n / sample)  # the N runs' work per run
-            per_engine[engine].append((wall, single * scale * n / cores / wall, single * n / cores / wall))
+            evals = [r["rhs_evals"] for r in out.reports]
+        if evals is None:  # no engine measured: the processes' counts (the same runs)
+            evals = measured["ceiling"]["evals"]
+        one_core = single * sample * sum(evals) / work  # the N runs' time on one core, from the sample
+        for engine in engines_:
+            m = measured[engine]
+            per_engine[engine].append((m["wall"], one_core / cores / m["wall"], single * n / cores / m["wall"]))
+        if ceiling:
+            m = measured["ceiling"]
+            assert m["evals"] == evals  # the processes ran the runs the engines ran, bit for bit
+            c = {"load": load, "single": single, "single_cpu": single_cpu, "one_core": one_core, "threads": None,
+                 "ceiling": one_core / cores / m["wall"], "pair": m,
+                 "first": "ceiling" if r % 2 else "+".join(engines_),
+                 "runs_per_process": [q["count"] for q in m["parts"]]}
+            if "threads" in measured:
+                c["threads"] = per_engine["threads"][-1][1]
+                c["threads_m"] = measured["threads"]
+            if solo:
+                c["solo"] = _in_processes(n, 1)
+                assert c["solo"]["evals"] == evals
+            ceilings.append(c)
     rows = []
     for engine, rs in per_engine.items():
         wall = float(np.median([r[0] for r in rs]))
         effs = [r[1] for r in rs]
         rows.append({"engine": engine, "wall": wall, "throughput": n / wall, "efficiency": float(np.median(effs)),
                      "efficiencies": effs, "unscaled": float(np.median([r[2] for r in rs]))})
-    return {"n": n, "single": float(np.median(singles)), "rows": rows}
+    return {"n": n, "single": float(np.median(singles)), "rows": rows, "ceilings": ceilings, "cores": cores}
+
+
+def _in_processes(n, processes):
+    """The N runs in ``processes`` fresh Python processes, each single-threaded: every process builds the same inputs
+    (``sim_inputs``, seed 0), warms up, says it is ready, and from the moment it reads "go" (sent to all at once)
+    takes the next run from a shared counter (a file under a lock, as the threads take the next chunk) until none is
+    left.  Returns the slowest process's time (the wall time of the whole), the processes' CPU time, each
+    process's own figures, every run's evaluations (by run), and the machine's steal over the measurement."""
+    env = dict(os.environ, DYNAMICS_NUM_THREADS="1")
+    with tempfile.TemporaryDirectory() as tmp:
+        counter = Path(tmp) / "next_run"
+        counter.write_bytes((0).to_bytes(8, "little"))
+        procs = [subprocess.Popen([sys.executable, "-m", "benchmarks.scale", "--worker", str(n), str(counter)],
+                                  stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True, env=env, cwd=ROOT)
+                 for _ in range(processes)]
+        try:
+            for p in procs:
+                line = p.stdout.readline()
+                if line.strip() != "ready":
+                    raise RuntimeError(f"benchmark worker failed before its runs (exit {p.wait()}): {line!r}")
+            steal0, t0 = _cpu_stat(), time.perf_counter()
+            for p in procs:
+                p.stdin.write("go\n")
+                p.stdin.flush()
+            parts = [json.loads(p.stdout.readline()) for p in procs]
+            steal = _steal(steal0, time.perf_counter() - t0)
+        finally:
+            for p in procs:
+                p.stdin.close()
+                p.wait()
+    evals = [None] * n
+    for part in parts:
+        for k, e in part.pop("runs"):
+            assert evals[k] is None, f"run {k} twice"
+            evals[k] = e
+    assert None not in evals, "a run left out"
+    return {"wall": max(q["wall"] for q in parts), "cpu": sum(q["cpu"] for q in parts), "parts": parts,
+            "evals": evals, "steal": steal}
+
+
+def _worker(n, counter):
+    """One process of ``_in_processes``: the next run from ``counter`` (8 bytes, locked while read and bumped)."""
+    model = panda()
+    q0, pds = sim_inputs(model, n, np.random.default_rng(0))
+    v0 = np.zeros(model.nv)
+    opts = {"error_estimate": "none", "sample_dt": 0.01, "progress": False}  # as bench_simulations'
+    for k in range(min(5, n)):  # warm-up: the first call, and caches
+        dynamics.simulate(model, q0[k], v0, 1.0, torque=pds[k], **opts)
+    fd = os.open(counter, os.O_RDWR)
+    print("ready", flush=True)
+    sys.stdin.readline()
+    c0, t0 = time.process_time(), time.perf_counter()
+    runs = []
+    while True:
+        fcntl.flock(fd, fcntl.LOCK_EX)
+        k = int.from_bytes(os.pread(fd, 8, 0), "little")
+        os.pwrite(fd, (k + 1).to_bytes(8, "little"), 0)
+        fcntl.flock(fd, fcntl.LOCK_UN)
+        if k >= n:
+            break
+        runs.append((k, dynamics.simulate(model, q0[k], v0, 1.0, torque=pds[k], **opts).report["rhs_evals"]))
+    wall, cpu = time.perf_counter() - t0, time.process_time() - c0
+    os.close(fd)
+    print(json.dumps({"wall": wall, "cpu": cpu, "count": len(runs), "runs": runs}), flush=True)
+
+
+def _cpu_stat():
+    """The machine's CPU counters (/proc/stat, ticks): total and steal (time the hypervisor gave elsewhere)."""
+    try:
+        with open("/proc/stat") as f:
+            ticks = [int(x) for x in f.readline().split()[1:]]
+    except OSError:
+        return None
+    return sum(ticks[:8]), ticks[7]
+
+
+def _steal(before, wall):
+    """Steal as a share of the machine's CPU time since ``before`` (None where /proc/stat is not there)."""
+    after = _cpu_stat()
+    if before is None or after is None or after[0] == before[0]:
+        return None
+    return (after[1] - before[1]) / (after[0] - before[0])
 
 
 def bench_inverse_dynamics(total, cores):
@@ -164,8 +290,66 @@ def report(sims, ids, ray_cost, cores) -> str:
     L += ["## Ray", "", f"start-up of a local Ray: {ray_cost['start']:.1f} s; per task: "
           f"{ray_cost['per_task'] * 1e3:.2f} ms; one 3 MB result through the object store: "
           f"{ray_cost['transfer_3mb'] * 1e3:.2f} ms", ""]
+    L += ceiling_table(sims)
     L += projection(sims, ids, ray_cost, cores)
     return "\n".join(L) + "\n"
+
+
+def ceiling_table(sims):
+    """Per round: the threads' efficiency, the machine's ceiling (the same runs in ``cores`` processes sharing no
+    GIL), their ratio, and what the machine did meanwhile."""
+    cs = sims["ceilings"]
+    if not cs:
+        return []
+    cores, solo = sims["cores"], any("solo" in c for c in cs)
+    note = (f"Each round: the single-core sample, then threads and {cores} fresh single-threaded processes (started "
+            "at once after their warm-up, each taking the next run as it frees up, as the threads do), in the order "
+            "given; both against the same "
+            "ideal (the sample's time scaled to the N runs / cores). CPU/wall: CPU seconds the measurement got per "
+            "second (threads: the whole process; processes: their sum over the slowest one's time); steal: the "
+            "machine's CPU time the hypervisor gave elsewhere meanwhile."
+            + (f" Last, one fresh process runs all N alone: its time against the sample's scaled time, and the "
+               f"{cores} processes against it (its time / {cores} / theirs), which needs no sample." if solo else ""))
+    head = ["round", "first", "load (1 min)", "single core: ms/run (CPU/wall)", "threads", "processes (ceiling)",
+            "threads / ceiling", "CPU/wall threads", "CPU/wall processes", "steal % threads / processes"]
+    if solo:
+        head += ["one fresh process, all N / sample's scaled time", "processes against that one alone"]
+    L = [f"## The machine's ceiling: {sims['n']} Panda simulations in {cores} processes sharing no GIL", "", note, "",
+         "| " + " | ".join(head) + " |", "|---:|---|" + "---:|" * (len(head) - 2)]
+    for i, c in enumerate(cs, 1):
+        t, m, tm = c["threads"], c["pair"], c.get("threads_m")
+        single = f"{c['single'] * 1e3:.2f} ({c['single_cpu'] / c['single']:.2f})"
+        cells = [str(i), c["first"], f"{c['load']:.2f}", single,
+                 _fmt(t), f"{c['ceiling']:.2f}",
+                 _fmt(t and t / c["ceiling"]), _fmt(tm and tm["cpu"] / tm["wall"]), f"{m['cpu'] / m['wall']:.2f}",
+                 f"{_pct(tm and tm['steal'])} / {_pct(m['steal'])}"]
+        if solo:
+            solo_wall = c["solo"]["wall"]
+            cells += [f"{solo_wall / c['one_core']:.3f}", f"{solo_wall / cores / c['pair']['wall']:.2f}"]
+        L.append("| " + " | ".join(cells) + " |")
+    med = ceiling_medians(sims)
+    L += ["", (f"Medians over {len(cs)} rounds: threads {_fmt(med['threads'])} ({_fmt(med['threads'], cores)}x one "
+               f"core), the {cores} processes' ceiling {med['ceiling']:.2f} ({med['ceiling'] * cores:.2f}x), threads / "
+               f"ceiling {_fmt(med['ratio'])}.")
+          + (f" The {cores} processes against one alone: "
+             f"{np.median([c['solo']['wall'] / cores / c['pair']['wall'] for c in cs]):.2f}." if solo else ""), ""]
+    return L
+
+
+def _pct(x):
+    return "-" if x is None else f"{100 * x:.1f}"
+
+
+def ceiling_medians(sims):
+    cs = sims["ceilings"]
+    ts = [c["threads"] for c in cs if c["threads"] is not None]
+    return {"threads": float(np.median(ts)) if ts else None,
+            "ceiling": float(np.median([c["ceiling"] for c in cs])),
+            "ratio": float(np.median([c["threads"] / c["ceiling"] for c in cs])) if ts else None}
+
+
+def _fmt(x, times=1):
+    return "-" if x is None else f"{x * times:.2f}"
 
 
 def projection(sims, ids, ray_cost, cores):
@@ -202,21 +386,37 @@ def main(argv=None) -> int:
     p.add_argument("--simulations-only", action="store_true",
                    help="only the simulations, on threads: single core against simulate_many's threads")
     p.add_argument("--rounds", type=int, default=1, help="rounds of the simulations' measurement (median reported)")
+    p.add_argument("--no-ceiling", action="store_true",
+                   help="skip the machine's ceiling (the same runs in one single-threaded process per core)")
+    p.add_argument("--worker", nargs=2, metavar=("N", "COUNTER"), help=argparse.SUPPRESS)
     args = p.parse_args(argv)
+    if args.worker:  # one process of the ceiling's measurement
+        _worker(int(args.worker[0]), args.worker[1])
+        return 0
     cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
     n_sims = args.sims or (1_000 if args.quick else 10_000)
     n_states = args.states or (1_000_000 if args.quick else 10_000_000)
     if args.simulations_only:
-        sims = bench_simulations(n_sims, min(100, n_sims), cores, ("threads",), args.rounds)
+        sims = bench_simulations(n_sims, min(100, n_sims), cores, ("threads",), args.rounds,
+                                 ceiling=not args.no_ceiling, solo=not args.no_ceiling)
         row = sims["rows"][0]
         text = (f"{n_sims} Panda simulations (PD, 1 s), {cores} cores: single core {sims['single'] * 1e3:.2f} ms per run; "
                 f"threads: efficiency {row['efficiency']:.2f} (rounds: "
                 f"{', '.join(f'{e:.2f}' for e in row['efficiencies'])}), {row['efficiency'] * cores:.2f}x one core "
                 f"(not scaled by the runs' work: {row['unscaled']:.2f})\n")
+        if sims["ceilings"]:
+            med = ceiling_medians(sims)
+            each = ", ".join(f"{c['ceiling']:.2f}" for c in sims["ceilings"])
+            text += (f"machine's ceiling ({cores} processes, no GIL shared): efficiency {med['ceiling']:.2f} (rounds: "
+                     f"{each}), {med['ceiling'] * cores:.2f}x "
+                     f"one core; threads / ceiling {med['ratio']:.2f}\n\n")
+            text += "\n".join(ceiling_table(sims)) + "\n"
+        OUT.parent.mkdir(exist_ok=True)
+        OUT.write_text(f"# Scaling out (`python -m benchmarks.scale --simulations-only`)\n\n{text}")
         print(text)
         return 0
     ray_cost = bench_ray_overheads(cores)
-    sims = bench_simulations(n_sims, min(100, n_sims), cores, rounds=args.rounds)
+    sims = bench_simulations(n_sims, min(100, n_sims), cores, rounds=args.rounds, ceiling=not args.no_ceiling)
     ids = bench_inverse_dynamics(n_states, cores)
     text = report(sims, ids, ray_cost, cores)
     OUT.parent.mkdir(exist_ok=True)
