@@ -49,6 +49,7 @@ void RobotProblem::JacobianWork::reset(const Model& model) {
     q.assign(model.nq, 0.0), qt.assign(model.nq, 0.0);
     tq.assign(model.nq, std::nan("")), tbase.assign(model.nq, std::nan(""));  // (no chart blocks yet)
     piv.assign(nv, 0);
+    nz_rows.assign(2 * nv, 0), nz_values.assign(2 * nv, 0.0);
     size_t blocks = 0;
     for (int i = 0; i < model.nb; ++i)
         if (model.nv_j[i] > 1) blocks += static_cast<size_t>(model.nv_j[i]) * model.nv_j[i];
@@ -243,24 +244,41 @@ void power_row(int nv, const double* v, const double* tau, const double* dd, con
 }
 }  // namespace
 
+namespace {
+// The nonzeros of column k of A (+ B when not null), nv x nv row-major: their rows and values; returns how many.
+int column_nonzeros(const double* A, const double* B, int nv, int k, int* rows, double* values) {
+    int cnt = 0;
+    for (int m = 0; m < nv; ++m) {
+        const double x = B ? A[m * nv + k] + B[m * nv + k] : A[m * nv + k];
+        if (x != 0.0) rows[cnt] = m, values[cnt++] = x;
+    }
+    return cnt;
+}
+}  // namespace
+
 // J's acceleration rows: da/d delta = da/dq + M^-1 (dtau_s + dtau_c)/d delta + M^-1 dtau_p/dq, and the same in v
 // (dtc_dd, dtc_dv null without contact: no zeros are added, so the sums keep the bits of a problem that never had
-// any); NaN rows when M is singular (as the right-hand side's accelerations: the step is rejected).
+// any); NaN rows when M is singular (as the right-hand side's accelerations: the step is rejected).  The products
+// with M^-1 run over the torques' derivatives' nonzeros only (a PD's are diagonal: nv^2 products, not nv^3); a
+// zero's product would add an exact zero to the same sum.
 void RobotProblem::acceleration_rows(double* J, int n, bool singular, const double* dtc_dd, const double* dtc_dv) {
-    const JacobianWork& w = *jw_;
+    JacobianWork& w = *jw_;
     const int nv = nv_;
-    const double *Minv = w.Minv.data(), *dts_dd = w.dts_dd.data(), *dts_dv = w.dts_dv.data();
-    for (int r = 0; r < nv; ++r)
-        for (int k = 0; k < nv; ++k) {
+    const double* Minv = w.Minv.data();
+    int *rd = w.nz_rows.data(), *rv = rd + nv;
+    double *xd = w.nz_values.data(), *xv = xd + nv;
+    for (int k = 0; k < nv; ++k) {
+        const int cd = column_nonzeros(w.dts_dd.data(), dtc_dd, nv, k, rd, xd);
+        const int cv = column_nonzeros(w.dts_dv.data(), dtc_dv, nv, k, rv, xv);
+        for (int r = 0; r < nv; ++r) {
+            const double* Mr = Minv + r * nv;
             double sd = 0.0, sv = 0.0;
-            for (int m = 0; m < nv; ++m) {
-                const int mk = m * nv + k;
-                sd += Minv[r * nv + m] * (dtc_dd ? dts_dd[mk] + dtc_dd[mk] : dts_dd[mk]);
-                sv += Minv[r * nv + m] * (dtc_dv ? dts_dv[mk] + dtc_dv[mk] : dts_dv[mk]);
-            }
-            J[(nv + r) * n + k] = w.da_dq[r * nv + k] + sd + Minv[r * nv + k] * w.dtp_dq[k];
-            J[(nv + r) * n + nv + k] = w.da_dv[r * nv + k] + sv + Minv[r * nv + k] * w.dtp_dv[k];
+            for (int i = 0; i < cd; ++i) sd += Mr[rd[i]] * xd[i];
+            for (int i = 0; i < cv; ++i) sv += Mr[rv[i]] * xv[i];
+            J[(nv + r) * n + k] = w.da_dq[r * nv + k] + sd + Mr[k] * w.dtp_dq[k];
+            J[(nv + r) * n + nv + k] = w.da_dv[r * nv + k] + sv + Mr[k] * w.dtp_dv[k];
         }
+    }
     if (singular)
         for (int r = nv; r < 2 * nv; ++r) std::fill(J + r * n, J + r * n + 2 * nv, std::nan(""));
 }

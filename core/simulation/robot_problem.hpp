@@ -114,6 +114,8 @@ protected:
         std::vector<double> q, qt, tq, tbase;  // nq (tq, tbase: the q and base of Tb)
         std::vector<double> Tb;  // the transposed T_j^-1 of the joints of several coordinates, factored (packed)
         std::vector<int> piv;                                                           // nv
+        std::vector<int> nz_rows;       // 2 nv: a column's nonzeros of the torques' derivatives (acceleration_rows)
+        std::vector<double> nz_values;  // 2 nv
         void reset(const Model& model);  // sized for model, its cache of Tb emptied (capacity kept)
     };
     // The contact's part (robot_jacobian.cpp): tau_c and its derivatives in the chart coordinates.
