@@ -82,14 +82,24 @@ def _frames_of(model):
 
 
 def _source_for(model):
-    """Source(...) with the operational-space fields set to placeholders of the right types (read-only, shared)."""
-    frames, rows, task_gains, orientation = _frames_of(model), _NO_ROWS, _NO_TASK_GAINS, _IDENTITY
+    """Source(...) with the operational-space fields set to placeholders of the right types, and the model's
+    placeholder times (1,), table (1, nv) and q target (nq,) (zeros, read-only, shared: the core copies what it
+    keeps); per model, kept while it lives."""
+    parts = _SOURCES.get(model)
+    if parts is None:
+        frames, rows, task_gains, orientation = _frames_of(model), _NO_ROWS, _NO_TASK_GAINS, _IDENTITY
 
-    def build(kind, times, table, gains, qref, slot):
-        return Source(kind, times, table, gains, qref, slot, frames, -1, rows, task_gains, orientation, 0.0, None)
-    return build
+        def build(kind, times, table, gains, qref, slot):
+            return Source(kind, times, table, gains, qref, slot, frames, -1, rows, task_gains, orientation, 0.0, None)
+        zeros = [np.zeros(1), np.zeros((1, model.nv)), np.zeros(model.nq)]
+        for a in zeros:
+            a.flags.writeable = False
+        parts = _SOURCES[model] = (build, *zeros)
+    return parts
 
 
+#: per model: _source_for's
+_SOURCES = weakref.WeakKeyDictionary()
 _IDENTITY = np.array([[1.0, 0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0]])
 _NO_ROWS, _NO_TASK_GAINS = np.zeros(0, np.int64), np.zeros((2, 6))
 for _a in (_IDENTITY, _NO_ROWS, _NO_TASK_GAINS):
@@ -170,11 +180,8 @@ def make_source(model, torque):
     """The :class:`Source` for the ``torque`` argument of :func:`dynamics.simulate` (the core's, made of it:
     :func:`dynamics.simulation.native.core_source`)."""
     nv, nq = model.nv, model.nq
-    empty_t = np.zeros(1)
-    empty_tab = np.zeros((1, nv))
+    source, empty_t, empty_tab, qref = _source_for(model)
     gains = np.zeros((4, nv))
-    qref = np.zeros(nq)
-    source = _source_for(model)
     if torque is None:
         return source(ZERO, empty_t, empty_tab, gains, qref, -1)
     if isinstance(torque, Table):

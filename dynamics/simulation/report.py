@@ -157,33 +157,13 @@ def energy_balance(model, s, e, w):
         nan = float("nan")
         return {"energy_drift": nan, "energy_drift_max": nan if per_sample else None, "energy_scale": nan,
                 "work_torque": 0.0, "work_passive": 0.0, "energy_initial": nan, "energy_final": nan}
-    terms = _balance_few(e, w) if len(e) <= _FEW else None
-    if terms is None:  # (numpy's operations, in one pass in the core)
-        terms = _core.energy_balance_terms(e, w)
-    k_max, u_range, w_max, resid_last, resid_max, e_first, e_last = terms
+    # (numpy's operations in numpy's order, in one pass in the core: 0.3 us for a few samples or a thousand)
+    k_max, u_range, w_max, resid_last, resid_max, e_first, e_last = _core.energy_balance_terms(e, w)
     scale = max(k_max, u_range, w_max, robot_energy_scale(model, s.gravity))
     drift, drift_max = float(resid_last / scale), float(resid_max / scale)
     return {"energy_drift": drift, "energy_drift_max": drift_max if per_sample else None, "energy_scale": scale,
             "work_torque": float(w[-1, 0]), "work_passive": float(w[-1, 1]),
             "energy_initial": e_first, "energy_final": e_last}
-
-
-#: up to this many samples the energy balance is summed in Python floats (numpy's calls cost more than the sums)
-_FEW = 16
-
-
-def _balance_few(e, w):
-    """energy_balance's terms for a few samples, in Python floats: the same operations in the same order as numpy's
-    (E = K + U, W = w_0 + w_1 (+ w_2), |(E - E_0) - W|), so the same bits; None when a value is not finite (numpy's
-    max and min treat a NaN otherwise than Python's, so those take numpy's way)."""
-    K, U = e[:, 0].tolist(), e[:, 1].tolist()
-    rows = w.tolist()
-    if not math.isfinite(sum(K) + sum(U) + sum(map(sum, rows))):  # (a finite sum: every term is finite)
-        return None
-    E = [k + u for k, u in zip(K, U)]
-    W = [r[0] + r[1] if len(r) == 2 else r[0] + r[1] + r[2] for r in rows]
-    resid = [abs(x - E[0] - y) for x, y in zip(E, W)]
-    return max(K), max(U) - min(U), max(map(abs, rows[-1])), resid[-1], max(resid), E[0], E[-1]
 
 
 #: per model: its total mass and size (robot_energy_scale), and the scales of the gravities asked for
@@ -247,6 +227,9 @@ def _g(x):
 
 def json_safe(report):
     """Non-finite floats become None (strict JSON)."""
+    floats = [x for x in report.values() if isinstance(x, float)]
+    if math.isfinite(sum(floats)) or not floats:  # (every float finite: the report as it is, no second dict)
+        return report
     return {k: (None if isinstance(x, float) and not math.isfinite(x) else x) for k, x in report.items()}
 
 

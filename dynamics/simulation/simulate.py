@@ -87,6 +87,7 @@ class Settings(NamedTuple):
     project: bool
     contact: object  # None, or the contact resolved for the model (dynamics.contact.resolve.Resolved)
     sens: object = None  # sensitivities.Spec or None
+    blowup: float = None  # the joint speed past which the run stops (_blowup of v0)
 
 
 class RunResult(NamedTuple):
@@ -176,7 +177,7 @@ def _trajectory(model, s, ps, src, main, stability, warnings):
     """The report around the samples of the main run (and the error-estimate rerun)."""
     report = {"integrator": s.integrator, "rtol": None if s.fixed else s.rtol, "atol": None if s.fixed else s.atol,
               "dt": s.dt}
-    blowup = _blowup(s.v0)
+    blowup = s.blowup
     p = main.problem
     cnt = int(p.count[0])
     why = _why_nonfinite(model, s, src, main) if main.stats["status"] == NONFINITE else None
@@ -277,7 +278,7 @@ def _one_run(model, s, ps, src, dt, out_t, rtol, atol, max_steps, outputs, h0=0.
         ne = 2 * nv * (1 + ncol)
     nsteps = max(1, math.ceil(s.duration / dt * (1 - 1e-12))) if s.fixed and s.duration > 0 else 0
     opt = Options(nc=nv, nvel=nv, ne=ne, max_steps=int(max_steps), nsteps=nsteps, dt=float(dt or 0.0),
-                  rtol=float(rtol), atol=float(atol), h0=float(h0 or 0.0), hmax=np.inf, blowup=_blowup(s.v0),
+                  rtol=float(rtol), atol=float(atol), h0=float(h0 or 0.0), hmax=np.inf, blowup=s.blowup,
                   probe=int(probe and s.integrator in STABILITY_LIMIT and s.duration > 0))
     if core is None:
         core = (native.core_passive(model, ps), native.core_source(model, src))
@@ -328,6 +329,7 @@ class _Facts(NamedTuple):
     units: tuple  # per unit block of q (a quaternion, a planar joint's (cos, sin)): (start, size, what, joint name)
     qpos: np.ndarray  # (nv,) int64, read-only: _qpos_map
     passive: tuple  # damping, friction, lower, upper: the model's (nv,) arrays as C-contiguous float64
+    gravity: np.ndarray  # (3,) the model's gravity, checked, read-only (gravity=None's)
 
 
 #: per model, its _Facts (kept while the model lives)
@@ -348,7 +350,9 @@ def _facts(model):
         qpos.flags.writeable = False
         # (a model's arrays are read-only, contiguous float64 already: these are the model's own arrays)
         passive = tuple(np.ascontiguousarray(a, float) for a in (model.damping, model.friction, model.lower, model.upper))
-        facts = _FACTS[model] = _Facts(tuple(units), qpos, passive)
+        gravity = vector("gravity", model.gravity, 3)
+        gravity.flags.writeable = False
+        facts = _FACTS[model] = _Facts(tuple(units), qpos, passive, gravity)
     return facts
 
 
@@ -369,7 +373,7 @@ def _settings(model, q0, v0, duration, integrator, rtol, atol, dt, sample_dt, gr
     if fixed and dt is None:
         raise InputError(f"dt: required (> 0) for the fixed-step integrator {integrator!r}")
     sample_dt = real_number("sample_dt", sample_dt, lo=0.0, lo_open=True, allow_none=True)
-    g = vector("gravity", model.gravity if gravity is None else gravity, 3)
+    g = _facts(model).gravity if gravity is None else vector("gravity", gravity, 3)
     if isinstance(max_steps, bool) or not isinstance(max_steps, (int, np.integer)) or max_steps < 1:
         raise InputError(f"max_steps: expected a positive int, got {max_steps!r}")
     if outputs is not DEFAULT_OUTPUTS and (isinstance(outputs, str) or not set(outputs) <= _OUTPUT_SET):
@@ -395,7 +399,8 @@ def _settings(model, q0, v0, duration, integrator, rtol, atol, dt, sample_dt, gr
         resolved = resolve(contact, model, g)
     kept = DEFAULT_OUTPUTS if outputs is DEFAULT_OUTPUTS else tuple(o for o in OUTPUTS if o in outputs)
     return Settings(integrator, fixed, q0, v0, duration, rtol, atol, dt, g, int(max_steps), kept, error_estimate,
-                    _sample_times(duration, dt, sample_dt, fixed), constrained, gains, bool(project), resolved)
+                    _sample_times(duration, dt, sample_dt, fixed), constrained, gains, bool(project), resolved,
+                    blowup=_blowup(v0))
 
 
 def _project_initial(model, q0, v0, warnings):
