@@ -437,3 +437,35 @@ def test_a_torque_callable_is_not_called_before_the_first_step(panda):
     assert calls == []  # (the memory check makes an environment but does not step it)
     sim.step()
     assert calls and 0.0 <= min(calls) and max(calls) <= 1e-3  # all within the first period
+
+
+def test_interleaved_simulators_keep_their_own_workspaces(panda):
+    """A problem borrows its workspaces from its thread's pool (core/simulation/workspace_pool.hpp) and gives them
+    back when it goes: two live simulators on one thread, one made and dropped between their steps, and one stepped
+    from another thread, each give the bits they give alone."""
+    from concurrent.futures import ThreadPoolExecutor
+    model, q0, pd = panda
+    ur5 = dynamics.load_urdf(erd("ur_description/urdf/ur5_robot.urdf"))
+    args = [(model, q0, np.linspace(-0.2, 0.2, model.nv), pd, "radau"),
+            (ur5, ur5.neutral() + 0.3, np.zeros(ur5.nv), dynamics.torques.PD(ur5.neutral(), 80.0, 8.0), "rk4")]
+
+    def make(m, q, v, tau, integrator):
+        return dynamics.Simulator(m, q, v, dt=2e-3, torque=tau, integrator=integrator)
+
+    alone = []
+    for a in args:
+        sim = make(*a)
+        alone.append([(sim.step(), sim.q.copy(), sim.v.copy())[1:] for _ in range(4)])
+    sims = [make(*a) for a in args]
+    with ThreadPoolExecutor(1) as other:
+        for k in range(4):
+            for j, sim in enumerate(sims):
+                if k == 2 and j == 1:
+                    other.submit(sim.step).result()  # (its workspaces stay its own on another thread)
+                else:
+                    sim.step()
+                np.testing.assert_array_equal(sim.q, alone[j][k][0])
+                np.testing.assert_array_equal(sim.v, alone[j][k][1])
+            dropped = make(*args[0])  # made, stepped and gone between the steps: its workspaces back in the pool
+            dropped.step()
+            del dropped
