@@ -9,7 +9,7 @@ void Data::resize(const Model& model) {
     for (auto* x : {&X, &oMi}) x->resize(nb);
     for (auto* x : {&v, &c, &a}) x->resize(nb);
     f.resize(nb), pA.resize(nb), Ic.resize(nb), g.resize(nb), IA.resize(nb), Dinv.resize(nb);
-    path.resize(nb), nsub.resize(nb);
+    path.resize(nb), nsub.resize(nb), sin_q.resize(nb), vers_q.resize(nb);
     U.resize(nv), UD.resize(nv), u.resize(nv), Sw.resize(nv);
     J.resize(6 * nv), Jt.resize(6 * nv), Minv.resize(static_cast<size_t>(nv) * nv), JM.resize(6 * nv);
     cols.resize(nv);
