@@ -67,21 +67,37 @@ struct Data {
 // The calling thread's workspace, sized for `model` (a single call's Data: no allocation once warm).
 Data& thread_data(const Model& model);
 
-// Body i's step of the forward pass (its parent's is done); without with_v the velocities are not written and
-// c_i = 0 is.  Inline: RNEA, ABA and the energies call it once per body and state.
-inline void forward_body(const Model& model, Data& data, int i, const double* q, const double* qd, bool with_v) {
-    Transform X = joint_transform(model, i, q);
-    data.X[i] = X;
+// sin q_i and 1 - cos q_i of the revolute joints about a body axis (Model::axis_k), into data.sin_q and data.vers_q,
+// before a pass: independent calls the CPU overlaps, where on each body's path (a body's step is longer than the
+// CPU's window) it waited for them in turn.  The same numbers as joint_transform's.
+inline void revolute_sines(const Model& model, Data& data, const double* q) {
+    for (int i = 0; i < model.nb; ++i)
+        if (model.axis_k[i] >= 0) {
+            const double qi = q[model.q_idx[i]];
+            data.sin_q[i] = std::sin(qi), data.vers_q[i] = 1.0 - std::cos(qi);
+        }
+}
+
+// Body i's step of the forward pass after its transform data.X[i] (its parent's step done); without with_v the
+// velocities are not written and c_i = 0 is.  Inline: RNEA, ABA and the energies call it once per body and state.
+inline void forward_motion(const Model& model, Data& data, int i, const double* qd, bool with_v) {
     if (!with_v) {
         data.c[i] = Motion{};
         return;
     }
+    const Transform& X = data.X[i];
     int par = model.parents[i];
     Motion v = motion_to_child(X, par < 0 ? Motion{} : data.v[par]);
     Motion vJ = joint_motion(model, i, qd);
     v = v + vJ;
     data.v[i] = v;
     data.c[i] = velocity_product(model, i, v, vJ);
+}
+
+// Body i's whole step: its transform, then forward_motion.
+inline void forward_body(const Model& model, Data& data, int i, const double* q, const double* qd, bool with_v) {
+    data.X[i] = joint_transform(model, i, q);
+    forward_motion(model, data, i, qd, with_v);
 }
 
 // The forward pass over every body.

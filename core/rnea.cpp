@@ -64,14 +64,7 @@ ALWAYS_INLINE void rnea_body(const Model& model, Data& data, int i, const double
 AVX512_CLONE FLATTEN void rnea(const Model& model, Data& data, const double* q, const double* v, const double* a,
                                const Vec3& gravity, const double* f_ext, bool with_v, bool with_a, double* tau) {
     const Motion a0 = {{}, -gravity};  // the world accelerates up
-    // the revolute joints' sines and versines first: independent calls the CPU overlaps, where on each body's path
-    // (a body's step is longer than the CPU's window) it waited for them in turn; the same numbers (5-9 % of the
-    // batched time of UR5, Panda and Talos)
-    for (int i = 0; i < model.nb; ++i)
-        if (model.axis_k[i] >= 0) {
-            const double qi = q[model.q_idx[i]];
-            data.sin_q[i] = std::sin(qi), data.vers_q[i] = 1.0 - std::cos(qi);
-        }
+    revolute_sines(model, data, q);  // first (data.hpp; 5-9 % of the batched time of UR5, Panda and Talos)
     for (int i = 0; i < model.nb; ++i) {
         switch (model.axis_k[i]) {
             case 0: rnea_body<0>(model, data, i, q, v, a, a0, f_ext, with_v, with_a); break;
