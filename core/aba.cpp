@@ -9,8 +9,7 @@ void aba_rigid_body_pass(const Model& model, Data& data, const double* q, const 
                          bool with_v) {
     revolute_sines(model, data, q);  // first (data.hpp)
     for (int i = 0; i < model.nb; ++i) {
-        data.X[i] = model.axis_k[i] >= 0 ? Transform{rodrigues(model, i, data.sin_q[i], data.vers_q[i]), model.Xpos[i]}
-                                         : joint_transform(model, i, q);
+        data.X[i] = transform_after_sines(model, data, i, q);
         forward_motion(model, data, i, v, with_v);
         const Inertia& I = model.I[i];
         Force b = with_v ? cross(data.v[i], I * data.v[i]) : Force{};

@@ -67,15 +67,21 @@ struct Data {
 // The calling thread's workspace, sized for `model` (a single call's Data: no allocation once warm).
 Data& thread_data(const Model& model);
 
-// sin q_i and 1 - cos q_i of the revolute joints about a body axis (Model::axis_k), into data.sin_q and data.vers_q,
-// before a pass: independent calls the CPU overlaps, where on each body's path (a body's step is longer than the
-// CPU's window) it waited for them in turn.  The same numbers as joint_transform's.
+// sin q_i and 1 - cos q_i of the revolute joints, into data.sin_q and data.vers_q, before a pass: independent calls
+// the CPU overlaps, where on each body's path (a body's step is longer than the CPU's window) it waited for them in
+// turn.  The same numbers as joint_transform's.
 inline void revolute_sines(const Model& model, Data& data, const double* q) {
     for (int i = 0; i < model.nb; ++i)
-        if (model.axis_k[i] >= 0) {
+        if (model.jtype[i] == JOINT_REVOLUTE) {
             const double qi = q[model.q_idx[i]];
             data.sin_q[i] = std::sin(qi), data.vers_q[i] = 1.0 - std::cos(qi);
         }
+}
+
+// X_i(q) with a revolute joint's sines taken by revolute_sines: joint_transform's numbers.
+inline Transform transform_after_sines(const Model& model, const Data& data, int i, const double* q) {
+    if (model.jtype[i] == JOINT_REVOLUTE) return {rodrigues(model, i, data.sin_q[i], data.vers_q[i]), model.Xpos[i]};
+    return joint_transform(model, i, q);
 }
 
 // Body i's step of the forward pass after its transform data.X[i] (its parent's step done); without with_v the

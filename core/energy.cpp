@@ -23,6 +23,7 @@ inline void store(Motion& dst, const Motion& src) {
 void energies(const Model& model, Data& data, const double* q, const double* v, const Vec3& gravity, bool kinetic,
               bool potential, double& T, double& U) {
     T = 0.0, U = 0.0;
+    revolute_sines(model, data, q);  // first (data.hpp)
     for (int i = 0; i < model.nb; ++i) {
         const Inertia& I = model.I[i];
         const int par = model.parents[i];
@@ -30,8 +31,7 @@ void energies(const Model& model, Data& data, const double* q, const double* v, 
         // line, its result returned through memory); the others constructed in place in data.X[i]
         Transform& X = data.X[i];
         if (model.jtype[i] == JOINT_REVOLUTE) {
-            const int k = model.q_idx[i];
-            X.R = rodrigues(model, i, std::sin(q[k]), 1.0 - std::cos(q[k]));
+            X.R = rodrigues(model, i, data.sin_q[i], data.vers_q[i]);
             X.p = model.Xpos[i];
         } else {
             new (&X) Transform(joint_transform(model, i, q));
