@@ -56,7 +56,8 @@ struct Data {
 
     // scratch vectors of size nv and nq
     std::vector<double> tmp_v, tmp_v2, tmp_q, tmp_q2;
-    // RNEA: sin q_i and 1 - cos q_i of the revolute joints about a body axis (nb), taken before its pass
+    // sin q_i and 1 - cos q_i of the revolute joints (nb), taken before a pass (revolute_sines below: RNEA, the
+    // ABA's first pass, the energies)
     std::vector<double> sin_q, vers_q;
 
     Data() = default;

@@ -17,11 +17,10 @@ template <int K>
 ALWAYS_INLINE void rnea_body(const Model& model, Data& data, int i, const double* q, const double* v,
                              const double* a, const Motion& a0, const double* f_ext, bool with_v, bool with_a) {
     Transform X;
-    if constexpr (K >= 0) {
+    if constexpr (K >= 0)
         X = {rodrigues(model, i, data.sin_q[i], data.vers_q[i]), model.Xpos[i]};
-    } else {
-        X = joint_transform(model, i, q);
-    }
+    else
+        X = transform_after_sines(model, data, i, q);  // (a revolute joint off the body axes: its sines taken too)
     data.X[i] = X;
     const int par = model.parents[i];
     Motion ai = motion_to_child(X, par < 0 ? a0 : data.a[par]);

@@ -35,6 +35,22 @@ int64_t emit_step(Problem& p, FixedStepper& m, int64_t j, int64_t T, const doubl
     return j;
 }
 
+// The slope at t0 into f0 when the stepper needs slopes, and the stability probe (Stats::rho0) when asked; OK, or
+// NONFINITE when f(t0, z0) is not finite.
+Status first_slope(Problem& p, bool slope, double t0, const double* z, double* f0, int n, const Options& opt,
+                   Stats& st) {
+    if (!slope) return OK;  // (implicit_euler: no slopes; a non-finite state is found after its step)
+    if (slope_at(p, t0, z, f0, n, opt, st) != OK) return NONFINITE;
+    if (opt.probe) st.rho0 = jacobian_spectral_radius(p, t0, z, f0, n, opt.ne);
+    return OK;
+}
+
+// Whether step i (ending at t, samples from j on) needs f at its end: the next step's first stage, or the
+// interpolant of samples inside it, or the caller's (Options::end_slope).
+bool end_slope_needed(const Options& opt, int64_t i, int64_t j, int64_t T, const double* out_t, double t) {
+    return opt.end_slope || i < opt.nsteps - 1 || (j < T && out_t[j] < t);
+}
+
 }  // namespace
 
 Status solve_fixed(Problem& p, FixedStepper& m, double* z, int n, double t0, double t_end, const double* out_t,
@@ -44,9 +60,8 @@ Status solve_fixed(Problem& p, FixedStepper& m, double* z, int n, double t0, dou
     std::vector<double> buf(4 * static_cast<size_t>(n));
     double *mag = buf.data(), *f0 = mag + n, *f1 = f0 + n, *z0 = f1 + n;
     std::vector<double> zi(n);
-    const bool slope = m.needs_slope();  // (implicit_euler: no slopes; a non-finite state is found after its step)
-    Status status = slope && slope_at(p, t0, z, f0, n, opt, st) != OK ? NONFINITE : OK;
-    if (opt.probe && slope && status == OK) st.rho0 = jacobian_spectral_radius(p, t0, z, f0, n, opt.ne);
+    const bool slope = m.needs_slope();
+    Status status = first_slope(p, slope, t0, z, f0, n, opt, st);
     int64_t j = 0;
     for (; j < T && out_t[j] <= t0; ++j) p.emit(j, t0, z);  // the initial state, also when f(t0, z0) is not finite
     double t = t0;
@@ -58,8 +73,7 @@ Status solve_fixed(Problem& p, FixedStepper& m, double* z, int n, double t0, dou
         st.steps += 1;
         status = p.aborted() ? ABORTED : state_status(z, n, opt.nc, opt.nvel, opt.blowup);
         if (status != OK) break;
-        // f at the step's end: the next step's first stage, the interpolant of samples inside the step
-        if (slope && (opt.end_slope || i < opt.nsteps - 1 || (j < T && out_t[j] < t))) {
+        if (slope && end_slope_needed(opt, i, j, T, out_t, t)) {
             status = slope_at(p, t, z, f1, n, opt, st);
             if (status != OK) break;
         }

@@ -242,9 +242,7 @@ void power_row(int nv, const double* v, const double* tau, const double* dd, con
         Jr[nv + k] = pv;
     }
 }
-}  // namespace
 
-namespace {
 // The nonzeros of column k of A (+ B when not null), nv x nv row-major: their rows and values; returns how many.
 int column_nonzeros(const double* A, const double* B, int nv, int k, int* rows, double* values) {
     int cnt = 0;

@@ -228,7 +228,7 @@ def _g(x):
 def json_safe(report):
     """Non-finite floats become None (strict JSON)."""
     floats = [x for x in report.values() if isinstance(x, float)]
-    if math.isfinite(sum(floats)) or not floats:  # (every float finite: the report as it is, no second dict)
+    if math.isfinite(sum(floats)):  # (every float finite: the report as it is, no second dict)
         return report
     return {k: (None if isinstance(x, float) and not math.isfinite(x) else x) for k, x in report.items()}
 
